@@ -1,0 +1,219 @@
+// kiln command-line interface: parses arguments, calls the library, prints. Nothing else lives here.
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+
+#include "common/files.hpp"
+#include "kiln/build.hpp"
+#include "kiln/pack_reader.hpp"
+
+namespace {
+
+using nlohmann::json;
+
+void print_diagnostics_as_they_come(kiln::DiagnosticSink& sink) {
+  sink.set_listener([](const kiln::Diagnostic& d) { std::cerr << kiln::format_diagnostic(d); });
+}
+
+std::string format_ms(double ms) {
+  char text[32];
+  if (ms >= 1000) std::snprintf(text, sizeof text, "%.2f s", ms / 1000);
+  else std::snprintf(text, sizeof text, "%.1f ms", ms);
+  return text;
+}
+
+void print_summary(const kiln::BuildReport& r, std::ostream& out) {
+  const kiln::Funnel& f = r.funnel;
+  out << "kiln: " << (r.up_to_date ? "up to date: " : "wrote ") << r.manifest.string() << "\n";
+  out << "  variants: " << (f.declared_saturated ? "more than " : "") << f.declared << " declared -> " << f.valid
+      << " valid -> " << f.kept << " after stripping";
+  if (!r.up_to_date)
+    out << " -> " << f.stage_instances << " stage variants -> " << f.unique_preprocessed << " unique per stage -> "
+        << f.unique_binaries << " unique binaries";
+  out << "\n";
+  if (!r.up_to_date)
+    out << "  compiled " << r.compiled << ", cache hits " << r.cache_hits
+        << (r.cache_rejected ? ", rejected cache entries " + std::to_string(r.cache_rejected) : std::string())
+        << ", workers " << r.workers_started << "\n";
+  out << "  time:";
+  for (size_t i = 0; i < r.timings.size(); ++i)
+    out << (i ? ", " : " ") << r.timings[i].stage << " " << format_ms(r.timings[i].milliseconds);
+  out << "\n";
+}
+
+int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cache_dir, bool quiet) {
+  kiln::DiagnosticSink sink;
+  print_diagnostics_as_they_come(sink);
+  if (!no_cache) options.cache_dir = cache_dir.empty() ? std::filesystem::path(".kiln-cache") : std::filesystem::path(cache_dir);
+  const bool tty = ::isatty(2);
+  auto start = std::chrono::steady_clock::now();
+  if (tty && !quiet) {
+    options.progress = [start](size_t done, size_t total, size_t hits) {
+      double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      std::fprintf(stderr, "\r[%zu/%zu] %.1f/s, cache hits %zu   ", done, total, seconds > 0 ? done / seconds : 0.0, hits);
+      if (done == total) std::fprintf(stderr, "\r\033[K");
+    };
+  }
+  kiln::BuildReport report = kiln::build_pack(options, sink);
+  if (report.ok && !quiet) print_summary(report, std::cout);
+  int code = kiln::exit_code(sink, report.internal_errors);
+  if (code != 0)
+    std::cerr << "kiln: " << sink.error_count() << " error(s)"
+              << (report.internal_errors ? ", including internal compiler errors" : "") << "\n";
+  return code;
+}
+
+int run_list(kiln::BuildOptions options, bool as_json) {
+  kiln::DiagnosticSink sink;
+  print_diagnostics_as_they_come(sink);
+  auto listing = kiln::list_variants(options, sink);
+  if (!listing) return kiln::exit_code(sink, false);
+  if (as_json) {
+    json out = json::array();
+    for (const auto& v : listing->variants) {
+      json stages = json::object();
+      for (const auto& [stage, kw] : v.stage_keywords) stages[stage] = kw;
+      out.push_back({{"pass", v.pass}, {"keywords", v.keywords}, {"stages", stages}});
+    }
+    std::cout << json{{"pack", listing->pack}, {"variants", out}}.dump(2) << "\n";
+  } else {
+    for (const auto& v : listing->variants) {
+      std::cout << v.pass << ": " << kiln::join_keywords(v.keywords);
+      for (const auto& [stage, kw] : v.stage_keywords) std::cout << " | " << stage << ": " << kiln::join_keywords(kw);
+      std::cout << "\n";
+    }
+    std::cout << listing->variants.size() << " variants (" << listing->funnel.declared << " declared, "
+              << listing->funnel.valid << " valid)\n";
+  }
+  return 0;
+}
+
+int run_inspect(const std::string& pack_dir, bool as_json, const std::string& extract) {
+  try {
+    kiln::PackReader pack = kiln::PackReader::open(pack_dir);
+    if (!extract.empty()) {
+      std::filesystem::create_directories(extract);
+      const json& binaries = pack.manifest().at("binaries");
+      for (size_t b = 0; b < binaries.size(); ++b) {
+        for (auto& [target, id] : binaries[b].at("blobs").items()) {
+          auto t = kiln::parse_target(target);
+          std::string name = "binary" + std::to_string(b) + "." + binaries[b].at("stage").get<std::string>() +
+                             std::string(t ? kiln::target_extension(*t) : ".bin");
+          if (auto error = kiln::write_file_atomic(std::filesystem::path(extract) / name, std::string(pack.blob(id.get<uint32_t>())));
+              !error.empty()) {
+            std::cerr << "kiln: error: " << error << "\n";
+            return 1;
+          }
+        }
+      }
+    }
+    if (as_json) {
+      json out{{"name", pack.name()}, {"tools", pack.manifest().at("tools")}, {"passes", json::array()}};
+      for (const std::string& pass : pack.passes()) {
+        json variants = json::array();
+        for (size_t i = 0; i < pack.variant_count(pass); ++i) variants.push_back(pack.variant(pass, i).keywords);
+        out["passes"].push_back({{"name", pass}, {"variants", variants}});
+      }
+      std::cout << out.dump(2) << "\n";
+    } else {
+      std::cout << "pack '" << pack.name() << "', format " << pack.manifest().at("format_version") << ", "
+                << pack.manifest().at("binaries").size() << " binaries, " << pack.manifest().at("archive").at("blobs")
+                << " blobs, " << pack.manifest().at("archive").at("size") << " bytes\n";
+      for (const std::string& pass : pack.passes()) {
+        std::cout << "  pass " << pass << ": " << pack.variant_count(pass) << " variants\n";
+        for (size_t i = 0; i < pack.variant_count(pass); ++i)
+          std::cout << "    [" << kiln::join_keywords(pack.variant(pass, i).keywords) << "]\n";
+      }
+    }
+    return 0;
+  } catch (const kiln::PackError& error) {
+    std::cerr << pack_dir << ": error: " << error.what() << "\n";
+    return 1;
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"kiln: shader permutation compiler (HLSL -> SPIR-V, GLSL, GLSL ES, MSL variant packs)"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("kiln ") + kiln::kKilnVersion);
+
+  kiln::BuildOptions options;
+  std::string pack_file, output, cache_dir, depfile;
+  std::vector<std::string> scenes, emit;
+  bool no_cache = false, quiet = false, as_json = false;
+  unsigned jobs = 0;
+  double timeout_s = 120;
+
+  auto add_scene = [&](CLI::App* cmd) {
+    cmd->add_option("--scene", scenes, "Scene profile (JSON); keep only variants some scene can request")->check(CLI::ExistingFile);
+  };
+
+  CLI::App* build = app.add_subcommand("build", "Build a variant pack from a pack definition");
+  build->add_option("pack", pack_file, "Pack definition (variants/*.pack.json)")->required();
+  build->add_option("-o,--output", output, "Output directory for <name>.kpack and <name>.manifest.json")->required();
+  add_scene(build);
+  build->add_option("-j,--jobs", jobs, "Compiler worker processes (default: one per core)");
+  auto* cache_opt = build->add_option("--cache", cache_dir, "Cache directory (default: ./.kiln-cache)");
+  build->add_flag("--no-cache", no_cache, "Do not read or write the cache")->excludes(cache_opt);
+  build->add_option("--emit", emit, "Dump a stage: variants, preprocessed, spvasm, glsl, msl, reflection (repeatable)")
+      ->check(CLI::IsMember(kiln::emit_stage_names()))
+      ->delimiter(',');
+  build->add_option("--depfile", depfile, "Write a Makefile-style depfile listing every input read");
+  build->add_option("--worker-timeout", timeout_s, "Seconds one compile job may take before it is an internal error");
+  build->add_flag("-q,--quiet", quiet, "Print only diagnostics");
+
+  CLI::App* list = app.add_subcommand("list", "List every variant a pack would contain, with the keywords each stage sees");
+  list->add_option("pack", pack_file, "Pack definition")->required();
+  add_scene(list);
+  list->add_flag("--json", as_json, "Print JSON");
+
+  std::string pack_dir, extract;
+  CLI::App* inspect = app.add_subcommand("inspect", "Show a built pack; optionally extract its blobs");
+  inspect->add_option("pack_dir", pack_dir, "Directory holding a pack (or its manifest)")->required();
+  inspect->add_flag("--json", as_json, "Print JSON");
+  inspect->add_option("--extract", extract, "Write each blob as a file (.spv, .glsl, .es.glsl, .metal)");
+
+  bool werror = false;
+  CLI::App* lint = app.add_subcommand("lint", "Check a pack definition and its shaders; exit non-zero on errors");
+  lint->add_option("pack", pack_file, "Pack definition")->required();
+  add_scene(lint);
+  lint->add_flag("--werror", werror, "Treat warnings as errors");
+
+  CLI11_PARSE(app, argc, argv);
+
+  options.pack_file = pack_file;
+  for (const auto& s : scenes) options.scene_files.push_back(s);
+  options.jobs = jobs;
+  options.worker_timeout = std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
+  if (!depfile.empty()) options.depfile = depfile;
+  options.emit.insert(emit.begin(), emit.end());
+
+  if (*build) {
+    options.output_dir = output;
+    return run_build(options, no_cache, cache_dir, quiet);
+  }
+  if (*list) return run_list(options, as_json);
+  if (*inspect) return run_inspect(pack_dir, as_json, extract);
+  if (*lint) {
+    kiln::DiagnosticSink sink;
+    print_diagnostics_as_they_come(sink);
+    char temp[] = "/tmp/kiln-lint-XXXXXX";
+    if (!::mkdtemp(temp)) {
+      std::cerr << "kiln: error: cannot create a temporary directory\n";
+      return 1;
+    }
+    options.output_dir = temp;
+    kiln::BuildReport report = kiln::build_pack(options, sink);
+    std::filesystem::remove_all(temp);
+    int code = kiln::exit_code(sink, report.internal_errors);
+    if (code == 0 && werror && sink.warning_count() > 0) code = 1;
+    std::cerr << "kiln lint: " << sink.error_count() << " error(s), " << sink.warning_count() << " warning(s)\n";
+    return code;
+  }
+  return 0;
+}

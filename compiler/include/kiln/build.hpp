@@ -1,0 +1,90 @@
+// kiln's library entry points: plan (stages 1-3), build (stages 1-8) and the build report.
+#pragma once
+
+#include <chrono>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "kiln/diagnostics.hpp"
+#include "kiln/model.hpp"
+
+namespace kiln {
+
+inline constexpr const char* kKilnVersion = "0.1.0";
+
+// What `--emit` can dump, one name per pipeline stage.
+inline const std::set<std::string>& emit_stage_names() {
+  static const std::set<std::string> names{"variants", "preprocessed", "spvasm", "glsl", "msl", "reflection"};
+  return names;
+}
+
+struct BuildOptions {
+  std::filesystem::path pack_file;
+  std::vector<std::filesystem::path> scene_files;
+  std::filesystem::path output_dir;
+  unsigned jobs = 0;                                // 0: one worker per core
+  std::optional<std::filesystem::path> cache_dir;  // nothing: no cache
+  std::set<std::string> emit;                       // stages to dump under <output>/emit/
+  std::optional<std::filesystem::path> depfile;
+  std::filesystem::path worker_executable;          // empty: default_worker_executable()
+  std::chrono::milliseconds worker_timeout{120'000};
+  uint64_t worker_memory_limit_mb = 4096;
+  bool optimize = true;
+  uint64_t max_file_bytes = 4u << 20;
+  std::function<void(size_t done, size_t total, size_t cache_hits)> progress;
+};
+
+// declared -> valid -> after scene stripping -> unique per stage -> unique binaries
+struct Funnel {
+  uint64_t declared = 0;
+  bool declared_saturated = false;
+  uint64_t valid = 0;
+  uint64_t kept = 0;
+  uint64_t stage_instances = 0;    // variants x stages
+  uint64_t unique_preprocessed = 0;  // distinct (pass, stage, stage keywords)
+  uint64_t unique_binaries = 0;    // distinct preprocessed text + entry + stage
+};
+
+struct StageTiming {
+  std::string stage;
+  double milliseconds = 0;
+};
+
+struct BuildReport {
+  bool ok = false;
+  bool up_to_date = false;          // nothing changed: no work done
+  bool internal_errors = false;     // a worker crashed/hung/ran out of memory
+  Funnel funnel;
+  std::vector<StageTiming> timings;
+  size_t compiled = 0;              // jobs sent to workers
+  size_t cache_hits = 0;
+  size_t cache_rejected = 0;
+  unsigned workers_started = 0;
+  std::filesystem::path manifest;
+  std::vector<std::filesystem::path> dependencies;  // every input file read
+};
+
+// Builds a pack. Every problem goes to `sink`; the report says what was done.
+BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink);
+
+// One variant, as `kiln list` shows it.
+struct VariantListing {
+  std::string pass;
+  std::vector<std::string> keywords;
+  std::vector<std::pair<std::string, std::vector<std::string>>> stage_keywords;  // stage -> keywords it sees
+};
+struct PlanListing {
+  std::string pack;
+  Funnel funnel;
+  std::vector<VariantListing> variants;
+};
+std::optional<PlanListing> list_variants(const BuildOptions& options, DiagnosticSink& sink);
+
+// Exit code convention of the CLI: 0 ok, 1 user errors, 2 internal compiler errors.
+int exit_code(const DiagnosticSink& sink, bool internal_errors);
+
+}  // namespace kiln

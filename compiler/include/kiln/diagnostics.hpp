@@ -1,0 +1,82 @@
+// Diagnostics: one table of stable IDs (diagnostics.def), a sink that collects every
+// message of a run, and the clang-like printer `path:line:col: error[K1234]: message`.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace kiln {
+
+enum class Severity : uint8_t { Note, Warning, Error };
+
+enum class DiagId : uint16_t {
+#define KILN_DIAGNOSTIC(number, name, severity, description) name = number,
+#include "kiln/diagnostics.def"
+#undef KILN_DIAGNOSTIC
+};
+
+struct DiagInfo {
+  DiagId id;
+  std::string_view name;
+  Severity severity;
+  std::string_view description;
+};
+
+// Every entry of the table, in ID order.
+const std::vector<DiagInfo>& diagnostic_table();
+const DiagInfo& diagnostic_info(DiagId id);
+// "K1201"
+std::string diagnostic_code(DiagId id);
+
+// A position in a user's file: 1-based line and column, 0 when unknown.
+struct SourceLocation {
+  std::string path;
+  int line = 0;
+  int column = 0;
+};
+
+struct Diagnostic {
+  DiagId id{};
+  Severity severity = Severity::Error;
+  SourceLocation location;
+  std::string message;
+  std::vector<std::string> notes;  // printed as indented "note:" lines
+};
+
+// Collects diagnostics from any thread; a run reports everything it found, not just the first.
+class DiagnosticSink {
+ public:
+  using Listener = std::function<void(const Diagnostic&)>;
+
+  void report(Diagnostic diagnostic);
+  void report(DiagId id, SourceLocation location, std::string message, std::vector<std::string> notes = {});
+  // Called for each diagnostic as it arrives (the CLI prints here).
+  void set_listener(Listener listener);
+
+  bool has_errors() const;
+  int error_count() const;
+  int warning_count() const;
+  std::vector<Diagnostic> diagnostics() const;
+  bool contains(DiagId id) const;
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<Diagnostic> diagnostics_;
+  Listener listener_;
+};
+
+// Renders a diagnostic with its source line and a caret under the column (when the file is readable).
+std::string format_diagnostic(const Diagnostic& diagnostic);
+
+// Edit distance, used to suggest the closest known name.
+size_t edit_distance(std::string_view a, std::string_view b);
+std::optional<std::string> closest_match(std::string_view word, const std::vector<std::string>& candidates);
+
+}  // namespace kiln

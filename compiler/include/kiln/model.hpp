@@ -1,0 +1,104 @@
+// The nouns of kiln's pipeline: pack definitions, keyword groups, variants, stages and targets.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "kiln/diagnostics.hpp"
+
+namespace kiln {
+
+enum class Stage : uint8_t { Vertex, Fragment };
+inline constexpr int kStageCount = 2;
+inline constexpr std::array<Stage, kStageCount> kAllStages{Stage::Vertex, Stage::Fragment};
+using StageMask = uint8_t;
+inline constexpr StageMask stage_bit(Stage s) { return static_cast<StageMask>(1u << static_cast<unsigned>(s)); }
+inline constexpr StageMask kAllStageBits = 0x3;
+std::string_view stage_name(Stage stage);  // "vertex", "fragment"
+std::optional<Stage> parse_stage(std::string_view name);
+
+enum class Target : uint8_t { Spirv, Glsl, Gles, Msl };
+inline constexpr int kTargetCount = 4;
+std::string_view target_name(Target target);  // "spirv", "glsl", "gles", "msl"
+std::string_view target_extension(Target target);  // ".spv", ".glsl", ".es.glsl", ".metal"
+std::optional<Target> parse_target(std::string_view name);
+
+// One `#pragma multi_compile ...` line: exactly one of `values` is chosen per variant.
+// The "none" value (`_` in the pragma) is stored as the empty string.
+struct KeywordGroup {
+  std::vector<std::string> values;
+  std::string pragma;           // as written: "multi_compile_fragment", "shader_feature_local", ...
+  bool material_feature = false;  // shader_feature: only materials that use it need it
+  bool local = false;
+  StageMask stages = kAllStageBits;  // _vertex / _fragment suffixes narrow this
+  SourceLocation declared_at;
+
+  bool has_none() const;
+  int index_of(std::string_view keyword) const;  // -1 if absent
+};
+
+struct PassDefinition {
+  std::string name;
+  std::filesystem::path source;                      // entry HLSL file of the pass
+  std::array<std::string, kStageCount> entry_points;  // empty: the pass has no such stage
+  SourceLocation defined_at;
+};
+
+// "keyword" may only appear with all of `requires_all`, at least one of `requires_any`, none of `excludes`.
+struct Constraint {
+  std::string keyword;
+  std::vector<std::string> requires_all;
+  std::vector<std::string> requires_any;
+  std::vector<std::string> excludes;
+  std::string reason;
+  SourceLocation defined_at;
+};
+
+// A material preset: the shader_feature keywords one material enables. When a pack lists materials,
+// only the shader_feature combinations some material uses are built (Unity strips by materials too).
+struct MaterialPreset {
+  std::string name;
+  std::set<std::string> keywords;
+  SourceLocation defined_at;
+};
+
+struct PackDefinition {
+  std::filesystem::path file;
+  std::string text;  // raw JSON, for locating diagnostics
+  std::string name;
+  std::vector<std::filesystem::path> include_dirs;
+  std::vector<Target> targets;
+  uint64_t budget = 4096;
+  std::vector<PassDefinition> passes;
+  std::vector<Constraint> constraints;
+  std::vector<MaterialPreset> materials;  // empty: every shader_feature combination
+};
+
+// The keyword values one scene can request; everything else is stripped.
+struct SceneProfile {
+  std::filesystem::path file;
+  std::string text;
+  std::string name;
+  std::set<std::string> keywords;  // keywords the scene may enable
+};
+
+// One permutation of a pass: choice[g] indexes KeywordGroup::values of group g.
+struct Variant {
+  uint32_t pass = 0;
+  std::vector<uint16_t> choice;
+  friend auto operator<=>(const Variant&, const Variant&) = default;
+};
+
+// Sorted list of enabled keywords of a variant (optionally only the groups that touch `stage`).
+std::vector<std::string> enabled_keywords(const std::vector<KeywordGroup>& groups, const Variant& variant,
+                                          std::optional<Stage> stage = std::nullopt);
+std::string join_keywords(const std::vector<std::string>& keywords);  // "A B C" or "<none>"
+
+}  // namespace kiln

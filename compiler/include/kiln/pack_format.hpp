@@ -1,0 +1,25 @@
+// The binary archive of a variant pack (`<name>.kpack`), shared by the writer and the reader.
+//
+//   offset  size  field
+//   0       8     magic "KILNPACK"
+//   8       4     format version (kPackFormatVersion), little-endian
+//   12      4     blob count N
+//   16      8     XXH3-64 of every byte from offset 32 to the end
+//   24      8     total file size
+//   32      24*N  blob table: {u64 offset, u64 size, u64 XXH3-64 of the blob}
+//   ...           blobs, each starting at a multiple of 8 (zero padding between)
+//
+// Blobs are deduplicated by content; the JSON manifest says which blob is which.
+#pragma once
+
+#include <cstdint>
+
+namespace kiln {
+
+inline constexpr char kPackMagic[8] = {'K', 'I', 'L', 'N', 'P', 'A', 'C', 'K'};
+inline constexpr uint32_t kPackFormatVersion = 1;
+inline constexpr uint64_t kPackHeaderSize = 32;
+inline constexpr uint64_t kPackBlobEntrySize = 24;
+inline constexpr const char* kManifestFormat = "kiln-pack-manifest";
+
+}  // namespace kiln

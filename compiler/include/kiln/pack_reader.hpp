@@ -1,0 +1,86 @@
+// Runtime reader for kiln variant packs: loads `<name>.manifest.json` and `<name>.kpack`, checks the
+// format version and every checksum, and selects the variant for a keyword set.
+//
+// Selection rule (no silent "closest match"):
+//   * Keywords that the pass does not declare are ignored (they are global keywords meant for other
+//     passes), unless `strict` is set, in which case they are an error.
+//   * Two keywords of one group are an error. A group with no keyword given takes its "_" (off)
+//     value; a group without "_" needs one of its keywords.
+//   * If the resulting combination was stripped from the pack (constraints, scenes, budget), select
+//     throws PackError::Code::Stripped naming the requested keywords that no variant of the pass
+//     combines that way, and the nearest variants that do exist.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace kiln {
+
+class PackError : public std::runtime_error {
+ public:
+  enum class Code { Io, Format, Version, Checksum, UnknownPass, UnknownKeyword, ConflictingKeywords, MissingKeyword, Stripped };
+  PackError(Code code, const std::string& message) : std::runtime_error(message), code_(code) {}
+  Code code() const { return code_; }
+
+ private:
+  Code code_;
+};
+
+struct StageView {
+  std::string stage;        // "vertex", "fragment"
+  std::string entry_point;  // as compiled
+  std::string_view spirv;   // bytes; empty if the target was not built
+  std::string_view glsl;
+  std::string_view gles;
+  std::string_view msl;
+  const nlohmann::json* reflection = nullptr;
+};
+
+struct SelectedVariant {
+  std::string pass;
+  std::vector<std::string> keywords;  // sorted, as stored
+  size_t index = 0;                   // within the pass
+  std::vector<StageView> stages;
+  const StageView* stage(std::string_view name) const;
+};
+
+class PackReader {
+ public:
+  // `path` is a manifest file or a directory holding exactly one manifest.
+  static PackReader open(const std::filesystem::path& path);
+
+  const std::string& name() const { return name_; }
+  const nlohmann::json& manifest() const { return manifest_; }
+  std::vector<std::string> passes() const;
+  size_t variant_count(std::string_view pass) const;
+  // Keywords declared by the pass, by group.
+  std::vector<std::vector<std::string>> keyword_groups(std::string_view pass) const;
+
+  SelectedVariant select(std::string_view pass, const std::vector<std::string>& keywords, bool strict = false) const;
+  SelectedVariant variant(std::string_view pass, size_t index) const;
+  std::string_view blob(uint32_t id) const;
+
+ private:
+  struct Pass {
+    const nlohmann::json* json = nullptr;
+    std::vector<std::vector<std::string>> groups;  // "" is the off value
+    std::map<std::string, size_t> by_key;          // joined sorted keywords -> variant index
+  };
+  const Pass& find_pass(std::string_view name) const;
+
+  std::string name_;
+  nlohmann::json manifest_;
+  std::string archive_;
+  std::vector<std::pair<uint64_t, uint64_t>> blobs_;  // offset, size
+  std::map<std::string, Pass, std::less<>> passes_;
+};
+
+}  // namespace kiln

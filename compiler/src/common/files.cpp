@@ -1,0 +1,158 @@
+#include "common/files.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+namespace kiln {
+namespace {
+
+// Offset of the first invalid UTF-8 sequence, or npos.
+size_t first_invalid_utf8(std::string_view text) {
+  size_t i = 0;
+  while (i < text.size()) {
+    unsigned char c = static_cast<unsigned char>(text[i]);
+    size_t length = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xE ? 3 : (c >> 3) == 0x1E ? 4 : 0;
+    if (length == 0 || i + length > text.size()) return i;
+    for (size_t k = 1; k < length; ++k)
+      if ((static_cast<unsigned char>(text[i + k]) >> 6) != 0x2) return i;
+    i += length;
+  }
+  return std::string_view::npos;
+}
+
+}  // namespace
+
+SourceLocation location_of_offset(const std::string& path, std::string_view text, size_t offset) {
+  SourceLocation location{path, 1, 1};
+  for (size_t i = 0; i < offset && i < text.size(); ++i) {
+    if (text[i] == '\n') {
+      ++location.line;
+      location.column = 1;
+    } else {
+      ++location.column;
+    }
+  }
+  return location;
+}
+
+SourceLocation locate_json_string(const std::string& path, std::string_view text, std::string_view value) {
+  std::string quoted = "\"" + std::string(value) + "\"";
+  size_t at = text.find(quoted);
+  if (at == std::string_view::npos) return SourceLocation{path, 0, 0};
+  return location_of_offset(path, text, at + 1);
+}
+
+std::optional<std::string> read_text_file(const std::filesystem::path& path, const ReadLimits& limits,
+                                          DiagnosticSink& sink, const SourceLocation& referenced_from) {
+  const std::string shown = path.string();
+  struct stat info {};
+  if (::stat(path.c_str(), &info) != 0) {
+    sink.report(DiagId::FileUnreadable, referenced_from, "cannot open '" + shown + "': " + std::strerror(errno));
+    return std::nullopt;
+  }
+  if (!S_ISREG(info.st_mode)) {
+    const char* kind = S_ISDIR(info.st_mode) ? "a directory" : S_ISFIFO(info.st_mode) ? "a FIFO" : "not a regular file";
+    sink.report(DiagId::FileNotRegular, referenced_from, "'" + shown + "' is " + kind + ", not a regular file");
+    return std::nullopt;
+  }
+  if (static_cast<uint64_t>(info.st_size) > limits.max_file_bytes) {
+    sink.report(DiagId::FileTooLarge, referenced_from,
+                "'" + shown + "' is " + std::to_string(info.st_size) + " bytes, over the limit of " +
+                    std::to_string(limits.max_file_bytes) + " bytes");
+    return std::nullopt;
+  }
+  // O_NONBLOCK: if the file was swapped for a FIFO after stat, open still returns at once.
+  int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) {
+    sink.report(DiagId::FileUnreadable, referenced_from, "cannot open '" + shown + "': " + std::strerror(errno));
+    return std::nullopt;
+  }
+  std::string text;
+  char buffer[1 << 16];
+  for (;;) {
+    ssize_t got = ::read(fd, buffer, sizeof buffer);
+    if (got < 0 && errno == EINTR) continue;
+    if (got < 0) {
+      ::close(fd);
+      sink.report(DiagId::FileUnreadable, referenced_from, "cannot read '" + shown + "': " + std::strerror(errno));
+      return std::nullopt;
+    }
+    if (got == 0) break;
+    text.append(buffer, static_cast<size_t>(got));
+    if (text.size() > limits.max_file_bytes) break;
+  }
+  ::close(fd);
+  if (text.size() > limits.max_file_bytes) {
+    sink.report(DiagId::FileTooLarge, referenced_from,
+                "'" + shown + "' is over the limit of " + std::to_string(limits.max_file_bytes) + " bytes");
+    return std::nullopt;
+  }
+  if (text.rfind("\xEF\xBB\xBF", 0) == 0) text.erase(0, 3);
+  if (size_t nul = text.find('\0'); nul != std::string::npos) {
+    sink.report(DiagId::FileNotText, location_of_offset(shown, text, nul),
+                "file contains a NUL byte; is '" + shown + "' a binary file?");
+    return std::nullopt;
+  }
+  if (size_t bad = first_invalid_utf8(text); bad != std::string_view::npos) {
+    sink.report(DiagId::FileNotText, location_of_offset(shown, text, bad),
+                "file is not valid UTF-8 text (byte 0x" +
+                    [&] {
+                      char hex[8];
+                      std::snprintf(hex, sizeof hex, "%02X", static_cast<unsigned char>(text[bad]));
+                      return std::string(hex);
+                    }() +
+                    ")");
+    return std::nullopt;
+  }
+  return text;
+}
+
+std::optional<std::string> read_binary_file(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return std::nullopt;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return std::nullopt;
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  return std::move(buffer).str();
+}
+
+std::string write_file_atomic(const std::filesystem::path& path, std::string_view bytes) {
+  static std::atomic<uint64_t> counter{0};
+  std::filesystem::path temp = path;
+  temp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+  int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return "cannot create '" + temp.string() + "': " + std::strerror(errno);
+  size_t written = 0;
+  while (written < bytes.size()) {
+    ssize_t put = ::write(fd, bytes.data() + written, bytes.size() - written);
+    if (put < 0 && errno == EINTR) continue;
+    if (put <= 0) {
+      std::string error = "cannot write '" + temp.string() + "': " + std::strerror(errno);
+      ::close(fd);
+      ::unlink(temp.c_str());
+      return error;
+    }
+    written += static_cast<size_t>(put);
+  }
+  if (::close(fd) != 0) {
+    ::unlink(temp.c_str());
+    return "cannot write '" + temp.string() + "': " + std::strerror(errno);
+  }
+  if (::rename(temp.c_str(), path.c_str()) != 0) {
+    std::string error = "cannot rename '" + temp.string() + "' to '" + path.string() + "': " + std::strerror(errno);
+    ::unlink(temp.c_str());
+    return error;
+  }
+  return {};
+}
+
+}  // namespace kiln

@@ -1,0 +1,103 @@
+#include "cross/cross_compile.hpp"
+
+#include <spirv_cross/spirv_glsl.hpp>
+#include <spirv_cross/spirv_msl.hpp>
+
+#ifndef KILN_SPIRV_CROSS_VERSION
+#define KILN_SPIRV_CROSS_VERSION "unknown"
+#endif
+
+namespace kiln {
+namespace {
+
+using nlohmann::json;
+
+CrossResult to_glsl(const std::vector<uint32_t>& spirv, bool es) {
+  CrossResult result;
+  spirv_cross::CompilerGLSL compiler(spirv);
+  spirv_cross::CompilerGLSL::Options options;
+  options.version = es ? 310 : 450;      // GLSL 4.50 core / GLSL ES 3.10
+  options.es = es;
+  options.vulkan_semantics = false;      // plain OpenGL: no descriptor sets, combined samplers
+  options.enable_420pack_extension = !es;
+  options.fragment.default_float_precision = spirv_cross::CompilerGLSL::Options::Highp;
+  options.fragment.default_int_precision = spirv_cross::CompilerGLSL::Options::Highp;
+  // GL clip space has z in [-1, 1]; shaders are written for Vulkan's [0, 1].
+  options.vertex.fixup_clipspace = true;
+  compiler.set_common_options(options);
+
+  // HLSL keeps textures and samplers apart; GL needs them combined, each bound at its texture's binding.
+  compiler.build_combined_image_samplers();
+  json combined = json::array();
+  for (const spirv_cross::CombinedImageSampler& pair : compiler.get_combined_image_samplers()) {
+    const std::string texture = compiler.get_name(pair.image_id);
+    const std::string sampler = compiler.get_name(pair.sampler_id);
+    const uint32_t binding = compiler.get_decoration(pair.image_id, spv::DecorationBinding);
+    const std::string name = texture + "_" + sampler;
+    compiler.set_name(pair.combined_id, name);
+    compiler.set_decoration(pair.combined_id, spv::DecorationBinding, binding);
+    combined.push_back({{"name", name}, {"texture", texture}, {"sampler", sampler}, {"binding", binding}});
+  }
+  result.source = compiler.compile();
+  std::sort(combined.begin(), combined.end(), [](const json& a, const json& b) { return a["name"] < b["name"]; });
+  result.bindings["combined_image_samplers"] = combined;
+  json blocks = json::array();
+  spirv_cross::ShaderResources resources = compiler.get_shader_resources();
+  for (const auto& buffer : resources.uniform_buffers)
+    blocks.push_back({{"name", compiler.get_name(buffer.id)}, {"kind", "uniform_buffer"},
+                      {"binding", compiler.get_decoration(buffer.id, spv::DecorationBinding)}});
+  for (const auto& buffer : resources.storage_buffers)
+    blocks.push_back({{"name", compiler.get_name(buffer.id)}, {"kind", "storage_buffer"},
+                      {"binding", compiler.get_decoration(buffer.id, spv::DecorationBinding)}});
+  result.bindings["blocks"] = blocks;
+  result.ok = true;
+  return result;
+}
+
+CrossResult to_msl(const std::vector<uint32_t>& spirv) {
+  CrossResult result;
+  spirv_cross::CompilerMSL compiler(spirv);
+  spirv_cross::CompilerMSL::Options options;
+  options.platform = spirv_cross::CompilerMSL::Options::macOS;
+  options.set_msl_version(2, 1);
+  compiler.set_msl_options(options);
+  result.source = compiler.compile();
+  json indices = json::array();
+  spirv_cross::ShaderResources resources = compiler.get_shader_resources();
+  auto record = [&](const spirv_cross::SmallVector<spirv_cross::Resource>& list, const char* kind) {
+    for (const auto& resource : list) {
+      uint32_t index = compiler.get_automatic_msl_resource_binding(resource.id);
+      if (index == uint32_t(-1)) continue;  // not used by the entry point
+      indices.push_back({{"name", compiler.get_name(resource.id)}, {"kind", kind}, {"index", index}});
+    }
+  };
+  record(resources.uniform_buffers, "buffer");
+  record(resources.storage_buffers, "buffer");
+  record(resources.separate_images, "texture");
+  record(resources.separate_samplers, "sampler");
+  record(resources.sampled_images, "texture");
+  std::sort(indices.begin(), indices.end(), [](const json& a, const json& b) { return a["name"] < b["name"]; });
+  result.bindings["resources"] = indices;
+  result.ok = true;
+  return result;
+}
+
+}  // namespace
+
+CrossResult cross_compile(const std::vector<uint32_t>& spirv, Target target, Stage) {
+  try {
+    switch (target) {
+      case Target::Glsl: return to_glsl(spirv, false);
+      case Target::Gles: return to_glsl(spirv, true);
+      case Target::Msl: return to_msl(spirv);
+      case Target::Spirv: break;
+    }
+    return CrossResult{false, "SPIR-V is not a cross-compilation target", {}, {}};
+  } catch (const std::exception& error) {
+    return CrossResult{false, error.what(), {}, {}};
+  }
+}
+
+std::string spirv_cross_version() { return KILN_SPIRV_CROSS_VERSION; }
+
+}  // namespace kiln

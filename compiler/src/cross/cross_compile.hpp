@@ -1,0 +1,26 @@
+// Stage 6: SPIR-V to GLSL 450, GLSL ES 3.10 and MSL 2.1 (macOS) with SPIRV-Cross.
+// Only ever called on modules that passed spirv-val (SPIRV-Cross crashes on some invalid ones).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "kiln/model.hpp"
+
+namespace kiln {
+
+struct CrossResult {
+  bool ok = false;
+  std::string error;
+  std::string source;
+  // Target-specific bindings: GL combined image-samplers, MSL resource indices.
+  nlohmann::json bindings = nlohmann::json::object();
+};
+
+CrossResult cross_compile(const std::vector<uint32_t>& spirv, Target target, Stage stage);
+std::string spirv_cross_version();
+
+}  // namespace kiln

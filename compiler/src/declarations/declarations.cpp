@@ -1,0 +1,312 @@
+#include "declarations/declarations.hpp"
+
+#include <algorithm>
+#include <cctype>
+
+namespace kiln {
+
+const SourceFile* SourceSet::find(const std::filesystem::path& canonical) const {
+  auto it = files.find(canonical);
+  return it == files.end() ? nullptr : &it->second;
+}
+
+bool is_identifier(std::string_view word) {
+  if (word.empty() || !(std::isalpha(static_cast<unsigned char>(word[0])) || word[0] == '_')) return false;
+  return std::all_of(word.begin(), word.end(),
+                     [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
+}
+
+namespace {
+
+struct Word {
+  std::string_view text;
+  int column;  // 1-based, in the original line
+};
+
+std::vector<Word> split_words(std::string_view line, int first_column) {
+  std::vector<Word> words;
+  size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+    size_t start = i;
+    while (i < line.size() && !std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+    if (i > start) words.push_back({line.substr(start, i - start), first_column + static_cast<int>(start)});
+  }
+  return words;
+}
+
+// Source lines with comments blanked out (same length, so columns stay true). Block comments may span lines.
+std::vector<std::string> code_lines(std::string_view text) {
+  std::vector<std::string> lines;
+  std::string current;
+  bool in_block = false;
+  bool in_string = false;
+  for (size_t i = 0; i < text.size(); ++i) {
+    char c = text[i];
+    if (c == '\n') {
+      if (!current.empty() && current.back() == '\r') current.back() = ' ';
+      lines.push_back(std::move(current));
+      current.clear();
+      in_string = false;
+      continue;
+    }
+    if (in_block) {
+      if (c == '*' && i + 1 < text.size() && text[i + 1] == '/') {
+        current += "  ";
+        ++i;
+        in_block = false;
+      } else {
+        current += ' ';
+      }
+      continue;
+    }
+    if (!in_string && c == '/' && i + 1 < text.size() && text[i + 1] == '/') {
+      while (i < text.size() && text[i] != '\n') {
+        current += ' ';
+        ++i;
+      }
+      --i;
+      continue;
+    }
+    if (!in_string && c == '/' && i + 1 < text.size() && text[i + 1] == '*') {
+      current += "  ";
+      ++i;
+      in_block = true;
+      continue;
+    }
+    if (c == '"') in_string = !in_string;
+    current += c;
+  }
+  lines.push_back(std::move(current));
+  return lines;
+}
+
+struct Directive {
+  int line;
+  int column;              // of '#'
+  std::string_view name;   // "include", "pragma", ...
+  std::string_view rest;   // after the name
+  int rest_column;
+};
+
+std::optional<Directive> directive_of(const std::string& line, int line_number) {
+  size_t hash = line.find_first_not_of(" \t");
+  if (hash == std::string::npos || line[hash] != '#') return std::nullopt;
+  size_t name_start = line.find_first_not_of(" \t", hash + 1);
+  if (name_start == std::string::npos) return std::nullopt;
+  size_t name_end = name_start;
+  while (name_end < line.size() && std::isalpha(static_cast<unsigned char>(line[name_end]))) ++name_end;
+  Directive d;
+  d.line = line_number;
+  d.column = static_cast<int>(hash) + 1;
+  d.name = std::string_view(line).substr(name_start, name_end - name_start);
+  d.rest = std::string_view(line).substr(name_end);
+  d.rest_column = static_cast<int>(name_end) + 1;
+  return d;
+}
+
+bool has_pragma_once(const std::vector<std::string>& lines) {
+  for (size_t i = 0; i < lines.size(); ++i) {
+    auto d = directive_of(lines[i], static_cast<int>(i + 1));
+    if (!d || d->name != "pragma") continue;
+    auto words = split_words(d->rest, 0);
+    if (words.size() == 1 && words[0].text == "once") return true;
+  }
+  return false;
+}
+
+bool has_include_guard(const std::vector<std::string>& lines) {
+  std::vector<Directive> directives;
+  for (size_t i = 0; i < lines.size() && directives.size() < 2; ++i) {
+    auto d = directive_of(lines[i], static_cast<int>(i + 1));
+    if (!d) continue;
+    if (d->name == "pragma" && split_words(d->rest, 0).size() == 1 && split_words(d->rest, 0)[0].text == "once")
+      return true;
+    directives.push_back(*d);
+  }
+  if (directives.size() < 2 || directives[0].name != "ifndef" || directives[1].name != "define") return false;
+  auto guard = split_words(directives[0].rest, 0);
+  auto defined = split_words(directives[1].rest, 0);
+  return !guard.empty() && !defined.empty() && guard[0].text == defined[0].text;
+}
+
+struct Scanner {
+  const IncludeRoots& roots;
+  const ReadLimits& limits;
+  SourceSet& sources;
+  DiagnosticSink& sink;
+  PassDeclarations& result;
+  std::map<std::string, SourceLocation> declared;  // keyword -> where
+  std::vector<std::filesystem::path> chain;
+  std::set<std::filesystem::path> visited;
+  bool ok = true;
+
+  void error(DiagId id, SourceLocation at, std::string message, std::vector<std::string> notes = {}) {
+    ok = false;
+    sink.report(id, std::move(at), std::move(message), std::move(notes));
+  }
+
+  const SourceFile* load(const std::filesystem::path& canonical, const SourceLocation& referenced_from) {
+    if (const SourceFile* known = sources.find(canonical)) return known;
+    auto text = read_text_file(canonical, limits, sink, referenced_from);
+    if (!text) {
+      ok = false;
+      return nullptr;
+    }
+    SourceFile file{canonical, std::move(*text), false};
+    std::vector<std::string> lines = code_lines(file.text);
+    file.pragma_once = has_pragma_once(lines);
+    file.guarded = file.pragma_once || has_include_guard(lines);
+    return &sources.files.emplace(canonical, std::move(file)).first->second;
+  }
+
+  void add_group(KeywordGroup group) {
+    for (const std::string& keyword : group.values) {
+      if (keyword.empty()) continue;
+      auto [it, inserted] = declared.emplace(keyword, group.declared_at);
+      if (!inserted) {
+        const SourceLocation& first = it->second;
+        error(DiagId::KeywordInTwoGroups, group.declared_at,
+              "keyword '" + keyword + "' is already declared in another keyword group",
+              {"first declared at " + first.path + ":" + std::to_string(first.line)});
+      }
+    }
+    result.groups.push_back(std::move(group));
+  }
+
+  void visit(const SourceFile& file) {
+    chain.push_back(file.path);
+    visited.insert(file.path);
+    result.files.push_back(file.path);
+    const std::string shown = display_path(file.path);
+    std::vector<std::string> lines = code_lines(file.text);
+    for (size_t i = 0; i < lines.size(); ++i) {
+      auto directive = directive_of(lines[i], static_cast<int>(i + 1));
+      if (!directive) continue;
+      SourceLocation at{shown, directive->line, directive->column};
+      if (directive->name == "pragma") {
+        bool malformed = false;
+        auto group = parse_keyword_pragma(directive->rest, at, directive->rest_column, sink, malformed);
+        if (malformed) ok = false;
+        if (group) add_group(std::move(*group));
+      } else if (directive->name == "include") {
+        include(*directive, at, file);
+      }
+    }
+    chain.pop_back();
+  }
+
+  void include(const Directive& directive, SourceLocation at, const SourceFile& from) {
+    std::string_view rest = directive.rest;
+    size_t open = rest.find_first_not_of(" \t");
+    char closer = open == std::string_view::npos ? 0 : rest[open] == '"' ? '"' : rest[open] == '<' ? '>' : 0;
+    size_t close = closer ? rest.find(closer, open + 1) : std::string_view::npos;
+    if (close == std::string_view::npos) {
+      error(DiagId::IncludeSyntax, at, "expected #include \"file\" or #include <file>");
+      return;
+    }
+    std::string_view name = rest.substr(open + 1, close - open - 1);
+    at.column = directive.rest_column + static_cast<int>(open);
+    ResolvedInclude resolved = resolve_include(name, from.path, roots);
+    if (!resolved.ok) {
+      error(resolved.error, at, resolved.message, resolved.notes);
+      return;
+    }
+    if (std::find(chain.begin(), chain.end(), resolved.path) != chain.end()) {
+      const SourceFile* target = sources.find(resolved.path);
+      if (target && target->guarded) return;  // the guard ends the recursion at preprocessing time
+      std::vector<std::string> notes;
+      auto start = std::find(chain.begin(), chain.end(), resolved.path);
+      for (auto it = start; it != chain.end(); ++it) {
+        auto next = std::next(it) == chain.end() ? resolved.path : *std::next(it);
+        notes.push_back(display_path(*it) + " includes " + display_path(next));
+      }
+      notes.push_back("add '#pragma once' or an include guard, or remove the #include");
+      error(DiagId::IncludeCycle, at, "#include cycle: '" + display_path(resolved.path) + "' includes itself", notes);
+      return;
+    }
+    if (visited.count(resolved.path)) return;
+    if (static_cast<int>(chain.size()) >= kMaxIncludeDepth) {
+      error(DiagId::IncludeTooDeep, at, "#include nesting is deeper than " + std::to_string(kMaxIncludeDepth));
+      return;
+    }
+    if (const SourceFile* target = load(resolved.path, at)) visit(*target);
+  }
+};
+
+}  // namespace
+
+std::optional<KeywordGroup> parse_keyword_pragma(std::string_view body, const SourceLocation& at, int body_column,
+                                                 DiagnosticSink& sink, bool& malformed) {
+  std::vector<Word> words = split_words(body, body_column);
+  if (words.empty()) return std::nullopt;
+  std::string_view pragma = words[0].text;
+  KeywordGroup group;
+  group.pragma = std::string(pragma);
+  group.declared_at = at;
+  auto fail = [&](DiagId id, int column, std::string message) {
+    malformed = true;
+    sink.report(id, SourceLocation{at.path, at.line, column}, std::move(message));
+    return std::nullopt;
+  };
+  if (pragma == "multi_compile_fog") {
+    if (words.size() > 1) return fail(DiagId::PragmaSyntax, words[1].column, "multi_compile_fog takes no keywords");
+    group.values = {"", "FOG_LINEAR", "FOG_EXP", "FOG_EXP2"};
+    group.stages = kAllStageBits;
+    return group;
+  }
+  std::string_view rest;
+  if (pragma.rfind("multi_compile", 0) == 0) {
+    rest = pragma.substr(std::string_view("multi_compile").size());
+  } else if (pragma.rfind("shader_feature", 0) == 0) {
+    rest = pragma.substr(std::string_view("shader_feature").size());
+    group.material_feature = true;
+  } else {
+    return std::nullopt;  // some other pragma (vertex, target, ...): not ours
+  }
+  if (rest.rfind("_local", 0) == 0) {
+    group.local = true;
+    rest.remove_prefix(6);
+  }
+  if (rest == "_vertex") {
+    group.stages = stage_bit(Stage::Vertex);
+  } else if (rest == "_fragment") {
+    group.stages = stage_bit(Stage::Fragment);
+  } else if (!rest.empty()) {
+    return fail(DiagId::PragmaSyntax, words[0].column,
+                "unsupported keyword pragma '" + std::string(pragma) +
+                    "' (expected multi_compile or shader_feature, optionally _local and _vertex/_fragment)");
+  }
+  if (words.size() == 1) return fail(DiagId::PragmaSyntax, words[0].column, "'" + group.pragma + "' declares no keywords");
+  for (size_t i = 1; i < words.size(); ++i) {
+    std::string_view word = words[i].text;
+    bool none = word.find_first_not_of('_') == std::string_view::npos;
+    if (!none && !is_identifier(word))
+      return fail(DiagId::InvalidKeywordName, words[i].column, "'" + std::string(word) + "' is not a valid keyword name");
+    std::string value = none ? "" : std::string(word);
+    if (group.index_of(value) >= 0)
+      return fail(DiagId::PragmaSyntax, words[i].column,
+                  "'" + std::string(word) + "' appears twice in one keyword group");
+    group.values.push_back(value);
+  }
+  // Unity's rule: a lone shader_feature keyword may be off; a lone multi_compile keyword is always on.
+  if (group.material_feature && group.values.size() == 1 && !group.values[0].empty())
+    group.values.insert(group.values.begin(), "");
+  return group;
+}
+
+std::optional<PassDeclarations> scan_declarations(const std::filesystem::path& entry, const IncludeRoots& roots,
+                                                  const ReadLimits& limits, SourceSet& sources, DiagnosticSink& sink) {
+  PassDeclarations result;
+  std::error_code ec;
+  result.entry = std::filesystem::weakly_canonical(entry, ec);
+  if (ec) result.entry = entry;
+  Scanner scanner{roots, limits, sources, sink, result, {}, {}, {}, true};
+  const SourceFile* file = scanner.load(result.entry, SourceLocation{display_path(entry), 0, 0});
+  if (!file) return std::nullopt;
+  scanner.visit(*file);
+  if (!scanner.ok) return std::nullopt;
+  return result;
+}
+
+}  // namespace kiln

@@ -1,0 +1,46 @@
+// Stage 1: read a pass's entry file and every file it includes (whatever the #if around the
+// #include), and collect the keyword declarations (#pragma multi_compile / shader_feature ...).
+#pragma once
+
+#include <map>
+#include <optional>
+
+#include "common/files.hpp"
+#include "kiln/model.hpp"
+#include "preprocess/include_resolver.hpp"
+
+namespace kiln {
+
+struct SourceFile {
+  std::filesystem::path path;  // canonical
+  std::string text;            // BOM removed
+  bool guarded = false;        // #pragma once or a classic #ifndef/#define guard
+  bool pragma_once = false;    // the includer must serve it only once per preprocess
+};
+
+// Every file read by any pass of a build, by canonical path. Preprocessing serves includes from here,
+// so one build sees one consistent snapshot of each file.
+struct SourceSet {
+  std::map<std::filesystem::path, SourceFile> files;
+  const SourceFile* find(const std::filesystem::path& canonical) const;
+};
+
+struct PassDeclarations {
+  std::filesystem::path entry;                 // canonical
+  std::vector<std::filesystem::path> files;    // entry first, then includes in discovery order
+  std::vector<KeywordGroup> groups;            // in declaration order
+};
+
+inline constexpr int kMaxIncludeDepth = 64;
+
+std::optional<PassDeclarations> scan_declarations(const std::filesystem::path& entry, const IncludeRoots& roots,
+                                                  const ReadLimits& limits, SourceSet& sources, DiagnosticSink& sink);
+
+// Parses one `#pragma` line body (text after "pragma"); nothing if it is not a keyword pragma.
+// Exposed for tests.
+std::optional<KeywordGroup> parse_keyword_pragma(std::string_view body, const SourceLocation& at, int body_column,
+                                                 DiagnosticSink& sink, bool& malformed);
+
+bool is_identifier(std::string_view word);
+
+}  // namespace kiln

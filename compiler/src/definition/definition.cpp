@@ -1,0 +1,217 @@
+#include "definition/definition.hpp"
+
+#include <nlohmann/json.hpp>
+
+namespace kiln {
+namespace {
+
+using nlohmann::json;
+
+// Parses JSON text, reporting a syntax error at its line and column.
+std::optional<json> parse_json(const std::filesystem::path& file, const std::string& text, DiagnosticSink& sink) {
+  try {
+    return json::parse(text);
+  } catch (const json::parse_error& error) {
+    size_t offset = error.byte > 0 ? error.byte - 1 : 0;
+    std::string message = error.what();
+    // nlohmann prefixes "[json.exception.parse_error.101] parse error at line 1, column 2: "; keep the reason.
+    if (size_t colon = message.find(": "); colon != std::string::npos) message = message.substr(colon + 2);
+    sink.report(DiagId::JsonSyntax, location_of_offset(file.string(), text, offset), "invalid JSON: " + message);
+    return std::nullopt;
+  }
+}
+
+struct FieldReader {
+  const std::filesystem::path& file;
+  const std::string& text;
+  DiagnosticSink& sink;
+  DiagId id;
+  bool ok = true;
+
+  SourceLocation at(std::string_view key) const {
+    SourceLocation location = locate_json_string(file.string(), text, key);
+    if (location.line == 0) location = SourceLocation{file.string(), 1, 1};
+    return location;
+  }
+  void fail(std::string_view key, const std::string& message) {
+    ok = false;
+    sink.report(id, at(key), message);
+  }
+  std::optional<std::string> string(const json& object, const char* key, bool required) {
+    auto it = object.find(key);
+    if (it == object.end()) {
+      if (required) fail(key, std::string("missing required field \"") + key + "\"");
+      return std::nullopt;
+    }
+    if (!it->is_string()) {
+      fail(key, std::string("field \"") + key + "\" must be a string");
+      return std::nullopt;
+    }
+    return it->get<std::string>();
+  }
+  std::vector<std::string> strings(const json& object, const char* key) {
+    std::vector<std::string> out;
+    auto it = object.find(key);
+    if (it == object.end()) return out;
+    if (!it->is_array()) {
+      fail(key, std::string("field \"") + key + "\" must be an array of strings");
+      return out;
+    }
+    for (const json& item : *it) {
+      if (!item.is_string()) {
+        fail(key, std::string("field \"") + key + "\" must be an array of strings");
+        return {};
+      }
+      out.push_back(item.get<std::string>());
+    }
+    return out;
+  }
+};
+
+}  // namespace
+
+std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& file, const ReadLimits& limits,
+                                                   DiagnosticSink& sink) {
+  auto text = read_text_file(file, limits, sink, SourceLocation{file.string(), 0, 0});
+  if (!text) return std::nullopt;
+  auto root = parse_json(file, *text, sink);
+  if (!root) return std::nullopt;
+  FieldReader fields{file, *text, sink, DiagId::PackDefinition};
+  if (!root->is_object()) {
+    fields.fail("", "a pack definition must be a JSON object");
+    return std::nullopt;
+  }
+  PackDefinition pack;
+  pack.file = file;
+  pack.text = *text;
+  const std::filesystem::path base = file.parent_path().empty() ? "." : file.parent_path();
+  pack.name = fields.string(*root, "name", true).value_or("");
+  if (!pack.name.empty() && pack.name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-.") !=
+                                std::string::npos)
+    fields.fail("name", "pack name '" + pack.name + "' may only use letters, digits, '_', '-' and '.'");
+  auto default_source = fields.string(*root, "shader", false);
+  for (const std::string& dir : fields.strings(*root, "include_dirs")) pack.include_dirs.push_back(base / dir);
+
+  std::vector<std::string> target_names = fields.strings(*root, "targets");
+  if (!root->contains("targets")) target_names = {"spirv", "glsl", "gles", "msl"};
+  for (const std::string& name : target_names) {
+    if (auto target = parse_target(name)) {
+      if (std::find(pack.targets.begin(), pack.targets.end(), *target) == pack.targets.end())
+        pack.targets.push_back(*target);
+    } else {
+      fields.fail(name, "unknown target '" + name + "' (expected spirv, glsl, gles or msl)");
+    }
+  }
+  if (std::find(pack.targets.begin(), pack.targets.end(), Target::Spirv) == pack.targets.end())
+    pack.targets.insert(pack.targets.begin(), Target::Spirv);  // every other target is made from SPIR-V
+  std::sort(pack.targets.begin(), pack.targets.end());
+
+  if (auto it = root->find("budget"); it != root->end()) {
+    if (!it->is_number_unsigned() || it->get<uint64_t>() == 0)
+      fields.fail("budget", "\"budget\" must be a positive integer");
+    else
+      pack.budget = it->get<uint64_t>();
+  }
+
+  auto passes = root->find("passes");
+  if (passes == root->end() || !passes->is_array() || passes->empty()) {
+    fields.fail("passes", "\"passes\" must be a non-empty array");
+  } else {
+    for (const json& item : *passes) {
+      if (!item.is_object()) {
+        fields.fail("passes", "each pass must be an object");
+        continue;
+      }
+      PassDefinition pass;
+      pass.name = fields.string(item, "name", true).value_or("");
+      pass.defined_at = fields.at(pass.name);
+      auto source = fields.string(item, "source", false);
+      if (!source && !default_source) fields.fail(pass.name, "pass '" + pass.name + "' has no \"source\" and the pack no \"shader\"");
+      pass.source = base / source.value_or(default_source.value_or(""));
+      auto stages = item.find("stages");
+      if (stages == item.end() || !stages->is_object() || stages->empty()) {
+        fields.fail(pass.name, "pass '" + pass.name + "' needs \"stages\": {\"vertex\": \"Entry\", \"fragment\": \"Entry\"}");
+        continue;
+      }
+      for (auto& [stage_text, entry] : stages->items()) {
+        auto stage = parse_stage(stage_text);
+        if (!stage) {
+          fields.fail(stage_text, "unknown stage '" + stage_text + "' (expected vertex or fragment)");
+        } else if (!entry.is_string() || entry.get<std::string>().empty()) {
+          fields.fail(stage_text, "stage '" + stage_text + "' must name an entry point");
+        } else {
+          pass.entry_points[static_cast<size_t>(*stage)] = entry.get<std::string>();
+        }
+      }
+      for (const PassDefinition& other : pack.passes)
+        if (other.name == pass.name) fields.fail(pass.name, "pass '" + pass.name + "' is defined twice");
+      pack.passes.push_back(std::move(pass));
+    }
+  }
+
+  if (auto constraints = root->find("constraints"); constraints != root->end()) {
+    if (!constraints->is_array()) {
+      fields.fail("constraints", "\"constraints\" must be an array");
+    } else {
+      for (const json& item : *constraints) {
+        if (!item.is_object()) {
+          fields.fail("constraints", "each constraint must be an object");
+          continue;
+        }
+        Constraint constraint;
+        constraint.keyword = fields.string(item, "keyword", true).value_or("");
+        constraint.defined_at = fields.at(constraint.keyword);
+        constraint.requires_all = fields.strings(item, "requires");
+        constraint.requires_any = fields.strings(item, "requires_any");
+        constraint.excludes = fields.strings(item, "excludes");
+        constraint.reason = fields.string(item, "reason", false).value_or("");
+        if (constraint.requires_all.empty() && constraint.requires_any.empty() && constraint.excludes.empty())
+          fields.fail(constraint.keyword, "constraint on '" + constraint.keyword +
+                                              "' needs \"requires\", \"requires_any\" or \"excludes\"");
+        pack.constraints.push_back(std::move(constraint));
+      }
+    }
+  }
+  if (auto materials = root->find("materials"); materials != root->end()) {
+    if (!materials->is_array()) {
+      fields.fail("materials", "\"materials\" must be an array");
+    } else {
+      for (const json& item : *materials) {
+        if (!item.is_object()) {
+          fields.fail("materials", "each material must be an object");
+          continue;
+        }
+        MaterialPreset material;
+        material.name = fields.string(item, "name", true).value_or("");
+        material.defined_at = fields.at(material.name);
+        for (const std::string& k : fields.strings(item, "keywords")) material.keywords.insert(k);
+        pack.materials.push_back(std::move(material));
+      }
+    }
+  }
+  if (!fields.ok) return std::nullopt;
+  return pack;
+}
+
+std::optional<SceneProfile> load_scene_profile(const std::filesystem::path& file, const ReadLimits& limits,
+                                               DiagnosticSink& sink) {
+  auto text = read_text_file(file, limits, sink, SourceLocation{file.string(), 0, 0});
+  if (!text) return std::nullopt;
+  auto root = parse_json(file, *text, sink);
+  if (!root) return std::nullopt;
+  FieldReader fields{file, *text, sink, DiagId::SceneProfile};
+  if (!root->is_object()) {
+    fields.fail("", "a scene profile must be a JSON object");
+    return std::nullopt;
+  }
+  SceneProfile scene;
+  scene.file = file;
+  scene.text = *text;
+  scene.name = fields.string(*root, "name", true).value_or("");
+  if (!root->contains("keywords")) fields.fail("name", "missing required field \"keywords\"");
+  for (const std::string& keyword : fields.strings(*root, "keywords")) scene.keywords.insert(keyword);
+  if (!fields.ok) return std::nullopt;
+  return scene;
+}
+
+}  // namespace kiln

@@ -1,0 +1,158 @@
+#include "kiln/diagnostics.hpp"
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+namespace kiln {
+
+const std::vector<DiagInfo>& diagnostic_table() {
+  static const std::vector<DiagInfo> table = {
+#define KILN_DIAGNOSTIC(number, name, severity, description) {DiagId::name, #name, Severity::severity, description},
+#include "kiln/diagnostics.def"
+#undef KILN_DIAGNOSTIC
+  };
+  return table;
+}
+
+const DiagInfo& diagnostic_info(DiagId id) {
+  for (const DiagInfo& info : diagnostic_table()) {
+    if (info.id == id) return info;
+  }
+  static const DiagInfo unknown{id, "Unknown", Severity::Error, "unknown diagnostic"};
+  return unknown;
+}
+
+std::string diagnostic_code(DiagId id) { return "K" + std::to_string(static_cast<unsigned>(id)); }
+
+void DiagnosticSink::report(Diagnostic diagnostic) {
+  Listener listener;
+  {
+    std::lock_guard lock(mutex_);
+    diagnostics_.push_back(diagnostic);
+    listener = listener_;
+  }
+  if (listener) listener(diagnostic);
+}
+
+void DiagnosticSink::report(DiagId id, SourceLocation location, std::string message, std::vector<std::string> notes) {
+  report(Diagnostic{id, diagnostic_info(id).severity, std::move(location), std::move(message), std::move(notes)});
+}
+
+void DiagnosticSink::set_listener(Listener listener) {
+  std::lock_guard lock(mutex_);
+  listener_ = std::move(listener);
+}
+
+bool DiagnosticSink::has_errors() const { return error_count() > 0; }
+
+int DiagnosticSink::error_count() const {
+  std::lock_guard lock(mutex_);
+  return static_cast<int>(std::count_if(diagnostics_.begin(), diagnostics_.end(),
+                                        [](const Diagnostic& d) { return d.severity == Severity::Error; }));
+}
+
+int DiagnosticSink::warning_count() const {
+  std::lock_guard lock(mutex_);
+  return static_cast<int>(std::count_if(diagnostics_.begin(), diagnostics_.end(),
+                                        [](const Diagnostic& d) { return d.severity == Severity::Warning; }));
+}
+
+std::vector<Diagnostic> DiagnosticSink::diagnostics() const {
+  std::lock_guard lock(mutex_);
+  return diagnostics_;
+}
+
+bool DiagnosticSink::contains(DiagId id) const {
+  std::lock_guard lock(mutex_);
+  return std::any_of(diagnostics_.begin(), diagnostics_.end(), [id](const Diagnostic& d) { return d.id == id; });
+}
+
+namespace {
+
+const char* severity_word(Severity severity) {
+  switch (severity) {
+    case Severity::Note: return "note";
+    case Severity::Warning: return "warning";
+    case Severity::Error: return "error";
+  }
+  return "error";
+}
+
+// The text of one line of a file, or nothing. A UTF-8 BOM is dropped so columns match what kiln parsed.
+std::optional<std::string> read_source_line(const std::string& path, int line) {
+  if (path.empty() || line <= 0) return std::nullopt;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return std::nullopt;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return std::nullopt;
+  std::string text;
+  for (int i = 1; std::getline(in, text); ++i) {
+    if (i == 1 && text.rfind("\xEF\xBB\xBF", 0) == 0) text.erase(0, 3);
+    if (i == line) {
+      if (!text.empty() && text.back() == '\r') text.pop_back();
+      return text;
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::string format_diagnostic(const Diagnostic& d) {
+  std::ostringstream out;
+  if (!d.location.path.empty()) {
+    out << d.location.path;
+    if (d.location.line > 0) out << ':' << d.location.line;
+    if (d.location.line > 0 && d.location.column > 0) out << ':' << d.location.column;
+    out << ": ";
+  } else {
+    out << "kiln: ";
+  }
+  out << severity_word(d.severity) << '[' << diagnostic_code(d.id) << "]: " << d.message << '\n';
+  if (auto line = read_source_line(d.location.path, d.location.line)) {
+    out << "    " << *line << '\n';
+    if (d.location.column > 0) {
+      std::string pad;
+      // Keep tabs so the caret lines up under the same column in a terminal.
+      for (int i = 0; i < d.location.column - 1 && i < static_cast<int>(line->size()); ++i)
+        pad += (*line)[i] == '\t' ? '\t' : ' ';
+      out << "    " << pad << "^\n";
+    }
+  }
+  for (const std::string& note : d.notes) out << "  note: " << note << '\n';
+  return out.str();
+}
+
+size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diagonal = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      size_t above = row[j];
+      size_t cost = a[i - 1] == b[j - 1] ? 0 : 1;
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + cost});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+std::optional<std::string> closest_match(std::string_view word, const std::vector<std::string>& candidates) {
+  std::optional<std::string> best;
+  size_t best_distance = 0;
+  for (const std::string& candidate : candidates) {
+    size_t distance = edit_distance(word, candidate);
+    if (!best || distance < best_distance || (distance == best_distance && candidate < *best)) {
+      best = candidate;
+      best_distance = distance;
+    }
+  }
+  // Only a plausible typo is worth suggesting: at most a third of the word changed.
+  if (best && best_distance * 3 <= std::max<size_t>(word.size(), 3)) return best;
+  return std::nullopt;
+}
+
+}  // namespace kiln

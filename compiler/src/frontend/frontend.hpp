@@ -1,0 +1,79 @@
+// The HLSL front end, behind an interface: glslang today (its HLSL path was deprecated upstream in
+// 2026); DXC or Slang can be added as another implementation without touching the other stages.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "kiln/diagnostics.hpp"
+#include "kiln/model.hpp"
+
+namespace kiln {
+
+// One message of the front end, in the user's file coordinates (via #line).
+struct FrontendMessage {
+  Severity severity = Severity::Error;
+  std::string path;
+  int line = 0;
+  std::string text;
+};
+
+// Serves #include requests during preprocessing from kiln's confined source set.
+class IncludeSource {
+ public:
+  virtual ~IncludeSource() = default;
+  struct Found {
+    std::string name;  // shown in #line directives and diagnostics
+    std::string_view text;
+    bool once = false;  // file has #pragma once / include guard
+  };
+  // `from` is the name (as returned here, or the entry's name) of the including file.
+  virtual bool resolve(std::string_view requested, std::string_view from, Found& found, std::string& error) const = 0;
+};
+
+struct PreprocessRequest {
+  Stage stage = Stage::Fragment;
+  std::string entry_name;  // shown in #line directives
+  std::string_view entry_text;
+  std::vector<std::string> defines;  // each becomes `#define NAME 1`
+  const IncludeSource* includes = nullptr;
+};
+
+struct PreprocessResult {
+  bool ok = false;
+  std::string text;
+  std::vector<FrontendMessage> messages;
+};
+
+struct CompileRequest {
+  Stage stage = Stage::Fragment;
+  std::string entry_point;
+  std::string source_name;
+  std::string_view source;  // preprocessed
+};
+
+struct CompileResult {
+  bool ok = false;
+  bool missing_entry_point = false;
+  std::vector<uint32_t> spirv;
+  std::vector<FrontendMessage> messages;
+};
+
+class Frontend {
+ public:
+  virtual ~Frontend() = default;
+  virtual std::string name() const = 0;
+  virtual std::string version() const = 0;
+  virtual PreprocessResult preprocess(const PreprocessRequest& request) = 0;
+  virtual CompileResult compile(const CompileRequest& request) = 0;
+};
+
+std::unique_ptr<Frontend> make_glslang_frontend();
+
+// Parses glslang-style info logs ("ERROR: path:line: message") into messages.
+std::vector<FrontendMessage> parse_frontend_log(std::string_view log, std::string_view fallback_path);
+
+}  // namespace kiln

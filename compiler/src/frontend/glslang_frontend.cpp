@@ -1,0 +1,162 @@
+#include <glslang/Public/ResourceLimits.h>
+#include <glslang/Public/ShaderLang.h>
+#include <glslang/SPIRV/GlslangToSpv.h>
+#include <glslang/build_info.h>
+
+#include <map>
+#include <mutex>
+#include <regex>
+#include <set>
+#include <sstream>
+
+#include "frontend/frontend.hpp"
+
+namespace kiln {
+namespace {
+
+void initialize_glslang_once() {
+  static std::once_flag once;
+  std::call_once(once, [] { glslang::InitializeProcess(); });
+}
+
+EShLanguage to_glslang(Stage stage) { return stage == Stage::Vertex ? EShLangVertex : EShLangFragment; }
+
+// 16-bit types on: `real` in shaderlib becomes float16_t under _HALF_PRECISION.
+constexpr auto kMessages = static_cast<EShMessages>(EShMsgReadHlsl | EShMsgSpvRules | EShMsgVulkanRules |
+                                                    EShMsgHlslEnable16BitTypes);
+
+void configure(glslang::TShader& shader, Stage stage) {
+  shader.setEnvInput(glslang::EShSourceHlsl, to_glslang(stage), glslang::EShClientVulkan, 100);
+  shader.setEnvClient(glslang::EShClientVulkan, glslang::EShTargetVulkan_1_1);
+  shader.setEnvTarget(glslang::EShTargetSpv, glslang::EShTargetSpv_1_3);
+}
+
+class Includer final : public glslang::TShader::Includer {
+ public:
+  Includer(const IncludeSource* source, std::string entry_name) : source_(source), entry_name_(std::move(entry_name)) {}
+
+  IncludeResult* includeLocal(const char* requested, const char* from, size_t depth) override {
+    if (!source_) return failure("#include is not available here");
+    // Cycles were rejected by the declaration scan; this bound only protects against macro tricks.
+    if (depth > 64) return failure("#include nesting is deeper than 64");
+    IncludeSource::Found found;
+    std::string error;
+    std::string from_name = (from && *from) ? from : entry_name_;
+    if (!source_->resolve(requested, from_name, found, error)) return failure(error);
+    if (found.once && !once_seen_.insert(found.name).second)
+      return new IncludeResult(found.name, "", 0, nullptr);  // #pragma once: second inclusion is empty
+    return new IncludeResult(found.name, found.text.data(), found.text.size(), nullptr);
+  }
+  IncludeResult* includeSystem(const char* requested, const char* from, size_t depth) override {
+    return includeLocal(requested, from, depth);
+  }
+  void releaseInclude(IncludeResult* result) override {
+    if (result && result->userData) delete static_cast<std::string*>(result->userData);
+    delete result;
+  }
+
+ private:
+  IncludeResult* failure(const std::string& message) {
+    auto* text = new std::string(message);
+    return new IncludeResult("", text->data(), text->size(), text);
+  }
+  const IncludeSource* source_;
+  std::string entry_name_;
+  std::set<std::string> once_seen_;
+};
+
+class GlslangFrontend final : public Frontend {
+ public:
+  GlslangFrontend() { initialize_glslang_once(); }
+
+  std::string name() const override { return "glslang"; }
+  std::string version() const override {
+    return std::to_string(GLSLANG_VERSION_MAJOR) + "." + std::to_string(GLSLANG_VERSION_MINOR) + "." +
+           std::to_string(GLSLANG_VERSION_PATCH) + GLSLANG_VERSION_FLAVOR;
+  }
+
+  PreprocessResult preprocess(const PreprocessRequest& request) override {
+    PreprocessResult result;
+    glslang::TShader shader(to_glslang(request.stage));
+    const char* text = request.entry_text.data();
+    const int length = static_cast<int>(request.entry_text.size());
+    const char* name = request.entry_name.c_str();
+    shader.setStringsWithLengthsAndNames(&text, &length, &name, 1);
+    std::string preamble;
+    for (const std::string& define : request.defines) preamble += "#define " + define + " 1\n";
+    shader.setPreamble(preamble.c_str());
+    configure(shader, request.stage);
+    Includer includer(request.includes, request.entry_name);
+    result.ok = shader.preprocess(GetDefaultResources(), 100, ENoProfile, false, false, kMessages, &result.text, includer);
+    result.messages = parse_frontend_log(shader.getInfoLog(), request.entry_name);
+    if (!result.ok && result.messages.empty())
+      result.messages.push_back({Severity::Error, request.entry_name, 0, "preprocessing failed"});
+    return result;
+  }
+
+  CompileResult compile(const CompileRequest& request) override {
+    CompileResult result;
+    glslang::TShader shader(to_glslang(request.stage));
+    const char* text = request.source.data();
+    const int length = static_cast<int>(request.source.size());
+    const char* name = request.source_name.c_str();
+    shader.setStringsWithLengthsAndNames(&text, &length, &name, 1);
+    shader.setEntryPoint(request.entry_point.c_str());
+    configure(shader, request.stage);
+    bool parsed = shader.parse(GetDefaultResources(), 100, false, kMessages);
+    result.messages = parse_frontend_log(shader.getInfoLog(), request.source_name);
+    if (!parsed) return result;
+    // glslang only warns about a missing entry point; kiln makes it an error.
+    if (shader.getIntermediate()->getNumEntryPoints() == 0) {
+      result.missing_entry_point = true;
+      return result;
+    }
+    glslang::TProgram program;
+    program.addShader(&shader);
+    if (!program.link(kMessages)) {
+      auto link = parse_frontend_log(program.getInfoLog(), request.source_name);
+      result.messages.insert(result.messages.end(), link.begin(), link.end());
+      return result;
+    }
+    glslang::SpvOptions options;
+    options.disableOptimizer = true;  // kiln runs legalization and optimization itself (stage 5)
+    options.validate = false;
+    spv::SpvBuildLogger logger;
+    glslang::GlslangToSpv(*program.getIntermediate(to_glslang(request.stage)), result.spirv, &logger, &options);
+    if (std::string messages = logger.getAllMessages(); !messages.empty()) {
+      std::istringstream lines(messages);
+      for (std::string line; std::getline(lines, line);)
+        if (!line.empty()) result.messages.push_back({Severity::Warning, request.source_name, 0, line});
+    }
+    result.ok = !result.spirv.empty();
+    return result;
+  }
+};
+
+}  // namespace
+
+std::unique_ptr<Frontend> make_glslang_frontend() { return std::make_unique<GlslangFrontend>(); }
+
+std::vector<FrontendMessage> parse_frontend_log(std::string_view log, std::string_view fallback_path) {
+  static const std::regex located(R"(^(ERROR|WARNING|INTERNAL ERROR|UNIMPLEMENTED): (.*?):(\d+): (.*)$)");
+  static const std::regex plain(R"(^(ERROR|WARNING|INTERNAL ERROR|UNIMPLEMENTED): (.*)$)");
+  static const std::regex summary(R"(^\d+ compilation errors\.|^Linking .*stage:$|^$)");
+  std::vector<FrontendMessage> messages;
+  std::istringstream lines{std::string(log)};
+  for (std::string line; std::getline(lines, line);) {
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+    std::smatch m;
+    if (std::regex_match(line, m, located)) {
+      Severity severity = m[1] == "WARNING" ? Severity::Warning : Severity::Error;
+      messages.push_back({severity, m[2], std::stoi(m[3]), m[4]});
+    } else if (std::regex_match(line, m, plain)) {
+      std::string text = m[2];
+      if (std::regex_search(text, summary)) continue;
+      Severity severity = m[1] == "WARNING" ? Severity::Warning : Severity::Error;
+      messages.push_back({severity, std::string(fallback_path), 0, text});
+    }
+  }
+  return messages;
+}
+
+}  // namespace kiln

@@ -1,0 +1,76 @@
+#include "optimize/spirv_tools.hpp"
+
+#include <spirv-tools/libspirv.hpp>
+#include <spirv-tools/optimizer.hpp>
+
+namespace kiln {
+namespace {
+
+// Vulkan 1.1 / SPIR-V 1.3: what glslang targets, and what every Vulkan 1.1 driver (lavapipe included) takes.
+constexpr spv_target_env kTargetEnv = SPV_ENV_VULKAN_1_1;
+
+spvtools::MessageConsumer collect_into(std::vector<std::string>& messages) {
+  return [&messages](spv_message_level_t level, const char*, const spv_position_t& position, const char* text) {
+    if (level > SPV_MSG_WARNING) return;
+    std::string message = text ? text : "";
+    if (position.index) message = "instruction " + std::to_string(position.index) + ": " + message;
+    messages.push_back(std::move(message));
+  };
+}
+
+bool run_validator(const std::vector<uint32_t>& spirv, std::vector<std::string>& messages) {
+  spvtools::SpirvTools tools(kTargetEnv);
+  tools.SetMessageConsumer(collect_into(messages));
+  spvtools::ValidatorOptions options;
+  return tools.Validate(spirv.data(), spirv.size(), options);
+}
+
+}  // namespace
+
+SpirvStepResult validate_spirv(const std::vector<uint32_t>& spirv) {
+  SpirvStepResult result;
+  result.step = "validate";
+  result.ok = run_validator(spirv, result.messages);
+  if (result.ok) result.spirv = spirv;
+  return result;
+}
+
+SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize) {
+  SpirvStepResult result;
+  {
+    result.step = "legalize";
+    spvtools::Optimizer legalizer(kTargetEnv);
+    legalizer.SetMessageConsumer(collect_into(result.messages));
+    legalizer.RegisterLegalizationPasses();
+    std::vector<uint32_t> legal;
+    if (!legalizer.Run(spirv.data(), spirv.size(), &legal)) return result;
+    spirv = std::move(legal);
+  }
+  result.step = "validate";
+  if (!run_validator(spirv, result.messages)) return result;
+  if (optimize) {
+    result.step = "optimize";
+    spvtools::Optimizer optimizer(kTargetEnv);
+    optimizer.SetMessageConsumer(collect_into(result.messages));
+    optimizer.RegisterPerformancePasses();
+    std::vector<uint32_t> optimized;
+    if (!optimizer.Run(spirv.data(), spirv.size(), &optimized)) return result;
+    spirv = std::move(optimized);
+    result.step = "validate-optimized";
+    if (!run_validator(spirv, result.messages)) return result;
+  }
+  result.ok = true;
+  result.spirv = std::move(spirv);
+  return result;
+}
+
+std::string disassemble_spirv(const std::vector<uint32_t>& spirv) {
+  spvtools::SpirvTools tools(kTargetEnv);
+  std::string text;
+  tools.Disassemble(spirv, &text, SPV_BINARY_TO_TEXT_OPTION_INDENT | SPV_BINARY_TO_TEXT_OPTION_FRIENDLY_NAMES);
+  return text;
+}
+
+std::string spirv_tools_version() { return spvSoftwareVersionString(); }
+
+}  // namespace kiln

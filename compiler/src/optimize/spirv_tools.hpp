@@ -1,0 +1,24 @@
+// Stage 5 (after the front end): legalize HLSL-derived SPIR-V, validate, optimize, validate again.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace kiln {
+
+struct SpirvStepResult {
+  bool ok = false;
+  std::string step;  // "legalize", "validate", "optimize", "validate-optimized"
+  std::vector<std::string> messages;
+  std::vector<uint32_t> spirv;
+};
+
+// The whole chain; on failure `step` names the step that failed.
+SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize);
+// spirv-val alone (used by lint and tests).
+SpirvStepResult validate_spirv(const std::vector<uint32_t>& spirv);
+std::string disassemble_spirv(const std::vector<uint32_t>& spirv);
+std::string spirv_tools_version();
+
+}  // namespace kiln

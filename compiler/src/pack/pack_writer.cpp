@@ -1,0 +1,67 @@
+#include "pack/pack_writer.hpp"
+
+#include "common/files.hpp"
+#include "kiln/pack_format.hpp"
+
+namespace kiln {
+namespace {
+
+void put32(std::string& out, uint32_t v) {
+  for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>(v >> (8 * i)));
+}
+void put64(std::string& out, uint64_t v) {
+  for (int i = 0; i < 8; ++i) out.push_back(static_cast<char>(v >> (8 * i)));
+}
+void set64(std::string& out, size_t at, uint64_t v) {
+  for (int i = 0; i < 8; ++i) out[at + i] = static_cast<char>(v >> (8 * i));
+}
+
+}  // namespace
+
+uint32_t ArchiveBuilder::add(std::string_view bytes) {
+  Hash128 key = hash128(bytes);
+  if (auto it = by_hash_.find(key); it != by_hash_.end()) return it->second;
+  uint32_t id = static_cast<uint32_t>(blobs_.size());
+  blobs_.emplace_back(bytes);
+  by_hash_.emplace(key, id);
+  return id;
+}
+
+std::string ArchiveBuilder::finish() const {
+  std::string out(kPackMagic, 8);
+  put32(out, kPackFormatVersion);
+  put32(out, static_cast<uint32_t>(blobs_.size()));
+  put64(out, 0);  // checksum, filled below
+  put64(out, 0);  // total size, filled below
+  uint64_t offset = kPackHeaderSize + kPackBlobEntrySize * blobs_.size();
+  for (const std::string& blob : blobs_) {
+    offset = (offset + 7) & ~uint64_t{7};
+    put64(out, offset);
+    put64(out, blob.size());
+    put64(out, hash64(blob));
+    offset += blob.size();
+  }
+  for (const std::string& blob : blobs_) {
+    out.append(((out.size() + 7) & ~size_t{7}) - out.size(), '\0');
+    out += blob;
+  }
+  set64(out, 24, out.size());
+  set64(out, 16, hash64(std::string_view(out).substr(kPackHeaderSize)));
+  return out;
+}
+
+std::filesystem::path manifest_path(const std::filesystem::path& directory, const std::string& name) {
+  return directory / (name + ".manifest.json");
+}
+
+std::string write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
+                       nlohmann::json manifest) {
+  std::string bytes = archive.finish();
+  const std::string archive_name = name + ".kpack";
+  manifest["archive"] = {{"file", archive_name}, {"size", bytes.size()}, {"xxh3_64", hex64(hash64(bytes))},
+                         {"blobs", archive.size()}};
+  if (std::string error = write_file_atomic(directory / archive_name, bytes); !error.empty()) return error;
+  return write_file_atomic(manifest_path(directory, name), manifest.dump(2) + "\n");
+}
+
+}  // namespace kiln

@@ -1,0 +1,643 @@
+// The kiln pipeline, top to bottom. Each stage lives in its own folder; this file lists them once:
+//   0 load definitions   definition/
+//   1 declarations       declarations/   (scan the include graph, collect #pragma keyword groups)
+//   2 expand             permutations/   (count, then enumerate per pass)
+//   3 strip              permutations/   (constraints, scene profiles, budget)
+//   4 preprocess+dedupe  preprocess/ frontend/  (per stage, only the keywords the stage sees)
+//   5 compile            workers/ frontend/ optimize/   (in worker processes; cached)
+//   6 cross-compile      cross/          (inside the workers)
+//   7 reflect            reflect/        (inside the workers; layouts merged and checked here)
+//   8 pack               pack/
+#include <unistd.h>
+
+#include <algorithm>
+#include <map>
+#include <thread>
+
+#include "cache/cache.hpp"
+#include "common/files.hpp"
+#include "common/hash.hpp"
+#include "common/parallel.hpp"
+#include "cross/cross_compile.hpp"
+#include "declarations/declarations.hpp"
+#include "definition/definition.hpp"
+#include "frontend/frontend.hpp"
+#include "kiln/build.hpp"
+#include "kiln/pack_format.hpp"
+#include "optimize/spirv_tools.hpp"
+#include "pack/pack_writer.hpp"
+#include "permutations/permutations.hpp"
+#include "reflect/reflect.hpp"
+#include "workers/worker_pool.hpp"
+
+namespace kiln {
+namespace {
+
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+class StageTimer {
+ public:
+  StageTimer(BuildReport& report, std::string stage) : report_(report), stage_(std::move(stage)), start_(Clock::now()) {}
+  ~StageTimer() {
+    report_.timings.push_back({stage_, std::chrono::duration<double, std::milli>(Clock::now() - start_).count()});
+  }
+
+ private:
+  BuildReport& report_;
+  std::string stage_;
+  Clock::time_point start_;
+};
+
+// Stages 0-3, shared by `kiln build` and `kiln list`.
+struct Plan {
+  PackDefinition pack;
+  std::vector<SceneProfile> scenes;
+  SourceSet sources;
+  std::unique_ptr<IncludeRoots> roots;
+  std::vector<PassDeclarations> declarations;
+  std::vector<PassKeywords> passes;
+  std::vector<PassExpansion> expansions;
+  Funnel funnel;
+};
+
+std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sink, BuildReport& report) {
+  auto plan = std::make_unique<Plan>();
+  ReadLimits limits{options.max_file_bytes};
+  {
+    StageTimer timer(report, "load");
+    auto pack = load_pack_definition(options.pack_file, limits, sink);
+    bool ok = pack.has_value();
+    for (const auto& file : options.scene_files) {
+      auto scene = load_scene_profile(file, limits, sink);
+      if (scene) plan->scenes.push_back(std::move(*scene));
+      else ok = false;
+    }
+    if (!ok) return nullptr;
+    plan->pack = std::move(*pack);
+  }
+  {
+    StageTimer timer(report, "declarations");
+    std::vector<std::filesystem::path> roots = plan->pack.include_dirs;
+    for (const PassDefinition& pass : plan->pack.passes) roots.push_back(pass.source.parent_path());
+    plan->roots = std::make_unique<IncludeRoots>(roots);
+    bool ok = true;
+    for (const PassDefinition& pass : plan->pack.passes) {
+      std::error_code ec;
+      if (!std::filesystem::exists(pass.source, ec)) {
+        sink.report(DiagId::FileUnreadable, pass.defined_at,
+                    "pass '" + pass.name + "': source file '" + pass.source.string() + "' does not exist");
+        ok = false;
+        continue;
+      }
+      auto declarations = scan_declarations(pass.source, *plan->roots, limits, plan->sources, sink);
+      if (!declarations) {
+        ok = false;
+        continue;
+      }
+      plan->passes.push_back(PassKeywords{&pass, declarations->groups});
+      plan->declarations.push_back(std::move(*declarations));
+    }
+    if (!ok) return nullptr;
+  }
+  {
+    StageTimer timer(report, "expand+strip");
+    if (!check_rule_keywords(plan->passes, plan->pack, plan->scenes, sink)) return nullptr;
+    StripRules rules{&plan->pack.constraints, &plan->scenes, &plan->pack.materials};
+    auto expansions = expand_and_strip(plan->passes, rules, plan->pack.budget, plan->pack, sink);
+    if (!expansions) return nullptr;
+    plan->expansions = std::move(*expansions);
+    for (const PassExpansion& e : plan->expansions) {
+      plan->funnel.declared_saturated |= e.declared.saturated;
+      plan->funnel.declared += e.declared.value;
+      plan->funnel.valid += e.valid.value;
+      plan->funnel.kept += e.kept.value;
+    }
+  }
+  return plan;
+}
+
+// Serves #include during preprocessing from the scanned source set, with the same confinement rules.
+class SourceSetIncludes final : public IncludeSource {
+ public:
+  SourceSetIncludes(const SourceSet& sources, const IncludeRoots& roots) : sources_(sources), roots_(roots) {
+    for (const auto& [path, file] : sources.files) by_name_[display_path(path)] = path;
+  }
+  bool resolve(std::string_view requested, std::string_view from, Found& found, std::string& error) const override {
+    auto it = by_name_.find(std::string(from));
+    if (it == by_name_.end()) {
+      error = "unknown including file '" + std::string(from) + "'";
+      return false;
+    }
+    ResolvedInclude resolved = resolve_include(requested, it->second, roots_);
+    if (!resolved.ok) {
+      error = resolved.message;
+      return false;
+    }
+    const SourceFile* file = sources_.find(resolved.path);
+    if (!file) {
+      error = "'" + std::string(requested) + "' was not seen by the declaration scan (is the #include name a macro?)";
+      return false;
+    }
+    found.name = display_path(resolved.path);
+    found.text = file->text;
+    found.once = file->pragma_once;
+    return true;
+  }
+
+ private:
+  const SourceSet& sources_;
+  const IncludeRoots& roots_;
+  std::map<std::string, std::filesystem::path> by_name_;
+};
+
+// One (pass, stage, keywords the stage sees): preprocessed once, however many variants share it.
+struct StageSource {
+  uint32_t pass = 0;
+  Stage stage = Stage::Vertex;
+  std::vector<std::string> defines;
+  size_t first_variant = 0;  // for messages
+  bool ok = false;
+  std::string text;
+  std::vector<FrontendMessage> messages;
+  int binary = -1;
+};
+
+struct Binary {
+  Hash128 key;
+  Stage stage = Stage::Vertex;
+  std::string entry_point;
+  size_t source = 0;  // a StageSource that produced it
+  std::vector<size_t> sources;
+  std::optional<JobOutput> output;
+};
+
+std::string variant_description(const Plan& plan, const StageSource& s) {
+  return "pass '" + plan.pack.passes[s.pass].name + "' " + std::string(stage_name(s.stage)) + " stage, keywords [" +
+         join_keywords(s.defines) + "]";
+}
+
+std::string slug(const std::vector<std::string>& keywords) {
+  if (keywords.empty()) return "_";
+  std::string out;
+  for (const std::string& k : keywords) out += (out.empty() ? "" : "+") + k;
+  return out;
+}
+
+// Best-effort column: glslang gives only lines, but most messages quote the offending token.
+int guess_column(const std::string& line_text, const std::string& message) {
+  if (message.size() < 3 || message[0] != '\'') return 0;
+  size_t close = message.find('\'', 1);
+  if (close == std::string::npos || close == 1) return 0;
+  std::string token = message.substr(1, close - 1);
+  size_t at = line_text.find(token);
+  return at == std::string::npos ? 0 : static_cast<int>(at) + 1;
+}
+
+std::string line_of(const SourceSet& sources, const std::map<std::string, std::filesystem::path>& by_name,
+                    const std::string& path, int line) {
+  auto it = by_name.find(path);
+  if (it == by_name.end() || line <= 0) return {};
+  const SourceFile* file = sources.find(it->second);
+  if (!file) return {};
+  size_t start = 0;
+  for (int i = 1; i < line; ++i) {
+    start = file->text.find('\n', start);
+    if (start == std::string::npos) return {};
+    ++start;
+  }
+  size_t end = file->text.find('\n', start);
+  return file->text.substr(start, end == std::string::npos ? std::string::npos : end - start);
+}
+
+std::string tools_fingerprint(Frontend& frontend) {
+  return std::string("kiln ") + kKilnVersion + "; " + frontend.name() + " " + frontend.version() + "; " +
+         spirv_tools_version() + "; SPIRV-Cross " + spirv_cross_version();
+}
+
+json keyword_group_json(const KeywordGroup& group) {
+  json values = json::array();
+  for (const std::string& v : group.values) values.push_back(v.empty() ? "_" : v);
+  json stages = json::array();
+  for (Stage s : kAllStages)
+    if (group.stages & stage_bit(s)) stages.push_back(stage_name(s));
+  return {{"pragma", group.pragma}, {"values", values}, {"stages", stages}};
+}
+
+std::string depfile_escape(const std::string& path) {
+  std::string out;
+  for (char c : path) {
+    if (c == ' ' || c == '#') out += '\\';
+    if (c == '$') out += '$';
+    out += c;
+  }
+  return out;
+}
+
+bool pack_is_current(const std::filesystem::path& manifest_file, const std::string& inputs_hash) {
+  auto text = read_binary_file(manifest_file);
+  if (!text) return false;
+  try {
+    json manifest = json::parse(*text);
+    if (manifest.value("inputs_hash", "") != inputs_hash) return false;
+    auto archive = read_binary_file(manifest_file.parent_path() / manifest.at("archive").at("file").get<std::string>());
+    return archive && archive->size() == manifest["archive"]["size"].get<uint64_t>() &&
+           hex64(hash64(*archive)) == manifest["archive"]["xxh3_64"].get<std::string>();
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+}  // namespace
+
+int exit_code(const DiagnosticSink& sink, bool internal_errors) {
+  if (internal_errors) return 2;
+  return sink.has_errors() ? 1 : 0;
+}
+
+std::optional<PlanListing> list_variants(const BuildOptions& options, DiagnosticSink& sink) {
+  BuildReport report;
+  auto plan = make_plan(options, sink, report);
+  if (!plan) return std::nullopt;
+  PlanListing listing;
+  listing.pack = plan->pack.name;
+  listing.funnel = plan->funnel;
+  for (size_t p = 0; p < plan->passes.size(); ++p) {
+    const auto& groups = plan->passes[p].groups;
+    for (const Variant& v : plan->expansions[p].variants) {
+      VariantListing item;
+      item.pass = plan->pack.passes[p].name;
+      item.keywords = enabled_keywords(groups, v);
+      for (Stage s : kAllStages)
+        if (!plan->pack.passes[p].entry_points[static_cast<size_t>(s)].empty())
+          item.stage_keywords.emplace_back(std::string(stage_name(s)), enabled_keywords(groups, v, s));
+      listing.variants.push_back(std::move(item));
+    }
+  }
+  return listing;
+}
+
+BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
+  BuildReport report;
+  const auto start = Clock::now();
+  auto finish = [&] {
+    report.timings.push_back({"total", std::chrono::duration<double, std::milli>(Clock::now() - start).count()});
+    return report;
+  };
+
+  // Stages 0-3: definitions, declarations, expansion, stripping.
+  auto plan = make_plan(options, sink, report);
+  if (!plan) return finish();
+  report.funnel = plan->funnel;
+  report.dependencies.push_back(std::filesystem::absolute(options.pack_file));
+  for (const auto& scene : options.scene_files) report.dependencies.push_back(std::filesystem::absolute(scene));
+  for (const auto& [path, file] : plan->sources.files) report.dependencies.push_back(path);
+
+  // The output directory must be writable before any work is spent.
+  std::error_code ec;
+  std::filesystem::create_directories(options.output_dir, ec);
+  if (ec || ::access(options.output_dir.c_str(), W_OK) != 0) {
+    sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0},
+                "output directory '" + options.output_dir.string() + "' is not writable" +
+                    (ec ? ": " + ec.message() : std::string()));
+    return finish();
+  }
+  auto write_depfile = [&]() {
+    if (!options.depfile) return;
+    std::string text = depfile_escape(manifest_path(options.output_dir, plan->pack.name).string()) + ":";
+    for (const auto& dep : report.dependencies) text += " \\\n  " + depfile_escape(dep.string());
+    if (std::string error = write_file_atomic(*options.depfile, text + "\n"); !error.empty())
+      sink.report(DiagId::OutputUnwritable, SourceLocation{options.depfile->string(), 0, 0}, error);
+  };
+
+  auto frontend = make_glslang_frontend();
+  const std::string fingerprint = tools_fingerprint(*frontend);
+  std::vector<Target> targets = plan->pack.targets;
+
+  // Up to date? The inputs hash covers tools, options and the bytes of every file read.
+  Hasher inputs;
+  inputs.add(fingerprint).add(options.optimize ? 1 : 0).add(plan->pack.text);
+  for (const SceneProfile& scene : plan->scenes) inputs.add(scene.text);
+  for (const auto& [path, file] : plan->sources.files) inputs.add(path.string()).add(file.text);
+  const std::string inputs_hash = inputs.finish().hex();
+  report.manifest = manifest_path(options.output_dir, plan->pack.name);
+  if (options.emit.empty() && pack_is_current(report.manifest, inputs_hash)) {
+    report.up_to_date = true;
+    report.ok = true;
+    write_depfile();
+    return finish();
+  }
+
+  // Stage 4: preprocess each (pass, stage, keywords the stage sees) once, then dedupe by content.
+  std::vector<StageSource> stage_sources;
+  // variant_binary_source[p][v][stage] -> index into stage_sources, or -1
+  std::vector<std::vector<std::array<int, kStageCount>>> variant_source(plan->passes.size());
+  {
+    StageTimer timer(report, "preprocess");
+    std::map<std::tuple<uint32_t, Stage, std::vector<std::string>>, size_t> index;
+    for (uint32_t p = 0; p < plan->passes.size(); ++p) {
+      const auto& variants = plan->expansions[p].variants;
+      variant_source[p].resize(variants.size());
+      for (size_t v = 0; v < variants.size(); ++v) {
+        for (Stage s : kAllStages) {
+          int& slot = variant_source[p][v][static_cast<size_t>(s)];
+          slot = -1;
+          if (plan->pack.passes[p].entry_points[static_cast<size_t>(s)].empty()) continue;
+          ++report.funnel.stage_instances;
+          auto defines = enabled_keywords(plan->passes[p].groups, variants[v], s);
+          auto [it, inserted] = index.emplace(std::make_tuple(p, s, defines), stage_sources.size());
+          if (inserted) stage_sources.push_back(StageSource{p, s, defines, v});
+          slot = static_cast<int>(it->second);
+        }
+      }
+    }
+    SourceSetIncludes includes(plan->sources, *plan->roots);
+    unsigned threads = options.jobs ? options.jobs : std::max(1u, std::thread::hardware_concurrency());
+    parallel_for(stage_sources.size(), threads, [&](size_t i) {
+      StageSource& s = stage_sources[i];
+      const SourceFile* entry = plan->sources.find(plan->declarations[s.pass].entry);
+      PreprocessRequest request{s.stage, display_path(entry->path), entry->text, s.defines, &includes};
+      PreprocessResult result = frontend->preprocess(request);
+      s.ok = result.ok;
+      s.text = std::move(result.text);
+      s.messages = std::move(result.messages);
+    });
+    report.funnel.unique_preprocessed = stage_sources.size();
+  }
+  std::map<std::string, std::filesystem::path> by_name;
+  for (const auto& [path, file] : plan->sources.files) by_name[display_path(path)] = path;
+  auto located = [&](const FrontendMessage& m, const std::string& fallback) {
+    SourceLocation at{m.path.empty() ? fallback : m.path, m.line, 0};
+    at.column = guess_column(line_of(plan->sources, by_name, at.path, at.line), m.text);
+    return at;
+  };
+
+  // Identical messages from many variants are reported once, naming the first variant and the count.
+  struct Grouped {
+    DiagId id;
+    SourceLocation at;
+    std::string text;
+    std::vector<std::string> variants;
+  };
+  std::vector<Grouped> grouped;
+  std::map<std::tuple<int, std::string, int, std::string>, size_t> grouped_index;
+  auto collect = [&](DiagId id, SourceLocation at, const std::string& text, const std::string& variant) {
+    auto key = std::make_tuple(static_cast<int>(id), at.path, at.line, text);
+    auto [it, inserted] = grouped_index.emplace(key, grouped.size());
+    if (inserted) grouped.push_back({id, std::move(at), text, {}});
+    grouped[it->second].variants.push_back(variant);
+  };
+
+  std::vector<Binary> binaries;
+  {
+    StageTimer timer(report, "dedupe");
+    std::map<Hash128, size_t> by_key;
+    std::string target_list;
+    for (Target t : targets) target_list += std::string(target_name(t)) + ",";
+    for (size_t i = 0; i < stage_sources.size(); ++i) {
+      StageSource& s = stage_sources[i];
+      const std::string entry_name = display_path(plan->declarations[s.pass].entry);
+      if (!s.ok) {
+        for (const FrontendMessage& m : s.messages)
+          if (m.severity == Severity::Error)
+            collect(DiagId::PreprocessorError, located(m, entry_name), m.text, variant_description(*plan, s));
+        continue;
+      }
+      const std::string& entry_point = plan->pack.passes[s.pass].entry_points[static_cast<size_t>(s.stage)];
+      Hash128 key = Hasher()
+                        .add(fingerprint)
+                        .add(options.optimize ? 1 : 0)
+                        .add(target_list)
+                        .add(stage_name(s.stage))
+                        .add(entry_point)
+                        .add(s.text)
+                        .finish();
+      auto [it, inserted] = by_key.emplace(key, binaries.size());
+      if (inserted) binaries.push_back(Binary{key, s.stage, entry_point, i, {}, std::nullopt});
+      binaries[it->second].sources.push_back(i);
+      s.binary = static_cast<int>(it->second);
+    }
+    report.funnel.unique_binaries = binaries.size();
+  }
+
+  // Stage 5-7: cache, then compile the misses in worker processes (cross-compile and reflect there too).
+  {
+    StageTimer timer(report, "compile");
+    std::optional<Cache> cache;
+    if (options.cache_dir) cache.emplace(*options.cache_dir);
+    std::vector<CompileJob> jobs;
+    std::vector<size_t> job_binary;
+    for (size_t b = 0; b < binaries.size(); ++b) {
+      bool rejected = false;
+      if (cache) {
+        binaries[b].output = cache->load(binaries[b].key, rejected);
+        if (rejected) ++report.cache_rejected;
+        if (binaries[b].output) {
+          ++report.cache_hits;
+          continue;
+        }
+      }
+      const StageSource& s = stage_sources[binaries[b].source];
+      CompileJob job;
+      job.id = b;
+      job.stage = binaries[b].stage;
+      job.entry_point = binaries[b].entry_point;
+      job.source_name = display_path(plan->declarations[s.pass].entry);
+      job.source = s.text;
+      job.targets = targets;
+      job.optimize = options.optimize;
+      jobs.push_back(std::move(job));
+      job_binary.push_back(b);
+    }
+    size_t done = report.cache_hits;
+    if (options.progress) options.progress(done, binaries.size(), report.cache_hits);
+    if (!jobs.empty()) {
+      unsigned workers = options.jobs ? options.jobs : std::max(1u, std::thread::hardware_concurrency());
+      std::filesystem::path exe = options.worker_executable.empty() ? default_worker_executable() : options.worker_executable;
+      WorkerPool pool(exe, workers, WorkerLimits{options.worker_timeout, options.worker_memory_limit_mb});
+      pool.run(jobs, [&](size_t j, WorkerOutcome outcome) {
+        Binary& binary = binaries[job_binary[j]];
+        const StageSource& s = stage_sources[binary.source];
+        std::string variant = variant_description(*plan, s);
+        if (outcome.kind != WorkerOutcome::Kind::Done) {
+          report.internal_errors = true;
+          // A reproducer next to the outputs: the exact preprocessed source the worker was given.
+          std::filesystem::path dir = options.output_dir / "kiln-ice";
+          std::filesystem::create_directories(dir, ec);
+          std::filesystem::path repro = dir / (plan->pack.passes[s.pass].name + "." + std::string(stage_name(s.stage)) +
+                                               "." + slug(s.defines) + ".hlsl");
+          std::string header = "// kiln internal compiler error: the compiler worker " + outcome.detail + "\n// " +
+                               variant + ", entry point " + binary.entry_point + "\n// reproduce: glslangValidator -D -V -S " +
+                               (s.stage == Stage::Vertex ? "vert" : "frag") + " -e " + binary.entry_point + " " +
+                               repro.filename().string() + "\n";
+          write_file_atomic(repro, header + s.text);
+          sink.report(DiagId::InternalCompilerError, SourceLocation{display_path(plan->declarations[s.pass].entry), 0, 0},
+                      "internal compiler error: the compiler worker " + outcome.detail + " while compiling " + variant,
+                      {"reproducer written to " + repro.string(), "this is a bug in the compiler, not in your shader"});
+        } else if (!outcome.output.ok) {
+          const std::string entry_name = display_path(plan->declarations[s.pass].entry);
+          const std::string& step = outcome.output.failed_step;
+          if (step == "entry-point") {
+            SourceLocation at = locate_json_string(plan->pack.file.string(), plan->pack.text, binary.entry_point);
+            collect(DiagId::MissingEntryPoint, at,
+                    "entry point '" + binary.entry_point + "' of the " + std::string(stage_name(s.stage)) +
+                        " stage is not defined in '" + entry_name + "'",
+                    variant);
+          } else {
+            DiagId id = step == "frontend" ? DiagId::HlslError
+                        : step.rfind("validate", 0) == 0 ? DiagId::SpirvInvalid
+                        : step.rfind("cross", 0) == 0 ? DiagId::CrossCompileFailed
+                        : DiagId::OptimizerFailed;
+            bool any = false;
+            for (const FrontendMessage& m : outcome.output.messages) {
+              if (m.severity != Severity::Error) continue;
+              any = true;
+              std::string prefix = id == DiagId::HlslError ? "" : step + ": ";
+              collect(id, located(m, entry_name), prefix + m.text, variant);
+            }
+            if (!any) collect(id, SourceLocation{entry_name, 0, 0}, step + " failed", variant);
+          }
+        } else {
+          for (const FrontendMessage& m : outcome.output.messages)
+            if (m.severity == Severity::Warning) collect(DiagId::HlslWarning, located(m, ""), m.text, variant);
+          if (cache) cache->store(binary.key, outcome.output);
+          binary.output = std::move(outcome.output);
+        }
+        ++done;
+        if (options.progress) options.progress(done, binaries.size(), report.cache_hits);
+      });
+      report.workers_started = pool.spawned();
+      report.compiled = jobs.size();
+    }
+  }
+  for (Grouped& g : grouped) {
+    std::vector<std::string> notes{"in " + g.variants.front()};
+    if (g.variants.size() > 1) notes.push_back("and in " + std::to_string(g.variants.size() - 1) + " more variant(s)");
+    sink.report(g.id, g.at, g.text, notes);
+  }
+  if (sink.has_errors()) return finish();
+
+  // Stage 7 (second half): every variant and stage of a pass must agree on the resource layout.
+  std::vector<json> pass_layouts(plan->passes.size());
+  {
+    StageTimer timer(report, "reflect");
+    for (uint32_t p = 0; p < plan->passes.size(); ++p) {
+      std::vector<LayoutSource> sources;
+      std::set<int> seen;
+      for (size_t i = 0; i < stage_sources.size(); ++i) {
+        const StageSource& s = stage_sources[i];
+        if (s.pass != p || !seen.insert(s.binary).second) continue;
+        sources.push_back({variant_description(*plan, s), &binaries[static_cast<size_t>(s.binary)].output->reflection});
+      }
+      pass_layouts[p] = merge_pass_layout(plan->pack.passes[p].name, sources, plan->pack.passes[p].defined_at, sink);
+    }
+    if (sink.has_errors()) return finish();
+  }
+
+  // Stage 8: the pack. Binaries and blobs are numbered in (pass, variant, stage) order: same bytes for any -j.
+  {
+    StageTimer timer(report, "pack");
+    ArchiveBuilder archive;
+    std::map<size_t, size_t> binary_order;  // binary index -> manifest index
+    json binaries_json = json::array();
+    json passes_json = json::array();
+    for (uint32_t p = 0; p < plan->passes.size(); ++p) {
+      const PassDefinition& def = plan->pack.passes[p];
+      json stages = json::object();
+      for (Stage s : kAllStages)
+        if (!def.entry_points[static_cast<size_t>(s)].empty())
+          stages[std::string(stage_name(s))] = def.entry_points[static_cast<size_t>(s)];
+      json groups = json::array();
+      for (const KeywordGroup& g : plan->passes[p].groups) groups.push_back(keyword_group_json(g));
+      json variants = json::array();
+      const auto& expansion = plan->expansions[p];
+      for (size_t v = 0; v < expansion.variants.size(); ++v) {
+        json stage_binaries = json::object();
+        for (Stage s : kAllStages) {
+          int source = variant_source[p][v][static_cast<size_t>(s)];
+          if (source < 0) continue;
+          size_t b = static_cast<size_t>(stage_sources[static_cast<size_t>(source)].binary);
+          auto [it, inserted] = binary_order.emplace(b, binaries_json.size());
+          if (inserted) {
+            const JobOutput& out = *binaries[b].output;
+            std::string spirv(reinterpret_cast<const char*>(out.spirv.data()), out.spirv.size() * 4);
+            json blobs = json::object();
+            blobs["spirv"] = archive.add(spirv);
+            for (const auto& [target, text] : out.sources) blobs[std::string(target_name(target))] = archive.add(text);
+            binaries_json.push_back({{"stage", stage_name(binaries[b].stage)},
+                                     {"entry", binaries[b].entry_point},
+                                     {"key", binaries[b].key.hex()},
+                                     {"blobs", blobs},
+                                     {"reflection", out.reflection}});
+          }
+          stage_binaries[std::string(stage_name(s))] = it->second;
+        }
+        variants.push_back({{"keywords", enabled_keywords(plan->passes[p].groups, expansion.variants[v])},
+                            {"binaries", stage_binaries}});
+      }
+      passes_json.push_back({{"name", def.name},
+                             {"stages", stages},
+                             {"keyword_groups", groups},
+                             {"layout", pass_layouts[p]},
+                             {"variants", variants}});
+    }
+    json target_names = json::array();
+    for (Target t : targets) target_names.push_back(target_name(t));
+    const Funnel& f = report.funnel;
+    json manifest{{"format", kManifestFormat},
+                  {"format_version", kPackFormatVersion},
+                  {"name", plan->pack.name},
+                  {"kiln_version", kKilnVersion},
+                  {"tools", {{"frontend", frontend->name() + " " + frontend->version()},
+                             {"spirv_tools", spirv_tools_version()},
+                             {"spirv_cross", spirv_cross_version()}}},
+                  {"options", {{"optimize", options.optimize}, {"targets", target_names},
+                               {"spirv_env", "vulkan1.1"}, {"glsl_version", 450}, {"gles_version", 310},
+                               {"msl_version", "2.1"}, {"gl_clip_space_fixup", true}}},
+                  {"inputs_hash", inputs_hash},
+                  {"funnel", {{"declared", f.declared}, {"valid", f.valid}, {"kept", f.kept},
+                              {"stage_instances", f.stage_instances}, {"unique_preprocessed", f.unique_preprocessed},
+                              {"unique_binaries", f.unique_binaries}}},
+                  {"passes", passes_json},
+                  {"binaries", binaries_json}};
+    if (std::string error = write_pack(options.output_dir, plan->pack.name, archive, manifest); !error.empty()) {
+      sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, error);
+      return finish();
+    }
+  }
+
+  // Dumps for debugging (--emit), named <pass>/<stage>/<keywords>.<ext> under <output>/emit.
+  if (!options.emit.empty()) {
+    StageTimer timer(report, "emit");
+    std::filesystem::path root = options.output_dir / "emit";
+    auto put = [&](const std::filesystem::path& path, const std::string& bytes) {
+      std::filesystem::create_directories(path.parent_path(), ec);
+      if (std::string error = write_file_atomic(path, bytes); !error.empty())
+        sink.report(DiagId::OutputUnwritable, SourceLocation{path.string(), 0, 0}, error);
+    };
+    if (options.emit.count("variants")) {
+      json listing = json::array();
+      for (uint32_t p = 0; p < plan->passes.size(); ++p)
+        for (const Variant& v : plan->expansions[p].variants)
+          listing.push_back({{"pass", plan->pack.passes[p].name}, {"keywords", enabled_keywords(plan->passes[p].groups, v)}});
+      put(root / "variants.json", listing.dump(2) + "\n");
+    }
+    for (const StageSource& s : stage_sources) {
+      std::filesystem::path base = root / plan->pack.passes[s.pass].name / std::string(stage_name(s.stage)) / slug(s.defines);
+      const JobOutput& out = *binaries[static_cast<size_t>(s.binary)].output;
+      if (options.emit.count("preprocessed")) put(base.string() + ".hlsl", s.text);
+      if (options.emit.count("spvasm")) put(base.string() + ".spvasm", disassemble_spirv(out.spirv));
+      if (options.emit.count("glsl")) {
+        if (out.sources.count(Target::Glsl)) put(base.string() + ".glsl", out.sources.at(Target::Glsl));
+        if (out.sources.count(Target::Gles)) put(base.string() + ".es.glsl", out.sources.at(Target::Gles));
+      }
+      if (options.emit.count("msl") && out.sources.count(Target::Msl)) put(base.string() + ".metal", out.sources.at(Target::Msl));
+      if (options.emit.count("reflection")) put(base.string() + ".reflection.json", out.reflection.dump(2) + "\n");
+    }
+  }
+  write_depfile();
+  report.ok = !sink.has_errors();
+  return finish();
+}
+
+}  // namespace kiln

@@ -1,0 +1,40 @@
+// Include resolution confined to declared roots: no escape through "..", absolute paths or symlinks.
+// Shared by the declaration scanner (stage 1) and the glslang includer (stage 4).
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "kiln/diagnostics.hpp"
+
+namespace kiln {
+
+class IncludeRoots {
+ public:
+  explicit IncludeRoots(const std::vector<std::filesystem::path>& roots);
+  const std::vector<std::filesystem::path>& roots() const { return roots_; }
+  bool contains(const std::filesystem::path& canonical) const;
+
+ private:
+  std::vector<std::filesystem::path> roots_;  // canonical
+};
+
+struct ResolvedInclude {
+  bool ok = false;
+  std::filesystem::path path;  // canonical, when ok
+  DiagId error{};
+  std::string message;
+  std::vector<std::string> notes;
+};
+
+// Resolves `name` as written in `#include "name"` inside `including_file` (canonical): first next to
+// the including file, then in each root, in order.
+ResolvedInclude resolve_include(std::string_view name, const std::filesystem::path& including_file,
+                                const IncludeRoots& roots);
+
+// A path as shown to users: relative to the working directory when below it.
+std::string display_path(const std::filesystem::path& path);
+
+}  // namespace kiln

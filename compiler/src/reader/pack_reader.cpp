@@ -1,0 +1,243 @@
+#include "kiln/pack_reader.hpp"
+
+#include <xxhash.h>
+
+#include <algorithm>
+#include <cstring>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "kiln/pack_format.hpp"
+
+namespace kiln {
+namespace {
+
+using nlohmann::json;
+
+std::string read_whole(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw PackError(PackError::Code::Io, "cannot open '" + path.string() + "'");
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  return std::move(buffer).str();
+}
+
+uint64_t get64(const std::string& bytes, size_t at) {
+  uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v |= static_cast<uint64_t>(static_cast<unsigned char>(bytes[at + i])) << (8 * i);
+  return v;
+}
+
+std::string hex64(uint64_t value) {
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(value));
+  return text;
+}
+
+std::string join(const std::vector<std::string>& words) {
+  std::string out;
+  for (const std::string& w : words) out += (out.empty() ? "" : " ") + w;
+  return out.empty() ? "<none>" : out;
+}
+
+}  // namespace
+
+const StageView* SelectedVariant::stage(std::string_view name) const {
+  for (const StageView& s : stages)
+    if (s.stage == name) return &s;
+  return nullptr;
+}
+
+PackReader PackReader::open(const std::filesystem::path& path) {
+  std::filesystem::path manifest_file = path;
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    std::vector<std::filesystem::path> found;
+    for (const auto& entry : std::filesystem::directory_iterator(path, ec))
+      if (entry.path().string().ends_with(".manifest.json")) found.push_back(entry.path());
+    if (found.size() != 1)
+      throw PackError(PackError::Code::Io, "'" + path.string() + "' holds " + std::to_string(found.size()) +
+                                               " pack manifests; name the manifest file");
+    manifest_file = found[0];
+  }
+  PackReader reader;
+  try {
+    reader.manifest_ = json::parse(read_whole(manifest_file));
+  } catch (const json::exception& error) {
+    throw PackError(PackError::Code::Format, "'" + manifest_file.string() + "' is not a kiln manifest: " + error.what());
+  }
+  const json& m = reader.manifest_;
+  if (!m.is_object() || m.value("format", "") != kManifestFormat)
+    throw PackError(PackError::Code::Format, "'" + manifest_file.string() + "' is not a kiln pack manifest");
+  if (m.value("format_version", 0u) != kPackFormatVersion)
+    throw PackError(PackError::Code::Version, "pack format version " + std::to_string(m.value("format_version", 0u)) +
+                                                  " is not supported (this reader reads version " +
+                                                  std::to_string(kPackFormatVersion) + ")");
+  try {
+    reader.name_ = m.at("name").get<std::string>();
+    const json& archive = m.at("archive");
+    reader.archive_ = read_whole(manifest_file.parent_path() / archive.at("file").get<std::string>());
+    const std::string& bytes = reader.archive_;
+    if (bytes.size() < kPackHeaderSize || std::memcmp(bytes.data(), kPackMagic, 8) != 0)
+      throw PackError(PackError::Code::Format, "archive of pack '" + reader.name_ + "' has no KILNPACK header");
+    uint32_t version = 0, count = 0;
+    std::memcpy(&version, bytes.data() + 8, 4);
+    std::memcpy(&count, bytes.data() + 12, 4);
+    if (version != kPackFormatVersion)
+      throw PackError(PackError::Code::Version, "archive format version " + std::to_string(version) + " is not supported");
+    if (get64(bytes, 24) != bytes.size() || archive.at("size").get<uint64_t>() != bytes.size())
+      throw PackError(PackError::Code::Checksum, "archive of pack '" + reader.name_ + "' is truncated or has the wrong size");
+    if (XXH3_64bits(bytes.data() + kPackHeaderSize, bytes.size() - kPackHeaderSize) != get64(bytes, 16) ||
+        hex64(XXH3_64bits(bytes.data(), bytes.size())) != archive.at("xxh3_64").get<std::string>())
+      throw PackError(PackError::Code::Checksum, "archive of pack '" + reader.name_ + "' fails its checksum");
+    if (kPackHeaderSize + kPackBlobEntrySize * uint64_t{count} > bytes.size())
+      throw PackError(PackError::Code::Format, "archive blob table is out of bounds");
+    for (uint32_t i = 0; i < count; ++i) {
+      size_t at = kPackHeaderSize + kPackBlobEntrySize * i;
+      uint64_t offset = get64(bytes, at), size = get64(bytes, at + 8);
+      if (offset > bytes.size() || size > bytes.size() - offset)
+        throw PackError(PackError::Code::Format, "blob " + std::to_string(i) + " is out of bounds");
+      if (XXH3_64bits(bytes.data() + offset, size) != get64(bytes, at + 16))
+        throw PackError(PackError::Code::Checksum, "blob " + std::to_string(i) + " fails its checksum");
+      reader.blobs_.emplace_back(offset, size);
+    }
+    for (const json& pass : m.at("passes")) {
+      Pass entry;
+      entry.json = &pass;
+      for (const json& group : pass.at("keyword_groups")) {
+        std::vector<std::string> values;
+        for (const json& v : group.at("values")) values.push_back(v == "_" ? "" : v.get<std::string>());
+        entry.groups.push_back(std::move(values));
+      }
+      const json& variants = pass.at("variants");
+      for (size_t i = 0; i < variants.size(); ++i)
+        entry.by_key[join(variants[i].at("keywords").get<std::vector<std::string>>())] = i;
+      reader.passes_[pass.at("name").get<std::string>()] = std::move(entry);
+    }
+  } catch (const json::exception& error) {
+    throw PackError(PackError::Code::Format, "malformed manifest '" + manifest_file.string() + "': " + error.what());
+  }
+  return reader;
+}
+
+std::vector<std::string> PackReader::passes() const {
+  std::vector<std::string> names;
+  for (const json& pass : manifest_.at("passes")) names.push_back(pass.at("name").get<std::string>());
+  return names;
+}
+
+const PackReader::Pass& PackReader::find_pass(std::string_view name) const {
+  auto it = passes_.find(name);
+  if (it == passes_.end())
+    throw PackError(PackError::Code::UnknownPass, "pack '" + name_ + "' has no pass '" + std::string(name) + "'");
+  return it->second;
+}
+
+size_t PackReader::variant_count(std::string_view pass) const { return find_pass(pass).json->at("variants").size(); }
+
+std::vector<std::vector<std::string>> PackReader::keyword_groups(std::string_view pass) const {
+  return find_pass(pass).groups;
+}
+
+std::string_view PackReader::blob(uint32_t id) const {
+  if (id >= blobs_.size()) throw PackError(PackError::Code::Format, "blob id " + std::to_string(id) + " out of range");
+  return std::string_view(archive_).substr(blobs_[id].first, blobs_[id].second);
+}
+
+SelectedVariant PackReader::variant(std::string_view pass_name, size_t index) const {
+  const Pass& pass = find_pass(pass_name);
+  const json& variants = pass.json->at("variants");
+  if (index >= variants.size()) throw PackError(PackError::Code::Format, "variant index out of range");
+  const json& v = variants[index];
+  SelectedVariant selected;
+  selected.pass = std::string(pass_name);
+  selected.index = index;
+  selected.keywords = v.at("keywords").get<std::vector<std::string>>();
+  const json& binaries = manifest_.at("binaries");
+  for (auto& [stage, binary_id] : v.at("binaries").items()) {
+    const json& binary = binaries.at(binary_id.get<size_t>());
+    StageView view;
+    view.stage = stage;
+    view.entry_point = binary.at("entry").get<std::string>();
+    const json& blobs = binary.at("blobs");
+    auto get = [&](const char* target) -> std::string_view {
+      return blobs.contains(target) ? blob(blobs.at(target).get<uint32_t>()) : std::string_view{};
+    };
+    view.spirv = get("spirv");
+    view.glsl = get("glsl");
+    view.gles = get("gles");
+    view.msl = get("msl");
+    view.reflection = &binary.at("reflection");
+    selected.stages.push_back(view);
+  }
+  return selected;
+}
+
+SelectedVariant PackReader::select(std::string_view pass_name, const std::vector<std::string>& keywords, bool strict) const {
+  const Pass& pass = find_pass(pass_name);
+  std::vector<std::string> chosen;
+  std::vector<bool> group_set(pass.groups.size(), false);
+  std::set<std::string> requested(keywords.begin(), keywords.end());
+  requested.erase("");
+  for (const std::string& keyword : requested) {
+    bool found = false;
+    for (size_t g = 0; g < pass.groups.size() && !found; ++g) {
+      if (std::find(pass.groups[g].begin(), pass.groups[g].end(), keyword) == pass.groups[g].end()) continue;
+      found = true;
+      if (group_set[g])
+        throw PackError(PackError::Code::ConflictingKeywords,
+                        "pass '" + std::string(pass_name) + "': keywords of one group requested together, including '" +
+                            keyword + "'; a group takes at most one keyword");
+      group_set[g] = true;
+      chosen.push_back(keyword);
+    }
+    if (!found && strict)
+      throw PackError(PackError::Code::UnknownKeyword,
+                      "pass '" + std::string(pass_name) + "' does not declare keyword '" + keyword + "'");
+  }
+  for (size_t g = 0; g < pass.groups.size(); ++g) {
+    if (group_set[g]) continue;
+    if (std::find(pass.groups[g].begin(), pass.groups[g].end(), "") == pass.groups[g].end()) {
+      if (pass.groups[g].size() == 1) {
+        chosen.push_back(pass.groups[g][0]);  // a one-keyword multi_compile is always on
+        continue;
+      }
+      throw PackError(PackError::Code::MissingKeyword, "pass '" + std::string(pass_name) + "' needs one of: " +
+                                                           join(pass.groups[g]));
+    }
+  }
+  std::sort(chosen.begin(), chosen.end());
+  auto it = pass.by_key.find(join(chosen));
+  if (it != pass.by_key.end()) return variant(pass_name, it->second);
+
+  // Stripped: name the requested keywords that no variant of this pass has together with the rest.
+  std::vector<std::string> missing;
+  for (const std::string& keyword : chosen) {
+    bool anywhere = false;
+    for (const auto& [key, index] : pass.by_key) {
+      const auto& kw = pass.json->at("variants")[index].at("keywords");
+      if (std::find(kw.begin(), kw.end(), keyword) != kw.end()) anywhere = true;
+    }
+    if (!anywhere) missing.push_back(keyword);
+  }
+  // Nearest existing variants by symmetric difference, as hints only.
+  std::vector<std::pair<size_t, std::string>> nearest;
+  for (const auto& [key, index] : pass.by_key) {
+    auto kw = pass.json->at("variants")[index].at("keywords").get<std::vector<std::string>>();
+    std::vector<std::string> diff;
+    std::set_symmetric_difference(kw.begin(), kw.end(), chosen.begin(), chosen.end(), std::back_inserter(diff));
+    nearest.emplace_back(diff.size(), key);
+  }
+  std::sort(nearest.begin(), nearest.end());
+  std::string message = "pass '" + std::string(pass_name) + "' has no variant [" + join(chosen) +
+                        "]: it was stripped from pack '" + name_ + "' (constraints, scene profiles or budget)";
+  if (!missing.empty()) message += "; no variant at all has: " + join(missing);
+  if (!nearest.empty()) {
+    message += "; nearest variants in the pack:";
+    for (size_t i = 0; i < nearest.size() && i < 3; ++i) message += " [" + nearest[i].second + "]";
+  }
+  throw PackError(PackError::Code::Stripped, message);
+}
+
+}  // namespace kiln

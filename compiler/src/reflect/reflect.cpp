@@ -1,0 +1,189 @@
+#include "reflect/reflect.hpp"
+
+#include <spirv_cross/spirv_cross.hpp>
+
+#include <algorithm>
+#include <map>
+
+namespace kiln {
+namespace {
+
+using nlohmann::json;
+
+std::string type_name(const spirv_cross::SPIRType& type) {
+  std::string base;
+  switch (type.basetype) {
+    case spirv_cross::SPIRType::Float: base = "float"; break;
+    case spirv_cross::SPIRType::Half: base = "float16_t"; break;
+    case spirv_cross::SPIRType::Double: base = "double"; break;
+    case spirv_cross::SPIRType::Int: base = "int"; break;
+    case spirv_cross::SPIRType::UInt: base = "uint"; break;
+    case spirv_cross::SPIRType::Short: base = "int16_t"; break;
+    case spirv_cross::SPIRType::UShort: base = "uint16_t"; break;
+    case spirv_cross::SPIRType::Boolean: base = "bool"; break;
+    case spirv_cross::SPIRType::Struct: base = "struct"; break;
+    case spirv_cross::SPIRType::Image: base = "texture"; break;
+    case spirv_cross::SPIRType::SampledImage: base = "sampled_texture"; break;
+    case spirv_cross::SPIRType::Sampler: base = "sampler"; break;
+    default: base = "other"; break;
+  }
+  if (type.columns > 1) base += std::to_string(type.columns) + "x" + std::to_string(type.vecsize);
+  else if (type.vecsize > 1) base += std::to_string(type.vecsize);
+  for (uint32_t size : type.array) base += "[" + std::to_string(size) + "]";
+  return base;
+}
+
+std::string image_dimension(const spirv_cross::SPIRType& type) {
+  switch (type.image.dim) {
+    case spv::Dim1D: return "1D";
+    case spv::Dim2D: return type.image.arrayed ? "2DArray" : "2D";
+    case spv::Dim3D: return "3D";
+    case spv::DimCube: return type.image.arrayed ? "CubeArray" : "Cube";
+    case spv::DimBuffer: return "Buffer";
+    default: return "other";
+  }
+}
+
+json block_members(const spirv_cross::Compiler& compiler, const spirv_cross::SPIRType& type) {
+  json members = json::array();
+  for (uint32_t i = 0; i < type.member_types.size(); ++i) {
+    const auto& member_type = compiler.get_type(type.member_types[i]);
+    json member{{"name", compiler.get_member_name(type.self, i)},
+                {"offset", compiler.type_struct_member_offset(type, i)},
+                {"size", compiler.get_declared_struct_member_size(type, i)},
+                {"type", type_name(member_type)}};
+    if (!member_type.array.empty()) member["array_stride"] = compiler.type_struct_member_array_stride(type, i);
+    members.push_back(member);
+  }
+  return members;
+}
+
+}  // namespace
+
+json reflect_spirv(const std::vector<uint32_t>& spirv) {
+  spirv_cross::Compiler compiler(spirv);
+  spirv_cross::ShaderResources resources = compiler.get_shader_resources();
+  json out = json::object();
+  json list = json::array();
+  auto add = [&](const spirv_cross::SmallVector<spirv_cross::Resource>& items, const char* kind, bool block) {
+    for (const auto& resource : items) {
+      const auto& type = compiler.get_type(resource.type_id);
+      const auto& base_type = compiler.get_type(resource.base_type_id);
+      std::string name = compiler.get_name(resource.id);
+      if (name.empty()) name = resource.name;
+      json entry{{"name", name},
+                 {"kind", kind},
+                 {"set", compiler.get_decoration(resource.id, spv::DecorationDescriptorSet)},
+                 {"binding", compiler.get_decoration(resource.id, spv::DecorationBinding)},
+                 {"count", type.array.empty() ? 1u : type.array[0]}};
+      if (block) {
+        entry["size"] = compiler.get_declared_struct_size(base_type);
+        entry["members"] = block_members(compiler, base_type);
+      } else if (base_type.basetype == spirv_cross::SPIRType::Image ||
+                 base_type.basetype == spirv_cross::SPIRType::SampledImage) {
+        entry["dimension"] = image_dimension(base_type);
+        if (base_type.image.depth) entry["depth"] = true;
+      }
+      list.push_back(entry);
+    }
+  };
+  add(resources.uniform_buffers, "uniform_buffer", true);
+  add(resources.storage_buffers, "storage_buffer", true);
+  add(resources.separate_images, "texture", false);
+  add(resources.separate_samplers, "sampler", false);
+  add(resources.sampled_images, "combined_image_sampler", false);
+  add(resources.storage_images, "storage_image", false);
+  std::sort(list.begin(), list.end(), [](const json& a, const json& b) {
+    return std::tie(a["set"], a["binding"], a["name"]) < std::tie(b["set"], b["binding"], b["name"]);
+  });
+  out["resources"] = list;
+
+  json push = json::array();
+  for (const auto& resource : resources.push_constant_buffers) {
+    const auto& type = compiler.get_type(resource.base_type_id);
+    push.push_back({{"name", compiler.get_name(resource.id)},
+                    {"size", compiler.get_declared_struct_size(type)},
+                    {"members", block_members(compiler, type)}});
+  }
+  out["push_constants"] = push;
+
+  auto interface = [&](const spirv_cross::SmallVector<spirv_cross::Resource>& items) {
+    json vars = json::array();
+    for (const auto& resource : items) {
+      vars.push_back({{"name", compiler.get_name(resource.id)},
+                      {"location", compiler.get_decoration(resource.id, spv::DecorationLocation)},
+                      {"type", type_name(compiler.get_type(resource.type_id))}});
+    }
+    std::sort(vars.begin(), vars.end(), [](const json& a, const json& b) { return a["location"] < b["location"]; });
+    return vars;
+  };
+  out["inputs"] = interface(resources.stage_inputs);
+  out["outputs"] = interface(resources.stage_outputs);
+  return out;
+}
+
+json merge_pass_layout(const std::string& pass, const std::vector<LayoutSource>& sources,
+                       const SourceLocation& pass_location, DiagnosticSink& sink) {
+  // (set, binding) -> first resource seen there and who had it.
+  std::map<std::pair<uint32_t, uint32_t>, std::pair<json, std::string>> by_slot;
+  std::map<std::string, std::pair<json, std::string>> by_name;
+  json push_constants = json::array();
+  std::string push_owner;
+  bool ok = true;
+  auto mismatch = [&](const std::string& message, const std::string& first, const std::string& second) {
+    ok = false;
+    sink.report(DiagId::LayoutMismatch, pass_location, "pass '" + pass + "': " + message,
+                {"in " + first, "and in " + second});
+  };
+  // Compare what must agree: a block's members' offsets and types; an image's dimension; the kind.
+  auto same_shape = [](json a, json b) {
+    a.erase("stages");
+    b.erase("stages");
+    return a == b;
+  };
+  for (const LayoutSource& source : sources) {
+    for (const json& resource : (*source.reflection)["resources"]) {
+      auto slot = std::make_pair(resource["set"].get<uint32_t>(), resource["binding"].get<uint32_t>());
+      const std::string name = resource["name"];
+      if (auto it = by_slot.find(slot); it != by_slot.end()) {
+        if (!same_shape(it->second.first, resource)) {
+          mismatch("set " + std::to_string(slot.first) + " binding " + std::to_string(slot.second) + " holds '" +
+                       it->second.first["name"].get<std::string>() + "' (" + it->second.first["kind"].get<std::string>() +
+                       ") in one variant and '" + name + "' (" + resource["kind"].get<std::string>() +
+                       ") or a different layout in another",
+                   it->second.second, source.description);
+        }
+      } else {
+        by_slot.emplace(slot, std::make_pair(resource, source.description));
+      }
+      if (auto it = by_name.find(name); it != by_name.end()) {
+        if (it->second.first["set"] != resource["set"] || it->second.first["binding"] != resource["binding"]) {
+          mismatch("resource '" + name + "' is at set " + it->second.first["set"].dump() + " binding " +
+                       it->second.first["binding"].dump() + " in one variant and at set " + resource["set"].dump() +
+                       " binding " + resource["binding"].dump() + " in another",
+                   it->second.second, source.description);
+        }
+      } else {
+        by_name.emplace(name, std::make_pair(resource, source.description));
+      }
+    }
+    const json& push = (*source.reflection)["push_constants"];
+    if (!push.empty()) {
+      if (push_constants.empty()) {
+        push_constants = push;
+        push_owner = source.description;
+      } else if (push != push_constants) {
+        mismatch("push constant blocks differ", push_owner, source.description);
+      }
+    }
+  }
+  json merged = json::object();
+  json resources = json::array();
+  for (auto& [slot, entry] : by_slot) resources.push_back(entry.first);
+  merged["resources"] = resources;
+  merged["push_constants"] = push_constants;
+  if (!ok) return json();
+  return merged;
+}
+
+}  // namespace kiln

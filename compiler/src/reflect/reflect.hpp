@@ -1,0 +1,30 @@
+// Stage 7: reflect descriptor sets, bindings, push constants, vertex inputs and block member offsets,
+// and check that every variant and stage of a pass agrees on them.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "kiln/diagnostics.hpp"
+
+namespace kiln {
+
+// {"resources": [...], "push_constants": [...], "inputs": [...], "outputs": [...]}, sorted, deterministic.
+nlohmann::json reflect_spirv(const std::vector<uint32_t>& spirv);
+
+// One reflected binary of a pass, with a description of where it came from for messages.
+struct LayoutSource {
+  std::string description;  // "Forward fragment [A B]"
+  const nlohmann::json* reflection;
+};
+
+// Merges the resources of all binaries of a pass into one layout; a binding that means two different
+// things, a resource at two bindings or two different block layouts under one name are LayoutMismatch
+// errors. Returns the merged layout.
+nlohmann::json merge_pass_layout(const std::string& pass, const std::vector<LayoutSource>& sources,
+                                 const SourceLocation& pass_location, DiagnosticSink& sink);
+
+}  // namespace kiln

@@ -1,0 +1,110 @@
+#include "workers/compile_job.hpp"
+
+#include "cross/cross_compile.hpp"
+#include "optimize/spirv_tools.hpp"
+#include "reflect/reflect.hpp"
+
+namespace kiln {
+
+using nlohmann::json;
+
+JobOutput run_compile_job(Frontend& frontend, const CompileJob& job) {
+  JobOutput out;
+  CompileResult compiled = frontend.compile({job.stage, job.entry_point, job.source_name, job.source});
+  out.messages = std::move(compiled.messages);
+  if (compiled.missing_entry_point) {
+    out.failed_step = "entry-point";
+    return out;
+  }
+  if (!compiled.ok) {
+    out.failed_step = "frontend";
+    return out;
+  }
+  SpirvStepResult spirv = legalize_validate_optimize(std::move(compiled.spirv), job.optimize);
+  if (!spirv.ok) {
+    out.failed_step = spirv.step;
+    for (std::string& message : spirv.messages) out.messages.push_back({Severity::Error, "", 0, std::move(message)});
+    return out;
+  }
+  out.spirv = std::move(spirv.spirv);
+  out.reflection = reflect_spirv(out.spirv);
+  for (Target target : job.targets) {
+    if (target == Target::Spirv) continue;
+    CrossResult cross = cross_compile(out.spirv, target, job.stage);
+    if (!cross.ok) {
+      out.failed_step = "cross-" + std::string(target_name(target));
+      out.messages.push_back({Severity::Error, "", 0, cross.error});
+      out.spirv.clear();
+      return out;
+    }
+    out.sources[target] = std::move(cross.source);
+    out.reflection[std::string(target_name(target))] = std::move(cross.bindings);
+  }
+  out.ok = true;
+  return out;
+}
+
+std::vector<uint8_t> encode_job(const CompileJob& job) {
+  json j{{"id", job.id},
+         {"stage", stage_name(job.stage)},
+         {"entry", job.entry_point},
+         {"source_name", job.source_name},
+         {"source", job.source},
+         {"optimize", job.optimize}};
+  json targets = json::array();
+  for (Target t : job.targets) targets.push_back(target_name(t));
+  j["targets"] = targets;
+  return json::to_cbor(j);
+}
+
+CompileJob decode_job(const std::vector<uint8_t>& bytes) {
+  json j = json::from_cbor(bytes);
+  CompileJob job;
+  job.id = j.at("id").get<uint64_t>();
+  job.stage = parse_stage(j.at("stage").get<std::string>()).value_or(Stage::Fragment);
+  job.entry_point = j.at("entry").get<std::string>();
+  job.source_name = j.at("source_name").get<std::string>();
+  job.source = j.at("source").get<std::string>();
+  job.optimize = j.at("optimize").get<bool>();
+  for (const json& t : j.at("targets"))
+    if (auto target = parse_target(t.get<std::string>())) job.targets.push_back(*target);
+  return job;
+}
+
+std::vector<uint8_t> encode_output(const JobOutput& output) {
+  json j{{"ok", output.ok}, {"failed_step", output.failed_step}};
+  json messages = json::array();
+  for (const FrontendMessage& m : output.messages)
+    messages.push_back({{"severity", static_cast<int>(m.severity)}, {"path", m.path}, {"line", m.line}, {"text", m.text}});
+  j["messages"] = messages;
+  std::vector<uint8_t> spirv(output.spirv.size() * 4);
+  for (size_t i = 0; i < output.spirv.size(); ++i)
+    for (int b = 0; b < 4; ++b) spirv[i * 4 + b] = static_cast<uint8_t>(output.spirv[i] >> (8 * b));
+  j["spirv"] = json::binary(std::move(spirv));
+  json sources = json::object();
+  for (const auto& [target, text] : output.sources) sources[std::string(target_name(target))] = text;
+  j["sources"] = sources;
+  j["reflection"] = output.reflection;
+  return json::to_cbor(j);
+}
+
+JobOutput decode_output(const std::vector<uint8_t>& bytes) {
+  json j = json::from_cbor(bytes);
+  JobOutput out;
+  out.ok = j.at("ok").get<bool>();
+  out.failed_step = j.at("failed_step").get<std::string>();
+  for (const json& m : j.at("messages"))
+    out.messages.push_back({static_cast<Severity>(m.at("severity").get<int>()), m.at("path").get<std::string>(),
+                            m.at("line").get<int>(), m.at("text").get<std::string>()});
+  const auto& spirv = j.at("spirv").get_binary();
+  if (spirv.size() % 4 != 0) throw std::runtime_error("SPIR-V size is not a multiple of 4");
+  out.spirv.resize(spirv.size() / 4);
+  for (size_t i = 0; i < out.spirv.size(); ++i)
+    for (int b = 0; b < 4; ++b) out.spirv[i] |= static_cast<uint32_t>(spirv[i * 4 + b]) << (8 * b);
+  for (auto& [name, text] : j.at("sources").items())
+    if (auto target = parse_target(name)) out.sources[*target] = text.get<std::string>();
+  out.reflection = j.at("reflection");
+  return out;
+}
+
+}  // namespace kiln

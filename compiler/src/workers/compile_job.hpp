@@ -1,0 +1,45 @@
+// One unit of work for a compiler worker: a preprocessed stage source in, every target out.
+// Runs inside a worker process, because glslang can crash on some inputs.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "frontend/frontend.hpp"
+#include "kiln/model.hpp"
+
+namespace kiln {
+
+struct CompileJob {
+  uint64_t id = 0;
+  Stage stage = Stage::Fragment;
+  std::string entry_point;
+  std::string source_name;
+  std::string source;  // preprocessed
+  std::vector<Target> targets;
+  bool optimize = true;
+};
+
+struct JobOutput {
+  bool ok = false;
+  // Where it failed: "frontend", "entry-point", "legalize", "validate", "optimize",
+  // "validate-optimized", "cross-glsl", "cross-gles", "cross-msl", "out-of-memory".
+  std::string failed_step;
+  std::vector<FrontendMessage> messages;
+  std::vector<uint32_t> spirv;
+  std::map<Target, std::string> sources;  // cross-compiled text per target
+  nlohmann::json reflection;               // reflect_spirv + "gl" / "msl" bindings
+};
+
+JobOutput run_compile_job(Frontend& frontend, const CompileJob& job);
+
+std::vector<uint8_t> encode_job(const CompileJob& job);
+CompileJob decode_job(const std::vector<uint8_t>& bytes);
+std::vector<uint8_t> encode_output(const JobOutput& output);
+JobOutput decode_output(const std::vector<uint8_t>& bytes);  // throws on malformed input
+
+}  // namespace kiln

@@ -1,0 +1,314 @@
+#include "workers/worker_pool.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <new>
+#include <thread>
+
+extern char** environ;
+
+#ifndef KILN_BUILD_WORKER_PATH
+#define KILN_BUILD_WORKER_PATH ""
+#endif
+
+namespace kiln {
+
+struct WorkerPool::Worker {
+  pid_t pid = -1;
+  int to_worker = -1;
+  int from_worker = -1;
+  long job = -1;  // index of the job in flight
+  std::chrono::steady_clock::time_point started;
+  std::vector<uint8_t> buffer;
+};
+
+namespace {
+
+bool write_all(int fd, const uint8_t* data, size_t size) {
+  while (size > 0) {
+    ssize_t put = ::write(fd, data, size);
+    if (put < 0 && errno == EINTR) continue;
+    if (put <= 0) return false;
+    data += put;
+    size -= static_cast<size_t>(put);
+  }
+  return true;
+}
+
+bool read_all(int fd, uint8_t* data, size_t size) {
+  while (size > 0) {
+    ssize_t got = ::read(fd, data, size);
+    if (got < 0 && errno == EINTR) continue;
+    if (got <= 0) return false;
+    data += got;
+    size -= static_cast<size_t>(got);
+  }
+  return true;
+}
+
+// Messages are a 4-byte little-endian length followed by CBOR.
+bool write_message(int fd, const std::vector<uint8_t>& payload) {
+  uint8_t header[4];
+  for (int i = 0; i < 4; ++i) header[i] = static_cast<uint8_t>(payload.size() >> (8 * i));
+  return write_all(fd, header, 4) && write_all(fd, payload.data(), payload.size());
+}
+
+std::string describe_status(int status) {
+  if (WIFSIGNALED(status)) {
+    int signal = WTERMSIG(status);
+    return "killed by signal " + std::to_string(signal) + " (" + strsignal(signal) + ")";
+  }
+  if (WIFEXITED(status)) return "exited with status " + std::to_string(WEXITSTATUS(status));
+  return "stopped unexpectedly";
+}
+
+}  // namespace
+
+std::filesystem::path default_worker_executable() {
+  if (const char* env = std::getenv("KILN_WORKER"); env && *env) return env;
+  std::error_code ec;
+  auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    auto sibling = self.parent_path() / "kiln-worker";
+    if (std::filesystem::exists(sibling, ec)) return sibling;
+    auto libexec = self.parent_path().parent_path() / "libexec" / "kiln" / "kiln-worker";
+    if (std::filesystem::exists(libexec, ec)) return libexec;
+  }
+  return KILN_BUILD_WORKER_PATH;
+}
+
+WorkerPool::WorkerPool(std::filesystem::path executable, unsigned workers, WorkerLimits limits)
+    : executable_(std::move(executable)), count_(std::max(1u, workers)), limits_(limits) {
+  // A worker that dies while we write its job must not kill us with SIGPIPE.
+  ::signal(SIGPIPE, SIG_IGN);
+}
+
+WorkerPool::~WorkerPool() {
+  for (Worker* worker : workers_) {
+    stop(*worker, false);
+    delete worker;
+  }
+}
+
+bool WorkerPool::spawn(Worker& worker, std::string& error) {
+  int in_pipe[2], out_pipe[2];
+  if (::pipe2(in_pipe, O_CLOEXEC) != 0) {
+    error = std::string("pipe: ") + std::strerror(errno);
+    return false;
+  }
+  if (::pipe2(out_pipe, O_CLOEXEC) != 0) {
+    ::close(in_pipe[0]);
+    ::close(in_pipe[1]);
+    error = std::string("pipe: ") + std::strerror(errno);
+    return false;
+  }
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, in_pipe[0], 0);
+  posix_spawn_file_actions_adddup2(&actions, out_pipe[1], 1);
+  posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+  std::string memory = std::to_string(limits_.memory_limit_mb);
+  std::string exe = executable_.string();
+  char* argv[] = {exe.data(), const_cast<char*>("--memory-limit-mb"), memory.data(), nullptr};
+  pid_t pid = -1;
+  int rc = posix_spawn(&pid, exe.c_str(), &actions, nullptr, argv, environ);
+  posix_spawn_file_actions_destroy(&actions);
+  ::close(in_pipe[0]);
+  ::close(out_pipe[1]);
+  if (rc != 0) {
+    ::close(in_pipe[1]);
+    ::close(out_pipe[0]);
+    error = "cannot start compiler worker '" + exe + "': " + std::strerror(rc);
+    return false;
+  }
+  worker.pid = pid;
+  worker.to_worker = in_pipe[1];
+  worker.from_worker = out_pipe[0];
+  worker.buffer.clear();
+  worker.job = -1;
+  ++spawned_;
+  return true;
+}
+
+void WorkerPool::stop(Worker& worker, bool kill_now) {
+  if (worker.pid < 0) return;
+  if (worker.to_worker >= 0) ::close(worker.to_worker);  // EOF on stdin: the worker exits
+  if (kill_now) ::kill(worker.pid, SIGKILL);
+  int status = 0;
+  ::waitpid(worker.pid, &status, 0);
+  if (worker.from_worker >= 0) ::close(worker.from_worker);
+  worker.pid = -1;
+  worker.to_worker = worker.from_worker = -1;
+  worker.job = -1;
+  worker.buffer.clear();
+}
+
+void WorkerPool::run(const std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done) {
+  while (workers_.size() < std::min<size_t>(count_, jobs.size())) workers_.push_back(new Worker);
+  size_t next = 0, finished = 0;
+  auto fail_job = [&](Worker& worker, WorkerOutcome::Kind kind, std::string detail, bool kill_now) {
+    size_t index = static_cast<size_t>(worker.job);
+    worker.job = -1;
+    int status = 0;
+    if (kill_now) ::kill(worker.pid, SIGKILL);
+    if (worker.to_worker >= 0) ::close(worker.to_worker);
+    ::waitpid(worker.pid, &status, 0);
+    ::close(worker.from_worker);
+    worker.pid = -1;
+    worker.to_worker = worker.from_worker = -1;
+    if (detail.empty()) detail = describe_status(status);
+    WorkerOutcome outcome;
+    outcome.kind = kind;
+    outcome.detail = std::move(detail);
+    ++finished;
+    on_done(index, std::move(outcome));
+  };
+
+  while (finished < jobs.size()) {
+    // Hand out work to idle workers.
+    for (Worker* worker : workers_) {
+      if (worker->job >= 0 || next >= jobs.size()) continue;
+      std::string error;
+      if (worker->pid < 0 && !spawn(*worker, error)) {
+        WorkerOutcome outcome;
+        outcome.kind = WorkerOutcome::Kind::Failed;
+        outcome.detail = error;
+        ++finished;
+        on_done(next++, std::move(outcome));
+        continue;
+      }
+      worker->job = static_cast<long>(next++);
+      worker->started = std::chrono::steady_clock::now();
+      if (!write_message(worker->to_worker, encode_job(jobs[static_cast<size_t>(worker->job)])))
+        fail_job(*worker, WorkerOutcome::Kind::Crashed, "", false);
+    }
+    // Wait for a result, a death or a deadline.
+    std::vector<pollfd> fds;
+    std::vector<Worker*> polled;
+    auto now = std::chrono::steady_clock::now();
+    auto wait = limits_.job_timeout;
+    for (Worker* worker : workers_) {
+      if (worker->job < 0) continue;
+      fds.push_back({worker->from_worker, POLLIN, 0});
+      polled.push_back(worker);
+      auto left = std::chrono::duration_cast<std::chrono::milliseconds>(worker->started + limits_.job_timeout - now);
+      wait = std::min(wait, std::max(left, std::chrono::milliseconds(0)));
+    }
+    if (fds.empty()) continue;
+    int ready = ::poll(fds.data(), fds.size(), static_cast<int>(wait.count()) + 1);
+    if (ready < 0 && errno != EINTR) break;
+    now = std::chrono::steady_clock::now();
+    for (size_t i = 0; i < fds.size(); ++i) {
+      Worker& worker = *polled[i];
+      if (fds[i].revents & (POLLIN | POLLHUP | POLLERR)) {
+        uint8_t chunk[1 << 16];
+        ssize_t got = ::read(worker.from_worker, chunk, sizeof chunk);
+        if (got <= 0) {
+          fail_job(worker, WorkerOutcome::Kind::Crashed, "", false);
+          continue;
+        }
+        worker.buffer.insert(worker.buffer.end(), chunk, chunk + got);
+        if (worker.buffer.size() >= 4) {
+          size_t length = 0;
+          for (int b = 0; b < 4; ++b) length |= static_cast<size_t>(worker.buffer[b]) << (8 * b);
+          if (worker.buffer.size() >= 4 + length) {
+            std::vector<uint8_t> payload(worker.buffer.begin() + 4, worker.buffer.begin() + 4 + static_cast<long>(length));
+            worker.buffer.erase(worker.buffer.begin(), worker.buffer.begin() + 4 + static_cast<long>(length));
+            size_t index = static_cast<size_t>(worker.job);
+            worker.job = -1;
+            WorkerOutcome outcome;
+            try {
+              outcome.output = decode_output(payload);
+              if (outcome.output.failed_step == "out-of-memory") {
+                outcome.kind = WorkerOutcome::Kind::OutOfMemory;
+                outcome.detail = "exceeded the memory limit of " + std::to_string(limits_.memory_limit_mb) + " MiB";
+                stop(worker, true);  // its heap may be in any state: start a fresh one
+              }
+            } catch (const std::exception& error) {
+              outcome.kind = WorkerOutcome::Kind::Crashed;
+              outcome.detail = std::string("sent a malformed result: ") + error.what();
+              stop(worker, true);
+            }
+            ++finished;
+            on_done(index, std::move(outcome));
+          }
+        }
+      } else if (now - worker.started >= limits_.job_timeout) {
+        fail_job(worker, WorkerOutcome::Kind::TimedOut,
+                 "did not finish within " + std::to_string(limits_.job_timeout.count() / 1000.0).substr(0, 5) + " s",
+                 true);
+      }
+    }
+  }
+}
+
+namespace {
+
+// Test-only fault injection, enabled by KILN_WORKER_FAULT_INJECTION=1: a source containing
+// "kiln-fault: hang" or "kiln-fault: oom" makes this worker hang or exhaust its memory.
+void inject_fault(const CompileJob& job) {
+  static const bool enabled = [] {
+    const char* env = std::getenv("KILN_WORKER_FAULT_INJECTION");
+    return env && std::string(env) == "1";
+  }();
+  if (!enabled) return;
+  if (job.source.find("kiln-fault: hang") != std::string::npos)
+    for (;;) std::this_thread::sleep_for(std::chrono::seconds(1));
+  if (job.source.find("kiln-fault: oom") != std::string::npos) {
+    std::vector<std::vector<char>> hog;
+    for (;;) hog.emplace_back(64 << 20, 'x');
+  }
+}
+
+}  // namespace
+
+int worker_main(int argc, char** argv) {
+  for (int i = 1; i + 1 < argc; ++i) {
+    if (std::string(argv[i]) == "--memory-limit-mb") {
+      rlim_t bytes = static_cast<rlim_t>(std::stoull(argv[i + 1])) << 20;
+      rlimit limit{bytes, bytes};
+      ::setrlimit(RLIMIT_AS, &limit);
+    }
+  }
+  auto frontend = make_glslang_frontend();
+  for (;;) {
+    uint8_t header[4];
+    if (!read_all(0, header, 4)) return 0;  // the parent closed our stdin: done
+    size_t length = 0;
+    for (int b = 0; b < 4; ++b) length |= static_cast<size_t>(header[b]) << (8 * b);
+    std::vector<uint8_t> payload(length);
+    if (!read_all(0, payload.data(), length)) return 1;
+    JobOutput output;
+    try {
+      CompileJob job = decode_job(payload);
+      inject_fault(job);
+      output = run_compile_job(*frontend, job);
+    } catch (const std::bad_alloc&) {
+      output = JobOutput{};
+      output.failed_step = "out-of-memory";
+    } catch (const std::exception& error) {
+      output = JobOutput{};
+      output.failed_step = "internal";
+      output.messages.push_back({Severity::Error, "", 0, error.what()});
+    }
+    std::vector<uint8_t> encoded;
+    try {
+      encoded = encode_output(output);
+    } catch (const std::bad_alloc&) {
+      JobOutput oom;
+      oom.failed_step = "out-of-memory";
+      encoded = encode_output(oom);
+    }
+    if (!write_message(1, encoded)) return 1;
+  }
+}
+
+}  // namespace kiln

@@ -1,0 +1,58 @@
+// Long-lived compiler worker processes. glslang 12 segfaults on some inputs and has unbounded
+// recursion; a worker that crashes, hangs past the timeout or runs out of memory costs one job,
+// never the build. Each worker compiles many jobs (start-up costs 30-50 ms).
+#pragma once
+
+#include <sys/types.h>
+
+#include <chrono>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "workers/compile_job.hpp"
+
+namespace kiln {
+
+struct WorkerLimits {
+  std::chrono::milliseconds job_timeout{120'000};
+  uint64_t memory_limit_mb = 4096;  // RLIMIT_AS of each worker
+};
+
+struct WorkerOutcome {
+  enum class Kind { Done, Crashed, TimedOut, OutOfMemory, Failed } kind = Kind::Done;
+  JobOutput output;    // when Done
+  std::string detail;  // "killed by signal 11 (Segmentation fault)", ...
+};
+
+class WorkerPool {
+ public:
+  WorkerPool(std::filesystem::path executable, unsigned workers, WorkerLimits limits);
+  ~WorkerPool();
+  WorkerPool(const WorkerPool&) = delete;
+  WorkerPool& operator=(const WorkerPool&) = delete;
+
+  // Runs every job; `on_done(index, outcome)` is called on this thread as each finishes.
+  void run(const std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done);
+  unsigned spawned() const { return spawned_; }
+
+ private:
+  struct Worker;
+  bool spawn(Worker& worker, std::string& error);
+  void stop(Worker& worker, bool kill_now);
+
+  std::filesystem::path executable_;
+  unsigned count_;
+  WorkerLimits limits_;
+  std::vector<Worker*> workers_;
+  unsigned spawned_ = 0;
+};
+
+// Finds kiln-worker: $KILN_WORKER, then next to the running executable, then the build tree.
+std::filesystem::path default_worker_executable();
+
+// The worker process's main loop (kiln-worker's main).
+int worker_main(int argc, char** argv);
+
+}  // namespace kiln

@@ -1,0 +1,113 @@
+// kiln shaderlib: Lighting.hlsl — the lights of a frame: main directional light with cascaded shadows,
+// additional point/spot lights (per pixel, per vertex or Forward+ tiles) with shadows, and IBL.
+#ifndef KILN_LIGHTING_INCLUDED
+#define KILN_LIGHTING_INCLUDED
+
+#include "Input.hlsl"
+#include "Lights.hlsl"
+#include "Shadows.hlsl"
+#include "Shading.hlsl"
+
+struct Light
+{
+    float3 L;          // unit vector towards the light
+    float3 radiance;   // illuminance (lux) arriving at the point: color * intensity * attenuation
+    float shadow;      // 1 lit, 0 shadowed
+};
+
+float3 MainLightShadowCoord(float3 positionWS, int cascade)
+{
+    float4 coord = mul(_MainLightWorldToShadow[cascade], float4(positionWS, 1.0));
+    return coord.xyz / coord.w;
+}
+
+float MainLightShadow(float3 positionWS, float3 vertexShadowCoord)
+{
+#if defined(_MAIN_LIGHT_SHADOWS) || defined(_MAIN_LIGHT_SHADOWS_CASCADE)
+#if defined(_MAIN_LIGHT_SHADOWS_CASCADE)
+    int cascade = ComputeCascadeIndex(positionWS, _CascadeSplitSpheres, (int)_MainLightShadowParams.w);
+    if (cascade < 0)
+        return 1.0;
+    float3 coord = MainLightShadowCoord(positionWS, cascade);
+#else
+    float3 coord = vertexShadowCoord;
+#endif
+    coord = ApplyReceiverDepthBias(coord, _MainLightShadowParams.y);
+    float visibility = SampleShadow(_MainLightShadowMap, sampler_ShadowCompare, coord, _MainLightShadowParams.z);
+    return lerp(1.0, visibility, _MainLightShadowParams.x);
+#else
+    return 1.0;
+#endif
+}
+
+Light GetMainLight(float3 positionWS, float3 vertexShadowCoord)
+{
+    Light light;
+    light.L = SafeNormalize(_MainLightDirectionWS.xyz, float3(0.0, 1.0, 0.0));
+    light.radiance = _MainLightColor.rgb;
+    light.shadow = MainLightShadow(positionWS, vertexShadowCoord);
+    return light;
+}
+
+// Index of the cube face a direction falls on, in the order +X -X +Y -Y +Z -Z.
+uint CubeFaceIndex(float3 direction)
+{
+    float3 a = abs(direction);
+    if (a.x >= a.y && a.x >= a.z)
+        return direction.x >= 0.0 ? 0u : 1u;
+    if (a.y >= a.z)
+        return direction.y >= 0.0 ? 2u : 3u;
+    return direction.z >= 0.0 ? 4u : 5u;
+}
+
+float AdditionalLightShadow(AdditionalLight data, float3 positionWS)
+{
+#if defined(_ADDITIONAL_LIGHT_SHADOWS)
+    if (data.color.w < 0.0)
+        return 1.0;
+    uint matrixIndex = (uint)data.color.w;
+    if (data.spotDirectionWS.w < 0.5)  // point light: one matrix per cube face
+        matrixIndex += CubeFaceIndex(positionWS - data.positionWS.xyz);
+    float4 coord = mul(_AdditionalShadowMatrices[matrixIndex], float4(positionWS, 1.0));
+    // w > 0 in front of the light; behind it nothing can shadow.
+    if (coord.w <= 1e-6)
+        return 1.0;
+    float3 shadowCoord = ApplyReceiverDepthBias(coord.xyz / coord.w, _AdditionalShadowParams.y);
+    float visibility = SampleShadow(_AdditionalLightsShadowMap, sampler_ShadowCompare, shadowCoord, _AdditionalShadowParams.z);
+    return lerp(1.0, visibility, _AdditionalShadowParams.x);
+#else
+    return 1.0;
+#endif
+}
+
+Light GetAdditionalLight(uint index, float3 positionWS)
+{
+    AdditionalLight data = _AdditionalLights[index];
+    float3 toLight = data.positionWS.xyz - positionWS;
+    float distanceSquared = dot(toLight, toLight);
+    Light light;
+    // At distance 0 the direction is undefined: pick the normal-independent +Y rather than NaN.
+    light.L = SafeNormalize(toLight, float3(0.0, 1.0, 0.0));
+    float attenuation = DistanceAttenuation(distanceSquared, data.positionWS.w);
+    if (data.spotDirectionWS.w > 0.5)
+        attenuation *= SpotAttenuation(light.L, data.spotDirectionWS.xyz, data.spotScaleOffset.xy);
+    light.radiance = data.color.rgb * attenuation;
+    light.shadow = AdditionalLightShadow(data, positionWS);
+    return light;
+}
+
+// Per-vertex additional lights (_ADDITIONAL_LIGHTS_VERTEX): Lambert irradiance/pi at the vertex, shadowless,
+// for at most KILN_MAX_VERTEX_LIGHTS lights, as URP does.
+real3 VertexLighting(float3 positionWS, float3 normalWS)
+{
+    real3 irradiance = (real3)0.0;
+    uint count = min(_LightCounts.x, (uint)KILN_MAX_VERTEX_LIGHTS);
+    for (uint i = 0u; i < count; ++i)
+    {
+        Light light = GetAdditionalLight(i, positionWS);
+        irradiance += (real3)(light.radiance * saturate(dot(normalWS, light.L)));
+    }
+    return irradiance * (real)INV_PI;
+}
+
+#endif // KILN_LIGHTING_INCLUDED
