@@ -32,7 +32,7 @@ void print_summary(const kiln::BuildReport& r, std::ostream& out) {
       << " valid -> " << f.kept << " after stripping";
   if (!r.up_to_date)
     out << " -> " << f.stage_instances << " stage variants -> " << f.unique_preprocessed << " unique per stage -> "
-        << f.unique_binaries << " unique binaries";
+        << f.unique_compiles << " compiles -> " << f.unique_binaries << " unique binaries";
   out << "\n";
   if (!r.up_to_date)
     out << "  compiled " << r.compiled << ", cache hits " << r.cache_hits

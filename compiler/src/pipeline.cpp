@@ -8,6 +8,7 @@
 //   6 cross-compile      cross/          (inside the workers)
 //   7 reflect            reflect/        (inside the workers; layouts merged and checked here)
 //   8 pack               pack/
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -234,18 +235,26 @@ std::string depfile_escape(const std::string& path) {
   return out;
 }
 
-bool pack_is_current(const std::filesystem::path& manifest_file, const std::string& inputs_hash) {
-  auto text = read_binary_file(manifest_file);
-  if (!text) return false;
-  try {
-    json manifest = json::parse(*text);
-    if (manifest.value("inputs_hash", "") != inputs_hash) return false;
-    auto archive = read_binary_file(manifest_file.parent_path() / manifest.at("archive").at("file").get<std::string>());
-    return archive && archive->size() == manifest["archive"]["size"].get<uint64_t>() &&
-           hex64(hash64(*archive)) == manifest["archive"]["xxh3_64"].get<std::string>();
-  } catch (const std::exception&) {
-    return false;
-  }
+// The stamp (<name>.stamp) records the inputs hash and the size and mtime of the manifest and archive it
+// was written with: a no-change rebuild compares a few numbers instead of re-reading a large pack.
+std::string file_signature(const std::filesystem::path& path) {
+  struct stat info {};
+  if (::stat(path.c_str(), &info) != 0) return "missing";
+  return std::to_string(info.st_size) + ":" + std::to_string(info.st_mtim.tv_sec) + "." + std::to_string(info.st_mtim.tv_nsec);
+}
+
+std::filesystem::path stamp_path(const std::filesystem::path& directory, const std::string& name) {
+  return directory / (name + ".stamp");
+}
+
+std::string stamp_text(const std::filesystem::path& directory, const std::string& name, const std::string& inputs_hash) {
+  return inputs_hash + "\n" + file_signature(manifest_path(directory, name)) + "\n" +
+         file_signature(directory / (name + ".kpack")) + "\n";
+}
+
+bool pack_is_current(const std::filesystem::path& directory, const std::string& name, const std::string& inputs_hash) {
+  auto stamp = read_binary_file(stamp_path(directory, name));
+  return stamp && *stamp == stamp_text(directory, name, inputs_hash);
 }
 
 }  // namespace
@@ -321,7 +330,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   for (const auto& [path, file] : plan->sources.files) inputs.add(path.string()).add(file.text);
   const std::string inputs_hash = inputs.finish().hex();
   report.manifest = manifest_path(options.output_dir, plan->pack.name);
-  if (options.emit.empty() && pack_is_current(report.manifest, inputs_hash)) {
+  if (options.emit.empty() && pack_is_current(options.output_dir, plan->pack.name, inputs_hash)) {
     report.up_to_date = true;
     report.ok = true;
     write_depfile();
@@ -373,19 +382,20 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   };
 
   // Identical messages from many variants are reported once, naming the first variant and the count.
+  // Ordered by compile index (not by which worker finished first) so that output is deterministic.
   struct Grouped {
     DiagId id;
     SourceLocation at;
     std::string text;
-    std::vector<std::string> variants;
+    std::vector<std::pair<size_t, std::string>> variants;  // compile index, description
   };
   std::vector<Grouped> grouped;
   std::map<std::tuple<int, std::string, int, std::string>, size_t> grouped_index;
-  auto collect = [&](DiagId id, SourceLocation at, const std::string& text, const std::string& variant) {
+  auto collect = [&](DiagId id, SourceLocation at, const std::string& text, const std::string& variant, size_t order) {
     auto key = std::make_tuple(static_cast<int>(id), at.path, at.line, text);
     auto [it, inserted] = grouped_index.emplace(key, grouped.size());
     if (inserted) grouped.push_back({id, std::move(at), text, {}});
-    grouped[it->second].variants.push_back(variant);
+    grouped[it->second].variants.emplace_back(order, variant);
   };
 
   std::vector<Binary> binaries;
@@ -400,7 +410,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       if (!s.ok) {
         for (const FrontendMessage& m : s.messages)
           if (m.severity == Severity::Error)
-            collect(DiagId::PreprocessorError, located(m, entry_name), m.text, variant_description(*plan, s));
+            collect(DiagId::PreprocessorError, located(m, entry_name), m.text, variant_description(*plan, s), i);
         continue;
       }
       const std::string& entry_point = plan->pack.passes[s.pass].entry_points[static_cast<size_t>(s.stage)];
@@ -417,7 +427,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       binaries[it->second].sources.push_back(i);
       s.binary = static_cast<int>(it->second);
     }
-    report.funnel.unique_binaries = binaries.size();
+    report.funnel.unique_compiles = binaries.size();
   }
 
   // Stage 5-7: cache, then compile the misses in worker processes (cross-compile and reflect there too).
@@ -449,6 +459,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       jobs.push_back(std::move(job));
       job_binary.push_back(b);
     }
+    std::vector<size_t> fresh;  // binaries compiled in this build, cached once the build is known good
     size_t done = report.cache_hits;
     if (options.progress) options.progress(done, binaries.size(), report.cache_hits);
     if (!jobs.empty()) {
@@ -482,26 +493,28 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
             collect(DiagId::MissingEntryPoint, at,
                     "entry point '" + binary.entry_point + "' of the " + std::string(stage_name(s.stage)) +
                         " stage is not defined in '" + entry_name + "'",
-                    variant);
+                    variant, stage_sources.size() + job_binary[j]);
           } else {
             DiagId id = step == "frontend" ? DiagId::HlslError
                         : step.rfind("validate", 0) == 0 ? DiagId::SpirvInvalid
                         : step.rfind("cross", 0) == 0 ? DiagId::CrossCompileFailed
                         : DiagId::OptimizerFailed;
-            bool any = false;
-            for (const FrontendMessage& m : outcome.output.messages) {
-              if (m.severity != Severity::Error) continue;
-              any = true;
+            // Only the first error: glslang's later ones cascade from it ("'declaration' : Expected").
+            auto first = std::find_if(outcome.output.messages.begin(), outcome.output.messages.end(),
+                                      [](const FrontendMessage& m) { return m.severity == Severity::Error; });
+            if (first != outcome.output.messages.end()) {
               std::string prefix = id == DiagId::HlslError ? "" : step + ": ";
-              collect(id, located(m, entry_name), prefix + m.text, variant);
+              collect(id, located(*first, entry_name), prefix + first->text, variant, stage_sources.size() + job_binary[j]);
+            } else {
+              collect(id, SourceLocation{entry_name, 0, 0}, step + " failed", variant, stage_sources.size() + job_binary[j]);
             }
-            if (!any) collect(id, SourceLocation{entry_name, 0, 0}, step + " failed", variant);
           }
         } else {
           for (const FrontendMessage& m : outcome.output.messages)
-            if (m.severity == Severity::Warning) collect(DiagId::HlslWarning, located(m, ""), m.text, variant);
-          if (cache) cache->store(binary.key, outcome.output);
+            if (m.severity == Severity::Warning)
+              collect(DiagId::HlslWarning, located(m, ""), m.text, variant, stage_sources.size() + job_binary[j]);
           binary.output = std::move(outcome.output);
+          fresh.push_back(job_binary[j]);
         }
         ++done;
         if (options.progress) options.progress(done, binaries.size(), report.cache_hits);
@@ -509,9 +522,18 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       report.workers_started = pool.spawned();
       report.compiled = jobs.size();
     }
+    // A build with errors in the user's input leaves no cache entry behind. Internal compiler errors are
+    // not the input's fault: the other variants' results are kept, so the next build only retries those.
+    const bool user_errors = std::any_of(grouped.begin(), grouped.end(), [](const Grouped& g) {
+      return diagnostic_info(g.id).severity == Severity::Error;
+    });
+    if (cache && !user_errors)
+      for (size_t b : fresh) cache->store(binaries[b].key, *binaries[b].output);
   }
+  for (Grouped& g : grouped) std::sort(g.variants.begin(), g.variants.end());
+  std::sort(grouped.begin(), grouped.end(), [](const Grouped& a, const Grouped& b) { return a.variants[0].first < b.variants[0].first; });
   for (Grouped& g : grouped) {
-    std::vector<std::string> notes{"in " + g.variants.front()};
+    std::vector<std::string> notes{"in " + g.variants.front().second};
     if (g.variants.size() > 1) notes.push_back("and in " + std::to_string(g.variants.size() - 1) + " more variant(s)");
     sink.report(g.id, g.at, g.text, notes);
   }
@@ -538,8 +560,11 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   {
     StageTimer timer(report, "pack");
     ArchiveBuilder archive;
-    std::map<size_t, size_t> binary_order;  // binary index -> manifest index
+    std::map<size_t, size_t> binary_order;        // compile index -> manifest binary index
+    std::map<Hash128, size_t> binary_by_output;   // identical outputs from different sources are stored once
+    std::map<Hash128, size_t> reflection_by_hash;  // most binaries of a pass share one reflection
     json binaries_json = json::array();
+    json reflections_json = json::array();
     json passes_json = json::array();
     for (uint32_t p = 0; p < plan->passes.size(); ++p) {
       const PassDefinition& def = plan->pack.passes[p];
@@ -557,20 +582,27 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
           int source = variant_source[p][v][static_cast<size_t>(s)];
           if (source < 0) continue;
           size_t b = static_cast<size_t>(stage_sources[static_cast<size_t>(source)].binary);
-          auto [it, inserted] = binary_order.emplace(b, binaries_json.size());
-          if (inserted) {
+          auto known = binary_order.find(b);
+          if (known == binary_order.end()) {
             const JobOutput& out = *binaries[b].output;
             std::string spirv(reinterpret_cast<const char*>(out.spirv.data()), out.spirv.size() * 4);
-            json blobs = json::object();
-            blobs["spirv"] = archive.add(spirv);
-            for (const auto& [target, text] : out.sources) blobs[std::string(target_name(target))] = archive.add(text);
-            binaries_json.push_back({{"stage", stage_name(binaries[b].stage)},
-                                     {"entry", binaries[b].entry_point},
-                                     {"key", binaries[b].key.hex()},
-                                     {"blobs", blobs},
-                                     {"reflection", out.reflection}});
+            Hash128 output_key = Hasher().add(stage_name(binaries[b].stage)).add(binaries[b].entry_point).add(spirv).finish();
+            auto [by_output, fresh] = binary_by_output.emplace(output_key, binaries_json.size());
+            if (fresh) {
+              json blobs = json::object();
+              blobs["spirv"] = archive.add(spirv);
+              for (const auto& [target, text] : out.sources) blobs[std::string(target_name(target))] = archive.add(text);
+              std::string reflection_text = out.reflection.dump();
+              auto [reflection, new_reflection] = reflection_by_hash.emplace(hash128(reflection_text), reflections_json.size());
+              if (new_reflection) reflections_json.push_back(out.reflection);
+              binaries_json.push_back({{"stage", stage_name(binaries[b].stage)},
+                                       {"entry", binaries[b].entry_point},
+                                       {"blobs", blobs},
+                                       {"reflection", reflection->second}});
+            }
+            known = binary_order.emplace(b, by_output->second).first;
           }
-          stage_binaries[std::string(stage_name(s))] = it->second;
+          stage_binaries[std::string(stage_name(s))] = known->second;
         }
         variants.push_back({{"keywords", enabled_keywords(plan->passes[p].groups, expansion.variants[v])},
                             {"binaries", stage_binaries}});
@@ -583,6 +615,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     }
     json target_names = json::array();
     for (Target t : targets) target_names.push_back(target_name(t));
+    report.funnel.unique_binaries = binaries_json.size();
     const Funnel& f = report.funnel;
     json manifest{{"format", kManifestFormat},
                   {"format_version", kPackFormatVersion},
@@ -597,13 +630,17 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
                   {"inputs_hash", inputs_hash},
                   {"funnel", {{"declared", f.declared}, {"valid", f.valid}, {"kept", f.kept},
                               {"stage_instances", f.stage_instances}, {"unique_preprocessed", f.unique_preprocessed},
-                              {"unique_binaries", f.unique_binaries}}},
+                              {"unique_compiles", f.unique_compiles}, {"unique_binaries", f.unique_binaries}}},
                   {"passes", passes_json},
-                  {"binaries", binaries_json}};
+                  {"binaries", binaries_json},
+                  {"reflections", reflections_json}};
     if (std::string error = write_pack(options.output_dir, plan->pack.name, archive, manifest); !error.empty()) {
       sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, error);
       return finish();
     }
+    // Last: the stamp that lets the next build with the same inputs skip everything.
+    write_file_atomic(stamp_path(options.output_dir, plan->pack.name),
+                      stamp_text(options.output_dir, plan->pack.name, inputs_hash));
   }
 
   // Dumps for debugging (--emit), named <pass>/<stage>/<keywords>.<ext> under <output>/emit.

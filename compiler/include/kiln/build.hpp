@@ -46,7 +46,8 @@ struct Funnel {
   uint64_t kept = 0;
   uint64_t stage_instances = 0;    // variants x stages
   uint64_t unique_preprocessed = 0;  // distinct (pass, stage, stage keywords)
-  uint64_t unique_binaries = 0;    // distinct preprocessed text + entry + stage
+  uint64_t unique_compiles = 0;    // distinct preprocessed text + entry + stage: what is compiled
+  uint64_t unique_binaries = 0;    // distinct optimized SPIR-V: what the pack stores
 };
 
 struct StageTiming {

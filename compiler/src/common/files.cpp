@@ -30,6 +30,17 @@ size_t first_invalid_utf8(std::string_view text) {
 
 }  // namespace
 
+std::string display_path(const std::filesystem::path& path) {
+  std::error_code ec;
+  std::filesystem::path absolute = std::filesystem::absolute(path, ec).lexically_normal();
+  auto cwd = std::filesystem::current_path(ec);
+  if (!ec) {
+    auto relative = absolute.lexically_relative(cwd);
+    if (!relative.empty() && *relative.begin() != "..") return relative.string();
+  }
+  return path.string();
+}
+
 SourceLocation location_of_offset(const std::string& path, std::string_view text, size_t offset) {
   SourceLocation location{path, 1, 1};
   for (size_t i = 0; i < offset && i < text.size(); ++i) {
@@ -52,7 +63,7 @@ SourceLocation locate_json_string(const std::string& path, std::string_view text
 
 std::optional<std::string> read_text_file(const std::filesystem::path& path, const ReadLimits& limits,
                                           DiagnosticSink& sink, const SourceLocation& referenced_from) {
-  const std::string shown = path.string();
+  const std::string shown = display_path(path);
   struct stat info {};
   if (::stat(path.c_str(), &info) != 0) {
     sink.report(DiagId::FileUnreadable, referenced_from, "cannot open '" + shown + "': " + std::strerror(errno));

@@ -29,6 +29,9 @@ std::optional<std::string> read_binary_file(const std::filesystem::path& path);
 // new one, never a torn one. Returns an error message, or an empty string on success.
 std::string write_file_atomic(const std::filesystem::path& path, std::string_view bytes);
 
+// A path as shown to users: relative to the working directory when below it.
+std::string display_path(const std::filesystem::path& path);
+
 // 1-based line and column of a byte offset.
 SourceLocation location_of_offset(const std::string& path, std::string_view text, size_t offset);
 

@@ -30,16 +30,6 @@ bool IncludeRoots::contains(const std::filesystem::path& canonical) const {
   return false;
 }
 
-std::string display_path(const std::filesystem::path& path) {
-  std::error_code ec;
-  auto cwd = std::filesystem::current_path(ec);
-  if (!ec && is_below(path, cwd)) {
-    auto relative = path.lexically_relative(cwd);
-    if (!relative.empty()) return relative.string();
-  }
-  return path.string();
-}
-
 ResolvedInclude resolve_include(std::string_view name, const std::filesystem::path& including_file,
                                 const IncludeRoots& roots) {
   ResolvedInclude result;
@@ -59,15 +49,19 @@ ResolvedInclude resolve_include(std::string_view name, const std::filesystem::pa
 
   for (const auto& directory : directories) {
     std::filesystem::path lexical = (directory / requested).lexically_normal();
+    // Leaving the roots through ".." is refused whether or not the file exists: no probing outside.
+    if (!roots.contains(lexical)) {
+      result.error = DiagId::IncludeEscapesRoot;
+      result.message = "#include \"" + std::string(name) + "\" resolves to '" + lexical.string() +
+                       "', outside the include roots";
+      for (const auto& root : roots.roots()) result.notes.push_back("include root: " + display_path(root));
+      return result;
+    }
     std::error_code ec;
     if (!std::filesystem::exists(std::filesystem::symlink_status(lexical, ec))) continue;
     std::filesystem::path canonical = std::filesystem::weakly_canonical(lexical, ec);
     if (ec) continue;
-    if (!roots.contains(lexical)) {
-      result.error = DiagId::IncludeEscapesRoot;
-      result.message = "#include \"" + std::string(name) + "\" resolves to '" + display_path(lexical) +
-                       "', outside the include roots";
-    } else if (!roots.contains(canonical)) {
+    if (!roots.contains(canonical)) {
       result.error = DiagId::IncludeEscapesRoot;
       result.message = "#include \"" + std::string(name) + "\" follows a symlink to '" + canonical.string() +
                        "', outside the include roots";

@@ -7,6 +7,7 @@
 #include <string_view>
 #include <vector>
 
+#include "common/files.hpp"
 #include "kiln/diagnostics.hpp"
 
 namespace kiln {
@@ -34,7 +35,5 @@ struct ResolvedInclude {
 ResolvedInclude resolve_include(std::string_view name, const std::filesystem::path& including_file,
                                 const IncludeRoots& roots);
 
-// A path as shown to users: relative to the working directory when below it.
-std::string display_path(const std::filesystem::path& path);
 
 }  // namespace kiln

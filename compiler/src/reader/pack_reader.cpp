@@ -168,7 +168,7 @@ SelectedVariant PackReader::variant(std::string_view pass_name, size_t index) co
     view.glsl = get("glsl");
     view.gles = get("gles");
     view.msl = get("msl");
-    view.reflection = &binary.at("reflection");
+    view.reflection = &manifest_.at("reflections").at(binary.at("reflection").get<size_t>());
     selected.stages.push_back(view);
   }
   return selected;

@@ -1,0 +1,267 @@
+// Each bad input gets an exact diagnostic (checked to the byte), a non-zero exit code, and leaves no
+// pack and no cache entry behind.
+#include <gtest/gtest.h>
+#include <linux/fs.h>
+#include <sys/ioctl.h>
+#include <sys/stat.h>
+
+#include "test_support.hpp"
+
+namespace kiln {
+namespace {
+
+const char* kPack = R"({"name": "p", "include_dirs": ["lib"], "budget": 64,
+  "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})";
+
+const char* kEntries =
+    "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+    "float4 F() : SV_Target { return 1.0; }\n";
+
+struct Cli : ::testing::Test {
+  testing::TempDir dir;
+  void SetUp() override { dir.write("p.pack.json", kPack); }
+  testing::RunResult build(std::vector<std::string> extra = {}) {
+    std::vector<std::string> args{"build", "p.pack.json", "-o", "out", "--cache", "cache", "-q"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return testing::run_kiln(args, dir.path());
+  }
+  void expect_nothing_written() {
+    for (const auto& f : testing::files_below(dir / "out"))
+      EXPECT_EQ(f.string().find("kiln-ice"), f.string().size() - f.filename().string().size() - 9) << "left behind: " << f;
+    EXPECT_TRUE(testing::files_below(dir / "cache").empty()) << "cache entries left behind";
+  }
+};
+
+TEST_F(Cli, SyntaxErrorIsReportedAtItsLineDespiteThePreamble) {
+  dir.write("S.hlsl", "#pragma multi_compile _ A\n\nfloat4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "float4 F() : SV_Target {\n  float4 c = undefinedThing;\n  return c;\n}\n");
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err,
+            "S.hlsl:5:14: error[K1401]: 'undefinedThing' : unknown variable\n"
+            "      float4 c = undefinedThing;\n"
+            "                 ^\n"
+            "  note: in pass 'P' vertex stage, keywords [<none>]\n"
+            "  note: and in 1 more variant(s)\n"
+            "kiln: 1 error(s)\n");
+  expect_nothing_written();
+}
+
+TEST_F(Cli, MissingIncludeListsTheRootsSearched) {
+  dir.write("S.hlsl", std::string("#include \"Missing.hlsl\"\n") + kEntries);
+  std::filesystem::create_directories(dir / "lib");
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err,
+            "S.hlsl:1:10: error[K1201]: cannot find include file 'Missing.hlsl'\n"
+            "    #include \"Missing.hlsl\"\n"
+            "             ^\n"
+            "  note: searched: .\n"
+            "  note: searched: lib\n"
+            "  note: searched: .\n"
+            "kiln: 1 error(s)\n");
+  expect_nothing_written();
+}
+
+TEST_F(Cli, IncludeCyclePrintsTheChainInUnderASecond) {
+  dir.write("lib/A.hlsl", "#include \"B.hlsl\"\n");
+  dir.write("lib/B.hlsl", "#include \"A.hlsl\"\n");
+  dir.write("S.hlsl", std::string("#include \"A.hlsl\"\n") + kEntries);
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_LT(r.seconds, 1.0);
+  EXPECT_EQ(r.err,
+            "lib/B.hlsl:1:10: error[K1203]: #include cycle: 'lib/A.hlsl' includes itself\n"
+            "    #include \"A.hlsl\"\n"
+            "             ^\n"
+            "  note: lib/A.hlsl includes lib/B.hlsl\n"
+            "  note: lib/B.hlsl includes lib/A.hlsl\n"
+            "  note: add '#pragma once' or an include guard, or remove the #include\n"
+            "kiln: 1 error(s)\n");
+  expect_nothing_written();
+}
+
+TEST_F(Cli, IncludeEscapingTheRootIsRefused) {
+  dir.write("lib/S2.hlsl", "#include \"../../secret.hlsl\"\n");
+  dir.write("S.hlsl", std::string("#include \"S2.hlsl\"\n") + kEntries);
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("lib/S2.hlsl:1:10: error[K1202]: #include \"../../secret.hlsl\" resolves to '"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("', outside the include roots\n"), std::string::npos) << r.err;
+  expect_nothing_written();
+}
+
+TEST_F(Cli, IncludeOfADirectoryOrFifoIsRefused) {
+  std::filesystem::create_directories(dir / "lib/Dir.hlsl");
+  ASSERT_EQ(::mkfifo((dir / "lib/Fifo.hlsl").c_str(), 0644), 0);
+  dir.write("S.hlsl", std::string("#include \"Dir.hlsl\"\n") + kEntries);
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("S.hlsl:1:10: error[K1002]: '"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("Dir.hlsl' is a directory, not a regular file\n"), std::string::npos) << r.err;
+  dir.write("S.hlsl", std::string("#include \"Fifo.hlsl\"\n") + kEntries);
+  r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_LT(r.seconds, 5.0);
+  EXPECT_NE(r.err.find("Fifo.hlsl' is a FIFO, not a regular file\n"), std::string::npos) << r.err;
+  expect_nothing_written();
+}
+
+TEST_F(Cli, FileOverTheSizeLimitIsRefused) {
+  dir.write("lib/Huge.hlsl", std::string(5u << 20, ' '));
+  dir.write("S.hlsl", std::string("#include \"Huge.hlsl\"\n") + kEntries);
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("S.hlsl:1:10: error[K1003]: '"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("Huge.hlsl' is 5242880 bytes, over the limit of 4194304 bytes\n"), std::string::npos) << r.err;
+  expect_nothing_written();
+}
+
+TEST_F(Cli, BinaryJunkAndNulBytesAreNotText) {
+  dir.write("S.hlsl", std::string("float4 x;\n\xff\xfe junk\n") + kEntries);
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err.substr(0, r.err.find('\n')), "S.hlsl:2:1: error[K1004]: file is not valid UTF-8 text (byte 0xFF)");
+  dir.write("S.hlsl", std::string("float4 x;\nfloat4 y\0;\n", 21) + kEntries);
+  r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err.substr(0, r.err.find('\n')), "S.hlsl:2:9: error[K1004]: file contains a NUL byte; is 'S.hlsl' a binary file?");
+  expect_nothing_written();
+}
+
+TEST_F(Cli, Utf8ByteOrderMarkIsAccepted) {
+  dir.write("S.hlsl", std::string("\xEF\xBB\xBF") + kEntries);
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+  EXPECT_TRUE(std::filesystem::exists(dir / "out/p.manifest.json"));
+}
+
+TEST_F(Cli, UnknownKeywordSuggestsTheClosestDeclaredOne) {
+  dir.write("S.hlsl", std::string("#pragma multi_compile _ _MAIN_LIGHT_SHADOWS\n") + kEntries);
+  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl",
+  "stages": {"vertex": "V", "fragment": "F"}}],
+  "constraints": [{"keyword": "_MAIN_LIGHT_SHADOW", "requires": ["_MAIN_LIGHT_SHADOWS"]}]})");
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err,
+            "p.pack.json:3:32: error[K1303]: unknown keyword '_MAIN_LIGHT_SHADOW' in constraint: no pass declares it\n"
+            "      \"constraints\": [{\"keyword\": \"_MAIN_LIGHT_SHADOW\", \"requires\": [\"_MAIN_LIGHT_SHADOWS\"]}]}\n"
+            "                                   ^\n"
+            "  note: did you mean '_MAIN_LIGHT_SHADOWS'?\n"
+            "kiln: 1 error(s)\n");
+  expect_nothing_written();
+}
+
+TEST_F(Cli, KeywordDeclaredInTwoGroupsIsAnError) {
+  dir.write("S.hlsl", std::string("#pragma multi_compile _ A B\n#pragma multi_compile_fragment _ B C\n") + kEntries);
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err,
+            "S.hlsl:2:1: error[K1302]: keyword 'B' is already declared in another keyword group\n"
+            "    #pragma multi_compile_fragment _ B C\n"
+            "    ^\n"
+            "  note: first declared at S.hlsl:1\n"
+            "kiln: 1 error(s)\n");
+  expect_nothing_written();
+}
+
+TEST_F(Cli, TwoToTheFortyVariantsFailAgainstTheBudgetBeforeCompiling) {
+  std::string pragmas;
+  for (int i = 0; i < 40; ++i) pragmas += "#pragma multi_compile _ K" + std::to_string(i) + "\n";
+  dir.write("S.hlsl", pragmas + kEntries);
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_LT(r.seconds, 1.0);
+  EXPECT_EQ(r.err.substr(0, r.err.find('\n')),
+            "p.pack.json:1:41: error[K1304]: pack 'p' has more than 64 variants after stripping (1099511627776 declared), "
+            "over its budget of 64");
+  EXPECT_NE(r.err.find("  note: largest group: P: #pragma multi_compile _ K0 (2 values, S.hlsl:1)\n"), std::string::npos) << r.err;
+  expect_nothing_written();
+}
+
+TEST_F(Cli, MissingEntryPointIsAnError) {
+  dir.write("S.hlsl", "float4 V(float4 p : POSITION) : SV_Position { return p; }\nfloat4 Frag() : SV_Target { return 1.0; }\n");
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err,
+            "p.pack.json:2:87: error[K1402]: entry point 'F' of the fragment stage is not defined in 'S.hlsl'\n"
+            "      \"passes\": [{\"name\": \"P\", \"source\": \"S.hlsl\", \"stages\": {\"vertex\": \"V\", \"fragment\": \"F\"}}]}\n"
+            "                                                                                          ^\n"
+            "  note: in pass 'P' fragment stage, keywords [<none>]\n"
+            "kiln: 1 error(s)\n");
+  expect_nothing_written();
+}
+
+TEST_F(Cli, GlslangCrashIsAnInternalErrorWithAReproducerAndTheRestIsStillBuilt) {
+  dir.write("S.hlsl",
+            "#pragma multi_compile_fragment _ CRASH\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "#ifdef CRASH\nfloat4 F(float4) : SV_Target { return 0; }\n"
+            "#else\nfloat4 F() : SV_Target { return 1.0; }\n#endif\n");
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("S.hlsl: error[K1501]: internal compiler error: the compiler worker killed by signal 11 "
+                       "(Segmentation fault) while compiling pass 'P' fragment stage, keywords [CRASH]\n"),
+            std::string::npos)
+      << r.err;
+  auto repro = dir / "out/kiln-ice/P.fragment.CRASH.hlsl";
+  ASSERT_TRUE(std::filesystem::exists(repro)) << r.err;
+  EXPECT_NE(testing::read_file(repro).find("float4 F(float4)"), std::string::npos);
+  // The other variants were compiled and cached; the crash was not.
+  EXPECT_EQ(testing::files_below(dir / "cache").size(), 2u);
+  EXPECT_FALSE(std::filesystem::exists(dir / "out/p.manifest.json"));
+}
+
+TEST_F(Cli, ReadOnlyOutputDirectoryIsReportedAndNothingIsWritten) {
+  dir.write("S.hlsl", kEntries);
+  std::filesystem::create_directories(dir / "out");
+  // Root ignores permission bits, so make the directory immutable when running as root.
+  bool immutable = false;
+  if (::geteuid() == 0) {
+    int fd = ::open((dir / "out").c_str(), O_RDONLY | O_DIRECTORY);
+    int flags = 0;
+    if (fd >= 0 && ::ioctl(fd, FS_IOC_GETFLAGS, &flags) == 0) {
+      flags |= FS_IMMUTABLE_FL;
+      immutable = ::ioctl(fd, FS_IOC_SETFLAGS, &flags) == 0;
+    }
+    if (fd >= 0) ::close(fd);
+    ASSERT_TRUE(immutable) << "cannot make a read-only directory for root on this file system";
+  } else {
+    std::filesystem::permissions(dir / "out", std::filesystem::perms::owner_read | std::filesystem::perms::owner_exec);
+  }
+  auto r = build();
+  if (immutable) {
+    int fd = ::open((dir / "out").c_str(), O_RDONLY | O_DIRECTORY);
+    int flags = 0;
+    ::ioctl(fd, FS_IOC_GETFLAGS, &flags);
+    flags &= ~FS_IMMUTABLE_FL;
+    ::ioctl(fd, FS_IOC_SETFLAGS, &flags);
+    ::close(fd);
+  }
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "out: error[K1601]: output directory 'out' is not writable\nkiln: 1 error(s)\n");
+  EXPECT_TRUE(testing::files_below(dir / "out").empty());
+}
+
+TEST_F(Cli, FailedRebuildLeavesThePreviousPackIntact) {
+  dir.write("S.hlsl", kEntries);
+  ASSERT_EQ(build().exit_code, 0);
+  std::string manifest = testing::read_file(dir / "out/p.manifest.json");
+  std::string archive = testing::read_file(dir / "out/p.kpack");
+  dir.write("S.hlsl", std::string("float4 V(float4 p : POSITION) : SV_Position { return p }\n") + "float4 F() : SV_Target { return 1.0; }\n");
+  EXPECT_EQ(build().exit_code, 1);
+  EXPECT_EQ(testing::read_file(dir / "out/p.manifest.json"), manifest);
+  EXPECT_EQ(testing::read_file(dir / "out/p.kpack"), archive);
+}
+
+TEST_F(Cli, EveryVerbHasHelp) {
+  for (std::string verb : {"build", "list", "inspect", "lint"}) {
+    auto r = testing::run_kiln({verb, "--help"}, dir.path());
+    EXPECT_EQ(r.exit_code, 0) << verb;
+    EXPECT_NE(r.out.find("Usage:"), std::string::npos) << verb;
+  }
+}
+
+}  // namespace
+}  // namespace kiln

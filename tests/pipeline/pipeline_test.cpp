@@ -1,0 +1,154 @@
+// Whole builds through the library: determinism, incremental rebuilds, the bundled library.
+#include <gtest/gtest.h>
+
+#include "kiln/build.hpp"
+#include "kiln/pack_reader.hpp"
+#include "test_support.hpp"
+
+namespace kiln {
+namespace {
+
+BuildReport build(const std::filesystem::path& pack, const std::filesystem::path& out,
+                  std::optional<std::filesystem::path> cache, unsigned jobs, DiagnosticSink& sink) {
+  BuildOptions options;
+  options.pack_file = pack;
+  options.output_dir = out;
+  options.cache_dir = cache;
+  options.jobs = jobs;
+  options.worker_executable = KILN_WORKER_PATH;
+  return build_pack(options, sink);
+}
+
+std::string errors_of(const DiagnosticSink& sink) {
+  std::string text;
+  for (const Diagnostic& d : sink.diagnostics()) text += format_diagnostic(d);
+  return text;
+}
+
+struct SmallLibrary : ::testing::Test {
+  testing::TempDir dir;
+  void SetUp() override {
+    dir.write("lib/Shadows.hlsl", "#pragma once\nfloat ShadowTerm(float x) { return saturate(x * 0.5); }\n");
+    dir.write("lib/Fog.hlsl", "#pragma once\nfloat FogTerm(float x) { return exp2(-x); }\n");
+    dir.write("S.hlsl",
+              "#pragma multi_compile _ SHADOWS\n#pragma multi_compile_fragment _ FOG\n"
+              "#include \"Shadows.hlsl\"\n#ifdef FOG\n#include \"Fog.hlsl\"\n#endif\n"
+              "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+              "float4 F(float4 p : SV_Position) : SV_Target {\n  float c = 1.0;\n"
+              "#ifdef SHADOWS\n  c *= ShadowTerm(p.x);\n#endif\n#ifdef FOG\n  c *= FogTerm(p.y);\n#endif\n"
+              "  return float4(c, c, c, 1.0);\n}\n");
+    dir.write("p.pack.json", R"({"name": "p", "include_dirs": ["lib"],
+      "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  }
+};
+
+TEST_F(SmallLibrary, SameBytesWithOneWorkerAndWithTwo) {
+  DiagnosticSink sink;
+  ASSERT_TRUE(build(dir / "p.pack.json", dir / "j1", std::nullopt, 1, sink).ok) << errors_of(sink);
+  ASSERT_TRUE(build(dir / "p.pack.json", dir / "j2", std::nullopt, 2, sink).ok) << errors_of(sink);
+  EXPECT_EQ(testing::read_file(dir / "j1/p.kpack"), testing::read_file(dir / "j2/p.kpack"));
+  EXPECT_EQ(testing::read_file(dir / "j1/p.manifest.json"), testing::read_file(dir / "j2/p.manifest.json"));
+}
+
+TEST_F(SmallLibrary, NoChangeRebuildDoesNoWork) {
+  DiagnosticSink sink;
+  ASSERT_TRUE(build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink).ok) << errors_of(sink);
+  BuildReport again = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
+  EXPECT_TRUE(again.up_to_date);
+  EXPECT_EQ(again.compiled, 0u);
+  EXPECT_EQ(again.workers_started, 0u);
+}
+
+TEST_F(SmallLibrary, IncludeEditRecompilesExactlyTheVariantsThatReadIt) {
+  DiagnosticSink sink;
+  BuildReport first = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
+  ASSERT_TRUE(first.ok) << errors_of(sink);
+  // 2 vertex sources (SHADOWS on/off; FOG is fragment-only) + 4 fragment sources.
+  EXPECT_EQ(first.funnel.unique_compiles, 6u);
+  EXPECT_EQ(first.compiled, 6u);
+  dir.write("lib/Fog.hlsl", "#pragma once\nfloat FogTerm(float x) { return exp2(-2.0 * x); }\n");
+  BuildReport second = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
+  ASSERT_TRUE(second.ok) << errors_of(sink);
+  EXPECT_FALSE(second.up_to_date);
+  // Only the fragment variants with FOG include Fog.hlsl: 2 recompiles, 4 cache hits.
+  EXPECT_EQ(second.compiled, 2u);
+  EXPECT_EQ(second.cache_hits, 4u);
+}
+
+TEST_F(SmallLibrary, DepfileListsEveryIncludedFile) {
+  DiagnosticSink sink;
+  BuildOptions options;
+  options.pack_file = dir / "p.pack.json";
+  options.output_dir = dir / "out";
+  options.depfile = dir / "p.d";
+  options.worker_executable = KILN_WORKER_PATH;
+  ASSERT_TRUE(build_pack(options, sink).ok) << errors_of(sink);
+  std::string depfile = testing::read_file(dir / "p.d");
+  EXPECT_EQ(depfile.find((dir / "out/p.manifest.json").string() + ":"), 0u) << depfile;
+  for (const char* file : {"p.pack.json", "S.hlsl", "lib/Shadows.hlsl", "lib/Fog.hlsl"})
+    EXPECT_NE(depfile.find(file), std::string::npos) << file;
+}
+
+TEST_F(SmallLibrary, EmitDumpsEveryStage) {
+  DiagnosticSink sink;
+  BuildOptions options;
+  options.pack_file = dir / "p.pack.json";
+  options.output_dir = dir / "out";
+  options.worker_executable = KILN_WORKER_PATH;
+  options.emit = emit_stage_names();
+  ASSERT_TRUE(build_pack(options, sink).ok) << errors_of(sink);
+  for (const char* file : {"variants.json", "P/fragment/FOG+SHADOWS.hlsl", "P/fragment/FOG+SHADOWS.spvasm",
+                           "P/fragment/FOG+SHADOWS.glsl", "P/fragment/FOG+SHADOWS.es.glsl", "P/fragment/FOG+SHADOWS.metal",
+                           "P/vertex/_.reflection.json"})
+    EXPECT_TRUE(std::filesystem::exists(dir / "out/emit" / file)) << file;
+}
+
+TEST_F(SmallLibrary, LayoutThatDiffersBetweenVariantsIsAnError) {
+  dir.write("S.hlsl",
+            "#pragma multi_compile_fragment _ SWAP\n"
+            "#ifdef SWAP\n[[vk::binding(1, 0)]] Texture2D tex;\n#else\n[[vk::binding(1, 0)]] cbuffer B { float4 x; };\n#endif\n"
+            "[[vk::binding(2, 0)]] SamplerState smp;\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "#ifdef SWAP\nfloat4 F() : SV_Target { return tex.Sample(smp, float2(0.5, 0.5)); }\n"
+            "#else\nfloat4 F() : SV_Target { return x; }\n#endif\n");
+  DiagnosticSink sink;
+  EXPECT_FALSE(build(dir / "p.pack.json", dir / "out", std::nullopt, 2, sink).ok);
+  EXPECT_TRUE(sink.contains(DiagId::LayoutMismatch)) << errors_of(sink);
+}
+
+// The bundled library: every variant of the default pack compiles to SPIR-V, GLSL, GLSL ES and MSL with no
+// warning, every variant is selectable through the reader, and stripped combinations are clear errors.
+TEST(BundledLibrary, DefaultPackBuildsWithoutWarningsAndEveryVariantIsSelectable) {
+  testing::TempDir dir;
+  DiagnosticSink sink;
+  BuildReport report = build(std::filesystem::path(KILN_SOURCE_DIR) / "variants/lit.pack.json", dir / "out", dir / "cache", 0, sink);
+  ASSERT_TRUE(report.ok) << errors_of(sink);
+  EXPECT_EQ(sink.warning_count(), 0) << errors_of(sink);
+  EXPECT_GT(report.funnel.kept, 100u);
+  PackReader pack = PackReader::open(dir / "out");
+  size_t variants = 0;
+  for (const std::string& pass : pack.passes()) {
+    for (size_t i = 0; i < pack.variant_count(pass); ++i, ++variants) {
+      SelectedVariant v = pack.variant(pass, i);
+      SelectedVariant again = pack.select(pass, v.keywords, true);
+      EXPECT_EQ(again.index, i);
+      for (const StageView& stage : v.stages) {
+        EXPECT_FALSE(stage.spirv.empty());
+        EXPECT_FALSE(stage.glsl.empty());
+        EXPECT_FALSE(stage.gles.empty());
+        EXPECT_FALSE(stage.msl.empty());
+      }
+    }
+  }
+  EXPECT_EQ(variants, report.funnel.kept);
+  // Forward+ needs per-pixel additional lights: the combination with per-vertex lights is stripped.
+  try {
+    pack.select("Forward", {"_FORWARD_PLUS", "_ADDITIONAL_LIGHTS_VERTEX"});
+    FAIL() << "a stripped variant was selected";
+  } catch (const PackError& e) {
+    EXPECT_EQ(e.code(), PackError::Code::Stripped);
+  }
+}
+
+}  // namespace
+}  // namespace kiln

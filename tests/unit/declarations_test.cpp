@@ -1,0 +1,98 @@
+#include <gtest/gtest.h>
+
+#include "declarations/declarations.hpp"
+#include "test_support.hpp"
+
+namespace kiln {
+namespace {
+
+std::optional<KeywordGroup> parse(const std::string& body, DiagnosticSink& sink, bool& malformed) {
+  return parse_keyword_pragma(body, SourceLocation{"f.hlsl", 3, 1}, 8, sink, malformed);
+}
+
+TEST(Declarations, MultiCompileUnderscoreMeansNone) {
+  DiagnosticSink sink;
+  bool malformed = false;
+  auto group = parse(" multi_compile _ _A _B", sink, malformed);
+  ASSERT_TRUE(group);
+  EXPECT_EQ(group->values, (std::vector<std::string>{"", "_A", "_B"}));
+  EXPECT_EQ(group->stages, kAllStageBits);
+  EXPECT_FALSE(group->material_feature);
+}
+
+TEST(Declarations, StageSuffixesNarrowTheGroupToOneStage) {
+  DiagnosticSink sink;
+  bool malformed = false;
+  EXPECT_EQ(parse(" multi_compile_fragment _ A", sink, malformed)->stages, stage_bit(Stage::Fragment));
+  EXPECT_EQ(parse(" multi_compile_vertex _ A", sink, malformed)->stages, stage_bit(Stage::Vertex));
+  auto local = parse(" shader_feature_local_fragment _ A", sink, malformed);
+  EXPECT_TRUE(local->local);
+  EXPECT_TRUE(local->material_feature);
+  EXPECT_EQ(local->stages, stage_bit(Stage::Fragment));
+}
+
+TEST(Declarations, LoneShaderFeatureKeywordMayBeOffButLoneMultiCompileIsAlwaysOn) {
+  DiagnosticSink sink;
+  bool malformed = false;
+  EXPECT_EQ(parse(" shader_feature A", sink, malformed)->values, (std::vector<std::string>{"", "A"}));
+  EXPECT_EQ(parse(" multi_compile A", sink, malformed)->values, (std::vector<std::string>{"A"}));
+}
+
+TEST(Declarations, MultiCompileFogExpandsToUnitysFogModes) {
+  DiagnosticSink sink;
+  bool malformed = false;
+  EXPECT_EQ(parse(" multi_compile_fog", sink, malformed)->values,
+            (std::vector<std::string>{"", "FOG_LINEAR", "FOG_EXP", "FOG_EXP2"}));
+}
+
+TEST(Declarations, OtherPragmasAreNotKeywordDeclarations) {
+  DiagnosticSink sink;
+  bool malformed = false;
+  EXPECT_FALSE(parse(" vertex LitVertex", sink, malformed));
+  EXPECT_FALSE(malformed);
+  EXPECT_FALSE(sink.has_errors());
+}
+
+TEST(Declarations, InvalidKeywordNamesAndUnsupportedSuffixesAreErrors) {
+  DiagnosticSink sink;
+  bool malformed = false;
+  EXPECT_FALSE(parse(" multi_compile _ 9BAD", sink, malformed));
+  EXPECT_TRUE(malformed);
+  EXPECT_TRUE(sink.contains(DiagId::InvalidKeywordName));
+  malformed = false;
+  EXPECT_FALSE(parse(" multi_compile_instancing", sink, malformed));
+  EXPECT_TRUE(sink.contains(DiagId::PragmaSyntax));
+}
+
+TEST(Declarations, ScanCollectsPragmasFromIncludedFilesButNotFromComments) {
+  testing::TempDir dir;
+  dir.write("lib/Inc.hlsl", "#pragma once\n#pragma multi_compile_fragment _ FROM_INCLUDE\n// #pragma multi_compile _ COMMENTED\n");
+  auto entry = dir.write("Main.hlsl",
+                         "#pragma multi_compile _ A B\n/* #pragma multi_compile _ BLOCK\n*/\n#include \"Inc.hlsl\"\n");
+  IncludeRoots roots({dir.path(), dir / "lib"});
+  SourceSet sources;
+  DiagnosticSink sink;
+  auto result = scan_declarations(entry, roots, ReadLimits{}, sources, sink);
+  ASSERT_TRUE(result) << (sink.diagnostics().empty() ? "" : format_diagnostic(sink.diagnostics()[0]));
+  ASSERT_EQ(result->groups.size(), 2u);
+  EXPECT_EQ(result->groups[0].values, (std::vector<std::string>{"", "A", "B"}));
+  EXPECT_EQ(result->groups[1].values, (std::vector<std::string>{"", "FROM_INCLUDE"}));
+  EXPECT_EQ(result->files.size(), 2u);
+}
+
+TEST(Declarations, KeywordDeclaredInTwoGroupsNamesTheFirstDeclaration) {
+  testing::TempDir dir;
+  auto entry = dir.write("Main.hlsl", "#pragma multi_compile _ A B\n#pragma shader_feature _ B\n");
+  IncludeRoots roots({dir.path()});
+  SourceSet sources;
+  DiagnosticSink sink;
+  EXPECT_FALSE(scan_declarations(entry, roots, ReadLimits{}, sources, sink));
+  ASSERT_TRUE(sink.contains(DiagId::KeywordInTwoGroups));
+  const Diagnostic d = sink.diagnostics()[0];
+  EXPECT_EQ(d.location.line, 2);
+  ASSERT_EQ(d.notes.size(), 1u);
+  EXPECT_NE(d.notes[0].find("Main.hlsl:1"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace kiln

@@ -1,0 +1,159 @@
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <random>
+
+#include "kiln/build.hpp"
+#include "permutations/permutations.hpp"
+#include "test_support.hpp"
+
+namespace kiln {
+namespace {
+
+KeywordGroup group(std::vector<std::string> values, StageMask stages = kAllStageBits, bool feature = false) {
+  KeywordGroup g;
+  g.values = std::move(values);
+  g.stages = stages;
+  g.material_feature = feature;
+  g.pragma = feature ? "shader_feature" : "multi_compile";
+  return g;
+}
+
+struct Fixture : ::testing::Test {
+  PackDefinition pack;
+  std::vector<PassKeywords> passes;
+  DiagnosticSink sink;
+  Fixture() {
+    pack.name = "test";
+    pack.passes.push_back(PassDefinition{"P", "p.hlsl", {"V", "F"}, {}});
+  }
+  std::optional<std::vector<PassExpansion>> expand(std::vector<KeywordGroup> groups, uint64_t budget = 1 << 20,
+                                                   std::vector<SceneProfile> scenes = {}) {
+    passes = {PassKeywords{&pack.passes[0], std::move(groups)}};
+    StripRules rules{&pack.constraints, &scenes, &pack.materials};
+    return expand_and_strip(passes, rules, budget, pack, sink);
+  }
+};
+
+TEST_F(Fixture, DeclaredCountIsTheProductOfGroupSizes) {
+  auto e = expand({group({"", "A", "B"}), group({"", "C"}), group({"", "F1", "F2", "F3"})});
+  ASSERT_TRUE(e);
+  EXPECT_EQ((*e)[0].declared.value, 24u);
+  EXPECT_EQ((*e)[0].variants.size(), 24u);
+}
+
+TEST_F(Fixture, ConstraintsRemoveInvalidCombinations) {
+  pack.constraints.push_back({"B", {"C"}, {}, {}, "", {}});   // B requires C
+  pack.constraints.push_back({"F1", {}, {"A", "B"}, {}, "", {}});  // F1 requires A or B
+  pack.constraints.push_back({"F2", {}, {}, {"C"}, "", {}});  // F2 excludes C
+  auto e = expand({group({"", "A", "B"}), group({"", "C"}), group({"", "F1", "F2"})});
+  ASSERT_TRUE(e);
+  // Brute force over the 18 combinations.
+  size_t expected = 0;
+  for (int a = 0; a < 3; ++a)
+    for (int c = 0; c < 2; ++c)
+      for (int f = 0; f < 3; ++f) {
+        bool ok = !(a == 2 && c == 0) && !(f == 1 && a == 0) && !(f == 2 && c == 1);
+        expected += ok;
+      }
+  EXPECT_EQ((*e)[0].variants.size(), expected);
+  EXPECT_EQ((*e)[0].valid.value, expected);
+  for (const Variant& v : (*e)[0].variants) EXPECT_TRUE(satisfies_constraints(passes[0], pack.constraints, v));
+}
+
+TEST_F(Fixture, ValidCountMatchesBruteForceForRandomConstraints) {
+  std::mt19937 random(7);
+  std::vector<std::string> names;
+  std::vector<KeywordGroup> groups;
+  for (int g = 0; g < 6; ++g) {
+    std::vector<std::string> values{""};
+    for (int v = 0; v < 1 + g % 3; ++v) {
+      names.push_back("K" + std::to_string(g) + "_" + std::to_string(v));
+      values.push_back(names.back());
+    }
+    groups.push_back(group(values));
+  }
+  for (int i = 0; i < 5; ++i) {
+    Constraint c;
+    c.keyword = names[random() % names.size()];
+    (i % 2 ? c.requires_any : c.excludes).push_back(names[random() % names.size()]);
+    pack.constraints.push_back(c);
+  }
+  auto e = expand(groups);
+  ASSERT_TRUE(e);
+  size_t brute = 0;
+  std::vector<uint16_t> choice(groups.size(), 0);
+  std::function<void(size_t)> walk = [&](size_t g) {
+    if (g == groups.size()) {
+      brute += satisfies_constraints(passes[0], pack.constraints, Variant{0, choice});
+      return;
+    }
+    for (size_t v = 0; v < groups[g].values.size(); ++v) {
+      choice[g] = static_cast<uint16_t>(v);
+      walk(g + 1);
+    }
+  };
+  walk(0);
+  EXPECT_EQ((*e)[0].valid.value, brute);
+  EXPECT_EQ((*e)[0].variants.size(), brute);
+}
+
+TEST_F(Fixture, TwoToTheFortyVariantsAreRefusedBeforeAnythingIsExpanded) {
+  std::vector<KeywordGroup> groups;
+  for (int i = 0; i < 40; ++i) groups.push_back(group({"", "K" + std::to_string(i)}));
+  groups[3] = group({"", "BIG1", "BIG2", "BIG3"});
+  auto start = std::chrono::steady_clock::now();
+  auto e = expand(groups, 4096);
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(1));
+  EXPECT_FALSE(e);
+  ASSERT_TRUE(sink.contains(DiagId::BudgetExceeded));
+  const Diagnostic d = sink.diagnostics()[0];
+  EXPECT_NE(d.message.find("more than 4096 variants"), std::string::npos) << d.message;
+  EXPECT_NE(d.message.find("(2199023255552 declared)"), std::string::npos) << d.message;
+  ASSERT_FALSE(d.notes.empty());
+  EXPECT_NE(d.notes[0].find("BIG1 BIG2 BIG3"), std::string::npos) << d.notes[0];
+}
+
+TEST_F(Fixture, ScenesKeepOnlyWhatSomeSceneCanRequest) {
+  SceneProfile day{"day.json", "", "day", {"A"}};
+  SceneProfile night{"night.json", "", "night", {"C"}};
+  auto e = expand({group({"", "A", "B"}), group({"", "C"})}, 1 << 20, {day, night});
+  ASSERT_TRUE(e);
+  // day: {_, A} x {_}; night: {_} x {_, C}; union: (_,_), (A,_), (_,C).
+  EXPECT_EQ((*e)[0].variants.size(), 3u);
+}
+
+TEST_F(Fixture, MaterialsKeepOnlyTheShaderFeatureCombinationsTheyUse) {
+  pack.materials.push_back({"plain", {}, {}});
+  pack.materials.push_back({"fancy", {"ANISO", "BURLEY"}, {}});
+  auto e = expand({group({"", "A"}), group({"", "ANISO"}, kAllStageBits, true), group({"", "BURLEY"}, kAllStageBits, true)});
+  ASSERT_TRUE(e);
+  // multi_compile A stays whole (2) x two feature combinations (none, both).
+  EXPECT_EQ((*e)[0].variants.size(), 4u);
+}
+
+TEST(Permutations, FragmentOnlyKeywordDoesNotMultiplyVertexVariants) {
+  testing::TempDir dir;
+  dir.write("S.hlsl",
+            "#pragma multi_compile _ BOTH\n#pragma multi_compile_fragment _ F1 F2 F3\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "float4 F() : SV_Target { return 1.0; }\n");
+  auto pack = dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl",
+      "stages": {"vertex": "V", "fragment": "F"}}]})");
+  BuildOptions options;
+  options.pack_file = pack;
+  DiagnosticSink sink;
+  auto listing = list_variants(options, sink);
+  ASSERT_TRUE(listing);
+  std::set<std::vector<std::string>> vertex, fragment;
+  for (const auto& v : listing->variants) {
+    vertex.insert(v.stage_keywords[0].second);
+    fragment.insert(v.stage_keywords[1].second);
+  }
+  EXPECT_EQ(listing->variants.size(), 8u);
+  EXPECT_EQ(vertex.size(), 2u);
+  EXPECT_EQ(fragment.size(), 8u);
+}
+
+}  // namespace
+}  // namespace kiln

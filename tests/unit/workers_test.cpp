@@ -1,0 +1,79 @@
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+
+#include "workers/worker_pool.hpp"
+#include "test_support.hpp"
+
+namespace kiln {
+namespace {
+
+CompileJob job(std::string source, std::string entry = "main") {
+  CompileJob j;
+  j.stage = Stage::Fragment;
+  j.entry_point = std::move(entry);
+  j.source_name = "test.hlsl";
+  j.source = std::move(source);
+  j.targets = {Target::Spirv, Target::Glsl, Target::Gles, Target::Msl};
+  return j;
+}
+
+const char* kValid = "float4 main() : SV_Target { return float4(1.0, 0.5, 0.25, 1.0); }\n";
+// glslang 12.0.0 segfaults on this (ARCHITECTURE.md).
+const char* kCrash = "float4 main(float4) : SV_Target { return 0; }\n";
+
+std::vector<WorkerOutcome> run_jobs(const std::vector<CompileJob>& jobs, WorkerLimits limits = {}, unsigned workers = 2) {
+  WorkerPool pool(KILN_WORKER_PATH, workers, limits);
+  std::vector<WorkerOutcome> outcomes(jobs.size());
+  pool.run(jobs, [&](size_t i, WorkerOutcome o) { outcomes[i] = std::move(o); });
+  return outcomes;
+}
+
+TEST(Workers, CompileProducesEveryTarget) {
+  auto outcomes = run_jobs({job(kValid)});
+  ASSERT_EQ(outcomes[0].kind, WorkerOutcome::Kind::Done);
+  ASSERT_TRUE(outcomes[0].output.ok) << outcomes[0].output.failed_step;
+  EXPECT_EQ(outcomes[0].output.spirv.at(0), 0x07230203u);
+  EXPECT_NE(outcomes[0].output.sources.at(Target::Glsl).find("#version 450"), std::string::npos);
+  EXPECT_NE(outcomes[0].output.sources.at(Target::Gles).find("#version 310 es"), std::string::npos);
+  EXPECT_NE(outcomes[0].output.sources.at(Target::Msl).find("#include <metal_stdlib>"), std::string::npos);
+}
+
+TEST(Workers, GlslangCrashCostsOneJobAndTheOthersStillBuild) {
+  auto outcomes = run_jobs({job(kValid), job(kCrash), job(kValid), job(kValid)}, {}, 1);
+  EXPECT_EQ(outcomes[0].kind, WorkerOutcome::Kind::Done);
+  EXPECT_EQ(outcomes[1].kind, WorkerOutcome::Kind::Crashed);
+  EXPECT_NE(outcomes[1].detail.find("signal 11"), std::string::npos) << outcomes[1].detail;
+  EXPECT_EQ(outcomes[2].kind, WorkerOutcome::Kind::Done);
+  EXPECT_TRUE(outcomes[3].output.ok);
+}
+
+TEST(Workers, MissingEntryPointIsAnErrorNotAWarning) {
+  auto outcomes = run_jobs({job(kValid, "Mian")});
+  ASSERT_EQ(outcomes[0].kind, WorkerOutcome::Kind::Done);
+  EXPECT_FALSE(outcomes[0].output.ok);
+  EXPECT_EQ(outcomes[0].output.failed_step, "entry-point");
+}
+
+TEST(Workers, HungWorkerIsKilledAtTheTimeout) {
+  ::setenv("KILN_WORKER_FAULT_INJECTION", "1", 1);
+  WorkerLimits limits;
+  limits.job_timeout = std::chrono::milliseconds(1500);
+  auto outcomes = run_jobs({job(std::string("// kiln-fault: hang\n") + kValid), job(kValid)}, limits);
+  ::unsetenv("KILN_WORKER_FAULT_INJECTION");
+  EXPECT_EQ(outcomes[0].kind, WorkerOutcome::Kind::TimedOut);
+  EXPECT_EQ(outcomes[1].kind, WorkerOutcome::Kind::Done);
+}
+
+TEST(Workers, WorkerOverItsMemoryLimitIsAnInternalError) {
+  ::setenv("KILN_WORKER_FAULT_INJECTION", "1", 1);
+  WorkerLimits limits;
+  limits.memory_limit_mb = 512;
+  auto outcomes = run_jobs({job(std::string("// kiln-fault: oom\n") + kValid), job(kValid)}, limits);
+  ::unsetenv("KILN_WORKER_FAULT_INJECTION");
+  EXPECT_EQ(outcomes[0].kind, WorkerOutcome::Kind::OutOfMemory);
+  EXPECT_EQ(outcomes[1].kind, WorkerOutcome::Kind::Done);
+}
+
+}  // namespace
+}  // namespace kiln
