@@ -5,8 +5,11 @@
 
 #include "Input.hlsl"
 #include "Lights.hlsl"
-#include "Shadows.hlsl"
 #include "Shading.hlsl"
+// Feature files are included only by the variants that use them, so that editing one recompiles only those.
+#if defined(_MAIN_LIGHT_SHADOWS) || defined(_MAIN_LIGHT_SHADOWS_CASCADE) || defined(_ADDITIONAL_LIGHT_SHADOWS)
+#include "Shadows.hlsl"
+#endif
 
 struct Light
 {

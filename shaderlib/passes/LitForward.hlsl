@@ -26,8 +26,13 @@
 #pragma shader_feature_local_fragment _ _LINEAR_OUTPUT
 
 #include "../Lighting.hlsl"
+// Feature files only where used: an edit to Fog.hlsl recompiles only the fog variants.
+#if defined(FOG_LINEAR) || defined(FOG_EXP) || defined(FOG_EXP2)
 #include "../Fog.hlsl"
+#endif
+#if !defined(_LINEAR_OUTPUT)
 #include "../Tonemap.hlsl"
+#endif
 
 struct Attributes
 {

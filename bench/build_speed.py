@@ -1,0 +1,182 @@
+#!/usr/bin/env python3
+"""Build-speed benchmark: kiln against the naive command-line pipeline, on the same variant list.
+
+The naive pipeline is what a user's shell loop does for every (variant, stage):
+  glslangValidator -D -V (HLSL -> SPIR-V, legalized)  ->  spirv-opt -O  ->  spirv-val
+  ->  spirv-cross (GLSL 450)  ->  spirv-cross (GLSL ES 310)  ->  spirv-cross (MSL)
+Each configuration runs `--reps` times, interleaved round-robin so that machine noise hits all of
+them alike; the report gives medians, min-max spread and ratios against the naive pipeline.
+
+Usage: bench/build_speed.py --kiln build/ci/compiler/kiln [--pack variants/lit.pack.json] [--reps 3]
+"""
+import argparse
+import json
+import os
+import platform
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def run(cmd, **kw):
+    return subprocess.run(cmd, check=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
+
+
+def naive_commands(kiln, pack, work):
+    listing = json.loads(run([kiln, "list", pack, "--json"]).stdout)
+    definition = json.load(open(pack))
+    base = os.path.dirname(os.path.abspath(pack))
+    includes = [os.path.join(base, d) for d in definition.get("include_dirs", [])]
+    passes = {p["name"]: p for p in definition["passes"]}
+    lines = []
+    for index, variant in enumerate(listing["variants"]):
+        p = passes[variant["pass"]]
+        source = os.path.join(base, p["source"])
+        for stage, keywords in variant["stages"].items():
+            entry = p["stages"][stage]
+            out = os.path.join(work, f"{index}.{stage}")
+            defines = " ".join(f"-D{k}=1" for k in keywords)
+            inc = " ".join(f"-I{d}" for d in includes)
+            short = "vert" if stage == "vertex" else "frag"
+            lines.append(
+                f"glslangValidator -D -V --hlsl-enable-16bit-types --target-env vulkan1.1 -S {short} -e {entry} {defines} {inc} "
+                f"{source} -o {out}.spv >/dev/null && spirv-opt -O {out}.spv -o {out}.opt.spv && "
+                f"spirv-val --target-env vulkan1.1 {out}.opt.spv && spirv-cross {out}.opt.spv --version 450 --output {out}.glsl && "
+                f"spirv-cross {out}.opt.spv --es --version 310 --output {out}.es.glsl && "
+                f"spirv-cross {out}.opt.spv --msl --output {out}.metal")
+    return lines, len(listing["variants"])
+
+
+def timed(cmd, env=None):
+    """Wall time and the peak RSS of the largest child process (KiB)."""
+    start = time.perf_counter()
+    proc = subprocess.run(cmd, shell=isinstance(cmd, str), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    elapsed = time.perf_counter() - start
+    if proc.returncode != 0:
+        sys.exit(f"command failed ({proc.returncode}): {cmd}\n{proc.stderr[-2000:]}")
+    return elapsed, proc.stdout
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--kiln", required=True)
+    parser.add_argument("--pack", default=os.path.join(ROOT, "variants/lit.pack.json"))
+    parser.add_argument("--reps", type=int, default=3)
+    parser.add_argument("--jobs", type=int, default=os.cpu_count())
+    parser.add_argument("--out", default=os.path.join(ROOT, "bench/results/build_speed.json"))
+    args = parser.parse_args()
+    kiln = os.path.abspath(args.kiln)
+    work = tempfile.mkdtemp(prefix="kiln-bench-")
+    try:
+        lines, variant_count = naive_commands(kiln, args.pack, os.path.join(work, "naive"))
+        os.makedirs(os.path.join(work, "naive"))
+        script = os.path.join(work, "naive.sh")
+        with open(script, "w") as f:
+            f.write("set -e\n" + "\n".join(lines) + "\n")
+        joblist = os.path.join(work, "naive.jobs")
+        with open(joblist, "w") as f:
+            f.write("\n".join(lines) + "\n")
+
+        # An include that only some variants read: Fog.hlsl is included only by the fog variants.
+        shadows = os.path.join(ROOT, "shaderlib/Fog.hlsl")
+        original = open(shadows).read()
+
+        def kiln_cmd(out, cache, jobs):
+            return [kiln, "build", args.pack, "-o", out, "--cache", cache, "-j", str(jobs), "-q"]
+
+        def cold(jobs):
+            out, cache = os.path.join(work, f"cold{jobs}"), os.path.join(work, f"cache-cold{jobs}")
+            shutil.rmtree(out, ignore_errors=True)
+            shutil.rmtree(cache, ignore_errors=True)
+            return timed(kiln_cmd(out, cache, jobs))[0]
+
+        warm_out, warm_cache = os.path.join(work, "warm"), os.path.join(work, "cache-warm")
+        timed(kiln_cmd(warm_out, warm_cache, args.jobs))  # prime the cache
+
+        def warm_full_cache():
+            # Pack removed, cache full: every compile is a cache hit.
+            shutil.rmtree(warm_out, ignore_errors=True)
+            return timed(kiln_cmd(warm_out, warm_cache, args.jobs))[0]
+
+        def no_change():
+            return timed(kiln_cmd(warm_out, warm_cache, args.jobs))[0]
+
+        edit_counter = [0]
+
+        def include_edit():
+            edit_counter[0] += 1
+            with open(shadows, "w") as f:
+                f.write(original + f"\n// benchmark edit {edit_counter[0]}\nfloat KilnBenchEdit{edit_counter[0]}() {{ return 0.0; }}\n")
+            try:
+                elapsed, _ = timed(kiln_cmd(warm_out, warm_cache, args.jobs))
+            finally:
+                with open(shadows, "w") as f:
+                    f.write(original)
+            return elapsed
+
+        def naive_serial():
+            return timed(["bash", script])[0]
+
+        def naive_parallel():
+            return timed(f"xargs -P {args.jobs} -I CMD -d '\\n' bash -c CMD < {joblist}")[0]
+
+        configs = {
+            f"kiln cold -j{args.jobs}": lambda: cold(args.jobs),
+            "kiln cold -j1": lambda: cold(1),
+            "kiln warm (full cache, no pack)": warm_full_cache,
+            "kiln no-change rebuild": no_change,
+            "kiln after editing Fog.hlsl": include_edit,
+            "naive loop, serial": naive_serial,
+            f"naive loop, xargs -P{args.jobs}": naive_parallel,
+        }
+        samples = {name: [] for name in configs}
+        for rep in range(args.reps):
+            for name, fn in configs.items():
+                samples[name].append(fn())
+                print(f"rep {rep + 1}/{args.reps} {name}: {samples[name][-1]:.3f} s", flush=True)
+
+        # One more instrumented build for the funnel, stage times, and what the include edit recompiled.
+        cold_out = os.path.join(work, "funnel")
+        stats_run = run([kiln, "build", args.pack, "-o", cold_out, "--cache", os.path.join(work, "cache-funnel"), "-j", str(args.jobs)])
+        with open(shadows, "w") as f:
+            f.write(original + "\n// benchmark edit for the recompile count\n")
+        try:
+            edit_run = run([kiln, "build", args.pack, "-o", cold_out, "--cache", os.path.join(work, "cache-funnel"), "-j", str(args.jobs)])
+        finally:
+            with open(shadows, "w") as f:
+                f.write(original)
+        peak_kib = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+        manifest = json.load(open(os.path.join(cold_out, "lit.manifest.json")))
+
+        result = {
+            "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+            "machine": {"cpus": os.cpu_count(), "platform": platform.platform(),
+                        "memory_gib": round(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30, 1)},
+            "tools": manifest["tools"],
+            "pack": os.path.relpath(args.pack, ROOT),
+            "variants": variant_count,
+            "naive_stage_compiles": len(lines),
+            "funnel": manifest["funnel"],
+            "kiln_summary": stats_run.stdout,
+            "include_edit_summary": edit_run.stdout,
+            "peak_child_rss_mib": round(peak_kib / 1024, 1),
+            "reps": args.reps,
+            "samples_s": samples,
+            "median_s": {k: statistics.median(v) for k, v in samples.items()},
+        }
+        os.makedirs(os.path.dirname(args.out), exist_ok=True)
+        with open(args.out, "w") as f:
+            json.dump(result, f, indent=2)
+        print(json.dumps(result["median_s"], indent=2))
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()

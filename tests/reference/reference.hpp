@@ -1,0 +1,89 @@
+// kiln's CPU reference: the shader library's physics in double precision, under the same names as the
+// HLSL (shaderlib/), plus a Monte-Carlo integrator that produces ground truth (the DFG table the shaders
+// sample, directional albedo, white-furnace energy).
+//
+// Accuracy notes: the terms are exact formulas evaluated in double (relative error ~1e-15). The
+// integrators are deterministic (Hammersley points): GGX importance sampling has error roughly
+// proportional to 1/sqrt(N) at low roughness and far smaller at high roughness; brute-force midpoint
+// quadrature converges as 1/N^2 on smooth integrands and is used to check the sampler.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace kiln::reference {
+
+inline constexpr double kPi = 3.14159265358979323846;
+
+struct Vec3 {
+  double x = 0, y = 0, z = 0;
+};
+inline Vec3 operator+(Vec3 a, Vec3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+inline Vec3 operator-(Vec3 a, Vec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline Vec3 operator*(Vec3 a, double s) { return {a.x * s, a.y * s, a.z * s}; }
+double dot(Vec3 a, Vec3 b);
+Vec3 normalize(Vec3 v);
+
+// Conventions as in shaderlib/Common.hlsl.
+inline constexpr double kMinPerceptualRoughness = 0.045;  // fp32 shaders clamp here
+double PerceptualRoughnessToAlpha(double perceptualRoughness, double minimum = kMinPerceptualRoughness);
+double ComputeF0(double baseColor, double metallic, double reflectance);
+
+// BRDF terms (shaderlib/BRDF.hlsl).
+double D_GGX(double NoH, double a);
+double D_GGX_Anisotropic(double NoH, double ToH, double BoH, double at, double ab);
+double V_SmithGGXCorrelated(double NoV, double NoL, double a);
+double V_SmithGGXCorrelated_Fast(double NoV, double NoL, double a);
+double V_SmithGGX_Separable(double NoV, double NoL, double a);
+double V_SmithGGXCorrelated_Anisotropic(double at, double ab, double ToV, double BoV, double ToL, double BoL, double NoV,
+                                        double NoL);
+double F_Schlick(double f0, double f90, double VoH);
+double Fd_Lambert();
+double Fd_Burley(double NoV, double NoL, double LoH, double perceptualRoughness);
+double Fd_RenormalizedBurley(double NoV, double NoL, double LoH, double perceptualRoughness);
+
+// IBL (shaderlib/IBL.hlsl).
+std::array<double, 2> EnvBRDFApprox(double perceptualRoughness, double NoV);  // scale, bias: E = f0 * x + y
+double EnergyCompensation(double dfgY, double f0);
+
+// Lights (shaderlib/Lights.hlsl).
+double DistanceWindow(double distanceSquared, double inverseRangeSquared);
+double DistanceAttenuation(double distanceSquared, double inverseRangeSquared);
+double SpotAttenuation(double cosTheta, double cosInner, double cosOuter);
+std::array<double, 3> ColorTemperatureToLinearRGB(double kelvin);
+
+// Tone mapping (shaderlib/Tonemap.hlsl).
+std::array<double, 3> ACESFitted(std::array<double, 3> color);
+
+// Integrators. The view vector is in the x-z plane: V = (sqrt(1 - NoV^2), 0, NoV), N = +z.
+std::array<double, 2> hammersley(uint32_t i, uint32_t count);
+
+// Filament's DFG terms at (NoV, perceptual roughness): x = ∫ V·Fc·NoL, y = ∫ V·NoL (V = D·Vis·4·VoH/NoH
+// folded in), by GGX importance sampling with `samples` Hammersley points.
+std::array<double, 2> DFG(double NoV, double perceptualRoughness, uint32_t samples);
+
+// Directional albedo of single-scattering GGX (F = Schlick with f0, f90 = 1), by importance sampling.
+double SpecularAlbedo(double NoV, double alpha, double f0, uint32_t samples);
+// The same by brute-force midpoint quadrature over the hemisphere of L (n x n cells): the check.
+double SpecularAlbedoQuadrature(double NoV, double alpha, double f0, int n);
+
+// Closed forms used as oracles.
+double AlbedoAtAlphaOne(double NoV);          // 1 - mu ln(1 + 1/mu): GGX at alpha = 1, F = 1
+double AverageSchlickFresnel(double f0);     // (1 + 20 f0) / 21
+
+// The DFG table as shipped to shaders: width x height texels, texel (i, j) at NoV = (i + 0.5)/width,
+// perceptual roughness = (j + 0.5)/height; rg interleaved, row-major, rows by roughness.
+struct DfgTable {
+  int width = 0;
+  int height = 0;
+  std::vector<float> rg;
+  std::array<double, 2> sample(double NoV, double perceptualRoughness) const;  // bilinear, clamped
+};
+DfgTable make_dfg_table(int width, int height, uint32_t samples);
+// Binary file: "KDFG", u32 version 1, u32 width, u32 height, u32 samples, then float32 rg (little-endian).
+std::string encode_dfg_table(const DfgTable& table, uint32_t samples);
+DfgTable decode_dfg_table(const std::string& bytes);
+
+}  // namespace kiln::reference
