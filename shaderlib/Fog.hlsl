@@ -1,11 +1,17 @@
 // kiln shaderlib: Fog.hlsl — Unity's multi_compile_fog modes: FOG_LINEAR, FOG_EXP, FOG_EXP2.
-// The fog coordinate is the distance from the camera in world units; factor 1 = no fog.
+// The fog coordinate is the view depth (distance along the camera's forward axis, as Unity's fog uses
+// depth): linear in the position, so computing it per vertex and interpolating is exact. Factor 1 = no fog.
 #ifndef KILN_FOG_INCLUDED
 #define KILN_FOG_INCLUDED
 
 #if defined(FOG_LINEAR) || defined(FOG_EXP) || defined(FOG_EXP2)
 #define KILN_FOG 1
 #endif
+
+float ComputeFogDepth(float3 positionWS, float3 cameraPositionWS, float3 cameraForwardWS)
+{
+    return max(dot(positionWS - cameraPositionWS, cameraForwardWS), 0.0);
+}
 
 float ComputeFogFactor(float distance, float4 fogParams)
 {

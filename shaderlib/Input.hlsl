@@ -30,6 +30,7 @@
     float4   _ProbeBoxMin;
     float4   _ProbeBoxMax;
     uint4    _LightCounts;                // x additional lights, y Forward+ tile size in pixels, z tiles per row
+    float4   _CameraForwardWS;            // xyz: unit view direction (fog uses view depth along it)
 };
 
 [[vk::binding(1, 0)]] cbuffer PerMaterial : register(b1)

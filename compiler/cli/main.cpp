@@ -9,6 +9,7 @@
 #include "common/files.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
+#include "tools/pack_tools.hpp"
 
 namespace {
 
@@ -38,6 +39,12 @@ void print_summary(const kiln::BuildReport& r, std::ostream& out) {
     out << "  compiled " << r.compiled << ", cache hits " << r.cache_hits
         << (r.cache_rejected ? ", rejected cache entries " + std::to_string(r.cache_rejected) : std::string())
         << ", workers " << r.workers_started << "\n";
+  if (!r.up_to_date && !r.strip_report.empty()) {
+    out << "  strip report:\n";
+    for (const kiln::StripLine& line : r.strip_report)
+      out << "    " << line.pass << ": " << line.what << ": " << line.count
+          << (line.reason.empty() ? "" : " (" + line.reason + ")") << "\n";
+  }
   out << "  time:";
   for (size_t i = 0; i < r.timings.size(); ++i)
     out << (i ? ", " : " ") << r.timings[i].stage << " " << format_ms(r.timings[i].milliseconds);
@@ -135,6 +142,57 @@ int run_inspect(const std::string& pack_dir, bool as_json, const std::string& ex
   }
 }
 
+int run_check_scene(const std::string& pack_dir, const std::string& scene, bool as_json) {
+  kiln::DiagnosticSink sink;
+  print_diagnostics_as_they_come(sink);
+  try {
+    kiln::PackReader pack = kiln::PackReader::open(pack_dir);
+    auto result = kiln::check_scene(pack, scene, sink);
+    if (!result) return 1;
+    if (as_json) {
+      json missing = json::array();
+      for (const auto& m : result->missing) missing.push_back({{"pass", m.pass}, {"keywords", m.keywords}});
+      std::cout << json{{"requested", result->requested}, {"missing", missing}}.dump(2) << "\n";
+    } else {
+      for (const auto& m : result->missing)
+        std::cout << scene << ": error: pass '" << m.pass << "' variant [" << kiln::join_keywords(m.keywords)
+                  << "] can be requested by the scene but is not in pack '" << pack.name() << "'\n";
+      std::cout << "kiln check-scene: " << result->requested << " combinations the scene can request, "
+                << result->missing.size() << " missing\n";
+    }
+    return result->missing.empty() ? 0 : 1;
+  } catch (const kiln::PackError& error) {
+    std::cerr << pack_dir << ": error: " << error.what() << "\n";
+    return 1;
+  }
+}
+
+int run_diff_packs(const std::string& a, const std::string& b, bool as_json) {
+  try {
+    kiln::PackReader first = kiln::PackReader::open(a), second = kiln::PackReader::open(b);
+    kiln::PackDiff diff = kiln::diff_packs(first, second);
+    if (as_json) {
+      auto list = [](const std::vector<kiln::KeywordCombination>& items) {
+        json out = json::array();
+        for (const auto& i : items) out.push_back({{"pass", i.pass}, {"keywords", i.keywords}});
+        return out;
+      };
+      std::cout << json{{"added", list(diff.added)}, {"removed", list(diff.removed)}, {"changed", list(diff.changed)}}.dump(2)
+                << "\n";
+    } else {
+      for (const auto& i : diff.removed) std::cout << "- " << i.pass << " [" << kiln::join_keywords(i.keywords) << "]\n";
+      for (const auto& i : diff.added) std::cout << "+ " << i.pass << " [" << kiln::join_keywords(i.keywords) << "]\n";
+      for (const auto& i : diff.changed) std::cout << "~ " << i.pass << " [" << kiln::join_keywords(i.keywords) << "]\n";
+      std::cout << diff.added.size() << " added, " << diff.removed.size() << " removed, " << diff.changed.size()
+                << " changed\n";
+    }
+    return 0;
+  } catch (const kiln::PackError& error) {
+    std::cerr << "kiln diff-packs: error: " << error.what() << "\n";
+    return 1;
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -164,6 +222,10 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember(kiln::emit_stage_names()))
       ->delimiter(',');
   build->add_option("--depfile", depfile, "Write a Makefile-style depfile listing every input read");
+  std::vector<std::string> target_names;
+  build->add_option("--targets", target_names, "Override the pack's targets: spirv, glsl, gles, msl (comma-separated)")
+      ->check(CLI::IsMember({"spirv", "glsl", "gles", "msl"}))
+      ->delimiter(',');
   build->add_option("--worker-timeout", timeout_s, "Seconds one compile job may take before it is an internal error");
   build->add_flag("-q,--quiet", quiet, "Print only diagnostics");
 
@@ -184,7 +246,20 @@ int main(int argc, char** argv) {
   add_scene(lint);
   lint->add_flag("--werror", werror, "Treat warnings as errors");
 
+  std::string scene_file, other_dir;
+  CLI::App* check = app.add_subcommand("check-scene", "Report every variant a scene can request that a built pack lacks");
+  check->add_option("pack_dir", pack_dir, "Directory holding a pack (or its manifest)")->required();
+  check->add_option("scene", scene_file, "Scene profile (JSON)")->required()->check(CLI::ExistingFile);
+  check->add_flag("--json", as_json, "Print JSON");
+
+  CLI::App* diff = app.add_subcommand("diff-packs", "Show the variants added, removed or changed between two packs");
+  diff->add_option("a", pack_dir, "The old pack")->required();
+  diff->add_option("b", other_dir, "The new pack")->required();
+  diff->add_flag("--json", as_json, "Print JSON");
+
   CLI11_PARSE(app, argc, argv);
+  if (*check) return run_check_scene(pack_dir, scene_file, as_json);
+  if (*diff) return run_diff_packs(pack_dir, other_dir, as_json);
 
   options.pack_file = pack_file;
   for (const auto& s : scenes) options.scene_files.push_back(s);
@@ -192,6 +267,7 @@ int main(int argc, char** argv) {
   options.worker_timeout = std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
   if (!depfile.empty()) options.depfile = depfile;
   options.emit.insert(emit.begin(), emit.end());
+  for (const auto& name : target_names) options.targets.push_back(*kiln::parse_target(name));
 
   if (*build) {
     options.output_dir = output;

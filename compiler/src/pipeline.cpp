@@ -59,6 +59,7 @@ struct Plan {
   std::vector<PassDeclarations> declarations;
   std::vector<PassKeywords> passes;
   std::vector<PassExpansion> expansions;
+  std::vector<StripLine> strip;
   Funnel funnel;
 };
 
@@ -108,6 +109,25 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sin
     auto expansions = expand_and_strip(plan->passes, rules, plan->pack.budget, plan->pack, sink);
     if (!expansions) return nullptr;
     plan->expansions = std::move(*expansions);
+    for (size_t p = 0; p < plan->expansions.size(); ++p) {
+      const PassExpansion& e = plan->expansions[p];
+      const std::string& pass = plan->pack.passes[p].name;
+      for (const auto& effect : e.strip.constraints) {
+        const Constraint& c = *effect.constraint;
+        std::string rule = "constraint " + c.keyword;
+        if (!c.requires_all.empty()) rule += " requires [" + join_keywords(c.requires_all) + "]";
+        if (!c.requires_any.empty()) rule += " requires_any [" + join_keywords(c.requires_any) + "]";
+        if (!c.excludes.empty()) rule += " excludes [" + join_keywords(c.excludes) + "]";
+        plan->strip.push_back({pass, rule, "-" + effect.removed.text(), c.reason});
+      }
+      if (!plan->pack.materials.empty() && (e.valid.saturated || e.strip.after_materials.value != e.valid.value))
+        plan->strip.push_back({pass, "materials (" + std::to_string(plan->pack.materials.size()) + " presets)",
+                               e.valid.text() + " -> " + e.strip.after_materials.text(),
+                               "shader_feature combinations no material uses"});
+      if (!plan->scenes.empty())
+        plan->strip.push_back({pass, "scenes (" + std::to_string(plan->scenes.size()) + ")",
+                               e.strip.after_materials.text() + " -> " + e.kept.text(), "keywords no scene enables"});
+    }
     for (const PassExpansion& e : plan->expansions) {
       plan->funnel.declared_saturated |= e.declared.saturated;
       plan->funnel.declared += e.declared.value;
@@ -225,6 +245,26 @@ json keyword_group_json(const KeywordGroup& group) {
   return {{"pragma", group.pragma}, {"values", values}, {"stages", stages}};
 }
 
+// Recorded in the manifest so that tools (check-scene) can reason about a built pack on its own.
+json constraints_json(const PackDefinition& pack) {
+  json out = json::array();
+  for (const Constraint& c : pack.constraints) {
+    json item{{"keyword", c.keyword}};
+    if (!c.requires_all.empty()) item["requires"] = c.requires_all;
+    if (!c.requires_any.empty()) item["requires_any"] = c.requires_any;
+    if (!c.excludes.empty()) item["excludes"] = c.excludes;
+    if (!c.reason.empty()) item["reason"] = c.reason;
+    out.push_back(item);
+  }
+  return out;
+}
+
+json materials_json(const PackDefinition& pack) {
+  json out = json::array();
+  for (const MaterialPreset& m : pack.materials) out.push_back({{"name", m.name}, {"keywords", m.keywords}});
+  return out;
+}
+
 std::string depfile_escape(const std::string& path) {
   std::string out;
   for (char c : path) {
@@ -298,6 +338,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   auto plan = make_plan(options, sink, report);
   if (!plan) return finish();
   report.funnel = plan->funnel;
+  report.strip_report = plan->strip;
   report.dependencies.push_back(std::filesystem::absolute(options.pack_file));
   for (const auto& scene : options.scene_files) report.dependencies.push_back(std::filesystem::absolute(scene));
   for (const auto& [path, file] : plan->sources.files) report.dependencies.push_back(path);
@@ -321,11 +362,15 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
 
   auto frontend = make_glslang_frontend();
   const std::string fingerprint = tools_fingerprint(*frontend);
-  std::vector<Target> targets = plan->pack.targets;
+  std::vector<Target> targets = options.targets.empty() ? plan->pack.targets : options.targets;
+  if (std::find(targets.begin(), targets.end(), Target::Spirv) == targets.end()) targets.insert(targets.begin(), Target::Spirv);
+  std::sort(targets.begin(), targets.end());
 
   // Up to date? The inputs hash covers tools, options and the bytes of every file read.
   Hasher inputs;
-  inputs.add(fingerprint).add(options.optimize ? 1 : 0).add(plan->pack.text);
+  std::string target_names;
+  for (Target t : targets) target_names += std::string(target_name(t)) + ",";
+  inputs.add(fingerprint).add(options.optimize ? 1 : 0).add(target_names).add(plan->pack.text);
   for (const SceneProfile& scene : plan->scenes) inputs.add(scene.text);
   for (const auto& [path, file] : plan->sources.files) inputs.add(path.string()).add(file.text);
   const std::string inputs_hash = inputs.finish().hex();
@@ -613,8 +658,8 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
                              {"layout", pass_layouts[p]},
                              {"variants", variants}});
     }
-    json target_names = json::array();
-    for (Target t : targets) target_names.push_back(target_name(t));
+    json target_list_json = json::array();
+    for (Target t : targets) target_list_json.push_back(target_name(t));
     report.funnel.unique_binaries = binaries_json.size();
     const Funnel& f = report.funnel;
     json manifest{{"format", kManifestFormat},
@@ -624,13 +669,15 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
                   {"tools", {{"frontend", frontend->name() + " " + frontend->version()},
                              {"spirv_tools", spirv_tools_version()},
                              {"spirv_cross", spirv_cross_version()}}},
-                  {"options", {{"optimize", options.optimize}, {"targets", target_names},
+                  {"options", {{"optimize", options.optimize}, {"targets", target_list_json},
                                {"spirv_env", "vulkan1.1"}, {"glsl_version", 450}, {"gles_version", 310},
                                {"msl_version", "2.1"}, {"gl_clip_space_fixup", true}}},
                   {"inputs_hash", inputs_hash},
                   {"funnel", {{"declared", f.declared}, {"valid", f.valid}, {"kept", f.kept},
                               {"stage_instances", f.stage_instances}, {"unique_preprocessed", f.unique_preprocessed},
                               {"unique_compiles", f.unique_compiles}, {"unique_binaries", f.unique_binaries}}},
+                  {"constraints", constraints_json(plan->pack)},
+                  {"materials", materials_json(plan->pack)},
                   {"passes", passes_json},
                   {"binaries", binaries_json},
                   {"reflections", reflections_json}};

@@ -10,7 +10,7 @@
 #pragma multi_compile _ _ADDITIONAL_LIGHTS_VERTEX _ADDITIONAL_LIGHTS
 #pragma multi_compile_fragment _ _ADDITIONAL_LIGHT_SHADOWS
 #pragma multi_compile_fragment _ _FORWARD_PLUS
-// ---- Fog (computed per pixel: the vertex stage does not read it, so its vertex variants dedupe to one)
+// ---- Fog: the vertex stage computes the fog depth, the fragment stage the fog factor
 #pragma multi_compile_fog
 // ---- Energy compensation for multiple scattering (needs the DFG table)
 #pragma multi_compile_fragment _ _MULTISCATTER
@@ -56,6 +56,9 @@ struct Varyings
 #if defined(_MAIN_LIGHT_SHADOWS)
     float3 shadowCoord : TEXCOORD4;  // single cascade: projected per vertex; cascades select per pixel
 #endif
+#if defined(KILN_FOG)
+    float fogDepth : TEXCOORD5;      // view depth: linear in the position, so interpolation is exact
+#endif
 };
 
 Varyings LitVertex(Attributes input)
@@ -75,6 +78,9 @@ Varyings LitVertex(Attributes input)
 #endif
 #if defined(_MAIN_LIGHT_SHADOWS)
     output.shadowCoord = MainLightShadowCoord(output.positionWS, 0);
+#endif
+#if defined(KILN_FOG)
+    output.fogDepth = ComputeFogDepth(output.positionWS, _CameraPositionWS.xyz, _CameraForwardWS.xyz);
 #endif
     return output;
 }
@@ -111,7 +117,8 @@ float4 LitFragment(Varyings input, bool frontFace : SV_IsFrontFace) : SV_Target
 {
     SurfaceData surface = InitializeSurface(input, frontFace);
     real NoVForTable = (real)max(dot(surface.normalWS, surface.viewWS), MIN_N_DOT_V);
-    real2 dfg = SampleDFG(_DFG, sampler_LinearClamp, NoVForTable, ClampedPerceptualRoughness(surface.perceptualRoughness));
+    // Tables and mips are indexed by the authored roughness: clamping belongs to BRDF evaluation only (seed 000).
+    real2 dfg = SampleDFG(_DFG, sampler_LinearClamp, NoVForTable, (real)saturate(surface.perceptualRoughness));
     ShadingData s = PrepareShading(surface, dfg);
 
     // Main light.
@@ -147,14 +154,14 @@ float4 LitFragment(Varyings input, bool frontFace : SV_IsFrontFace) : SV_Target
     float3 R = reflect(-s.V, s.N);
     if (_ProbePositionWS.w > 0.0)
         R = BoxProjectedDirection(R, input.positionWS, _ProbePositionWS.xyz, _ProbeBoxMin.xyz, _ProbeBoxMax.xyz);
-    float3 prefiltered = SamplePrefilteredEnvironment(_EnvironmentMap, sampler_LinearClamp, R, (float)s.perceptualRoughness,
+    float3 prefiltered = SamplePrefilteredEnvironment(_EnvironmentMap, sampler_LinearClamp, R, saturate(_PerceptualRoughness),
                                                       _EnvironmentParams.x);
 #endif
     color += IndirectLighting(s, irradianceOverPi * _EnvironmentParams.z, prefiltered * _EnvironmentParams.z);
 
     float3 radiance = (float3)color;
 #if defined(KILN_FOG)
-    float fogFactor = ComputeFogFactor(length(_CameraPositionWS.xyz - input.positionWS), _FogParams);
+    float fogFactor = ComputeFogFactor(input.fogDepth, _FogParams);
     radiance = MixFog(radiance, _FogColor.rgb, fogFactor);
 #endif
     radiance *= _EnvironmentParams.y;  // exposure

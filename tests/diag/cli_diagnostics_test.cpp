@@ -5,6 +5,10 @@
 #include <sys/ioctl.h>
 #include <sys/stat.h>
 
+#include <future>
+
+#include <nlohmann/json.hpp>
+
 #include "test_support.hpp"
 
 namespace kiln {
@@ -261,6 +265,108 @@ TEST_F(Cli, EveryVerbHasHelp) {
     EXPECT_EQ(r.exit_code, 0) << verb;
     EXPECT_NE(r.out.find("Usage:"), std::string::npos) << verb;
   }
+}
+
+}  // namespace
+}  // namespace kiln
+
+namespace kiln {
+namespace {
+
+TEST_F(Cli, ListJsonShowsTheKeywordsEachStageSees) {
+  dir.write("S.hlsl", std::string("#pragma multi_compile _ A\n#pragma multi_compile_fragment _ B\n") + kEntries);
+  auto r = testing::run_kiln({"list", "p.pack.json", "--json"}, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  auto listing = nlohmann::json::parse(r.out);
+  ASSERT_EQ(listing["variants"].size(), 4u);
+  EXPECT_EQ(listing["variants"][3]["keywords"], nlohmann::json::array({"A", "B"}));
+  EXPECT_EQ(listing["variants"][3]["stages"]["vertex"], nlohmann::json::array({"A"}));
+  EXPECT_EQ(listing["variants"][3]["stages"]["fragment"], nlohmann::json::array({"A", "B"}));
+}
+
+TEST_F(Cli, InspectExtractWritesEveryBlobWithItsTargetExtension) {
+  dir.write("S.hlsl", kEntries);
+  ASSERT_EQ(build().exit_code, 0);
+  auto r = testing::run_kiln({"inspect", "out", "--extract", "blobs"}, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("pass P: 1 variants"), std::string::npos) << r.out;
+  for (const char* name : {"binary0.vertex.spv", "binary0.vertex.glsl", "binary0.vertex.es.glsl", "binary0.vertex.metal",
+                           "binary1.fragment.spv"})
+    EXPECT_TRUE(std::filesystem::exists(dir / "blobs" / name)) << name;
+  std::string spirv = testing::read_file(dir / "blobs/binary1.fragment.spv");
+  ASSERT_GE(spirv.size(), 4u);
+  EXPECT_EQ(static_cast<unsigned char>(spirv[0]), 0x03);  // SPIR-V magic 0x07230203, little-endian
+  EXPECT_EQ(static_cast<unsigned char>(spirv[3]), 0x07);
+}
+
+TEST_F(Cli, InspectOfACorruptPackIsAClearError) {
+  dir.write("S.hlsl", kEntries);
+  ASSERT_EQ(build().exit_code, 0);
+  std::string archive = testing::read_file(dir / "out/p.kpack");
+  archive[archive.size() / 2] ^= 0x10;
+  dir.write("out/p.kpack", archive);
+  auto r = testing::run_kiln({"inspect", "out"}, dir.path());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "out: error: archive of pack 'p' fails its checksum\n");
+}
+
+TEST_F(Cli, ConcurrentBuildsSharingOneCacheAgreeByteForByte) {
+  std::string pragmas;
+  for (int i = 0; i < 4; ++i) pragmas += "#pragma multi_compile_fragment _ K" + std::to_string(i) + "\n";
+  dir.write("S.hlsl", pragmas + "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                                "float4 F() : SV_Target { float c = 0.1;\n"
+                                "#ifdef K0\n c *= 2.0;\n#endif\n#ifdef K1\n c += 0.3;\n#endif\n"
+                                "#ifdef K2\n c = sqrt(c);\n#endif\n#ifdef K3\n c = c * c;\n#endif\n return c; }\n");
+  auto a = std::async(std::launch::async, [&] {
+    return testing::run_kiln({"build", "p.pack.json", "-o", "outA", "--cache", "shared", "-q"}, dir.path());
+  });
+  auto b = std::async(std::launch::async, [&] {
+    return testing::run_kiln({"build", "p.pack.json", "-o", "outB", "--cache", "shared", "-q"}, dir.path());
+  });
+  auto ra = a.get(), rb = b.get();
+  ASSERT_EQ(ra.exit_code, 0) << ra.err;
+  ASSERT_EQ(rb.exit_code, 0) << rb.err;
+  EXPECT_EQ(testing::read_file(dir / "outA/p.kpack"), testing::read_file(dir / "outB/p.kpack"));
+  EXPECT_EQ(testing::read_file(dir / "outA/p.manifest.json"), testing::read_file(dir / "outB/p.manifest.json"));
+  // No temporary files are left in the shared cache.
+  for (const auto& file : testing::files_below(dir / "shared"))
+    EXPECT_EQ(file.filename().string().find(".tmp."), std::string::npos) << file;
+}
+
+}  // namespace
+}  // namespace kiln
+
+namespace kiln {
+namespace {
+
+TEST_F(Cli, CheckSceneFindsVariantsTheSceneNeedsButThePackLacks) {
+  dir.write("S.hlsl", std::string("#pragma multi_compile _ A\n#pragma multi_compile_fragment _ B\n") + kEntries);
+  dir.write("a.json", R"({"name": "a", "keywords": ["A"]})");
+  dir.write("ab.json", R"({"name": "ab", "keywords": ["A", "B"]})");
+  ASSERT_EQ(build({"--scene", "a.json"}).exit_code, 0);
+  auto ok = testing::run_kiln({"check-scene", "out", "a.json"}, dir.path());
+  EXPECT_EQ(ok.exit_code, 0) << ok.out << ok.err;
+  EXPECT_EQ(ok.out, "kiln check-scene: 2 combinations the scene can request, 0 missing\n");
+  auto missing = testing::run_kiln({"check-scene", "out", "ab.json"}, dir.path());
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_EQ(missing.out,
+            "ab.json: error: pass 'P' variant [B] can be requested by the scene but is not in pack 'p'\n"
+            "ab.json: error: pass 'P' variant [A B] can be requested by the scene but is not in pack 'p'\n"
+            "kiln check-scene: 4 combinations the scene can request, 2 missing\n");
+}
+
+TEST_F(Cli, DiffPacksShowsAddedRemovedAndChangedVariants) {
+  dir.write("S.hlsl", std::string("#pragma multi_compile _ A\n#pragma multi_compile_fragment _ B\n") + kEntries);
+  dir.write("a.json", R"({"name": "a", "keywords": ["A"]})");
+  dir.write("b.json", R"({"name": "b", "keywords": ["B"]})");
+  ASSERT_EQ(build({"--scene", "a.json"}).exit_code, 0);
+  std::filesystem::rename(dir / "out", dir / "old");
+  dir.write("S.hlsl", std::string("#pragma multi_compile _ A\n#pragma multi_compile_fragment _ B\n") +
+                          "float4 V(float4 p : POSITION) : SV_Position { return p * 2.0; }\nfloat4 F() : SV_Target { return 1.0; }\n");
+  ASSERT_EQ(build({"--scene", "b.json"}).exit_code, 0);
+  auto r = testing::run_kiln({"diff-packs", "old", "out"}, dir.path());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "- P [A]\n+ P [B]\n~ P [<none>]\n1 added, 1 removed, 1 changed\n");
 }
 
 }  // namespace

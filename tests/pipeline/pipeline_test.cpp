@@ -1,6 +1,9 @@
 // Whole builds through the library: determinism, incremental rebuilds, the bundled library.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <map>
+
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
 #include "test_support.hpp"
@@ -141,6 +144,41 @@ TEST(BundledLibrary, DefaultPackBuildsWithoutWarningsAndEveryVariantIsSelectable
     }
   }
   EXPECT_EQ(variants, report.funnel.kept);
+
+  // Every keyword changes the compiled code of a stage it is declared for: some pair of variants that
+  // differ only in that keyword (against the group's off value) has a different binary in such a stage.
+  for (const auto& pass : pack.manifest().at("passes")) {
+    const auto& groups = pass.at("keyword_groups");
+    std::map<std::vector<std::string>, size_t> by_keywords;
+    const auto& all = pass.at("variants");
+    for (size_t i = 0; i < all.size(); ++i) by_keywords[all[i].at("keywords").get<std::vector<std::string>>()] = i;
+    for (const auto& group : groups) {
+      std::vector<std::string> values = group.at("values").get<std::vector<std::string>>();
+      for (const std::string& keyword : values) {
+        if (keyword == "_") continue;
+        bool changes = false, compared = false;
+        for (const auto& [keywords, index] : by_keywords) {
+          if (std::find(keywords.begin(), keywords.end(), keyword) == keywords.end()) continue;
+          std::vector<std::string> without;
+          for (const std::string& k : keywords)
+            if (k != keyword) without.push_back(k);
+          auto other = by_keywords.find(without);
+          if (other == by_keywords.end()) continue;
+          compared = true;
+          for (const auto& stage : group.at("stages")) {
+            const std::string name = stage.get<std::string>();
+            if (all[index].at("binaries").contains(name) &&
+                all[index].at("binaries").at(name) != all[other->second].at("binaries").at(name))
+              changes = true;
+          }
+          if (changes) break;
+        }
+        if (compared) {
+          EXPECT_TRUE(changes) << pass.at("name") << ": keyword " << keyword << " changes no code of its stages";
+        }
+      }
+    }
+  }
   // Forward+ needs per-pixel additional lights: the combination with per-vertex lights is stripped.
   try {
     pack.select("Forward", {"_FORWARD_PLUS", "_ADDITIONAL_LIGHTS_VERTEX"});
@@ -148,6 +186,49 @@ TEST(BundledLibrary, DefaultPackBuildsWithoutWarningsAndEveryVariantIsSelectable
   } catch (const PackError& e) {
     EXPECT_EQ(e.code(), PackError::Code::Stripped);
   }
+}
+
+}  // namespace
+}  // namespace kiln
+
+namespace kiln {
+namespace {
+
+TEST_F(SmallLibrary, StripReportSaysWhatEachRuleRemovedAndWhy) {
+  dir.write("p.pack.json", R"({"name": "p", "include_dirs": ["lib"],
+    "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}],
+    "constraints": [{"keyword": "FOG", "requires": ["SHADOWS"], "reason": "fog only outdoors"}]})");
+  dir.write("outdoor.json", R"({"name": "outdoor", "keywords": ["SHADOWS"]})");
+  BuildOptions options;
+  options.pack_file = dir / "p.pack.json";
+  options.scene_files = {dir / "outdoor.json"};
+  options.output_dir = dir / "out";
+  options.worker_executable = KILN_WORKER_PATH;
+  DiagnosticSink sink;
+  BuildReport report = build_pack(options, sink);
+  ASSERT_TRUE(report.ok) << errors_of(sink);
+  ASSERT_EQ(report.strip_report.size(), 2u);
+  EXPECT_EQ(report.strip_report[0].what, "constraint FOG requires [SHADOWS]");
+  EXPECT_EQ(report.strip_report[0].count, "-1");  // [FOG] alone
+  EXPECT_EQ(report.strip_report[0].reason, "fog only outdoors");
+  EXPECT_EQ(report.strip_report[1].what, "scenes (1)");
+  EXPECT_EQ(report.strip_report[1].count, "3 -> 2");  // the scene never enables FOG
+}
+
+TEST_F(SmallLibrary, TargetsCanBeNarrowedFromTheCommandLine) {
+  BuildOptions options;
+  options.pack_file = dir / "p.pack.json";
+  options.output_dir = dir / "out";
+  options.worker_executable = KILN_WORKER_PATH;
+  options.targets = {Target::Glsl};
+  DiagnosticSink sink;
+  ASSERT_TRUE(build_pack(options, sink).ok) << errors_of(sink);
+  PackReader pack = PackReader::open(dir / "out");
+  SelectedVariant v = pack.variant("P", 0);
+  EXPECT_FALSE(v.stages[0].spirv.empty());  // SPIR-V is always built: every target comes from it
+  EXPECT_FALSE(v.stages[0].glsl.empty());
+  EXPECT_TRUE(v.stages[0].msl.empty());
+  EXPECT_TRUE(v.stages[0].gles.empty());
 }
 
 }  // namespace

@@ -34,6 +34,7 @@ struct BuildOptions {
   std::chrono::milliseconds worker_timeout{120'000};
   uint64_t worker_memory_limit_mb = 4096;
   bool optimize = true;
+  std::vector<Target> targets;                      // empty: the pack definition's targets
   uint64_t max_file_bytes = 4u << 20;
   std::function<void(size_t done, size_t total, size_t cache_hits)> progress;
 };
@@ -50,6 +51,14 @@ struct Funnel {
   uint64_t unique_binaries = 0;    // distinct optimized SPIR-V: what the pack stores
 };
 
+// Per pass: what each constraint removes on its own (with its reason), then materials and scenes.
+struct StripLine {
+  std::string pass;
+  std::string what;     // "constraint _SHADOWS_SOFT requires_any [...]", "materials", "scenes"
+  std::string count;    // variants removed, or "n -> m"
+  std::string reason;
+};
+
 struct StageTiming {
   std::string stage;
   double milliseconds = 0;
@@ -61,6 +70,7 @@ struct BuildReport {
   bool internal_errors = false;     // a worker crashed/hung/ran out of memory
   Funnel funnel;
   std::vector<StageTiming> timings;
+  std::vector<StripLine> strip_report;
   size_t compiled = 0;              // jobs sent to workers
   size_t cache_hits = 0;
   size_t cache_rejected = 0;

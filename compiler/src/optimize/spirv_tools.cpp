@@ -18,6 +18,14 @@ spvtools::MessageConsumer collect_into(std::vector<std::string>& messages) {
   };
 }
 
+// kiln validates explicitly after legalization and after optimization; the optimizer's own validation of
+// its input would repeat that work (and the raw front-end output is not legal SPIR-V yet anyway).
+spvtools::OptimizerOptions optimizer_options() {
+  spvtools::OptimizerOptions options;
+  options.set_run_validator(false);
+  return options;
+}
+
 bool run_validator(const std::vector<uint32_t>& spirv, std::vector<std::string>& messages) {
   spvtools::SpirvTools tools(kTargetEnv);
   tools.SetMessageConsumer(collect_into(messages));
@@ -43,7 +51,7 @@ SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool opt
     legalizer.SetMessageConsumer(collect_into(result.messages));
     legalizer.RegisterLegalizationPasses();
     std::vector<uint32_t> legal;
-    if (!legalizer.Run(spirv.data(), spirv.size(), &legal)) return result;
+    if (!legalizer.Run(spirv.data(), spirv.size(), &legal, optimizer_options())) return result;
     spirv = std::move(legal);
   }
   result.step = "validate";
@@ -54,7 +62,7 @@ SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool opt
     optimizer.SetMessageConsumer(collect_into(result.messages));
     optimizer.RegisterPerformancePasses();
     std::vector<uint32_t> optimized;
-    if (!optimizer.Run(spirv.data(), spirv.size(), &optimized)) return result;
+    if (!optimizer.Run(spirv.data(), spirv.size(), &optimized, optimizer_options())) return result;
     spirv = std::move(optimized);
     result.step = "validate-optimized";
     if (!run_validator(spirv, result.messages)) return result;

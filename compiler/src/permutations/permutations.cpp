@@ -284,6 +284,37 @@ std::optional<std::vector<PassExpansion>> expand_and_strip(const std::vector<Pas
     }
     e.valid = multiply(free_product, valid_walker.run(0, 0));
 
+    // The strip report: each constraint on its own, then the materials.
+    for (size_t c = 0; c < constraints.size(); ++c) {
+      std::vector<BoundConstraint> single = bind_constraints(pass, std::vector<Constraint>{constraints[c]});
+      if (single.empty()) continue;
+      std::vector<bool> touched(pass.groups.size(), false);
+      touched[single[0].subject.group] = true;
+      for (const auto* list : {&single[0].requires_all, &single[0].requires_any, &single[0].excludes})
+        for (const KeywordRef& k : *list)
+          if (k.group >= 0) touched[k.group] = true;
+      Walker walker{pass, single, nullptr, nullptr, {}, std::numeric_limits<uint64_t>::max(), nullptr};
+      VariantCount rest{1, false};
+      for (size_t g = 0; g < pass.groups.size(); ++g) {
+        if (touched[g]) walker.order.push_back(static_cast<int>(g));
+        else rest = multiply(rest, pass.groups[g].values.size());
+      }
+      VariantCount kept_by_this = multiply(rest, walker.run(0, 0));
+      VariantCount removed = e.declared;
+      if (!removed.saturated && !kept_by_this.saturated) removed.value -= kept_by_this.value;
+      e.strip.constraints.push_back({&constraints[c], removed});
+    }
+    if (!materials.empty()) {
+      // Counted up to a cap: the report only needs "how many", and 2^40-variant packs must stay instant.
+      SceneMasks material_filter = material_masks(pass, materials);
+      Walker walker{pass, bound, nullptr, &material_filter, {}, uint64_t{1} << 24, nullptr};
+      for (size_t g = 0; g < pass.groups.size(); ++g) walker.order.push_back(static_cast<int>(g));
+      uint64_t count = walker.run(0, all_scenes(materials.size()));
+      e.strip.after_materials = {count, count >= (uint64_t{1} << 24)};
+    } else {
+      e.strip.after_materials = e.valid;
+    }
+
     // Kept count: with scenes every group matters, so walk them all but stop one past the budget.
     uint64_t remaining = total.saturated || total.value >= budget ? 0 : budget - total.value;
     if (scenes.empty() && materials.empty()) {

@@ -22,11 +22,22 @@ struct VariantCount {
   std::string text() const;
 };
 
+// What stripping removed from one pass, and why (printed by `kiln build`).
+struct StripReport {
+  struct ConstraintEffect {
+    const Constraint* constraint = nullptr;
+    VariantCount removed;  // variants this constraint alone removes from the declared set
+  };
+  std::vector<ConstraintEffect> constraints;
+  VariantCount after_materials;  // after constraints and materials (before scenes)
+};
+
 struct PassExpansion {
   VariantCount declared;        // product of group sizes
   VariantCount valid;           // after constraints
   VariantCount kept;            // after constraints, materials and scenes
   std::vector<Variant> variants;  // in odometer order (last group fastest)
+  StripReport strip;
 };
 
 struct StripRules {

@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# Builds and runs the consumer project, then checks incremental behaviour:
+#   touching an included HLSL file rebuilds the pack; touching an unrelated file does not;
+#   changing the scene list changes the pack.
+# usage: run_consumer_test.sh <find_package|subdirectory> <generator> <kiln source dir> <kiln build dir>
+set -euo pipefail
+mode=$1 generator=$2 source=$3 build=$4
+work=$(mktemp -d /tmp/kiln-consumer-XXXXXX)
+trap 'rm -rf "$work"' EXIT
+# The shader library is copied so that the test can touch its files without touching the checkout.
+cp -r "$source/shaderlib" "$source/variants" "$work/"
+mkdir "$work/kiln-src"
+for entry in CMakeLists.txt CMakePresets.json compiler cmake tests bench; do ln -s "$source/$entry" "$work/kiln-src/$entry"; done
+ln -s "$work/shaderlib" "$work/kiln-src/shaderlib"
+ln -s "$work/variants" "$work/kiln-src/variants"
+extra=()
+if [ "$mode" = find_package ]; then
+  cmake --install "$build" --prefix "$work/prefix" > /dev/null
+  extra=(-DCMAKE_PREFIX_PATH="$work/prefix")
+fi
+cmake -S "$source/tests/cmake_consumer" -B "$work/build" -G "$generator" -DCMAKE_BUILD_TYPE=Release \
+  -DKILN_CONSUMER_MODE="$mode" -DKILN_SOURCE_DIR="$work/kiln-src" \
+  -DKILN_CONSUMER_SCENES="$work/variants/scenes/mobile.json" "${extra[@]}" > "$work/configure.log"
+cmake --build "$work/build" -j 2 > "$work/build1.log"
+"$work/build/consumer"
+manifest=$(find "$work/build" -name lit.manifest.json -path '*lit_pack*')
+test -f "$manifest"
+
+stamp() { stat -c %Y.%y "$manifest"; }
+rebuilds() { cmake --build "$work/build" -j 2 2>&1 | tee "$work/last.log" | grep -c "kiln: building shader pack" || true; }
+
+echo "== no change: nothing is rebuilt"
+[ "$(rebuilds)" = 0 ] || { cat "$work/last.log"; echo "FAIL: a no-change build rebuilt the pack"; exit 1; }
+
+echo "== an unrelated file changes: nothing is rebuilt"
+sleep 1.1; touch "$work/shaderlib/README.md"
+[ "$(rebuilds)" = 0 ] || { cat "$work/last.log"; echo "FAIL: touching an unrelated file rebuilt the pack"; exit 1; }
+
+echo "== an included file changes: the pack is rebuilt"
+before=$(stamp)
+sleep 1.1; echo "// edited by the consumer test" >> "$work/shaderlib/Fog.hlsl"
+[ "$(rebuilds)" = 1 ] || { cat "$work/last.log"; echo "FAIL: editing Fog.hlsl did not rebuild the pack"; exit 1; }
+[ "$(stamp)" != "$before" ] || { echo "FAIL: the pack was not rewritten"; exit 1; }
+"$work/build/consumer" > /dev/null
+
+echo "== the scene list changes: the pack changes"
+variants_before=$("$work/build/consumer" | head -1)
+cmake "$work/build" -DKILN_CONSUMER_SCENES="$work/variants/scenes/mobile.json;$work/variants/scenes/night_city.json" > /dev/null
+[ "$(rebuilds)" = 1 ] || { cat "$work/last.log"; echo "FAIL: changing the scenes did not rebuild the pack"; exit 1; }
+variants_after=$("$work/build/consumer" | head -1)
+[ "$variants_before" != "$variants_after" ] || { echo "FAIL: the pack did not change ($variants_after)"; exit 1; }
+echo "$variants_before -> $variants_after"
+echo "consumer test passed ($mode, $generator)"
