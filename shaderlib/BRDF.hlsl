@@ -49,8 +49,8 @@ real RoughnessToSpecularPower(real perceptualRoughness)
 real V_SmithGGXCorrelated(real NoV, real NoL, real a)
 {
     real a2 = a * a;
-    real GGXV = NoL * (real)sqrt(NoV * NoV * ((real)1.0 - a2) + a2);
-    real GGXL = NoV * (real)sqrt(NoL * NoL * ((real)1.0 - a2) + a2);
+    real GGXV = NoL * (real)sqrt(NoV * NoV * ((real)1.0 - a2) + a2);  // argument >= a2 > 0: NoV^2 (1 - a2) >= 0
+    real GGXL = NoV * (real)sqrt(NoL * NoL * ((real)1.0 - a2) + a2);  // argument >= a2 > 0, likewise
     return saturateMediump((real)0.5 / (real)max(GGXV + GGXL, (real)MIN_VISIBILITY_DENOMINATOR));
 }
 
@@ -66,8 +66,8 @@ real V_SmithGGXCorrelated_Fast(real NoV, real NoL, real a)
 real V_SmithGGX_Separable(real NoV, real NoL, real a)
 {
     real a2 = a * a;
-    real GV = NoV + (real)sqrt(NoV * NoV * ((real)1.0 - a2) + a2);
-    real GL = NoL + (real)sqrt(NoL * NoL * ((real)1.0 - a2) + a2);
+    real GV = NoV + (real)sqrt(NoV * NoV * ((real)1.0 - a2) + a2);  // argument >= a2 > 0: NoV^2 (1 - a2) >= 0
+    real GL = NoL + (real)sqrt(NoL * NoL * ((real)1.0 - a2) + a2);  // argument >= a2 > 0, likewise
     return saturateMediump((real)1.0 / (real)max(GV * GL, (real)MIN_VISIBILITY_DENOMINATOR));
 }
 

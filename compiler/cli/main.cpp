@@ -9,6 +9,7 @@
 #include "common/files.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
+#include "lint/lint.hpp"
 #include "tools/pack_tools.hpp"
 
 namespace {
@@ -241,9 +242,12 @@ int main(int argc, char** argv) {
   inspect->add_option("--extract", extract, "Write each blob as a file (.spv, .glsl, .es.glsl, .metal)");
 
   bool werror = false;
-  CLI::App* lint = app.add_subcommand("lint", "Check a pack definition and its shaders; exit non-zero on errors");
-  lint->add_option("pack", pack_file, "Pack definition")->required();
+  std::vector<std::string> lint_inputs;
+  std::string format = "text";
+  CLI::App* lint = app.add_subcommand("lint", "Lint a pack definition (every rule) or HLSL files (source rules); exit 1 on errors");
+  lint->add_option("inputs", lint_inputs, "A pack definition (.json), or HLSL files")->required()->check(CLI::ExistingFile);
   add_scene(lint);
+  lint->add_option("--format", format, "Output: text, json or sarif")->check(CLI::IsMember({"text", "json", "sarif"}));
   lint->add_flag("--werror", werror, "Treat warnings as errors");
 
   std::string scene_file, other_dir;
@@ -276,20 +280,28 @@ int main(int argc, char** argv) {
   if (*list) return run_list(options, as_json);
   if (*inspect) return run_inspect(pack_dir, as_json, extract);
   if (*lint) {
-    kiln::DiagnosticSink sink;
-    print_diagnostics_as_they_come(sink);
-    char temp[] = "/tmp/kiln-lint-XXXXXX";
-    if (!::mkdtemp(temp)) {
-      std::cerr << "kiln: error: cannot create a temporary directory\n";
-      return 1;
+    kiln::LintReport report;
+    if (lint_inputs.size() == 1 && lint_inputs[0].ends_with(".json")) {
+      char temp[] = "/tmp/kiln-lint-XXXXXX";
+      if (!::mkdtemp(temp)) {
+        std::cerr << "kiln: error: cannot create a temporary directory\n";
+        return 1;
+      }
+      options.pack_file = lint_inputs[0];
+      options.output_dir = temp;
+      options.cache_dir = std::filesystem::path(".kiln-cache");
+      report = kiln::lint_pack(options);
+      std::filesystem::remove_all(temp);
+    } else {
+      std::vector<std::filesystem::path> files(lint_inputs.begin(), lint_inputs.end());
+      report = kiln::lint_files(files);
     }
-    options.output_dir = temp;
-    kiln::BuildReport report = kiln::build_pack(options, sink);
-    std::filesystem::remove_all(temp);
-    int code = kiln::exit_code(sink, report.internal_errors);
-    if (code == 0 && werror && sink.warning_count() > 0) code = 1;
-    std::cerr << "kiln lint: " << sink.error_count() << " error(s), " << sink.warning_count() << " warning(s)\n";
-    return code;
+    if (format == "json") std::cout << kiln::format_lint_json(report);
+    else if (format == "sarif") std::cout << kiln::format_lint_sarif(report);
+    else std::cerr << kiln::format_lint_text(report);
+    if (format == "text")
+      std::cerr << "kiln lint: " << report.errors() << " error(s), " << report.warnings() << " warning(s)\n";
+    return report.errors() > 0 || (werror && report.warnings() > 0) ? 1 : 0;
   }
   return 0;
 }

@@ -311,6 +311,10 @@ std::optional<PlanListing> list_variants(const BuildOptions& options, Diagnostic
   PlanListing listing;
   listing.pack = plan->pack.name;
   listing.funnel = plan->funnel;
+  for (size_t p = 0; p < plan->passes.size(); ++p)
+    listing.pass_groups.emplace_back(plan->pack.passes[p].name, plan->passes[p].groups);
+  for (const auto& [path, file] : plan->sources.files) listing.sources.emplace_back(display_path(path), file.text);
+  for (const SceneProfile& scene : plan->scenes) listing.scenes.emplace_back(scene.name, scene.keywords);
   for (size_t p = 0; p < plan->passes.size(); ++p) {
     const auto& groups = plan->passes[p].groups;
     for (const Variant& v : plan->expansions[p].variants) {
@@ -681,7 +685,8 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
                   {"passes", passes_json},
                   {"binaries", binaries_json},
                   {"reflections", reflections_json}};
-    if (std::string error = write_pack(options.output_dir, plan->pack.name, archive, manifest); !error.empty()) {
+    unsigned threads = options.jobs ? options.jobs : std::max(1u, std::thread::hardware_concurrency());
+    if (std::string error = write_pack(options.output_dir, plan->pack.name, archive, manifest, threads); !error.empty()) {
       sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, error);
       return finish();
     }

@@ -92,6 +92,11 @@ struct PlanListing {
   std::string pack;
   Funnel funnel;
   std::vector<VariantListing> variants;
+  // For lint: each pass's keyword groups (with where they are declared), every source file read
+  // (display path -> text), and the keywords each scene may enable.
+  std::vector<std::pair<std::string, std::vector<KeywordGroup>>> pass_groups;
+  std::vector<std::pair<std::string, std::string>> sources;
+  std::vector<std::pair<std::string, std::set<std::string>>> scenes;
 };
 std::optional<PlanListing> list_variants(const BuildOptions& options, DiagnosticSink& sink);
 

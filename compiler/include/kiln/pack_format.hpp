@@ -6,10 +6,12 @@
 //   12      4     blob count N
 //   16      8     XXH3-64 of every byte from offset 32 to the end
 //   24      8     total file size
-//   32      24*N  blob table: {u64 offset, u64 size, u64 XXH3-64 of the blob}
+//   32      32*N  blob table: {u64 offset, u64 stored size, u64 raw size, u64 XXH3-64 of the raw blob}
 //   ...           blobs, each starting at a multiple of 8 (zero padding between)
 //
-// Blobs are deduplicated by content; the JSON manifest says which blob is which.
+// Blobs are deduplicated by content; the JSON manifest says which blob is which. A blob whose stored
+// size differs from its raw size is one zstd frame; otherwise it is stored as is (kiln compresses a
+// blob only when that makes it smaller).
 #pragma once
 
 #include <cstdint>
@@ -19,7 +21,7 @@ namespace kiln {
 inline constexpr char kPackMagic[8] = {'K', 'I', 'L', 'N', 'P', 'A', 'C', 'K'};
 inline constexpr uint32_t kPackFormatVersion = 1;
 inline constexpr uint64_t kPackHeaderSize = 32;
-inline constexpr uint64_t kPackBlobEntrySize = 24;
+inline constexpr uint64_t kPackBlobEntrySize = 32;
 inline constexpr const char* kManifestFormat = "kiln-pack-manifest";
 
 }  // namespace kiln

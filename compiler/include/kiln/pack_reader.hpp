@@ -14,6 +14,8 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -76,10 +78,19 @@ class PackReader {
   };
   const Pass& find_pass(std::string_view name) const;
 
+  struct Blob {
+    uint64_t offset = 0;
+    uint64_t stored_size = 0;
+    uint64_t raw_size = 0;
+    uint64_t hash = 0;  // XXH3-64 of the raw bytes
+  };
   std::string name_;
   nlohmann::json manifest_;
   std::string archive_;
-  std::vector<std::pair<uint64_t, uint64_t>> blobs_;  // offset, size
+  std::vector<Blob> blobs_;
+  // Compressed blobs are decompressed on first use and kept; the reader may be shared between threads.
+  std::unique_ptr<std::mutex> decompress_mutex_ = std::make_unique<std::mutex>();
+  mutable std::map<uint32_t, std::unique_ptr<std::string>> decompressed_;
   std::map<std::string, Pass, std::less<>> passes_;
 };
 

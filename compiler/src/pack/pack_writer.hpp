@@ -19,7 +19,7 @@ class ArchiveBuilder {
   // Returns the blob id; identical bytes get the same id.
   uint32_t add(std::string_view bytes);
   size_t size() const { return blobs_.size(); }
-  std::string finish() const;
+  std::string finish(unsigned threads = 1) const;  // same bytes for any thread count
 
  private:
   std::vector<std::string> blobs_;
@@ -29,7 +29,7 @@ class ArchiveBuilder {
 // Writes `<dir>/<name>.kpack` and `<dir>/<name>.manifest.json`; fills manifest["archive"].
 // Returns an error message, or an empty string.
 std::string write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
-                       nlohmann::json manifest);
+                       nlohmann::json manifest, unsigned threads = 1);
 
 std::filesystem::path manifest_path(const std::filesystem::path& directory, const std::string& name);
 

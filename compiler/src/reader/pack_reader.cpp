@@ -1,6 +1,7 @@
 #include "kiln/pack_reader.hpp"
 
 #include <xxhash.h>
+#include <zstd.h>
 
 #include <algorithm>
 #include <cstring>
@@ -95,12 +96,13 @@ PackReader PackReader::open(const std::filesystem::path& path) {
       throw PackError(PackError::Code::Format, "archive blob table is out of bounds");
     for (uint32_t i = 0; i < count; ++i) {
       size_t at = kPackHeaderSize + kPackBlobEntrySize * i;
-      uint64_t offset = get64(bytes, at), size = get64(bytes, at + 8);
-      if (offset > bytes.size() || size > bytes.size() - offset)
+      Blob blob{get64(bytes, at), get64(bytes, at + 8), get64(bytes, at + 16), get64(bytes, at + 24)};
+      if (blob.offset > bytes.size() || blob.stored_size > bytes.size() - blob.offset)
         throw PackError(PackError::Code::Format, "blob " + std::to_string(i) + " is out of bounds");
-      if (XXH3_64bits(bytes.data() + offset, size) != get64(bytes, at + 16))
+      // Stored blobs are checked now; compressed ones when they are first decompressed.
+      if (blob.stored_size == blob.raw_size && XXH3_64bits(bytes.data() + blob.offset, blob.stored_size) != blob.hash)
         throw PackError(PackError::Code::Checksum, "blob " + std::to_string(i) + " fails its checksum");
-      reader.blobs_.emplace_back(offset, size);
+      reader.blobs_.push_back(blob);
     }
     for (const json& pass : m.at("passes")) {
       Pass entry;
@@ -142,7 +144,21 @@ std::vector<std::vector<std::string>> PackReader::keyword_groups(std::string_vie
 
 std::string_view PackReader::blob(uint32_t id) const {
   if (id >= blobs_.size()) throw PackError(PackError::Code::Format, "blob id " + std::to_string(id) + " out of range");
-  return std::string_view(archive_).substr(blobs_[id].first, blobs_[id].second);
+  const Blob& b = blobs_[id];
+  std::string_view stored = std::string_view(archive_).substr(b.offset, b.stored_size);
+  if (b.stored_size == b.raw_size) return stored;
+  std::lock_guard lock(*decompress_mutex_);
+  auto& slot = decompressed_[id];
+  if (!slot) {
+    auto raw = std::make_unique<std::string>(b.raw_size, '\0');
+    size_t got = ZSTD_decompress(raw->data(), raw->size(), stored.data(), stored.size());
+    if (ZSTD_isError(got) || got != b.raw_size)
+      throw PackError(PackError::Code::Format, "blob " + std::to_string(id) + " does not decompress");
+    if (XXH3_64bits(raw->data(), raw->size()) != b.hash)
+      throw PackError(PackError::Code::Checksum, "blob " + std::to_string(id) + " fails its checksum");
+    slot = std::move(raw);
+  }
+  return *slot;
 }
 
 SelectedVariant PackReader::variant(std::string_view pass_name, size_t index) const {
