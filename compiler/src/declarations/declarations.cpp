@@ -16,25 +16,6 @@ bool is_identifier(std::string_view word) {
                      [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
 }
 
-namespace {
-
-struct Word {
-  std::string_view text;
-  int column;  // 1-based, in the original line
-};
-
-std::vector<Word> split_words(std::string_view line, int first_column) {
-  std::vector<Word> words;
-  size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
-    size_t start = i;
-    while (i < line.size() && !std::isspace(static_cast<unsigned char>(line[i]))) ++i;
-    if (i > start) words.push_back({line.substr(start, i - start), first_column + static_cast<int>(start)});
-  }
-  return words;
-}
-
 // Source lines with comments blanked out (same length, so columns stay true). Block comments may span lines.
 std::vector<std::string> code_lines(std::string_view text) {
   std::vector<std::string> lines;
@@ -79,6 +60,25 @@ std::vector<std::string> code_lines(std::string_view text) {
   }
   lines.push_back(std::move(current));
   return lines;
+}
+
+namespace {
+
+struct Word {
+  std::string_view text;
+  int column;  // 1-based, in the original line
+};
+
+std::vector<Word> split_words(std::string_view line, int first_column) {
+  std::vector<Word> words;
+  size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+    size_t start = i;
+    while (i < line.size() && !std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+    if (i > start) words.push_back({line.substr(start, i - start), first_column + static_cast<int>(start)});
+  }
+  return words;
 }
 
 struct Directive {

@@ -43,4 +43,7 @@ std::optional<KeywordGroup> parse_keyword_pragma(std::string_view body, const So
 
 bool is_identifier(std::string_view word);
 
+// Source lines with comments blanked out (same length, so columns stay true); shared with lint.
+std::vector<std::string> code_lines(std::string_view text);
+
 }  // namespace kiln

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/files.hpp"
+#include "declarations/declarations.hpp"
 #include "kiln/pack_reader.hpp"
 
 namespace kiln {
@@ -37,44 +38,6 @@ std::string rule_of(DiagId id) {
     case DiagId::HlslWarning: return "hlsl-warning";
     default: return "build-error";
   }
-}
-
-// Lines with comments blanked (same columns), as the declaration scanner sees them.
-std::vector<std::string> code_lines(const std::string& text) {
-  std::vector<std::string> lines;
-  std::string current;
-  bool block = false;
-  for (size_t i = 0; i < text.size(); ++i) {
-    char c = text[i];
-    if (c == '\n') {
-      lines.push_back(current);
-      current.clear();
-      continue;
-    }
-    if (block) {
-      if (c == '*' && i + 1 < text.size() && text[i + 1] == '/') {
-        current += "  ";
-        ++i;
-        block = false;
-      } else {
-        current += ' ';
-      }
-    } else if (c == '/' && i + 1 < text.size() && text[i + 1] == '/') {
-      while (i < text.size() && text[i] != '\n') {
-        current += ' ';
-        ++i;
-      }
-      --i;
-    } else if (c == '/' && i + 1 < text.size() && text[i + 1] == '*') {
-      current += "  ";
-      ++i;
-      block = true;
-    } else {
-      current += c;
-    }
-  }
-  lines.push_back(current);
-  return lines;
 }
 
 std::vector<std::string> raw_lines(const std::string& text) {
