@@ -77,6 +77,9 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sin
     }
     if (!ok) return nullptr;
     plan->pack = std::move(*pack);
+    for (SceneProfile& scene : plan->scenes)
+      ok = resolve_scene_profile(scene, plan->pack.scene_features_json, plan->pack.materials, sink) && ok;
+    if (!ok) return nullptr;
   }
   {
     StageTimer timer(report, "declarations");
@@ -682,6 +685,8 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
                               {"unique_compiles", f.unique_compiles}, {"unique_binaries", f.unique_binaries}}},
                   {"constraints", constraints_json(plan->pack)},
                   {"materials", materials_json(plan->pack)},
+                  {"scene_features", plan->pack.scene_features_json.empty() ? json::object()
+                                                                           : json::parse(plan->pack.scene_features_json)},
                   {"passes", passes_json},
                   {"binaries", binaries_json},
                   {"reflections", reflections_json}};

@@ -6,6 +6,7 @@
 
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
+#include "tools/pack_tools.hpp"
 #include "test_support.hpp"
 
 namespace kiln {
@@ -229,6 +230,78 @@ TEST_F(SmallLibrary, TargetsCanBeNarrowedFromTheCommandLine) {
   EXPECT_FALSE(v.stages[0].glsl.empty());
   EXPECT_TRUE(v.stages[0].msl.empty());
   EXPECT_TRUE(v.stages[0].gles.empty());
+}
+
+}  // namespace
+}  // namespace kiln
+
+namespace kiln {
+namespace {
+
+struct SemanticScenes : SmallLibrary {
+  void SetUp() override {
+    SmallLibrary::SetUp();
+    dir.write("p.pack.json", R"({"name": "p", "include_dirs": ["lib"],
+      "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}],
+      "scene_features": {"shadows": {"false": [], "true": ["SHADOWS"]},
+                         "fog_distance_m": {"0": [], "1-": ["FOG"]}}})");
+  }
+  std::optional<PlanListing> plan(const std::string& scene, DiagnosticSink& sink) {
+    dir.write("scene.json", scene);
+    BuildOptions options;
+    options.pack_file = dir / "p.pack.json";
+    options.scene_files = {dir / "scene.json"};
+    return list_variants(options, sink);
+  }
+};
+
+TEST_F(SemanticScenes, UsesAreMappedToKeywordsByThePack) {
+  DiagnosticSink sink;
+  auto listing = plan(R"({"name": "s", "uses": {"shadows": true, "fog_distance_m": 0}})", sink);
+  ASSERT_TRUE(listing) << errors_of(sink);
+  ASSERT_EQ(listing->variants.size(), 2u);  // SHADOWS may be on; FOG never
+  EXPECT_EQ(listing->variants[1].keywords, std::vector<std::string>{"SHADOWS"});
+  listing = plan(R"({"name": "s", "uses": {"shadows": false, "fog_distance_m": 250}})", sink);
+  ASSERT_TRUE(listing) << errors_of(sink);
+  ASSERT_EQ(listing->variants.size(), 2u);  // a count in the open range 1- enables FOG
+  EXPECT_EQ(listing->variants[1].keywords, std::vector<std::string>{"FOG"});
+}
+
+TEST_F(SemanticScenes, UnknownFeatureSuggestsTheClosestAndUnmappedValueListsTheMapping) {
+  DiagnosticSink sink;
+  EXPECT_FALSE(plan(R"({"name": "s", "uses": {"shadow": true}})", sink));
+  auto d = sink.diagnostics().at(0);
+  EXPECT_EQ(d.id, DiagId::SceneProfile);
+  EXPECT_EQ(d.message, "scene 's' uses feature 'shadow', which the pack's scene_features does not map");
+  EXPECT_EQ(d.notes.at(0), "did you mean 'shadows'?");
+  DiagnosticSink sink2;
+  EXPECT_FALSE(plan(R"({"name": "s", "uses": {"shadows": "sometimes"}})", sink2));
+  d = sink2.diagnostics().at(0);
+  EXPECT_EQ(d.message, "scene 's': feature 'shadows' has no mapping for \"sometimes\"");
+  EXPECT_EQ(d.notes.at(0), "the pack maps: false, true");
+}
+
+TEST(BundledScenes, StripTheDefaultPackToWhatTheyNeedAndCheckSceneFindsEveryVariant) {
+  testing::TempDir dir;
+  std::filesystem::path root = KILN_SOURCE_DIR;
+  BuildOptions options;
+  options.pack_file = root / "variants/lit.pack.json";
+  options.output_dir = dir / "out";
+  options.worker_executable = KILN_WORKER_PATH;
+  for (const char* scene : {"outdoor_day", "night_city", "mobile"})
+    options.scene_files.push_back(root / "variants/scenes" / (std::string(scene) + ".json"));
+  DiagnosticSink sink;
+  BuildReport report = build_pack(options, sink);
+  ASSERT_TRUE(report.ok) << errors_of(sink);
+  EXPECT_LT(report.funnel.kept, report.funnel.valid);
+  EXPECT_LT(report.funnel.kept, 300u);
+  PackReader pack = PackReader::open(dir / "out");
+  for (const auto& scene : options.scene_files) {
+    auto check = check_scene(pack, scene, sink);
+    ASSERT_TRUE(check) << errors_of(sink);
+    EXPECT_GT(check->requested, 0u);
+    EXPECT_TRUE(check->missing.empty()) << scene << ": " << check->missing.size() << " missing";
+  }
 }
 
 }  // namespace

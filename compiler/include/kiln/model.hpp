@@ -79,14 +79,21 @@ struct PackDefinition {
   std::vector<PassDefinition> passes;
   std::vector<Constraint> constraints;
   std::vector<MaterialPreset> materials;  // empty: every shader_feature combination
+  // scene_features: feature -> value -> keywords. Values are strings, "true"/"false", or integer ranges
+  // "N", "A-B", "A-" for counts. Kept as JSON text: it is also recorded in the manifest.
+  std::string scene_features_json;
 };
 
-// The keyword values one scene can request; everything else is stripped.
+// The keyword values one scene can request; everything else is stripped. A profile states what the scene
+// uses ("uses": light counts, shadow settings, fog mode... mapped to keywords by the pack's
+// scene_features table; "materials": preset names) and/or lists keywords directly ("keywords").
 struct SceneProfile {
   std::filesystem::path file;
   std::string text;
   std::string name;
-  std::set<std::string> keywords;  // keywords the scene may enable
+  std::set<std::string> keywords;            // keywords the scene may enable (after resolution)
+  std::string uses_json;                     // the raw "uses" object, resolved against the pack
+  std::vector<std::string> material_names;  // material presets the scene's objects use
 };
 
 // One permutation of a pass: choice[g] indexes KeywordGroup::values of group g.

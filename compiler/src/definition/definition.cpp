@@ -2,6 +2,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+
 namespace kiln {
 namespace {
 
@@ -189,6 +191,10 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
       }
     }
   }
+  if (auto features = root->find("scene_features"); features != root->end()) {
+    if (!features->is_object()) fields.fail("scene_features", "\"scene_features\" must be an object: feature -> value -> keywords");
+    else pack.scene_features_json = features->dump();
+  }
   if (!fields.ok) return std::nullopt;
   return pack;
 }
@@ -208,10 +214,93 @@ std::optional<SceneProfile> load_scene_profile(const std::filesystem::path& file
   scene.file = file;
   scene.text = *text;
   scene.name = fields.string(*root, "name", true).value_or("");
-  if (!root->contains("keywords")) fields.fail("name", "missing required field \"keywords\"");
+  if (!root->contains("keywords") && !root->contains("uses") && !root->contains("materials"))
+    fields.fail("name", "a scene profile needs \"uses\", \"materials\" or \"keywords\"");
   for (const std::string& keyword : fields.strings(*root, "keywords")) scene.keywords.insert(keyword);
+  scene.material_names = fields.strings(*root, "materials");
+  if (auto uses = root->find("uses"); uses != root->end()) {
+    if (!uses->is_object()) fields.fail("uses", "\"uses\" must be an object: feature -> value");
+    else scene.uses_json = uses->dump();
+  }
   if (!fields.ok) return std::nullopt;
   return scene;
+}
+
+namespace {
+
+// Whether a scene's value selects a scene_features key: equal strings, "true"/"false" for booleans, and
+// "N", "A-B", "A-" ranges for integers.
+bool value_matches(const json& value, const std::string& key) {
+  if (value.is_string()) return value.get<std::string>() == key;
+  if (value.is_boolean()) return key == (value.get<bool>() ? "true" : "false");
+  if (!value.is_number_integer()) return false;
+  long long n = value.get<long long>();
+  size_t dash = key.find('-');
+  try {
+    if (dash == std::string::npos) return std::stoll(key) == n;
+    long long low = std::stoll(key.substr(0, dash));
+    bool open = dash + 1 == key.size();
+    return n >= low && (open || n <= std::stoll(key.substr(dash + 1)));
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+}  // namespace
+
+bool resolve_scene_profile(SceneProfile& scene, const std::string& scene_features_json,
+                           const std::vector<MaterialPreset>& materials, DiagnosticSink& sink) {
+  bool ok = true;
+  auto fail = [&](std::string_view needle, std::string message, std::vector<std::string> notes = {}) {
+    ok = false;
+    SourceLocation at = locate_json_string(scene.file.string(), scene.text, needle);
+    if (at.line == 0) at = SourceLocation{scene.file.string(), 1, 1};
+    sink.report(DiagId::SceneProfile, at, std::move(message), std::move(notes));
+  };
+  for (const std::string& name : scene.material_names) {
+    auto it = std::find_if(materials.begin(), materials.end(), [&](const MaterialPreset& m) { return m.name == name; });
+    if (it == materials.end()) {
+      std::vector<std::string> names;
+      for (const MaterialPreset& m : materials) names.push_back(m.name);
+      std::vector<std::string> notes;
+      if (auto suggestion = closest_match(name, names)) notes.push_back("did you mean '" + *suggestion + "'?");
+      fail(name, "scene '" + scene.name + "' uses material '" + name + "', which the pack does not define", notes);
+      continue;
+    }
+    scene.keywords.insert(it->keywords.begin(), it->keywords.end());
+  }
+  if (scene.uses_json.empty()) return ok;
+  json uses = json::parse(scene.uses_json);
+  json table = scene_features_json.empty() ? json::object() : json::parse(scene_features_json);
+  std::vector<std::string> known;
+  for (auto& [feature, values] : table.items()) known.push_back(feature);
+  for (auto& [feature, value] : uses.items()) {
+    if (!table.contains(feature)) {
+      std::vector<std::string> notes;
+      if (auto suggestion = closest_match(feature, known)) notes.push_back("did you mean '" + *suggestion + "'?");
+      fail(feature, "scene '" + scene.name + "' uses feature '" + feature + "', which the pack's scene_features does not map", notes);
+      continue;
+    }
+    // A feature may take several values in one scene (a list): the scene may request each of them.
+    std::vector<json> values = value.is_array() ? value.get<std::vector<json>>() : std::vector<json>{value};
+    for (const json& v : values) {
+      bool matched = false;
+      for (auto& [key, keywords] : table.at(feature).items()) {
+        if (!value_matches(v, key)) continue;
+        matched = true;
+        for (const json& k : keywords) scene.keywords.insert(k.get<std::string>());
+      }
+      if (!matched) {
+        std::vector<std::string> keys;
+        for (auto& [key, keywords] : table.at(feature).items()) keys.push_back(key);
+        std::string list;
+        for (const std::string& k : keys) list += (list.empty() ? "" : ", ") + k;
+        fail(feature, "scene '" + scene.name + "': feature '" + feature + "' has no mapping for " + v.dump(),
+             {"the pack maps: " + list});
+      }
+    }
+  }
+  return ok;
 }
 
 }  // namespace kiln

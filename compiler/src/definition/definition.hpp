@@ -13,4 +13,9 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
 std::optional<SceneProfile> load_scene_profile(const std::filesystem::path& file, const ReadLimits& limits,
                                                DiagnosticSink& sink);
 
+// Turns a profile's "uses" and "materials" into keywords with the pack's scene_features table and
+// material presets (both as JSON text, as recorded in a pack definition or a manifest).
+bool resolve_scene_profile(SceneProfile& scene, const std::string& scene_features_json,
+                           const std::vector<MaterialPreset>& materials, DiagnosticSink& sink);
+
 }  // namespace kiln

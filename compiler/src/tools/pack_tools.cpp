@@ -70,6 +70,8 @@ std::optional<SceneCheck> check_scene(const PackReader& pack, const std::filesys
     definition.materials.push_back(std::move(material));
   }
   for (const json& pass : manifest.at("passes")) definition.passes.push_back(PassDefinition{pass.at("name"), {}, {}, {}});
+  std::string features = manifest.contains("scene_features") ? manifest.at("scene_features").dump() : std::string();
+  if (!resolve_scene_profile(*scene, features, definition.materials, sink)) return std::nullopt;
   std::vector<PassKeywords> passes;
   for (size_t p = 0; p < definition.passes.size(); ++p)
     passes.push_back(PassKeywords{&definition.passes[p], recorded_groups(manifest.at("passes")[p])});
