@@ -22,14 +22,17 @@ real D_GGX(real NoH, real a, real oneMinusNoHSquared)
 }
 
 // Burley 2012, "Physically-Based Shading at Disney" (anisotropic GGX); Filament's formulation.
-real D_GGX_Anisotropic(real NoH, real ToH, real BoH, real at, real ab)
+// Evaluated in fp32 in every variant, cosines included, as Filament does (highp): with at * ab down to 0.089^4
+// the squared terms leave the fp16 range, and a lobe this narrow turns NoH's fp16 rounding (5e-4 near 1) into
+// a 55x error (both measured by the stress gate).
+real D_GGX_Anisotropic(float NoH, float ToH, float BoH, real at, real ab)
 {
-    real a2 = at * ab;
-    real3 d = real3(ab * ToH, at * BoH, a2 * NoH);
-    real d2 = (real)dot(d, d);
-    // d2 >= (a2 NoH)^2; the floor only matters in fp16 where it can underflow to 0 (then b2 would be Inf).
-    real b2 = a2 / (real)max(d2, (real)1e-7);
-    return saturateMediump(a2 * b2 * b2 * (real)INV_PI);
+    float a2 = (float)at * (float)ab;
+    float3 d = float3((float)ab * ToH, (float)at * BoH, a2 * NoH);
+    float d2 = dot(d, d);
+    // d2 >= (a2 NoH)^2 > 0 except at NoH = 0, where the lobe is 0: the 1e-30 floor only prevents 0/0.
+    float b2 = a2 / max(d2, 1e-30);
+    return (real)min(a2 * b2 * b2 * INV_PI, REAL_MAX);
 }
 
 // Blinn-Phong NDF with Unity's normalization, for the mobile BRDF (seed 003; Unity BRDF2_Unity_PBS).
@@ -71,12 +74,13 @@ real V_SmithGGX_Separable(real NoV, real NoL, real a)
     return saturateMediump((real)1.0 / (real)max(GV * GL, (real)MIN_VISIBILITY_DENOMINATOR));
 }
 
-// Heitz 2014 anisotropic height-correlated Smith; Filament's formulation (seed 001).
-real V_SmithGGXCorrelated_Anisotropic(real at, real ab, real ToV, real BoV, real ToL, real BoL, real NoV, real NoL)
+// Heitz 2014 anisotropic height-correlated Smith; Filament's formulation (seed 001). fp32 inside, like
+// D_GGX_Anisotropic: in fp16 the stress gate measured the denominator collapsing to 0 (V = 65504 for 0.22).
+real V_SmithGGXCorrelated_Anisotropic(real at, real ab, float ToV, float BoV, float ToL, float BoL, float NoV, float NoL)
 {
-    real lambdaV = NoL * (real)length(real3(at * ToV, ab * BoV, NoV));
-    real lambdaL = NoV * (real)length(real3(at * ToL, ab * BoL, NoL));
-    return saturateMediump((real)0.5 / (real)max(lambdaV + lambdaL, (real)MIN_VISIBILITY_DENOMINATOR));
+    float lambdaV = NoL * length(float3((float)at * ToV, (float)ab * BoV, NoV));
+    float lambdaL = NoV * length(float3((float)at * ToL, (float)ab * BoL, NoL));
+    return (real)min(0.5 / max(lambdaV + lambdaL, 1e-30), REAL_MAX);
 }
 
 // Kelemen and Szirmay-Kalos 2001, as approximated in Unity's mobile BRDF: 1 / (LoH^2 (1 - r) + r^2) (seed 003).

@@ -44,11 +44,17 @@ typedef float4 real4;
 // Filament clamps NoV to 1e-4: at exactly 0 the visibility term divides by zero and the view is edge-on.
 #define MIN_N_DOT_V 1e-4
 
-// Filament's saturateMediump: keeps fp16 intermediates finite (a no-op bound in fp32).
+// Filament's saturateMediump: keeps fp16 intermediates finite; the identity in fp32 (where 65504 is a
+// legitimate value: D_GGX alone reaches 1 / (pi 0.045^4) = 7.8e4).
 // glslang 12 promotes HLSL intrinsics on half to float and will not narrow implicitly: intrinsics on real
 // values are cast back to real explicitly throughout the library (and run in fp32 inside glslang's output).
+#if defined(_HALF_PRECISION)
 real saturateMediump(real x) { return (real)min(x, (real)HALF_MAX); }
 real3 saturateMediump3(real3 x) { return (real3)min(x, (real3)HALF_MAX); }
+#else
+real saturateMediump(real x) { return x; }
+real3 saturateMediump3(real3 x) { return x; }
+#endif
 
 // normalize() of a zero vector is NaN; this returns the fallback instead (zero-length normals, L at the light).
 float3 SafeNormalize(float3 v, float3 fallback)

@@ -18,6 +18,32 @@ struct Light
     float shadow;      // 1 lit, 0 shadowed
 };
 
+// A directional light: `direction` points towards the light (need not be unit length), `illuminance` in lux.
+Light DirectionalLight(float3 direction, float3 illuminance)
+{
+    Light light;
+    light.L = SafeNormalize(direction, float3(0.0, 1.0, 0.0));
+    light.radiance = illuminance;
+    light.shadow = 1.0;
+    return light;
+}
+
+// A point or spot light (unshadowed): `toLight` goes from the shaded point to the light, `intensity` is
+// color * candela, spotDirection.w > 0.5 marks a spot with axis spotDirection.xyz (from the light).
+Light PunctualLight(float3 toLight, float3 intensity, float inverseRangeSquared, float4 spotDirection, float2 spotScaleOffset)
+{
+    float distanceSquared = dot(toLight, toLight);
+    Light light;
+    // At distance 0 the direction is undefined: pick the normal-independent +Y rather than NaN.
+    light.L = SafeNormalize(toLight, float3(0.0, 1.0, 0.0));
+    float attenuation = DistanceAttenuation(distanceSquared, inverseRangeSquared);
+    if (spotDirection.w > 0.5)
+        attenuation *= SpotAttenuation(light.L, spotDirection.xyz, spotScaleOffset);
+    light.radiance = intensity * attenuation;
+    light.shadow = 1.0;
+    return light;
+}
+
 float3 MainLightShadowCoord(float3 positionWS, int cascade)
 {
     float4 coord = mul(_MainLightWorldToShadow[cascade], float4(positionWS, 1.0));
@@ -45,9 +71,7 @@ float MainLightShadow(float3 positionWS, float3 vertexShadowCoord)
 
 Light GetMainLight(float3 positionWS, float3 vertexShadowCoord)
 {
-    Light light;
-    light.L = SafeNormalize(_MainLightDirectionWS.xyz, float3(0.0, 1.0, 0.0));
-    light.radiance = _MainLightColor.rgb;
+    Light light = DirectionalLight(_MainLightDirectionWS.xyz, _MainLightColor.rgb);
     light.shadow = MainLightShadow(positionWS, vertexShadowCoord);
     return light;
 }
@@ -86,31 +110,34 @@ float AdditionalLightShadow(AdditionalLight data, float3 positionWS)
 Light GetAdditionalLight(uint index, float3 positionWS)
 {
     AdditionalLight data = _AdditionalLights[index];
-    float3 toLight = data.positionWS.xyz - positionWS;
-    float distanceSquared = dot(toLight, toLight);
-    Light light;
-    // At distance 0 the direction is undefined: pick the normal-independent +Y rather than NaN.
-    light.L = SafeNormalize(toLight, float3(0.0, 1.0, 0.0));
-    float attenuation = DistanceAttenuation(distanceSquared, data.positionWS.w);
-    if (data.spotDirectionWS.w > 0.5)
-        attenuation *= SpotAttenuation(light.L, data.spotDirectionWS.xyz, data.spotScaleOffset.xy);
-    light.radiance = data.color.rgb * attenuation;
+    Light light = PunctualLight(data.positionWS.xyz - positionWS, data.color.rgb, data.positionWS.w, data.spotDirectionWS,
+                                data.spotScaleOffset.xy);
     light.shadow = AdditionalLightShadow(data, positionWS);
     return light;
 }
 
+// Reflected radiance from one light: BRDF * NoL * illuminance * shadow. The illuminance is narrowed to
+// `real` through saturateMediump: a 1e5 lux sun is Inf in fp16, so fp16 renderers must pre-expose their
+// lights (Filament does); the clamp keeps an un-exposed light finite instead of Inf.
+real3 AccumulateLight(ShadingData s, Light light)
+{
+    real3 illuminance = (real3)min(light.radiance * light.shadow, (float3)REAL_MAX);
+    return saturateMediump3(DirectBRDF(s, light.L) * illuminance);
+}
+
 // Per-vertex additional lights (_ADDITIONAL_LIGHTS_VERTEX): Lambert irradiance/pi at the vertex, shadowless,
 // for at most KILN_MAX_VERTEX_LIGHTS lights, as URP does.
-real3 VertexLighting(float3 positionWS, float3 normalWS)
+float3 VertexLighting(float3 positionWS, float3 normalWS)
 {
-    real3 irradiance = (real3)0.0;
+    // fp32 in every variant: it is one sum per vertex, and illuminance routinely exceeds the fp16 range.
+    float3 irradiance = 0.0;
     uint count = min(_LightCounts.x, (uint)KILN_MAX_VERTEX_LIGHTS);
     for (uint i = 0u; i < count; ++i)
     {
         Light light = GetAdditionalLight(i, positionWS);
-        irradiance += (real3)(light.radiance * saturate(dot(normalWS, light.L)));
+        irradiance += light.radiance * saturate(dot(normalWS, light.L));
     }
-    return irradiance * (real)INV_PI;
+    return irradiance * INV_PI;
 }
 
 #endif // KILN_LIGHTING_INCLUDED

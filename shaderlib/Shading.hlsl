@@ -100,22 +100,21 @@ real DiffuseLobe(ShadingData s, real NoL, real LoH)
 #endif
 }
 
-// D * V for the configured specular model.
-real SpecularDV(ShadingData s, float3 L, float3 H, real NoL, real NoH)
+// D * V for the configured specular model, as fp32: in fp16 the product overflows where F and NoL would
+// bring it back in range (D = 5e3 and V = 50 at roughness 0.1, NoV at its floor; the stress gate found it).
+float SpecularDV(ShadingData s, float3 L, float3 H, real NoL, real NoH)
 {
 #if defined(KILN_SPECULAR_MODEL_ANISOTROPIC)
-    real ToV = (real)dot(s.T, s.V);
-    real BoV = (real)dot(s.B, s.V);
-    real ToL = (real)dot(s.T, L);
-    real BoL = (real)dot(s.B, L);
-    real ToH = (real)dot(s.T, H);
-    real BoH = (real)dot(s.B, H);
-    return D_GGX_Anisotropic(NoH, ToH, BoH, s.at, s.ab) *
-           V_SmithGGXCorrelated_Anisotropic(s.at, s.ab, ToV, BoV, ToL, BoL, s.NoV, NoL);
+    // Cosines in fp32 (see D_GGX_Anisotropic).
+    float NoVFull = max(dot(s.N, s.V), MIN_N_DOT_V);
+    float NoLFull = saturate(dot(s.N, L));
+    return (float)D_GGX_Anisotropic(saturate(dot(s.N, H)), dot(s.T, H), dot(s.B, H), s.at, s.ab) *
+           (float)V_SmithGGXCorrelated_Anisotropic(s.at, s.ab, dot(s.T, s.V), dot(s.B, s.V), dot(s.T, L), dot(s.B, L),
+                                                   NoVFull, NoLFull);
 #else
     float3 NxH = cross(s.N, H);
     real oneMinusNoHSquared = (real)dot(NxH, NxH);
-    return D_GGX(NoH, s.alpha, oneMinusNoHSquared) * V_SmithGGXCorrelated(s.NoV, NoL, s.alpha);
+    return (float)D_GGX(NoH, s.alpha, oneMinusNoHSquared) * (float)V_SmithGGXCorrelated(s.NoV, NoL, s.alpha);
 #endif
 }
 
@@ -147,7 +146,7 @@ real3 DirectBRDF(ShadingData s, float3 L)
 #if defined(_SPECULARHIGHLIGHTS_OFF)
     real3 specular = (real3)0.0;
 #else
-    real3 specular = SpecularDV(s, L, H, NoL, NoH) * F * s.energyCompensation;
+    real3 specular = (real3)min(SpecularDV(s, L, H, NoL, NoH) * (float3)(F * s.energyCompensation), (float3)REAL_MAX);
 #endif
     // In fp16 D * V * F can still overflow before NoL scales it down (ARCHITECTURE.md): clamp the lobe.
     return (diffuse + saturateMediump3(specular)) * NoL;
@@ -155,11 +154,14 @@ real3 DirectBRDF(ShadingData s, float3 L)
 }
 
 // Image-based lighting: diffuse from SH, specular from the prefiltered cube (or a flat color).
+// The radiances are narrowed to `real` through a clamp at REAL_MAX (an fp16 cast of a larger value is Inf).
 real3 IndirectLighting(ShadingData s, float3 irradianceOverPi, float3 prefilteredRadiance)
 {
-    real3 diffuse = s.diffuseColor * (real3)irradianceOverPi * ((real3)1.0 - s.specularAlbedo);
-    real3 specular = (real3)prefilteredRadiance * s.specularAlbedo * s.energyCompensation;
-    return diffuse + specular;
+    real3 irradiance = (real3)min(irradianceOverPi, (float3)REAL_MAX);
+    real3 prefiltered = (real3)min(prefilteredRadiance, (float3)REAL_MAX);
+    real3 diffuse = saturateMediump3(s.diffuseColor * irradiance * ((real3)1.0 - s.specularAlbedo));
+    real3 specular = saturateMediump3(prefiltered * s.specularAlbedo * s.energyCompensation);
+    return saturateMediump3(diffuse + specular);
 }
 
 #endif // KILN_SHADING_INCLUDED

@@ -74,7 +74,7 @@ Varyings LitVertex(Attributes input)
                               input.tangentOS.w < 0.0 ? -1.0 : 1.0);
 #endif
 #if defined(_ADDITIONAL_LIGHTS_VERTEX)
-    output.vertexLighting = (float3)VertexLighting(output.positionWS, output.normalWS);
+    output.vertexLighting = VertexLighting(output.positionWS, output.normalWS);
 #endif
 #if defined(_MAIN_LIGHT_SHADOWS)
     output.shadowCoord = MainLightShadowCoord(output.positionWS, 0);
@@ -108,11 +108,6 @@ SurfaceData InitializeSurface(Varyings input, bool frontFace)
     return surface;
 }
 
-real3 AccumulateLight(ShadingData s, Light light)
-{
-    return DirectBRDF(s, light.L) * (real3)(light.radiance * light.shadow);
-}
-
 float4 LitFragment(Varyings input, bool frontFace : SV_IsFrontFace) : SV_Target
 {
     SurfaceData surface = InitializeSurface(input, frontFace);
@@ -127,7 +122,9 @@ float4 LitFragment(Varyings input, bool frontFace : SV_IsFrontFace) : SV_Target
 #else
     float3 vertexShadowCoord = float3(0.0, 0.0, 0.0);
 #endif
-    real3 color = AccumulateLight(s, GetMainLight(input.positionWS, vertexShadowCoord));
+    // Radiance is summed in fp32 even in _HALF_PRECISION variants: each light's term is clamped to the fp16
+    // range, but a sum of several can still exceed it (the stress gate found Inf there).
+    float3 color = (float3)AccumulateLight(s, GetMainLight(input.positionWS, vertexShadowCoord));
 
     // Additional lights.
 #if defined(_ADDITIONAL_LIGHTS)
@@ -137,13 +134,13 @@ float4 LitFragment(Varyings input, bool frontFace : SV_IsFrontFace) : SV_Target
     uint listStart = (tile.y * _LightCounts.z + tile.x) * (uint)KILN_TILE_STRIDE;
     uint count = min(_TileLightIndices[listStart], (uint)KILN_MAX_LIGHTS_PER_TILE);
     for (uint i = 0u; i < count; ++i)
-        color += AccumulateLight(s, GetAdditionalLight(_TileLightIndices[listStart + 1u + i], input.positionWS));
+        color += (float3)AccumulateLight(s, GetAdditionalLight(_TileLightIndices[listStart + 1u + i], input.positionWS));
 #else
     for (uint i = 0u; i < _LightCounts.x; ++i)
-        color += AccumulateLight(s, GetAdditionalLight(i, input.positionWS));
+        color += (float3)AccumulateLight(s, GetAdditionalLight(i, input.positionWS));
 #endif
 #elif defined(_ADDITIONAL_LIGHTS_VERTEX)
-    color += s.diffuseColor * (real3)input.vertexLighting;
+    color += (float3)s.diffuseColor * input.vertexLighting;
 #endif
 
     // Image-based lighting.
@@ -157,9 +154,9 @@ float4 LitFragment(Varyings input, bool frontFace : SV_IsFrontFace) : SV_Target
     float3 prefiltered = SamplePrefilteredEnvironment(_EnvironmentMap, sampler_LinearClamp, R, saturate(_PerceptualRoughness),
                                                       _EnvironmentParams.x);
 #endif
-    color += IndirectLighting(s, irradianceOverPi * _EnvironmentParams.z, prefiltered * _EnvironmentParams.z);
+    color += (float3)IndirectLighting(s, irradianceOverPi * _EnvironmentParams.z, prefiltered * _EnvironmentParams.z);
 
-    float3 radiance = (float3)color;
+    float3 radiance = color;
 #if defined(KILN_FOG)
     float fogFactor = ComputeFogFactor(input.fogDepth, _FogParams);
     radiance = MixFog(radiance, _FogColor.rgb, fogFactor);

@@ -1,0 +1,724 @@
+#include "lavapipe.hpp"
+
+#include <vulkan/vulkan.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include <glslang/SPIRV/GLSL.std.450.h>
+#include <glslang/SPIRV/spirv.hpp>
+
+#include "frontend/frontend.hpp"
+#include "optimize/spirv_tools.hpp"
+
+namespace kiln::gpu {
+namespace {
+
+void check(VkResult result, const char* what) {
+  if (result != VK_SUCCESS) throw std::runtime_error(std::string(what) + " failed: VkResult " + std::to_string(result));
+}
+
+std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+}  // namespace
+
+struct Lavapipe::State {
+  VkInstance instance = VK_NULL_HANDLE;
+  VkPhysicalDevice physical = VK_NULL_HANDLE;
+  VkDevice device = VK_NULL_HANDLE;
+  VkQueue queue = VK_NULL_HANDLE;
+  uint32_t queue_family = 0;
+  VkCommandPool pool = VK_NULL_HANDLE;
+  VkPhysicalDeviceProperties properties{};
+  VkPhysicalDeviceDriverProperties driver{};
+  VkPhysicalDeviceMemoryProperties memory{};
+  bool float16 = false;
+
+  ~State() {
+    if (device) {
+      vkDeviceWaitIdle(device);
+      if (pool) vkDestroyCommandPool(device, pool, nullptr);
+      vkDestroyDevice(device, nullptr);
+    }
+    if (instance) vkDestroyInstance(instance, nullptr);
+  }
+
+  uint32_t memory_type(uint32_t bits, VkMemoryPropertyFlags flags) const {
+    for (uint32_t i = 0; i < memory.memoryTypeCount; ++i)
+      if ((bits & (1u << i)) && (memory.memoryTypes[i].propertyFlags & flags) == flags) return i;
+    throw std::runtime_error("no Vulkan memory type with the requested properties");
+  }
+};
+
+Lavapipe::Lavapipe(std::unique_ptr<State> state) : state_(std::move(state)) {}
+Lavapipe::~Lavapipe() = default;
+
+std::unique_ptr<Lavapipe> Lavapipe::open(std::string& error) {
+  auto state = std::make_unique<State>();
+  VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
+  app.pApplicationName = "kiln-probe";
+  app.apiVersion = VK_API_VERSION_1_2;
+  VkInstanceCreateInfo instance_info{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+  instance_info.pApplicationInfo = &app;
+  if (vkCreateInstance(&instance_info, nullptr, &state->instance) != VK_SUCCESS) {
+    error = "cannot create a Vulkan instance (is the Vulkan loader installed? Debian: libvulkan1 mesa-vulkan-drivers)";
+    return nullptr;
+  }
+  uint32_t count = 0;
+  vkEnumeratePhysicalDevices(state->instance, &count, nullptr);
+  std::vector<VkPhysicalDevice> devices(count);
+  vkEnumeratePhysicalDevices(state->instance, &count, devices.data());
+  for (VkPhysicalDevice candidate : devices) {
+    VkPhysicalDeviceDriverProperties driver{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
+    VkPhysicalDeviceProperties2 properties{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
+    properties.pNext = &driver;
+    vkGetPhysicalDeviceProperties2(candidate, &properties);
+    if (driver.driverID == VK_DRIVER_ID_MESA_LLVMPIPE) {
+      state->physical = candidate;
+      state->properties = properties.properties;
+      state->driver = driver;
+      break;
+    }
+  }
+  if (!state->physical) {
+    error = "no lavapipe device among " + std::to_string(count) +
+            " Vulkan device(s): install Debian's mesa-vulkan-drivers (kiln runs shaders on lavapipe only)";
+    return nullptr;
+  }
+  vkGetPhysicalDeviceMemoryProperties(state->physical, &state->memory);
+
+  VkPhysicalDeviceVulkan12Features supported12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+  VkPhysicalDeviceFeatures2 supported{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+  supported.pNext = &supported12;
+  vkGetPhysicalDeviceFeatures2(state->physical, &supported);
+  state->float16 = supported12.shaderFloat16 == VK_TRUE;
+
+  uint32_t families = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(state->physical, &families, nullptr);
+  std::vector<VkQueueFamilyProperties> family_properties(families);
+  vkGetPhysicalDeviceQueueFamilyProperties(state->physical, &families, family_properties.data());
+  auto graphics = std::find_if(family_properties.begin(), family_properties.end(),
+                               [](const VkQueueFamilyProperties& f) { return f.queueFlags & VK_QUEUE_GRAPHICS_BIT; });
+  if (graphics == family_properties.end()) {
+    error = "the lavapipe device has no graphics queue";
+    return nullptr;
+  }
+  state->queue_family = static_cast<uint32_t>(graphics - family_properties.begin());
+
+  float priority = 1.0f;
+  VkDeviceQueueCreateInfo queue_info{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
+  queue_info.queueFamilyIndex = state->queue_family;
+  queue_info.queueCount = 1;
+  queue_info.pQueuePriorities = &priority;
+  VkPhysicalDeviceVulkan12Features enabled12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+  enabled12.shaderFloat16 = supported12.shaderFloat16;
+  VkPhysicalDeviceFeatures2 enabled{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+  enabled.pNext = &enabled12;
+  VkDeviceCreateInfo device_info{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+  device_info.pNext = &enabled;
+  device_info.queueCreateInfoCount = 1;
+  device_info.pQueueCreateInfos = &queue_info;
+  if (vkCreateDevice(state->physical, &device_info, nullptr, &state->device) != VK_SUCCESS) {
+    error = "cannot create the lavapipe logical device";
+    return nullptr;
+  }
+  vkGetDeviceQueue(state->device, state->queue_family, 0, &state->queue);
+  VkCommandPoolCreateInfo pool_info{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  pool_info.queueFamilyIndex = state->queue_family;
+  pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  if (vkCreateCommandPool(state->device, &pool_info, nullptr, &state->pool) != VK_SUCCESS) {
+    error = "cannot create a command pool";
+    return nullptr;
+  }
+  return std::unique_ptr<Lavapipe>(new Lavapipe(std::move(state)));
+}
+
+std::string Lavapipe::device_name() const { return state_->properties.deviceName; }
+std::string Lavapipe::driver_info() const {
+  return std::string(state_->driver.driverName) + " " + state_->driver.driverInfo;
+}
+bool Lavapipe::supports_float16() const { return state_->float16; }
+
+namespace {
+
+// Owns every object one probe run creates; destroyed in reverse order whatever happens.
+struct RunObjects {
+  VkDevice device;
+  std::vector<VkBuffer> buffers;
+  std::vector<VkImage> images;
+  std::vector<VkImageView> views;
+  std::vector<VkDeviceMemory> memories;
+  VkSampler sampler = VK_NULL_HANDLE;
+  VkRenderPass render_pass = VK_NULL_HANDLE;
+  VkFramebuffer framebuffer = VK_NULL_HANDLE;
+  std::vector<VkShaderModule> modules;
+  VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
+  VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  VkDescriptorPool descriptor_pool = VK_NULL_HANDLE;
+
+  explicit RunObjects(VkDevice d) : device(d) {}
+  ~RunObjects() {
+    if (descriptor_pool) vkDestroyDescriptorPool(device, descriptor_pool, nullptr);
+    if (pipeline) vkDestroyPipeline(device, pipeline, nullptr);
+    if (pipeline_layout) vkDestroyPipelineLayout(device, pipeline_layout, nullptr);
+    if (set_layout) vkDestroyDescriptorSetLayout(device, set_layout, nullptr);
+    for (VkShaderModule m : modules) vkDestroyShaderModule(device, m, nullptr);
+    if (framebuffer) vkDestroyFramebuffer(device, framebuffer, nullptr);
+    if (render_pass) vkDestroyRenderPass(device, render_pass, nullptr);
+    if (sampler) vkDestroySampler(device, sampler, nullptr);
+    for (VkImageView v : views) vkDestroyImageView(device, v, nullptr);
+    for (VkImage i : images) vkDestroyImage(device, i, nullptr);
+    for (VkBuffer b : buffers) vkDestroyBuffer(device, b, nullptr);
+    for (VkDeviceMemory m : memories) vkFreeMemory(device, m, nullptr);
+  }
+};
+
+struct HostBuffer {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  void* mapped = nullptr;
+};
+
+HostBuffer make_host_buffer(const Lavapipe* /*unused*/, VkDevice device, RunObjects& objects,
+                            const VkPhysicalDeviceMemoryProperties& memory, VkDeviceSize size, VkBufferUsageFlags usage) {
+  VkBufferCreateInfo info{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+  info.size = size;
+  info.usage = usage;
+  HostBuffer result;
+  check(vkCreateBuffer(device, &info, nullptr, &result.buffer), "vkCreateBuffer");
+  objects.buffers.push_back(result.buffer);
+  VkMemoryRequirements requirements;
+  vkGetBufferMemoryRequirements(device, result.buffer, &requirements);
+  VkMemoryAllocateInfo allocate{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  allocate.allocationSize = requirements.size;
+  const VkMemoryPropertyFlags flags = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+  allocate.memoryTypeIndex = UINT32_MAX;
+  for (uint32_t i = 0; i < memory.memoryTypeCount; ++i)
+    if ((requirements.memoryTypeBits & (1u << i)) && (memory.memoryTypes[i].propertyFlags & flags) == flags) {
+      allocate.memoryTypeIndex = i;
+      break;
+    }
+  if (allocate.memoryTypeIndex == UINT32_MAX) throw std::runtime_error("no host-visible memory");
+  VkDeviceMemory bound;
+  check(vkAllocateMemory(device, &allocate, nullptr, &bound), "vkAllocateMemory");
+  objects.memories.push_back(bound);
+  check(vkBindBufferMemory(device, result.buffer, bound, 0), "vkBindBufferMemory");
+  check(vkMapMemory(device, bound, 0, size, 0, &result.mapped), "vkMapMemory");
+  return result;
+}
+
+VkImage make_image(VkDevice device, RunObjects& objects, uint32_t (*pick)(const void*, uint32_t, VkMemoryPropertyFlags),
+                   const void* picker, VkFormat format, uint32_t width, uint32_t height, VkImageUsageFlags usage) {
+  VkImageCreateInfo info{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+  info.imageType = VK_IMAGE_TYPE_2D;
+  info.format = format;
+  info.extent = {width, height, 1};
+  info.mipLevels = 1;
+  info.arrayLayers = 1;
+  info.samples = VK_SAMPLE_COUNT_1_BIT;
+  info.tiling = VK_IMAGE_TILING_OPTIMAL;
+  info.usage = usage;
+  info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  VkImage image;
+  check(vkCreateImage(device, &info, nullptr, &image), "vkCreateImage");
+  objects.images.push_back(image);
+  VkMemoryRequirements requirements;
+  vkGetImageMemoryRequirements(device, image, &requirements);
+  VkMemoryAllocateInfo allocate{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  allocate.allocationSize = requirements.size;
+  allocate.memoryTypeIndex = pick(picker, requirements.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+  VkDeviceMemory bound;
+  check(vkAllocateMemory(device, &allocate, nullptr, &bound), "vkAllocateMemory");
+  objects.memories.push_back(bound);
+  check(vkBindImageMemory(device, image, bound, 0), "vkBindImageMemory");
+  return image;
+}
+
+VkImageView make_view(VkDevice device, RunObjects& objects, VkImage image, VkFormat format) {
+  VkImageViewCreateInfo info{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+  info.image = image;
+  info.viewType = VK_IMAGE_VIEW_TYPE_2D;
+  info.format = format;
+  info.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+  VkImageView view;
+  check(vkCreateImageView(device, &info, nullptr, &view), "vkCreateImageView");
+  objects.views.push_back(view);
+  return view;
+}
+
+void barrier(VkCommandBuffer cmd, VkImage image, VkImageLayout from, VkImageLayout to, VkAccessFlags src_access,
+             VkAccessFlags dst_access, VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage) {
+  VkImageMemoryBarrier b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
+  b.oldLayout = from;
+  b.newLayout = to;
+  b.srcAccessMask = src_access;
+  b.dstAccessMask = dst_access;
+  b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b.image = image;
+  b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+  vkCmdPipelineBarrier(cmd, src_stage, dst_stage, 0, 0, nullptr, 0, nullptr, 1, &b);
+}
+
+VkFormat vk_format(ProbeTexture::Format format) {
+  switch (format) {
+    case ProbeTexture::Format::Rg32f: return VK_FORMAT_R32G32_SFLOAT;
+    case ProbeTexture::Format::Rg16Unorm: return VK_FORMAT_R16G16_UNORM;
+    case ProbeTexture::Format::Rg8Unorm: return VK_FORMAT_R8G8_UNORM;
+  }
+  return VK_FORMAT_R32G32_SFLOAT;
+}
+
+// Texel bytes in the target format: unorm formats round to nearest, as an asset pipeline would.
+std::vector<uint8_t> encode_texels(const ProbeTexture& texture) {
+  std::vector<uint8_t> bytes;
+  for (float v : texture.texels) {
+    float c = std::clamp(v, 0.0f, 1.0f);
+    switch (texture.format) {
+      case ProbeTexture::Format::Rg32f: {
+        uint8_t raw[4];
+        std::memcpy(raw, &v, 4);
+        bytes.insert(bytes.end(), raw, raw + 4);
+        break;
+      }
+      case ProbeTexture::Format::Rg16Unorm: {
+        auto q = static_cast<uint16_t>(std::lround(c * 65535.0f));
+        bytes.push_back(static_cast<uint8_t>(q & 0xff));
+        bytes.push_back(static_cast<uint8_t>(q >> 8));
+        break;
+      }
+      case ProbeTexture::Format::Rg8Unorm: bytes.push_back(static_cast<uint8_t>(std::lround(c * 255.0f))); break;
+    }
+  }
+  return bytes;
+}
+
+}  // namespace
+
+std::vector<ProbeOutput> Lavapipe::run(const ProbeProgram& program, const std::vector<ProbeInput>& inputs,
+                                       const std::optional<ProbeTexture>& texture, double* milliseconds) {
+  if (inputs.empty()) return {};
+  if (program.float16 && !state_->float16) throw std::runtime_error("the lavapipe device lacks shaderFloat16");
+  State& s = *state_;
+  VkDevice device = s.device;
+  RunObjects objects(device);
+  auto pick = [](const void* state, uint32_t bits, VkMemoryPropertyFlags flags) {
+    return static_cast<const State*>(state)->memory_type(bits, flags);
+  };
+
+  const uint32_t width = kProbeWidth;
+  const uint32_t height = static_cast<uint32_t>((inputs.size() + width - 1) / width);
+  const size_t records = size_t(width) * height;
+
+  // Input records, padded with the last one so that every pixel reads a valid record.
+  HostBuffer input = make_host_buffer(this, device, objects, s.memory, records * sizeof(ProbeInput),
+                                      VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  auto* records_out = static_cast<ProbeInput*>(input.mapped);
+  for (size_t i = 0; i < records; ++i) records_out[i] = inputs[std::min(i, inputs.size() - 1)];
+  HostBuffer readback = make_host_buffer(this, device, objects, s.memory, records * sizeof(ProbeOutput),
+                                         VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+
+  const VkFormat color_format = VK_FORMAT_R32G32B32A32_SFLOAT;
+  VkImage color = make_image(device, objects, pick, &s, color_format, width, height,
+                             VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT);
+  VkImageView color_view = make_view(device, objects, color, color_format);
+
+  // Optional texture (uploaded through a staging buffer).
+  VkImage texture_image = VK_NULL_HANDLE;
+  VkImageView texture_view = VK_NULL_HANDLE;
+  HostBuffer staging;
+  if (texture) {
+    std::vector<uint8_t> bytes = encode_texels(*texture);
+    staging = make_host_buffer(this, device, objects, s.memory, bytes.size(), VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
+    std::memcpy(staging.mapped, bytes.data(), bytes.size());
+    texture_image = make_image(device, objects, pick, &s, vk_format(texture->format), texture->width, texture->height,
+                               VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT);
+    texture_view = make_view(device, objects, texture_image, vk_format(texture->format));
+    VkSamplerCreateInfo sampler{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+    sampler.magFilter = VK_FILTER_LINEAR;
+    sampler.minFilter = VK_FILTER_LINEAR;
+    sampler.mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR;
+    sampler.addressModeU = sampler.addressModeV = sampler.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    sampler.maxLod = 0.0f;
+    check(vkCreateSampler(device, &sampler, nullptr, &objects.sampler), "vkCreateSampler");
+  }
+
+  VkAttachmentDescription attachment{};
+  attachment.format = color_format;
+  attachment.samples = VK_SAMPLE_COUNT_1_BIT;
+  attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  attachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  attachment.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+  attachment.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  attachment.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  attachment.finalLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+  VkAttachmentReference reference{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
+  VkSubpassDescription subpass{};
+  subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+  subpass.colorAttachmentCount = 1;
+  subpass.pColorAttachments = &reference;
+  VkRenderPassCreateInfo pass_info{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
+  pass_info.attachmentCount = 1;
+  pass_info.pAttachments = &attachment;
+  pass_info.subpassCount = 1;
+  pass_info.pSubpasses = &subpass;
+  check(vkCreateRenderPass(device, &pass_info, nullptr, &objects.render_pass), "vkCreateRenderPass");
+  VkFramebufferCreateInfo framebuffer_info{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
+  framebuffer_info.renderPass = objects.render_pass;
+  framebuffer_info.attachmentCount = 1;
+  framebuffer_info.pAttachments = &color_view;
+  framebuffer_info.width = width;
+  framebuffer_info.height = height;
+  framebuffer_info.layers = 1;
+  check(vkCreateFramebuffer(device, &framebuffer_info, nullptr, &objects.framebuffer), "vkCreateFramebuffer");
+
+  std::vector<VkDescriptorSetLayoutBinding> bindings;
+  bindings.push_back({kProbeInputBinding, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr});
+  if (texture) {
+    bindings.push_back({texture->binding, VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr});
+    bindings.push_back({texture->sampler_binding, VK_DESCRIPTOR_TYPE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr});
+  }
+  VkDescriptorSetLayoutCreateInfo set_info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+  set_info.bindingCount = static_cast<uint32_t>(bindings.size());
+  set_info.pBindings = bindings.data();
+  check(vkCreateDescriptorSetLayout(device, &set_info, nullptr, &objects.set_layout), "vkCreateDescriptorSetLayout");
+  VkPipelineLayoutCreateInfo layout_info{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  layout_info.setLayoutCount = 1;
+  layout_info.pSetLayouts = &objects.set_layout;
+  check(vkCreatePipelineLayout(device, &layout_info, nullptr, &objects.pipeline_layout), "vkCreatePipelineLayout");
+
+  auto module = [&](const std::vector<uint32_t>& code) {
+    VkShaderModuleCreateInfo info{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+    info.codeSize = code.size() * sizeof(uint32_t);
+    info.pCode = code.data();
+    VkShaderModule m;
+    check(vkCreateShaderModule(device, &info, nullptr, &m), "vkCreateShaderModule");
+    objects.modules.push_back(m);
+    return m;
+  };
+  VkPipelineShaderStageCreateInfo stages[2]{};
+  stages[0].sType = stages[1].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+  stages[0].module = module(program.vertex);
+  stages[0].pName = "ProbeVertex";
+  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+  stages[1].module = module(program.fragment);
+  stages[1].pName = "ProbeFragment";
+  VkPipelineVertexInputStateCreateInfo vertex_input{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+  VkPipelineInputAssemblyStateCreateInfo assembly{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+  assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  VkViewport viewport{0, 0, float(width), float(height), 0, 1};
+  VkRect2D scissor{{0, 0}, {width, height}};
+  VkPipelineViewportStateCreateInfo viewport_state{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+  viewport_state.viewportCount = 1;
+  viewport_state.pViewports = &viewport;
+  viewport_state.scissorCount = 1;
+  viewport_state.pScissors = &scissor;
+  VkPipelineRasterizationStateCreateInfo raster{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+  raster.polygonMode = VK_POLYGON_MODE_FILL;
+  raster.cullMode = VK_CULL_MODE_NONE;
+  raster.lineWidth = 1.0f;
+  VkPipelineMultisampleStateCreateInfo multisample{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+  multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  VkPipelineColorBlendAttachmentState blend{};
+  blend.colorWriteMask = 0xf;
+  VkPipelineColorBlendStateCreateInfo blend_state{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+  blend_state.attachmentCount = 1;
+  blend_state.pAttachments = &blend;
+  VkGraphicsPipelineCreateInfo pipeline_info{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+  pipeline_info.stageCount = 2;
+  pipeline_info.pStages = stages;
+  pipeline_info.pVertexInputState = &vertex_input;
+  pipeline_info.pInputAssemblyState = &assembly;
+  pipeline_info.pViewportState = &viewport_state;
+  pipeline_info.pRasterizationState = &raster;
+  pipeline_info.pMultisampleState = &multisample;
+  pipeline_info.pColorBlendState = &blend_state;
+  pipeline_info.layout = objects.pipeline_layout;
+  pipeline_info.renderPass = objects.render_pass;
+  check(vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &pipeline_info, nullptr, &objects.pipeline),
+        "vkCreateGraphicsPipelines");
+
+  VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1},
+                                  {VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE, 1},
+                                  {VK_DESCRIPTOR_TYPE_SAMPLER, 1}};
+  VkDescriptorPoolCreateInfo pool_info{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+  pool_info.maxSets = 1;
+  pool_info.poolSizeCount = 3;
+  pool_info.pPoolSizes = sizes;
+  check(vkCreateDescriptorPool(device, &pool_info, nullptr, &objects.descriptor_pool), "vkCreateDescriptorPool");
+  VkDescriptorSetAllocateInfo set_allocate{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+  set_allocate.descriptorPool = objects.descriptor_pool;
+  set_allocate.descriptorSetCount = 1;
+  set_allocate.pSetLayouts = &objects.set_layout;
+  VkDescriptorSet set;
+  check(vkAllocateDescriptorSets(device, &set_allocate, &set), "vkAllocateDescriptorSets");
+  VkDescriptorBufferInfo buffer_info{input.buffer, 0, VK_WHOLE_SIZE};
+  VkDescriptorImageInfo image_info{VK_NULL_HANDLE, texture_view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  VkDescriptorImageInfo sampler_info{objects.sampler, VK_NULL_HANDLE, VK_IMAGE_LAYOUT_UNDEFINED};
+  std::vector<VkWriteDescriptorSet> writes(1, VkWriteDescriptorSet{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET});
+  writes[0].dstSet = set;
+  writes[0].dstBinding = kProbeInputBinding;
+  writes[0].descriptorCount = 1;
+  writes[0].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  writes[0].pBufferInfo = &buffer_info;
+  if (texture) {
+    VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+    w.dstSet = set;
+    w.dstBinding = texture->binding;
+    w.descriptorCount = 1;
+    w.descriptorType = VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE;
+    w.pImageInfo = &image_info;
+    writes.push_back(w);
+    w.dstBinding = texture->sampler_binding;
+    w.descriptorType = VK_DESCRIPTOR_TYPE_SAMPLER;
+    w.pImageInfo = &sampler_info;
+    writes.push_back(w);
+  }
+  vkUpdateDescriptorSets(device, static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
+
+  VkCommandBufferAllocateInfo command_info{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  command_info.commandPool = s.pool;
+  command_info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  command_info.commandBufferCount = 1;
+  VkCommandBuffer cmd;
+  check(vkAllocateCommandBuffers(device, &command_info, &cmd), "vkAllocateCommandBuffers");
+  struct FreeCommand {
+    VkDevice d;
+    VkCommandPool p;
+    VkCommandBuffer c;
+    ~FreeCommand() { vkFreeCommandBuffers(d, p, 1, &c); }
+  } free_command{device, s.pool, cmd};
+
+  VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  auto submit = [&](double* ms) {
+    VkSubmitInfo submit_info{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    submit_info.commandBufferCount = 1;
+    submit_info.pCommandBuffers = &cmd;
+    auto t0 = std::chrono::steady_clock::now();
+    check(vkQueueSubmit(s.queue, 1, &submit_info, VK_NULL_HANDLE), "vkQueueSubmit");
+    check(vkQueueWaitIdle(s.queue), "vkQueueWaitIdle");
+    if (ms) *ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  };
+
+  if (texture) {
+    check(vkBeginCommandBuffer(cmd, &begin), "vkBeginCommandBuffer");
+    barrier(cmd, texture_image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
+            VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {texture->width, texture->height, 1};
+    vkCmdCopyBufferToImage(cmd, staging.buffer, texture_image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+    barrier(cmd, texture_image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+            VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+            VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT);
+    check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
+    submit(nullptr);
+  }
+
+  check(vkBeginCommandBuffer(cmd, &begin), "vkBeginCommandBuffer");
+  VkClearValue clear{};
+  VkRenderPassBeginInfo pass_begin{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
+  pass_begin.renderPass = objects.render_pass;
+  pass_begin.framebuffer = objects.framebuffer;
+  pass_begin.renderArea = scissor;
+  pass_begin.clearValueCount = 1;
+  pass_begin.pClearValues = &clear;
+  vkCmdBeginRenderPass(cmd, &pass_begin, VK_SUBPASS_CONTENTS_INLINE);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, objects.pipeline);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, objects.pipeline_layout, 0, 1, &set, 0, nullptr);
+  vkCmdDraw(cmd, 3, 1, 0, 0);
+  vkCmdEndRenderPass(cmd);
+  check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
+  submit(milliseconds);
+
+  check(vkResetCommandBuffer(cmd, 0), "vkResetCommandBuffer");
+  check(vkBeginCommandBuffer(cmd, &begin), "vkBeginCommandBuffer");
+  VkBufferImageCopy copy{};
+  copy.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  copy.imageExtent = {width, height, 1};
+  vkCmdCopyImageToBuffer(cmd, color, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback.buffer, 1, &copy);
+  check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
+  submit(nullptr);
+
+  const auto* values = static_cast<const ProbeOutput*>(readback.mapped);
+  return std::vector<ProbeOutput>(values, values + inputs.size());
+}
+
+namespace {
+
+// Serves #include from the include directories (the probe is test code; kiln build's includer, with its
+// confinement rules, is tested elsewhere).
+class DirectoryIncludes final : public IncludeSource {
+ public:
+  explicit DirectoryIncludes(std::vector<std::filesystem::path> dirs) : dirs_(std::move(dirs)) {}
+  bool resolve(std::string_view requested, std::string_view from, Found& found, std::string& error) const override {
+    std::vector<std::filesystem::path> candidates;
+    if (!from.empty()) candidates.push_back(std::filesystem::path(from).parent_path() / requested);
+    for (const auto& dir : dirs_) candidates.push_back(dir / requested);
+    for (const auto& candidate : candidates) {
+      std::error_code ec;
+      if (!std::filesystem::is_regular_file(candidate, ec)) continue;
+      std::string key = std::filesystem::weakly_canonical(candidate).string();
+      auto [it, inserted] = texts_.try_emplace(key);
+      if (inserted) it->second = read_text(key);
+      found.name = key;
+      found.text = it->second;
+      return true;
+    }
+    error = "cannot find '" + std::string(requested) + "'";
+    return false;
+  }
+
+ private:
+  std::vector<std::filesystem::path> dirs_;
+  mutable std::map<std::string, std::string> texts_;
+};
+
+}  // namespace
+
+std::optional<ProbeProgram> compile_probe(const std::filesystem::path& probe_file,
+                                          const std::vector<std::filesystem::path>& include_dirs,
+                                          const std::vector<std::string>& defines, std::string& error, bool optimize) {
+  auto frontend = make_glslang_frontend();
+  DirectoryIncludes includes(include_dirs);
+  std::string entry_text = read_text(probe_file);
+  std::string entry_name = std::filesystem::weakly_canonical(probe_file).string();
+  ProbeProgram program;
+  for (Stage stage : kAllStages) {
+    PreprocessRequest request{stage, entry_name, entry_text, defines, &includes};
+    PreprocessResult preprocessed = frontend->preprocess(request);
+    auto describe = [&](const std::vector<FrontendMessage>& messages) {
+      std::string text;
+      for (const auto& m : messages) text += m.path + ":" + std::to_string(m.line) + ": " + m.text + "\n";
+      return text;
+    };
+    if (!preprocessed.ok) {
+      error = "preprocessing " + entry_name + " failed:\n" + describe(preprocessed.messages);
+      return std::nullopt;
+    }
+    const char* entry = stage == Stage::Vertex ? "ProbeVertex" : "ProbeFragment";
+    CompileResult compiled = frontend->compile({stage, entry, entry_name, preprocessed.text});
+    if (!compiled.ok) {
+      error = "compiling " + entry_name + " (" + std::string(stage_name(stage)) + ") failed:\n" +
+              describe(compiled.messages);
+      return std::nullopt;
+    }
+    SpirvStepResult steps = legalize_validate_optimize(std::move(compiled.spirv), optimize);
+    if (!steps.ok) {
+      error = steps.step + " failed for " + entry_name + ":";
+      for (const auto& m : steps.messages) error += "\n" + m;
+      return std::nullopt;
+    }
+    (stage == Stage::Vertex ? program.vertex : program.fragment) = std::move(steps.spirv);
+  }
+  program.float16 = std::find(defines.begin(), defines.end(), "_HALF_PRECISION") != defines.end();
+  return program;
+}
+
+ShaderCost weighted_cost(const std::vector<uint32_t>& spirv) {
+  ShaderCost cost;
+  if (spirv.size() < 5) return cost;
+  std::map<uint32_t, uint32_t> components;  // type id -> scalar count
+  uint32_t glsl_set = UINT32_MAX;
+  bool in_function = false;
+  for (size_t i = 5; i < spirv.size();) {
+    uint32_t word_count = spirv[i] >> 16;
+    auto op = static_cast<spv::Op>(spirv[i] & 0xffff);
+    if (word_count == 0 || i + word_count > spirv.size()) break;
+    const uint32_t* w = &spirv[i];
+    switch (op) {
+      case spv::OpExtInstImport:
+        if (std::strcmp(reinterpret_cast<const char*>(&w[2]), "GLSL.std.450") == 0) glsl_set = w[1];
+        break;
+      case spv::OpTypeFloat:
+      case spv::OpTypeInt:
+      case spv::OpTypeBool: components[w[1]] = 1; break;
+      case spv::OpTypeVector: components[w[1]] = w[3]; break;
+      case spv::OpFunction: in_function = true; break;
+      case spv::OpFunctionEnd: in_function = false; break;
+      default: break;
+    }
+    if (in_function && word_count >= 3) {
+      auto width = [&](uint32_t type) {
+        auto it = components.find(type);
+        return it == components.end() ? 1u : it->second;
+      };
+      double weight = -1;  // < 0: not an arithmetic instruction
+      uint32_t n = word_count >= 2 ? width(w[1]) : 1;
+      switch (op) {
+        case spv::OpImageSampleImplicitLod:
+        case spv::OpImageSampleExplicitLod:
+        case spv::OpImageSampleDrefImplicitLod:
+        case spv::OpImageSampleDrefExplicitLod:
+        case spv::OpImageFetch:
+        case spv::OpImageGather:
+        case spv::OpImageDrefGather: ++cost.texture_fetches; break;
+        case spv::OpFDiv:
+        case spv::OpUDiv:
+        case spv::OpSDiv:
+        case spv::OpFRem:
+        case spv::OpFMod: weight = 5.0 * n; break;
+        case spv::OpDot: weight = 3; break;  // a 3-component dot (the library's only kind)
+        case spv::OpFAdd: case spv::OpFSub: case spv::OpFMul: case spv::OpFNegate:
+        case spv::OpIAdd: case spv::OpISub: case spv::OpIMul: case spv::OpSNegate:
+        case spv::OpVectorTimesScalar: case spv::OpMatrixTimesScalar:
+        case spv::OpFOrdLessThan: case spv::OpFOrdGreaterThan: case spv::OpFOrdLessThanEqual:
+        case spv::OpFOrdGreaterThanEqual: case spv::OpFOrdEqual: case spv::OpFOrdNotEqual:
+        case spv::OpFUnordLessThan: case spv::OpFUnordGreaterThan: case spv::OpFUnordLessThanEqual:
+        case spv::OpFUnordGreaterThanEqual: case spv::OpFUnordEqual: case spv::OpFUnordNotEqual:
+        case spv::OpULessThan: case spv::OpSLessThan: case spv::OpUGreaterThan: case spv::OpSGreaterThan:
+        case spv::OpULessThanEqual: case spv::OpSLessThanEqual: case spv::OpUGreaterThanEqual:
+        case spv::OpSGreaterThanEqual: case spv::OpIEqual: case spv::OpINotEqual:
+        case spv::OpSelect: case spv::OpLogicalAnd: case spv::OpLogicalOr: case spv::OpLogicalNot:
+        case spv::OpConvertFToU: case spv::OpConvertFToS: case spv::OpConvertSToF: case spv::OpConvertUToF:
+        case spv::OpFConvert: case spv::OpBitwiseAnd: case spv::OpBitwiseOr: case spv::OpBitwiseXor:
+        case spv::OpShiftLeftLogical: case spv::OpShiftRightLogical: case spv::OpShiftRightArithmetic:
+          weight = n;
+          break;
+        case spv::OpMatrixTimesVector: case spv::OpVectorTimesMatrix: weight = 4.0 * n; break;
+        case spv::OpExtInst:
+          if (w[3] == glsl_set) {
+            switch (static_cast<GLSLstd450>(w[4])) {
+              case GLSLstd450Sqrt: case GLSLstd450InverseSqrt: case GLSLstd450Exp2: case GLSLstd450Log2:
+              case GLSLstd450Exp: case GLSLstd450Log: case GLSLstd450Sin: case GLSLstd450Cos:
+                weight = 4.0 * n;
+                break;
+              case GLSLstd450Pow: weight = 9.0 * n; break;
+              case GLSLstd450Normalize: weight = 2.0 * n + 4.0; break;  // dot, rsqrt, scale
+              case GLSLstd450Length: case GLSLstd450Distance: weight = n + 4.0; break;
+              default: weight = n; break;  // min, max, clamp, mix, fma, abs, floor, step, ...
+            }
+          }
+          break;
+        default: break;
+      }
+      if (weight >= 0) {
+        cost.weighted += weight;
+        ++cost.instructions;
+      }
+    }
+    i += word_count;
+  }
+  return cost;
+}
+
+std::string cost_weights_description() {
+  return "per scalar component: add, multiply, compare, select, min/max/clamp/mix and conversions 1; dot 3;"
+         " rcp, sqrt, inversesqrt, exp2, log2, exp, log, sin, cos 4; divide 5; pow 9; normalize 2n+4; "
+         "length n+4; loads, stores, swizzles and branches 0; texture fetches counted separately";
+}
+
+}  // namespace kiln::gpu
