@@ -4,6 +4,12 @@
 // except PROBE_TEXTBOOK, the unguarded kernel that proves the stress harness can see failures.
 //
 // Record layout: a, b, c, d (float4 each), meaning per probe as documented below.
+// The study's smaller DFG tables (SampleDFG maps coordinates for the table's size).
+#if defined(PROBE_DFG_16)
+#define KILN_DFG_SIZE 16.0
+#elif defined(PROBE_DFG_32)
+#define KILN_DFG_SIZE 32.0
+#endif
 #include "Lighting.hlsl"
 #include "Tonemap.hlsl"
 
@@ -18,7 +24,7 @@ struct ProbeInput
 };
 
 [[vk::binding(20, 0)]] StructuredBuffer<ProbeInput> gProbeInputs : register(t20);
-#if defined(PROBE_TABLE)
+#if defined(PROBE_TABLE) || defined(PROBE_USES_TABLE)
 [[vk::binding(21, 0)]] Texture2D gProbeTable : register(t21);
 [[vk::binding(22, 0)]] SamplerState gProbeSampler : register(s22);
 #endif
@@ -175,6 +181,71 @@ float4 Evaluate(ProbeInput p)
     real3 approxBias = EnvBRDFApprox((real3)0.0, ClampedPerceptualRoughness((real)p.a.x), NoV);
     real3 approxOne = EnvBRDFApprox((real3)1.0, ClampedPerceptualRoughness((real)p.a.x), NoV);
     return float4(dfg.x, dfg.y, approxOne.x - approxBias.x, approxBias.x);
+}
+#elif defined(PROBE_TERM)
+// One term per TERM_* define, in x, for the cost-versus-error study (bench/shading_study.cpp): the compiled
+// probe's weighted instruction count minus the TERM_NONE probe's is the term's cost.
+// TERM_APPLY_VERTEX_LIGHTING is compiled for its cost only.
+// a = (perceptual roughness, NoV, NoL, NoH), b = (LoH, f0, distance^2, 1/range^2),
+// c = (light position relative to the triangle's first vertex), d = (barycentric u, v, triangle edge length, -).
+float4 Evaluate(ProbeInput p)
+{
+    TermInputs t = DecodeTerms(p);
+    float value = 0.0;
+#if defined(TERM_D_GGX)
+    value = D_GGX(t.NoH, t.alpha, t.oneMinusNoHSquared);
+#elif defined(TERM_V_CORRELATED)
+    value = V_SmithGGXCorrelated(t.NoV, t.NoL, t.alpha);
+#elif defined(TERM_V_FAST)
+    value = V_SmithGGXCorrelated_Fast(t.NoV, t.NoL, t.alpha);
+#elif defined(TERM_V_SEPARABLE)
+    value = V_SmithGGX_Separable(t.NoV, t.NoL, t.alpha);
+#elif defined(TERM_F_SCHLICK)
+    value = F_Schlick(t.f0, (real)1.0, t.LoH);
+#elif defined(TERM_F_SCHLICK_POW)
+    value = F_Schlick_Pow((real3)t.f0, (real)1.0, t.LoH).x;
+#elif defined(TERM_FD_LAMBERT)
+    value = Fd_Lambert();
+#elif defined(TERM_FD_BURLEY)
+    value = Fd_Burley(t.NoV, t.NoL, t.LoH, t.perceptualRoughness);
+#elif defined(TERM_FD_RENORMALIZED_BURLEY)
+    value = Fd_RenormalizedBurley(t.NoV, t.NoL, t.LoH, t.perceptualRoughness);
+#elif defined(TERM_ENV_TABLE)
+    value = SpecularDFG(SampleDFG(gProbeTable, gProbeSampler, t.NoV, (real)saturate(p.a.x)), (real3)t.f0).x;
+#elif defined(TERM_ENV_APPROX)
+    value = EnvBRDFApprox((real3)t.f0, t.perceptualRoughness, t.NoV).x;
+#elif defined(TERM_ENERGY_COMPENSATION)
+    value = EnergyCompensation(SampleDFG(gProbeTable, gProbeSampler, t.NoV, (real)saturate(p.a.x)), (real3)t.f0).x;
+#elif defined(TERM_FALLOFF_WINDOWED)
+    value = DistanceAttenuation(p.b.z, p.b.w);
+#elif defined(TERM_FALLOFF_UE4)
+    value = DistanceAttenuation_UE4(p.b.z, p.b.w);
+#elif defined(TERM_FALLOFF_INVERSE_SQUARE)
+    value = DistanceAttenuation_InverseSquare(p.b.z);
+#elif defined(TERM_LAMBERT_PER_PIXEL) || defined(TERM_LAMBERT_PER_VERTEX)
+    // Irradiance / pi from a point light of 1 cd on a triangle (0,0,0), (e,0,0), (0,0,e) with normal +Y, at
+    // barycentric (u, v): per pixel, or interpolated from the three vertices as _ADDITIONAL_LIGHTS_VERTEX does.
+    float e = p.d.z;
+    float3 vertices[3] = { float3(0.0, 0.0, 0.0), float3(e, 0.0, 0.0), float3(0.0, 0.0, e) };
+    float3 weights = float3(1.0 - p.d.x - p.d.y, p.d.x, p.d.y);
+#if defined(TERM_LAMBERT_PER_PIXEL)
+    float3 position = vertices[0] * weights.x + vertices[1] * weights.y + vertices[2] * weights.z;
+    Light light = PunctualLight(p.c.xyz - position, (float3)1.0, 1.0 / 400.0, (float4)0.0, (float2)0.0);
+    value = light.radiance.x * saturate(light.L.y) * INV_PI;
+#else
+    for (int k = 0; k < 3; ++k)
+    {
+        Light light = PunctualLight(p.c.xyz - vertices[k], (float3)1.0, 1.0 / 400.0, (float4)0.0, (float2)0.0);
+        value += weights[k] * light.radiance.x * saturate(light.L.y) * INV_PI;
+    }
+#endif
+#elif defined(TERM_APPLY_VERTEX_LIGHTING)
+    // What the fragment stage of _ADDITIONAL_LIGHTS_VERTEX does: scale the interpolated irradiance (c.xyz).
+    value = (p.c.xyz * p.d.xyz).x;
+#endif  // TERM_NONE: value stays 0
+    // y always reads the record, so that every probe (TERM_NONE included) pays the same fetch overhead and
+    // subtracting TERM_NONE's cost leaves the term's own cost.
+    return float4(value, p.a.x, 0.0, 0.0);
 }
 #else
 // PROBE_BASELINE: reads the record and writes it back; the cost study subtracts its instruction count.

@@ -120,6 +120,21 @@ TEST_F(SmallLibrary, LayoutThatDiffersBetweenVariantsIsAnError) {
   EXPECT_TRUE(sink.contains(DiagId::LayoutMismatch)) << errors_of(sink);
 }
 
+// HLSL Load and GetDimensions use no sampler; GLSL needs a combined sampler for texelFetch/textureSize, so the
+// cross-compiler pairs the texture with a dummy sampler and binds it at the texture's binding.
+TEST_F(SmallLibrary, TexelFetchAndSizeQueriesCrossCompileToGl) {
+  dir.write("S.hlsl",
+            "[[vk::binding(1, 0)]] Texture2D tex;\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "float4 F(float4 p : SV_Position) : SV_Target {\n"
+            "  uint w, h;\n  tex.GetDimensions(w, h);\n"
+            "  return tex.Load(int3(int2(p.xy) % int2(w, h), 0));\n}\n");
+  DiagnosticSink sink;
+  ASSERT_TRUE(build(dir / "p.pack.json", dir / "out", std::nullopt, 2, sink).ok) << errors_of(sink);
+  std::string manifest = testing::read_file(dir / "out/p.manifest.json");
+  EXPECT_NE(manifest.find("tex_kiln_no_sampler"), std::string::npos);
+}
+
 // The bundled library: every variant of the default pack compiles to SPIR-V, GLSL, GLSL ES and MSL with no
 // warning, every variant is selectable through the reader, and stripped combinations are clear errors.
 TEST(BundledLibrary, DefaultPackBuildsWithoutWarningsAndEveryVariantIsSelectable) {

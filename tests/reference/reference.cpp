@@ -200,11 +200,14 @@ double AlbedoAtAlphaOne(double mu) { return 1.0 - mu * std::log(1.0 + 1.0 / mu);
 
 double AverageSchlickFresnel(double f0) { return (1.0 + 20.0 * f0) / 21.0; }
 
+// The shaders' NoV floor (MIN_N_DOT_V in shaderlib/Common.hlsl): the table's NoV = 0 column holds NoV = 1e-4.
+constexpr double kDfgMinNoV = 1e-4;
+
 DfgTable make_dfg_table(int width, int height, uint32_t samples) {
   DfgTable table{width, height, std::vector<float>(static_cast<size_t>(width) * height * 2)};
   for (int j = 0; j < height; ++j)
     for (int i = 0; i < width; ++i) {
-      auto dfg = DFG((i + 0.5) / width, (j + 0.5) / height, samples);
+      auto dfg = DFG(std::max(double(i) / (width - 1), kDfgMinNoV), double(j) / (height - 1), samples);
       table.rg[(static_cast<size_t>(j) * width + i) * 2] = static_cast<float>(dfg[0]);
       table.rg[(static_cast<size_t>(j) * width + i) * 2 + 1] = static_cast<float>(dfg[1]);
     }
@@ -212,8 +215,8 @@ DfgTable make_dfg_table(int width, int height, uint32_t samples) {
 }
 
 std::array<double, 2> DfgTable::sample(double NoV, double perceptualRoughness) const {
-  double x = std::clamp(NoV * width - 0.5, 0.0, width - 1.0);
-  double y = std::clamp(perceptualRoughness * height - 0.5, 0.0, height - 1.0);
+  double x = std::clamp(NoV, 0.0, 1.0) * (width - 1);
+  double y = std::clamp(perceptualRoughness, 0.0, 1.0) * (height - 1);
   int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
   int x1 = std::min(x0 + 1, width - 1), y1 = std::min(y0 + 1, height - 1);
   double fx = x - x0, fy = y - y0;
@@ -228,7 +231,7 @@ std::array<double, 2> DfgTable::sample(double NoV, double perceptualRoughness) c
 std::string encode_dfg_table(const DfgTable& table, uint32_t samples) {
   std::string bytes = "KDFG";
   auto put = [&](uint32_t v) { bytes.append(reinterpret_cast<const char*>(&v), 4); };
-  put(1);
+  put(2);
   put(static_cast<uint32_t>(table.width));
   put(static_cast<uint32_t>(table.height));
   put(samples);
@@ -240,7 +243,7 @@ DfgTable decode_dfg_table(const std::string& bytes) {
   if (bytes.size() < 20 || bytes.compare(0, 4, "KDFG") != 0) throw std::runtime_error("not a KDFG table");
   uint32_t header[4];
   std::memcpy(header, bytes.data() + 4, 16);
-  if (header[0] != 1) throw std::runtime_error("unsupported KDFG version");
+  if (header[0] != 2) throw std::runtime_error("unsupported KDFG version (regenerate with kiln-reference dfg)");
   DfgTable table{static_cast<int>(header[1]), static_cast<int>(header[2]), {}};
   size_t count = static_cast<size_t>(table.width) * table.height * 2;
   if (bytes.size() != 20 + count * sizeof(float)) throw std::runtime_error("KDFG table has the wrong size");

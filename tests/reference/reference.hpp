@@ -73,8 +73,11 @@ double SpecularAlbedoQuadrature(double NoV, double alpha, double f0, int n);
 double AlbedoAtAlphaOne(double NoV);          // 1 - mu ln(1 + 1/mu): GGX at alpha = 1, F = 1
 double AverageSchlickFresnel(double f0);     // (1 + 20 f0) / 21
 
-// The DFG table as shipped to shaders: width x height texels, texel (i, j) at NoV = (i + 0.5)/width,
-// perceptual roughness = (j + 0.5)/height; rg interleaved, row-major, rows by roughness.
+// The DFG table as shipped to shaders: width x height texels, texel (i, j) at NoV = max(i / (width - 1), 1e-4)
+// and perceptual roughness = j / (height - 1): the outer texels sit on the edges of the domain, so bilinear
+// filtering never extrapolates (a texel-centred table loses 3% of the white furnace at roughness 1, measured
+// in bench/REPORT.md); shaders map (NoV, roughness) to (x (n - 1) + 0.5) / n. NoV is floored at 1e-4 as
+// the shaders floor it. rg interleaved, row-major, rows by roughness.
 struct DfgTable {
   int width = 0;
   int height = 0;
@@ -82,7 +85,7 @@ struct DfgTable {
   std::array<double, 2> sample(double NoV, double perceptualRoughness) const;  // bilinear, clamped
 };
 DfgTable make_dfg_table(int width, int height, uint32_t samples);
-// Binary file: "KDFG", u32 version 1, u32 width, u32 height, u32 samples, then float32 rg (little-endian).
+// Binary file: "KDFG", u32 version 2 (endpoint-aligned texels; version 1 was texel-centred), u32 width, u32 height, u32 samples, then float32 rg (little-endian).
 std::string encode_dfg_table(const DfgTable& table, uint32_t samples);
 DfgTable decode_dfg_table(const std::string& bytes);
 

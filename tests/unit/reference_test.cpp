@@ -99,14 +99,18 @@ TEST(Reference, EnvBrdfApproxIsCoarseAsDocumented) {
   EXPECT_LT(worst, 0.6);
 }
 
-TEST(Reference, DfgTableRoundTripsAndSamplesItsTexelCenters) {
+TEST(Reference, DfgTableRoundTripsAndItsTexelsSitOnTheDomainEdges) {
   DfgTable table = make_dfg_table(8, 8, 1024);
   DfgTable decoded = decode_dfg_table(encode_dfg_table(table, 1024));
   EXPECT_EQ(decoded.rg, table.rg);
-  auto direct = DFG(2.5 / 8, 5.5 / 8, 1024);
-  auto sampled = table.sample(2.5 / 8, 5.5 / 8);
-  EXPECT_NEAR(sampled[0], direct[0], 1e-6);
-  EXPECT_NEAR(sampled[1], direct[1], 1e-6);
+  // Texel (i, j) is at NoV = i / 7, roughness = j / 7, including the corners (1, 1) and (0, 0); the NoV = 0
+  // column holds NoV = 1e-4, the shaders' floor.
+  for (auto [nov, roughness] : {std::pair{2.0 / 7, 5.0 / 7}, std::pair{1.0, 1.0}, std::pair{0.0, 0.0}}) {
+    auto direct = DFG(std::max(nov, 1e-4), roughness, 1024);
+    auto sampled = table.sample(nov, roughness);
+    EXPECT_NEAR(sampled[0], direct[0], 1e-6) << nov << " " << roughness;
+    EXPECT_NEAR(sampled[1], direct[1], 1e-6) << nov << " " << roughness;
+  }
 }
 
 TEST(Reference, CheckedInDfgTableMatchesTheReference) {
@@ -117,7 +121,7 @@ TEST(Reference, CheckedInDfgTableMatchesTheReference) {
   std::memcpy(&samples, bytes.data() + 16, 4);
   for (int j : {0, 17, 40, 63})
     for (int i : {0, 9, 31, 63}) {
-      auto expected = DFG((i + 0.5) / 64, (j + 0.5) / 64, samples);
+      auto expected = DFG(std::max(i / 63.0, 1e-4), j / 63.0, samples);
       EXPECT_FLOAT_EQ(table.rg[(j * 64 + i) * 2], static_cast<float>(expected[0]));
       EXPECT_FLOAT_EQ(table.rg[(j * 64 + i) * 2 + 1], static_cast<float>(expected[1]));
     }

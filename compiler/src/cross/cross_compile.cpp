@@ -27,6 +27,10 @@ CrossResult to_glsl(const std::vector<uint32_t>& spirv, bool es) {
   compiler.set_common_options(options);
 
   // HLSL keeps textures and samplers apart; GL needs them combined, each bound at its texture's binding.
+  // Texel fetches and size queries (HLSL Load, GetDimensions) use no sampler: SPIRV-Cross pairs them with a
+  // dummy one, named here so that the combined sampler's name says what it is.
+  if (uint32_t dummy = compiler.build_dummy_sampler_for_combined_images(); dummy != 0)
+    compiler.set_name(dummy, "kiln_no_sampler");
   compiler.build_combined_image_samplers();
   json combined = json::array();
   for (const spirv_cross::CombinedImageSampler& pair : compiler.get_combined_image_samplers()) {

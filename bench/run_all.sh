@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Regenerates bench/REPORT.md and bench/plots/*.png from scratch: installs the Debian packages, builds,
+# then runs the four instruments and the report. About 45 minutes on 2 cores; do not run other heavy jobs
+# meanwhile (the build benchmark edits shaderlib/Fog.hlsl temporarily and restores it).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash .ci/install-deps
+cmake --preset ci
+cmake --build --preset ci
+mkdir -p bench/results
+python3 bench/build_speed.py --kiln build/ci/compiler/kiln --reps 3
+python3 bench/scaling.py --kiln build/ci/compiler/kiln
+KILN_STRESS_REPORT="$PWD/bench/results/stress.json" build/ci/tests/kiln_tests_stress
+build/ci/bench/kiln-shading-study bench/results/shading_study.json
+python3 bench/report.py
+echo "wrote bench/REPORT.md"
