@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <ctime>
 #include <fstream>
 #include <functional>
@@ -20,10 +21,12 @@
 
 #include "lavapipe.hpp"
 #include "reference.hpp"
+#include "reflect/reflect.hpp"
 
 namespace ref = kiln::reference;
 using kiln::gpu::ProbeInput;
 using kiln::gpu::ProbeOutput;
+using kiln::gpu::ProbeBuffer;
 using kiln::gpu::ProbeTexture;
 
 namespace {
@@ -51,7 +54,76 @@ struct Member {
   std::optional<ProbeTexture> texture;
   std::string note;
   std::vector<std::string> cost_defines;  // when set, the fragment cost is measured on this probe instead
+  double lights_per_pixel = 0;            // Forward+ family: mean loop iterations per pixel
 };
+
+// The Forward+ scene: lights over a 6.4 m x 6.4 m ground patch seen as 128 x 128 pixels, 16-pixel tiles.
+struct LightScene {
+  static constexpr int kPixels = 128;
+  static constexpr double kMetersPerPixel = 0.05;
+  static constexpr int kTilePixels = 16;
+  static constexpr int kTiles = kPixels / kTilePixels;
+  static constexpr int kStride = 64;  // KILN_TILE_STRIDE in shaderlib/Input.hlsl
+  static constexpr double kRange = 1.0;
+  struct Light {
+    double x, y, z, intensity;
+  };
+  std::vector<Light> lights;
+  std::vector<uint32_t> tiles;  // [count, index...] per tile, kStride words each
+  double mean_list = 0;
+};
+
+LightScene make_light_scene(int count) {
+  LightScene scene;
+  uint32_t state = 12345;  // deterministic LCG: the scene is the same in every run
+  auto next = [&] {
+    state = state * 1664525u + 1013904223u;
+    return (state >> 8) / double(1u << 24);
+  };
+  const double size = LightScene::kPixels * LightScene::kMetersPerPixel;
+  for (int i = 0; i < count; ++i)
+    scene.lights.push_back({next() * size, 0.3 + 0.6 * next(), next() * size, 1.0 + 4.0 * next()});
+  // Conservative tile lists: a light is listed if its range sphere reaches the tile's rectangle on the plane.
+  const double tile = LightScene::kTilePixels * LightScene::kMetersPerPixel;
+  size_t listed = 0;
+  for (int ty = 0; ty < LightScene::kTiles; ++ty)
+    for (int tx = 0; tx < LightScene::kTiles; ++tx) {
+      std::vector<uint32_t> list;
+      for (size_t i = 0; i < scene.lights.size(); ++i) {
+        const auto& l = scene.lights[i];
+        double dx = std::max({tx * tile - l.x, 0.0, l.x - (tx + 1) * tile});
+        double dz = std::max({ty * tile - l.z, 0.0, l.z - (ty + 1) * tile});
+        if (dx * dx + dz * dz + l.y * l.y <= LightScene::kRange * LightScene::kRange) list.push_back(uint32_t(i));
+      }
+      if (list.size() > LightScene::kStride - 1) list.resize(LightScene::kStride - 1);
+      listed += list.size();
+      scene.tiles.push_back(uint32_t(list.size()));
+      list.resize(LightScene::kStride - 1, 0);
+      scene.tiles.insert(scene.tiles.end(), list.begin(), list.end());
+    }
+  scene.mean_list = double(listed) / (LightScene::kTiles * LightScene::kTiles);
+  return scene;
+}
+
+// The probe's view of the scene (TERM_ADDITIONAL_LIGHTS) in double: Lambert + GGX, f0 0.04, roughness 0.5.
+double reference_lights(const LightScene& scene, double x, double z) {
+  const ref::Vec3 n{0, 1, 0};
+  const ref::Vec3 v = ref::normalize({0, 1, 0.3});
+  const double a = ref::PerceptualRoughnessToAlpha(0.5);
+  double sum = 0;
+  for (const auto& l : scene.lights) {
+    ref::Vec3 to_light{l.x - x, l.y, l.z - z};
+    double d2 = ref::dot(to_light, to_light);
+    ref::Vec3 L = ref::normalize(to_light);
+    ref::Vec3 h = ref::normalize(L + v);
+    double NoL = std::clamp(ref::dot(n, L), 0.0, 1.0), NoV = std::max(ref::dot(n, v), 1e-4);
+    double NoH = std::clamp(ref::dot(n, h), 0.0, 1.0), LoH = std::clamp(ref::dot(L, h), 0.0, 1.0);
+    double F = ref::F_Schlick(0.04, 1.0, LoH);
+    double brdf = 0.8 * ref::Fd_Lambert() * (1.0 - F) + ref::D_GGX(NoH, a) * ref::V_SmithGGXCorrelated(NoV, NoL, a) * F;
+    sum += brdf * NoL * l.intensity * ref::DistanceAttenuation(d2, 1.0 / (LightScene::kRange * LightScene::kRange));
+  }
+  return sum;
+}
 
 struct Family {
   std::string name;
@@ -91,6 +163,38 @@ std::string format_name(ProbeTexture::Format f) {
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v.empty() ? 0 : v[v.size() / 2];
+}
+
+// PerFrame (with _LightCounts at the offset the probe's reflection gives), _AdditionalLights, _TileLightIndices.
+std::vector<ProbeBuffer> light_buffers(const kiln::gpu::ProbeProgram& program, const LightScene& scene) {
+  nlohmann::json reflection = kiln::reflect_spirv(program.fragment);
+  ProbeBuffer frame{0, true, {}};
+  for (const auto& r : reflection["resources"]) {
+    if (r.value("name", "") != "PerFrame") continue;
+    frame.bytes.assign(r["size"].get<size_t>(), 0);
+    for (const auto& m : r["members"])
+      if (m["name"] == "_LightCounts") {
+        uint32_t counts[4] = {uint32_t(scene.lights.size()), LightScene::kTilePixels, LightScene::kTiles, 0};
+        std::memcpy(frame.bytes.data() + m["offset"].get<size_t>(), counts, sizeof counts);
+      }
+  }
+  if (frame.bytes.empty()) {
+    std::cerr << "kiln-shading-study: error: the Forward+ probe has no PerFrame block\n";
+    return {};
+  }
+  ProbeBuffer lights{9, false, {}};
+  for (const auto& l : scene.lights) {
+    // AdditionalLight: positionWS (w: 1/range^2), color (w: no shadow), spotDirectionWS (w: 0 point), spotScaleOffset.
+    float record[16] = {float(l.x), float(l.y), float(l.z), float(1.0 / (LightScene::kRange * LightScene::kRange)),
+                        float(l.intensity), float(l.intensity), float(l.intensity), -1.0f,
+                        0, -1, 0, 0, 0, 0, 0, 0};
+    const auto* bytes = reinterpret_cast<const uint8_t*>(record);
+    lights.bytes.insert(lights.bytes.end(), bytes, bytes + sizeof record);
+  }
+  ProbeBuffer tiles{10, false, {}};
+  const auto* tile_bytes = reinterpret_cast<const uint8_t*>(scene.tiles.data());
+  tiles.bytes.assign(tile_bytes, tile_bytes + scene.tiles.size() * sizeof(uint32_t));
+  return {frame, lights, tiles};
 }
 
 }  // namespace
@@ -262,22 +366,44 @@ int main(int argc, char** argv) {
     families.push_back(f);
   }
 
-  // ---- Run everything.
-  std::string base_error;
-  auto baseline = kiln::gpu::compile_probe(kProbe, {kRoot / "shaderlib"}, {"PROBE_TERM", "TERM_NONE"}, base_error);
-  if (!baseline) {
-    std::cerr << "kiln-shading-study: error: " << base_error << "\n";
-    return 1;
+  // ---- Forward+ against the plain loop: the same lights, all of them per pixel or the tile's list.
+  const LightScene light_scene = make_light_scene(128);
+  {
+    Family f{"Additional lights: Forward+ vs plain loop", "the same 128 lights summed in double", "relative", {}, {}};
+    for (int py = 0; py < LightScene::kPixels; ++py)
+      for (int px = 0; px < LightScene::kPixels; ++px) {
+        ProbeInput p{};
+        double x = (px + 0.5) * LightScene::kMetersPerPixel, z = (py + 0.5) * LightScene::kMetersPerPixel;
+        p[0] = float(x), p[1] = float(z), p[4] = float(px + 0.5), p[5] = float(py + 0.5);
+        f.points.push_back({p, reference_lights(light_scene, x, z)});
+      }
+    f.members = {{"plain loop (_ADDITIONAL_LIGHTS)", {"TERM_ADDITIONAL_LIGHTS"}, {}, "every light, every pixel", {},
+                  double(light_scene.lights.size())},
+                 {"Forward+ tiles (_ADDITIONAL_LIGHTS _FORWARD_PLUS)", {"TERM_ADDITIONAL_LIGHTS", "_FORWARD_PLUS"}, {},
+                  "16x16-pixel tiles, conservative CPU lists", {}, light_scene.mean_list}};
+    families.push_back(f);
   }
+
+  // ---- Run everything.
+  auto compile_term = [&](std::vector<std::string> defines) {
+    defines.push_back("PROBE_TERM");
+    auto program = kiln::gpu::compile_probe(kProbe, {kRoot / "shaderlib"}, defines, error);
+    if (!program) std::cerr << "kiln-shading-study: error: " << error << "\n";
+    return program;
+  };
+  auto baseline = compile_term({"TERM_NONE"});
+  if (!baseline) return 1;
   double base_cost = kiln::gpu::weighted_cost(baseline->fragment).weighted;
 
-  auto gpu_time = [&](const kiln::gpu::ProbeProgram& program, const std::optional<ProbeTexture>& texture) {
-    // 2^20 evaluations, 9 runs: median and spread (max - min) / median.
+  auto gpu_time = [&](const kiln::gpu::ProbeProgram& program, const std::optional<ProbeTexture>& texture,
+                      const std::vector<ProbeBuffer>& buffers = {}, const std::vector<ProbeInput>& pattern = {}) {
+    // 2^20 evaluations (one typical record, or `pattern` repeated), 9 runs: median and spread (max - min) / median.
     std::vector<ProbeInput> many(1u << 20, term_record(0.5, 0.5, 0.5, 0.9, 0.7, 0.04));
+    for (size_t i = 0; !pattern.empty() && i < many.size(); ++i) many[i] = pattern[i % pattern.size()];
     std::vector<double> ms;
     for (int rep = 0; rep < 9; ++rep) {
       double t = 0;
-      gpu->run(program, many, texture, &t);
+      gpu->run(program, many, texture, &t, buffers);
       ms.push_back(t);
     }
     double m = median(ms);
@@ -303,14 +429,14 @@ int main(int argc, char** argv) {
     for (const Point& p : family.points) inputs.push_back(p.input);
     for (const Member& member : family.members) {
       std::cerr << family.name << ": " << member.name << "\n";
-      std::vector<std::string> defines = member.defines;
-      defines.push_back("PROBE_TERM");
-      auto program = kiln::gpu::compile_probe(kProbe, {kRoot / "shaderlib"}, defines, error);
-      if (!program) {
-        std::cerr << "kiln-shading-study: error: " << error << "\n";
-        return 1;
+      auto program = compile_term(member.defines);
+      if (!program) return 1;
+      std::vector<ProbeBuffer> buffers;
+      if (family.name.find("Forward+") != std::string::npos) {
+        buffers = light_buffers(*program, light_scene);
+        if (buffers.empty()) return 1;
       }
-      auto values = gpu->run(*program, inputs, member.texture);
+      auto values = gpu->run(*program, inputs, member.texture, nullptr, buffers);
       bool fp16 = program->float16;
       bool furnace = family.name.rfind("Multiscatter", 0) == 0;
       std::vector<double> errors;
@@ -331,16 +457,12 @@ int main(int argc, char** argv) {
       for (double e : errors) sum += e;
       kiln::gpu::ShaderCost cost = kiln::gpu::weighted_cost(program->fragment);
       if (!member.cost_defines.empty()) {
-        std::vector<std::string> cost_defines = member.cost_defines;
-        cost_defines.push_back("PROBE_TERM");
-        auto cost_program = kiln::gpu::compile_probe(kProbe, {kRoot / "shaderlib"}, cost_defines, error);
-        if (!cost_program) {
-          std::cerr << "kiln-shading-study: error: " << error << "\n";
-          return 1;
-        }
+        auto cost_program = compile_term(member.cost_defines);
+        if (!cost_program) return 1;
         cost = kiln::gpu::weighted_cost(cost_program->fragment);
       }
-      auto [ms, spread] = gpu_time(*program, member.texture);
+      // The Forward+ family is timed on its own frame (every tile), the others on one typical record.
+      auto [ms, spread] = gpu_time(*program, member.texture, buffers, buffers.empty() ? std::vector<ProbeInput>{} : inputs);
       nlohmann::json mj;
       mj["name"] = member.name;
       mj["note"] = member.note;
@@ -352,6 +474,7 @@ int main(int argc, char** argv) {
       mj["texture_fetches"] = cost.texture_fetches;
       mj["gpu_ms"] = ms - base_ms;
       mj["gpu_spread"] = spread;
+      if (member.lights_per_pixel > 0) mj["lights_per_pixel"] = member.lights_per_pixel;
       fj["members"].push_back(mj);
     }
     out["families"].push_back(fj);

@@ -125,6 +125,25 @@ real3 AccumulateLight(ShadingData s, Light light)
     return saturateMediump3(DirectBRDF(s, light.L) * illuminance);
 }
 
+// Reflected radiance of the per-pixel additional lights (_ADDITIONAL_LIGHTS) at a pixel, summed in fp32: the
+// plain loop over every light, or under _FORWARD_PLUS only the lights listed for the pixel's screen tile
+// (lights that cannot reach the tile cost nothing). `pixel` is SV_Position.xy.
+float3 AdditionalLightsRadiance(ShadingData s, float3 positionWS, float2 pixel)
+{
+    float3 color = 0.0;
+#if defined(_FORWARD_PLUS)
+    uint2 tile = (uint2)pixel / max(_LightCounts.y, 1u);
+    uint listStart = (tile.y * _LightCounts.z + tile.x) * (uint)KILN_TILE_STRIDE;
+    uint count = min(_TileLightIndices[listStart], (uint)KILN_MAX_LIGHTS_PER_TILE);
+    for (uint i = 0u; i < count; ++i)
+        color += (float3)AccumulateLight(s, GetAdditionalLight(_TileLightIndices[listStart + 1u + i], positionWS));
+#else
+    for (uint i = 0u; i < _LightCounts.x; ++i)
+        color += (float3)AccumulateLight(s, GetAdditionalLight(i, positionWS));
+#endif
+    return color;
+}
+
 // Per-vertex additional lights (_ADDITIONAL_LIGHTS_VERTEX): Lambert irradiance/pi at the vertex, shadowless,
 // for at most KILN_MAX_VERTEX_LIGHTS lights, as URP does.
 float3 VertexLighting(float3 positionWS, float3 normalWS)

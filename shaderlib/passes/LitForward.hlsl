@@ -128,17 +128,7 @@ float4 LitFragment(Varyings input, bool frontFace : SV_IsFrontFace) : SV_Target
 
     // Additional lights.
 #if defined(_ADDITIONAL_LIGHTS)
-#if defined(_FORWARD_PLUS)
-    // Forward+: only the lights listed for this screen tile; others cannot reach these pixels.
-    uint2 tile = (uint2)input.positionCS.xy / max(_LightCounts.y, 1u);
-    uint listStart = (tile.y * _LightCounts.z + tile.x) * (uint)KILN_TILE_STRIDE;
-    uint count = min(_TileLightIndices[listStart], (uint)KILN_MAX_LIGHTS_PER_TILE);
-    for (uint i = 0u; i < count; ++i)
-        color += (float3)AccumulateLight(s, GetAdditionalLight(_TileLightIndices[listStart + 1u + i], input.positionWS));
-#else
-    for (uint i = 0u; i < _LightCounts.x; ++i)
-        color += (float3)AccumulateLight(s, GetAdditionalLight(i, input.positionWS));
-#endif
+    color += AdditionalLightsRadiance(s, input.positionWS, input.positionCS.xy);
 #elif defined(_ADDITIONAL_LIGHTS_VERTEX)
     color += (float3)s.diffuseColor * input.vertexLighting;
 #endif

@@ -239,6 +239,21 @@ float4 Evaluate(ProbeInput p)
         value += weights[k] * light.radiance.x * saturate(light.L.y) * INV_PI;
     }
 #endif
+#elif defined(TERM_ADDITIONAL_LIGHTS)
+    // a.xy = the point's (x, z) on the ground plane y = 0, b.xy = its pixel (the Forward+ tile lookup).
+    // A grey dielectric (base color 0.8, roughness 0.5) seen from above; the frame's lights in the bound buffers.
+    SurfaceData surface;
+    surface.baseColor = (real3)0.8;
+    surface.metallic = (real)0.0;
+    surface.perceptualRoughness = (real)0.5;
+    surface.reflectance = (real)0.5;
+    surface.anisotropy = (real)0.0;
+    surface.normalWS = float3(0.0, 1.0, 0.0);
+    surface.tangentWS = float3(1.0, 0.0, 0.0);
+    surface.bitangentWS = float3(0.0, 0.0, 1.0);
+    surface.viewWS = normalize(float3(0.0, 1.0, 0.3));
+    ShadingData s = PrepareShading(surface, (real2)float2(0.5, 0.9));
+    value = AdditionalLightsRadiance(s, float3(p.a.x, 0.0, p.a.y), p.b.xy).x;
 #elif defined(TERM_APPLY_VERTEX_LIGHTING)
     // What the fragment stage of _ADDITIONAL_LIGHTS_VERTEX does: scale the interpolated irradiance (c.xyz).
     value = (p.c.xyz * p.d.xyz).x;

@@ -307,7 +307,8 @@ std::vector<uint8_t> encode_texels(const ProbeTexture& texture) {
 }  // namespace
 
 std::vector<ProbeOutput> Lavapipe::run(const ProbeProgram& program, const std::vector<ProbeInput>& inputs,
-                                       const std::optional<ProbeTexture>& texture, double* milliseconds) {
+                                       const std::optional<ProbeTexture>& texture, double* milliseconds,
+                                       const std::vector<ProbeBuffer>& buffers) {
   if (inputs.empty()) return {};
   if (program.float16 && !state_->float16) throw std::runtime_error("the lavapipe device lacks shaderFloat16");
   State& s = *state_;
@@ -328,6 +329,13 @@ std::vector<ProbeOutput> Lavapipe::run(const ProbeProgram& program, const std::v
   for (size_t i = 0; i < records; ++i) records_out[i] = inputs[std::min(i, inputs.size() - 1)];
   HostBuffer readback = make_host_buffer(this, device, objects, s.memory, records * sizeof(ProbeOutput),
                                          VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+
+  std::vector<HostBuffer> extra;
+  for (const ProbeBuffer& b : buffers) {
+    extra.push_back(make_host_buffer(this, device, objects, s.memory, std::max<size_t>(b.bytes.size(), 16),
+                                     b.uniform ? VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT : VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
+    std::memcpy(extra.back().mapped, b.bytes.data(), b.bytes.size());
+  }
 
   const VkFormat color_format = VK_FORMAT_R32G32B32A32_SFLOAT;
   VkImage color = make_image(device, objects, pick, &s, color_format, width, height,
@@ -389,6 +397,11 @@ std::vector<ProbeOutput> Lavapipe::run(const ProbeProgram& program, const std::v
     bindings.push_back({texture->binding, VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr});
     bindings.push_back({texture->sampler_binding, VK_DESCRIPTOR_TYPE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr});
   }
+  auto buffer_type = [](const ProbeBuffer& b) {
+    return b.uniform ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  };
+  for (const ProbeBuffer& b : buffers)
+    bindings.push_back({b.binding, buffer_type(b), 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr});
   VkDescriptorSetLayoutCreateInfo set_info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
   set_info.bindingCount = static_cast<uint32_t>(bindings.size());
   set_info.pBindings = bindings.data();
@@ -450,12 +463,14 @@ std::vector<ProbeOutput> Lavapipe::run(const ProbeProgram& program, const std::v
   check(vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &pipeline_info, nullptr, &objects.pipeline),
         "vkCreateGraphicsPipelines");
 
-  VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1},
+  const auto buffer_count = static_cast<uint32_t>(buffers.size());
+  VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1 + buffer_count},
                                   {VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE, 1},
-                                  {VK_DESCRIPTOR_TYPE_SAMPLER, 1}};
+                                  {VK_DESCRIPTOR_TYPE_SAMPLER, 1},
+                                  {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1 + buffer_count}};
   VkDescriptorPoolCreateInfo pool_info{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   pool_info.maxSets = 1;
-  pool_info.poolSizeCount = 3;
+  pool_info.poolSizeCount = 4;
   pool_info.pPoolSizes = sizes;
   check(vkCreateDescriptorPool(device, &pool_info, nullptr, &objects.descriptor_pool), "vkCreateDescriptorPool");
   VkDescriptorSetAllocateInfo set_allocate{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
@@ -484,6 +499,17 @@ std::vector<ProbeOutput> Lavapipe::run(const ProbeProgram& program, const std::v
     w.dstBinding = texture->sampler_binding;
     w.descriptorType = VK_DESCRIPTOR_TYPE_SAMPLER;
     w.pImageInfo = &sampler_info;
+    writes.push_back(w);
+  }
+  std::vector<VkDescriptorBufferInfo> extra_info;
+  for (const HostBuffer& b : extra) extra_info.push_back({b.buffer, 0, VK_WHOLE_SIZE});
+  for (size_t i = 0; i < buffers.size(); ++i) {
+    VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+    w.dstSet = set;
+    w.dstBinding = buffers[i].binding;
+    w.descriptorCount = 1;
+    w.descriptorType = buffer_type(buffers[i]);
+    w.pBufferInfo = &extra_info[i];
     writes.push_back(w);
   }
   vkUpdateDescriptorSets(device, static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);

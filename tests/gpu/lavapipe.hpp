@@ -40,6 +40,13 @@ struct ProbeTexture {
   uint32_t sampler_binding = 0;
 };
 
+// An extra buffer bound in set 0 (the library's own resources, e.g. PerFrame at 0, _AdditionalLights at 9).
+struct ProbeBuffer {
+  uint32_t binding = 0;
+  bool uniform = false;  // uniform buffer, else storage buffer
+  std::vector<uint8_t> bytes;
+};
+
 class Lavapipe {
  public:
   // Opens the lavapipe device explicitly (by driver name), never another GPU. On failure returns null and
@@ -57,7 +64,7 @@ class Lavapipe {
   // draw alone (submit to idle), for the secondary cost axis.
   std::vector<ProbeOutput> run(const ProbeProgram& program, const std::vector<ProbeInput>& inputs,
                                const std::optional<ProbeTexture>& texture = std::nullopt,
-                               double* milliseconds = nullptr);
+                               double* milliseconds = nullptr, const std::vector<ProbeBuffer>& buffers = {});
 
  private:
   struct State;
