@@ -1,0 +1,116 @@
+// Every variant's GLSL 450 and GLSL ES 3.10 output, compiled and linked by a real OpenGL driver (Mesa llvmpipe,
+// OpenGL 4.5 core and OpenGL ES 3.2 through EGL's surfaceless platform): the GL targets are accepted by a
+// driver, not only produced. (Rendering them and comparing with the Vulkan images is issue 5's remaining work.)
+#include <gtest/gtest.h>
+
+#include <map>
+#include <set>
+
+#include "gl_driver.hpp"
+#include "kiln/build.hpp"
+#include "kiln/pack_reader.hpp"
+#include "test_support.hpp"
+
+namespace kiln {
+namespace {
+
+// The default pack, built once for the suite.
+class GlDrivers : public ::testing::Test {
+ public:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir();
+    BuildOptions options;
+    options.pack_file = std::filesystem::path(KILN_SOURCE_DIR) / "variants/lit.pack.json";
+    options.output_dir = *dir_ / "pack";
+    // A cache in the build tree, shared by the suite's test processes (ctest runs each test separately).
+    options.cache_dir = KILN_GL_TEST_CACHE;
+    options.worker_executable = KILN_WORKER_PATH;
+    options.targets = {Target::Glsl, Target::Gles};
+    DiagnosticSink sink;
+    built_ = build_pack(options, sink).ok;
+  }
+  static void TearDownTestSuite() {
+    delete dir_;
+    dir_ = nullptr;
+  }
+
+  struct Outcome {
+    size_t programs = 0;
+    std::vector<std::string> failures;  // "pass [keywords]: log"
+    std::set<std::string> failing_keywords;
+  };
+
+  // Compiles and links each distinct (vertex, fragment) source pair of every variant.
+  static Outcome run(gl::GlDriver& driver, bool gles) {
+    Outcome outcome;
+    PackReader pack = PackReader::open(*dir_ / "pack");
+    std::map<std::pair<std::string_view, std::string_view>, bool> seen;
+    for (const std::string& pass : pack.passes())
+      for (size_t i = 0; i < pack.variant_count(pass); ++i) {
+        SelectedVariant v = pack.variant(pass, i);
+        const StageView* vs = v.stage("vertex");
+        const StageView* fs = v.stage("fragment");
+        if (!vs || !fs) continue;
+        std::string_view vertex = gles ? vs->gles : vs->glsl;
+        std::string_view fragment = gles ? fs->gles : fs->glsl;
+        if (!seen.emplace(std::pair{vertex, fragment}, true).second) continue;
+        ++outcome.programs;
+        std::string log;
+        if (!driver.compile_and_link(std::string(vertex), std::string(fragment), log)) {
+          std::string keywords;
+          for (const auto& k : v.keywords) keywords += (keywords.empty() ? "" : " ") + k;
+          outcome.failures.push_back(pass + " [" + keywords + "]: " + log);
+          outcome.failing_keywords.insert(v.keywords.begin(), v.keywords.end());
+        }
+      }
+    return outcome;
+  }
+
+  static testing::TempDir* dir_;
+  static bool built_;
+};
+
+testing::TempDir* GlDrivers::dir_ = nullptr;
+bool GlDrivers::built_ = false;
+
+// Every variant compiles and links, except the explicit-fp16 ones when the driver lacks the 16-bit float
+// extensions SPIRV-Cross maps them to (GL_AMD_gpu_shader_half_float, GL_NV_gpu_shader5; llvmpipe has neither):
+// those must fail for exactly that reason, so the gap stays visible, and the day a driver or a relaxed-precision
+// GL compile of those variants closes it, this test says so.
+void expect_only_unsupported_fp16_failures(gl::Api api, bool gles) {
+  std::string error;
+  auto driver = gl::GlDriver::open(api, error);
+  ASSERT_TRUE(driver) << error;
+  GlDrivers::Outcome outcome = GlDrivers::run(*driver, gles);
+  EXPECT_GT(outcome.programs, 1000u);
+  const bool half_supported =
+      driver->has_extension("GL_AMD_gpu_shader_half_float") || driver->has_extension("GL_NV_gpu_shader5");
+  size_t fp16_failures = 0;
+  for (const std::string& failure : outcome.failures) {
+    bool is_half = failure.find("_HALF_PRECISION") != std::string::npos;
+    EXPECT_TRUE(is_half && !half_supported) << failure;
+    if (is_half) {
+      ++fp16_failures;
+      EXPECT_NE(failure.find("No extension available for FP16"), std::string::npos) << failure;
+    }
+  }
+  if (!half_supported) {
+    EXPECT_GT(fp16_failures, 0u) << "explicit-fp16 variants now link without the extension: update this test";
+  }
+  std::cout << (gles ? "GLSL ES: " : "GLSL 450: ") << outcome.programs << " programs linked or rejected, "
+            << fp16_failures << " explicit-fp16 variants rejected for lack of a 16-bit float extension on "
+            << driver->renderer() << "\n";
+}
+
+TEST_F(GlDrivers, EveryVariantsGlsl450CompilesAndLinksOnOpenGl45) {
+  ASSERT_TRUE(built_);
+  expect_only_unsupported_fp16_failures(gl::Api::DesktopGl45, false);
+}
+
+TEST_F(GlDrivers, EveryVariantsGlslEsCompilesAndLinksOnOpenGlEs32) {
+  ASSERT_TRUE(built_);
+  expect_only_unsupported_fp16_failures(gl::Api::Gles32, true);
+}
+
+}  // namespace
+}  // namespace kiln
