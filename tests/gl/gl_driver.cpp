@@ -126,6 +126,23 @@ bool GlDriver::has_extension(const std::string& name) const {
   return false;
 }
 
+namespace {
+
+// glGetShaderiv/glGetShaderInfoLog and glGetProgramiv/glGetProgramInfoLog are twins: one check for both.
+template <typename GetIv, typename GetLog>
+bool succeeded(GLuint object, GLenum status, GetIv get_iv, GetLog get_log, const char* what, std::string& log) {
+  GLint ok = 0;
+  get_iv(object, status, &ok);
+  if (!ok) {
+    char buffer[4096] = {};
+    get_log(object, sizeof buffer, nullptr, buffer);
+    log += std::string(what) + ": " + buffer;
+  }
+  return ok != 0;
+}
+
+}  // namespace
+
 bool GlDriver::compile_and_link(const std::string& vertex, const std::string& fragment, std::string& log) {
   State& s = *state_;
   auto compile = [&](GLenum type, const std::string& source, const char* what) -> GLuint {
@@ -133,16 +150,9 @@ bool GlDriver::compile_and_link(const std::string& vertex, const std::string& fr
     const char* text = source.c_str();
     s.ShaderSource(shader, 1, &text, nullptr);
     s.CompileShader(shader);
-    GLint ok = 0;
-    s.GetShaderiv(shader, GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-      char buffer[4096] = {};
-      s.GetShaderInfoLog(shader, sizeof buffer, nullptr, buffer);
-      log += std::string(what) + ": " + buffer;
-      s.DeleteShader(shader);
-      return 0;
-    }
-    return shader;
+    if (succeeded(shader, GL_COMPILE_STATUS, s.GetShaderiv, s.GetShaderInfoLog, what, log)) return shader;
+    s.DeleteShader(shader);
+    return 0;
   };
   GLuint vs = compile(GL_VERTEX_SHADER, vertex, "vertex");
   GLuint fs = compile(GL_FRAGMENT_SHADER, fragment, "fragment");
@@ -152,14 +162,7 @@ bool GlDriver::compile_and_link(const std::string& vertex, const std::string& fr
     s.AttachShader(program, vs);
     s.AttachShader(program, fs);
     s.LinkProgram(program);
-    GLint ok = 0;
-    s.GetProgramiv(program, GL_LINK_STATUS, &ok);
-    if (!ok) {
-      char buffer[4096] = {};
-      s.GetProgramInfoLog(program, sizeof buffer, nullptr, buffer);
-      log += std::string("link: ") + buffer;
-    }
-    linked = ok != 0;
+    linked = succeeded(program, GL_LINK_STATUS, s.GetProgramiv, s.GetProgramInfoLog, "link", log);
     s.DeleteProgram(program);
   }
   if (vs) s.DeleteShader(vs);

@@ -324,3 +324,30 @@ TEST_F(Stress, UnguardedTextbookKernelFailsTheSameGrid) {
 
 }  // namespace
 }  // namespace kiln::gpu
+
+namespace kiln::gpu {
+namespace {
+
+// The study's cost axis (weighted SPIR-V instruction count) on probes whose relation is known: pow costs
+// more than the multiply chain it replaces, a table lookup is one texture fetch, an empty term costs nothing
+// beyond the record fetch.
+TEST(CostModel, WeightedCountsRankKnownPairsAndCountFetches) {
+  std::string error;
+  auto cost_of = [&](std::vector<std::string> defines) {
+    defines.push_back("PROBE_TERM");
+    auto program = compile_probe(kProbe, {kShaderlib}, defines, error);
+    EXPECT_TRUE(program) << error;
+    return program ? weighted_cost(program->fragment) : ShaderCost{};
+  };
+  ShaderCost none = cost_of({"TERM_NONE"});
+  ShaderCost chain = cost_of({"TERM_F_SCHLICK"});
+  ShaderCost pow = cost_of({"TERM_F_SCHLICK_POW"});
+  ShaderCost table = cost_of({"TERM_ENV_TABLE", "PROBE_USES_TABLE"});
+  EXPECT_GT(chain.weighted, none.weighted);
+  EXPECT_GE(pow.weighted, chain.weighted + 9.0);  // at least the pow itself on top of the chain's work
+  EXPECT_EQ(none.texture_fetches, 0u);
+  EXPECT_EQ(table.texture_fetches, 1u);
+}
+
+}  // namespace
+}  // namespace kiln::gpu
