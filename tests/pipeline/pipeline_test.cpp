@@ -135,6 +135,30 @@ TEST_F(SmallLibrary, TexelFetchAndSizeQueriesCrossCompileToGl) {
   EXPECT_NE(manifest.find("tex_kiln_no_sampler"), std::string::npos);
 }
 
+// Explicit fp16 stays 16-bit in SPIR-V and MSL, and becomes mediump 32-bit floats in GLSL ES (and plain floats
+// in GLSL 450), so that GL drivers without a 16-bit float extension accept it.
+TEST_F(SmallLibrary, HalfPrecisionIsWidenedToMediumpForGlOnly) {
+  dir.write("S.hlsl",
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "float4 F(float4 p : SV_Position) : SV_Target {\n"
+            "  half x = (half)p.x;\n  half3 c = half3(x, x * (half)0.5, (half)sqrt((float)x)) * (half)1.5;\n"
+            "  return float4((float3)c, 1.0);\n}\n");
+  DiagnosticSink sink;
+  ASSERT_TRUE(build(dir / "p.pack.json", dir / "out", std::nullopt, 2, sink).ok) << errors_of(sink);
+  PackReader pack = PackReader::open(dir / "out");
+  const StageView* fragment = pack.variant("P", 0).stage("fragment");
+  ASSERT_NE(fragment, nullptr);
+  const uint32_t float16_capability[] = {(2u << 16) | 17u, 9u};  // OpCapability Float16
+  std::string_view needle(reinterpret_cast<const char*>(float16_capability), sizeof float16_capability);
+  EXPECT_NE(fragment->spirv.find(needle), std::string_view::npos);
+  EXPECT_NE(fragment->msl.find("half"), std::string_view::npos);
+  EXPECT_NE(fragment->gles.find("mediump"), std::string_view::npos) << fragment->gles;
+  for (std::string_view gl : {fragment->gles, fragment->glsl}) {
+    EXPECT_EQ(gl.find("float16_t"), std::string_view::npos) << gl;
+    EXPECT_EQ(gl.find("FP16"), std::string_view::npos) << gl;
+  }
+}
+
 // The bundled library: every variant of the default pack compiles to SPIR-V, GLSL, GLSL ES and MSL with no
 // warning, every variant is selectable through the reader, and stripped combinations are clear errors.
 TEST(BundledLibrary, DefaultPackBuildsWithoutWarningsAndEveryVariantIsSelectable) {

@@ -1,5 +1,8 @@
 #include "cross/cross_compile.hpp"
 
+#include "cross/widen_float16.hpp"
+#include "optimize/spirv_tools.hpp"
+
 #include <spirv_cross/spirv_glsl.hpp>
 #include <spirv_cross/spirv_msl.hpp>
 
@@ -12,8 +15,23 @@ namespace {
 
 using nlohmann::json;
 
-CrossResult to_glsl(const std::vector<uint32_t>& spirv, bool es) {
+CrossResult to_glsl(const std::vector<uint32_t>& input, bool es) {
   CrossResult result;
+  // Explicit 16-bit floats become mediump 32-bit floats for GL (see widen_float16.hpp).
+  WidenResult widened = widen_float16_for_gl(input);
+  if (!widened.ok) {
+    result.error = "widening 16-bit floats for GL: " + widened.reason;
+    return result;
+  }
+  if (widened.changed) {
+    SpirvStepResult valid = validate_spirv(widened.spirv);
+    if (!valid.ok) {
+      result.error = "widening 16-bit floats for GL produced invalid SPIR-V:";
+      for (const auto& m : valid.messages) result.error += " " + m;
+      return result;
+    }
+  }
+  const std::vector<uint32_t>& spirv = widened.spirv;
   spirv_cross::CompilerGLSL compiler(spirv);
   spirv_cross::CompilerGLSL::Options options;
   options.version = es ? 310 : 450;      // GLSL 4.50 core / GLSL ES 3.10
