@@ -235,7 +235,8 @@ std::string line_of(const SourceSet& sources, const std::map<std::string, std::f
 }
 
 std::string tools_fingerprint(Frontend& frontend) {
-  return std::string("kiln ") + kKilnVersion + "; " + frontend.name() + " " + frontend.version() + "; " +
+  return std::string("kiln ") + kKilnVersion + " (compile job revision " + std::to_string(kCompileJobRevision) + "); " +
+         frontend.name() + " " + frontend.version() + "; " +
          spirv_tools_version() + "; SPIRV-Cross " + spirv_cross_version();
 }
 

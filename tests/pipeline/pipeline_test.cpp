@@ -135,6 +135,35 @@ TEST_F(SmallLibrary, TexelFetchAndSizeQueriesCrossCompileToGl) {
   EXPECT_NE(manifest.find("tex_kiln_no_sampler"), std::string::npos);
 }
 
+// The manifest's GL and MSL binding records name each resource by what those APIs see (a cbuffer by its
+// block name), and the MSL indices are the ones the MSL source declares.
+TEST_F(SmallLibrary, GlAndMslBindingRecordsNameEveryResourceAndMatchTheSource) {
+  dir.write("S.hlsl",
+            "[[vk::binding(0, 0)]] cbuffer Constants { float4 tint; };\n"
+            "[[vk::binding(1, 0)]] Texture2D albedo;\n[[vk::binding(2, 0)]] SamplerState linearClamp;\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "float4 F(float4 p : SV_Position) : SV_Target { return tint * albedo.Sample(linearClamp, p.xy); }\n");
+  DiagnosticSink sink;
+  ASSERT_TRUE(build(dir / "p.pack.json", dir / "out", std::nullopt, 2, sink).ok) << errors_of(sink);
+  PackReader pack = PackReader::open(dir / "out");
+  const StageView* fragment = pack.variant("P", 0).stage("fragment");
+  ASSERT_TRUE(fragment && fragment->reflection);
+  const nlohmann::json& reflection = *fragment->reflection;
+  ASSERT_EQ(reflection["glsl"]["blocks"].size(), 1u);
+  EXPECT_EQ(reflection["glsl"]["blocks"][0]["name"], "Constants");
+  EXPECT_EQ(reflection["glsl"]["blocks"][0]["binding"], 0);
+  EXPECT_NE(fragment->glsl.find("uniform Constants"), std::string_view::npos) << fragment->glsl;
+  std::map<std::string, std::string> expected = {{"buffer", "buffer"}, {"texture", "texture"}, {"sampler", "sampler"}};
+  ASSERT_EQ(reflection["msl"]["resources"].size(), 3u);
+  for (const auto& resource : reflection["msl"]["resources"]) {
+    std::string name = resource["name"];
+    EXPECT_FALSE(name.empty());
+    std::string attribute = "[[" + expected.at(resource["kind"].get<std::string>()) + "(" +
+                            std::to_string(resource["index"].get<int>()) + ")]]";
+    EXPECT_NE(fragment->msl.find(attribute), std::string_view::npos) << name << " " << attribute << "\n" << fragment->msl;
+  }
+}
+
 // Explicit fp16 stays 16-bit in SPIR-V and MSL, and becomes mediump 32-bit floats in GLSL ES (and plain floats
 // in GLSL 450), so that GL drivers without a 16-bit float extension accept it.
 TEST_F(SmallLibrary, HalfPrecisionIsWidenedToMediumpForGlOnly) {

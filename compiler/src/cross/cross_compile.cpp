@@ -65,11 +65,12 @@ CrossResult to_glsl(const std::vector<uint32_t>& input, bool es) {
   result.bindings["combined_image_samplers"] = combined;
   json blocks = json::array();
   spirv_cross::ShaderResources resources = compiler.get_shader_resources();
+  // Blocks by their interface name (what GL's glGetUniformBlockIndex takes), not the unnamed HLSL instance.
   for (const auto& buffer : resources.uniform_buffers)
-    blocks.push_back({{"name", compiler.get_name(buffer.id)}, {"kind", "uniform_buffer"},
+    blocks.push_back({{"name", buffer.name}, {"kind", "uniform_buffer"},
                       {"binding", compiler.get_decoration(buffer.id, spv::DecorationBinding)}});
   for (const auto& buffer : resources.storage_buffers)
-    blocks.push_back({{"name", compiler.get_name(buffer.id)}, {"kind", "storage_buffer"},
+    blocks.push_back({{"name", buffer.name}, {"kind", "storage_buffer"},
                       {"binding", compiler.get_decoration(buffer.id, spv::DecorationBinding)}});
   result.bindings["blocks"] = blocks;
   result.ok = true;
@@ -90,7 +91,8 @@ CrossResult to_msl(const std::vector<uint32_t>& spirv) {
     for (const auto& resource : list) {
       uint32_t index = compiler.get_automatic_msl_resource_binding(resource.id);
       if (index == uint32_t(-1)) continue;  // not used by the entry point
-      indices.push_back({{"name", compiler.get_name(resource.id)}, {"kind", kind}, {"index", index}});
+      // resource.name: for an HLSL cbuffer (an unnamed block instance) the block's name, e.g. "PerFrame".
+      indices.push_back({{"name", resource.name}, {"kind", kind}, {"index", index}});
     }
   };
   record(resources.uniform_buffers, "buffer");
