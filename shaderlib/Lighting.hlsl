@@ -44,6 +44,17 @@ Light PunctualLight(float3 toLight, float3 intensity, float inverseRangeSquared,
     return light;
 }
 
+#if defined(_MAIN_LIGHT_SHADOWS) || defined(_MAIN_LIGHT_SHADOWS_CASCADE) || defined(_ADDITIONAL_LIGHT_SHADOWS)
+// Receiver bias, compared sample (PCF under _SHADOWS_SOFT), then the shadow strength:
+// params = (strength, depth bias, texel size, -), as the frame constants store them for both shadow maps.
+float ShadowVisibility(Texture2D shadowMap, float3 shadowCoord, float4 params)
+{
+    float3 coord = ApplyReceiverDepthBias(shadowCoord, params.y);
+    float visibility = SampleShadow(shadowMap, sampler_ShadowCompare, coord, params.z);
+    return lerp(1.0, visibility, params.x);
+}
+#endif
+
 float3 MainLightShadowCoord(float3 positionWS, int cascade)
 {
     float4 coord = mul(_MainLightWorldToShadow[cascade], float4(positionWS, 1.0));
@@ -61,9 +72,7 @@ float MainLightShadow(float3 positionWS, float3 vertexShadowCoord)
 #else
     float3 coord = vertexShadowCoord;
 #endif
-    coord = ApplyReceiverDepthBias(coord, _MainLightShadowParams.y);
-    float visibility = SampleShadow(_MainLightShadowMap, sampler_ShadowCompare, coord, _MainLightShadowParams.z);
-    return lerp(1.0, visibility, _MainLightShadowParams.x);
+    return ShadowVisibility(_MainLightShadowMap, coord, _MainLightShadowParams);
 #else
     return 1.0;
 #endif
@@ -99,9 +108,7 @@ float AdditionalLightShadow(AdditionalLight data, float3 positionWS)
     // w > 0 in front of the light; behind it nothing can shadow.
     if (coord.w <= 1e-6)
         return 1.0;
-    float3 shadowCoord = ApplyReceiverDepthBias(coord.xyz / coord.w, _AdditionalShadowParams.y);
-    float visibility = SampleShadow(_AdditionalLightsShadowMap, sampler_ShadowCompare, shadowCoord, _AdditionalShadowParams.z);
-    return lerp(1.0, visibility, _AdditionalShadowParams.x);
+    return ShadowVisibility(_AdditionalLightsShadowMap, coord.xyz / coord.w, _AdditionalShadowParams);
 #else
     return 1.0;
 #endif
