@@ -5,11 +5,14 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <sstream>
 
 #include "common/files.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
 #include "lint/lint.hpp"
+#include "render/golden.hpp"
+#include "render/renderer.hpp"
 #include "tools/pack_tools.hpp"
 
 namespace {
@@ -50,6 +53,69 @@ void print_summary(const kiln::BuildReport& r, std::ostream& out) {
   for (size_t i = 0; i < r.timings.size(); ++i)
     out << (i ? ", " : " ") << r.timings[i].stage << " " << format_ms(r.timings[i].milliseconds);
   out << "\n";
+}
+
+std::vector<std::string> split_words(const std::string& text) {
+  std::vector<std::string> words;
+  std::istringstream in(text);
+  for (std::string w; in >> w;) words.push_back(w);
+  return words;
+}
+
+int run_render(const std::string& pack_dir, const std::string& keywords, const std::string& scene_file,
+               const std::string& png_out, const std::string& exr_out, const std::string& size_text) {
+  try {
+    uint32_t width = 0, height = 0;
+    if (!size_text.empty() && std::sscanf(size_text.c_str(), "%ux%u", &width, &height) != 2) {
+      std::cerr << "kiln render: error: --size wants WxH, e.g. 256x256 (got '" << size_text << "')\n";
+      return 1;
+    }
+    kiln::PackReader pack = kiln::PackReader::open(pack_dir);
+    kiln::render::Scene scene = kiln::render::load_scene(scene_file);
+    std::string error;
+    auto context = kiln::render::VulkanContext::open_lavapipe(error);
+    if (!context) {
+      std::cerr << "kiln render: error: " << error << "\n";
+      return 1;
+    }
+    kiln::render::SceneRenderer renderer(*context, pack, scene, width, height);
+    kiln::SelectedVariant variant = pack.select("Forward", split_words(keywords));
+    kiln::render::Image image = renderer.render(variant);
+    bool linear = std::find(variant.keywords.begin(), variant.keywords.end(), "_LINEAR_OUTPUT") != variant.keywords.end();
+    kiln::render::write_png(png_out, image.width, image.height, kiln::render::encode_srgb8(image, linear));
+    if (!exr_out.empty()) kiln::render::write_exr(exr_out, image);
+    std::cout << "kiln render: " << png_out << " (" << image.width << "x" << image.height << ", variant "
+              << kiln::render::variant_name(variant.keywords) << ", pipeline " << format_ms(renderer.last_pipeline_ms())
+              << ", draw " << format_ms(renderer.last_draw_ms()) << ")\n";
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << e.what() << "\n";
+    return 1;
+  }
+}
+
+int run_test(const std::string& pack_dir, const std::string& scene_file, const std::string& golden_dir,
+             const std::string& tolerances, const std::string& report_dir, const std::string& filter,
+             const std::string& shard) {
+  kiln::render::GoldenTestOptions options;
+  options.pack_dir = pack_dir;
+  options.scene = scene_file;
+  options.golden_dir = golden_dir;
+  options.tolerances = tolerances;
+  options.report_dir = report_dir;
+  options.filter = filter;
+  if (!shard.empty() && (std::sscanf(shard.c_str(), "%u/%u", &options.shard_index, &options.shard_count) != 2 ||
+                         options.shard_count == 0 || options.shard_index >= options.shard_count)) {
+    std::cerr << "kiln test: error: --shard wants I/N with I < N (got '" << shard << "')\n";
+    return 1;
+  }
+  try {
+    kiln::render::GoldenTestSummary summary = kiln::render::run_golden_test(options, std::cout);
+    return summary.ok() ? 0 : 1;
+  } catch (const std::exception& e) {
+    std::cerr << e.what() << "\n";
+    return 1;
+  }
 }
 
 int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cache_dir, bool quiet) {
@@ -261,7 +327,27 @@ int main(int argc, char** argv) {
   diff->add_option("b", other_dir, "The new pack")->required();
   diff->add_flag("--json", as_json, "Print JSON");
 
+  std::string variant_keywords, png_out, exr_out, size_text, golden_dir, tolerances, report_dir, filter, shard;
+  CLI::App* render = app.add_subcommand("render", "Render a scene with one Forward variant of a pack on lavapipe");
+  render->add_option("pack_dir", pack_dir, "Directory holding a pack (or its manifest)")->required();
+  render->add_option("--variant", variant_keywords, "The variant's keywords, space-separated (selection rules: docs/design.md)");
+  render->add_option("--scene", scene_file, "Render scene (variants/scenes/render/*.json)")->required()->check(CLI::ExistingFile);
+  render->add_option("-o,--output", png_out, "PNG output (8-bit sRGB, tone-mapped)")->required();
+  render->add_option("--exr", exr_out, "Also write the float image (OpenEXR, 32-bit)");
+  render->add_option("--size", size_text, "Image size WxH (default: the scene's)");
+
+  CLI::App* test = app.add_subcommand("test", "Render every Forward variant and compare it with its CPU-reference golden");
+  test->add_option("pack_dir", pack_dir, "Directory holding a pack (or its manifest)")->required();
+  test->add_option("--scene", scene_file, "Render scene")->required()->check(CLI::ExistingFile);
+  test->add_option("--golden", golden_dir, "Golden directory (kiln-reference goldens)")->required();
+  test->add_option("--tolerances", tolerances, "Tolerance classes (JSON)")->required()->check(CLI::ExistingFile);
+  test->add_option("--report", report_dir, "Directory for failure images and index.html");
+  test->add_option("--filter", filter, "Only variants whose keyword list contains this text");
+  test->add_option("--shard", shard, "I/N: run every N-th variant starting at I");
+
   CLI11_PARSE(app, argc, argv);
+  if (*render) return run_render(pack_dir, variant_keywords, scene_file, png_out, exr_out, size_text);
+  if (*test) return run_test(pack_dir, scene_file, golden_dir, tolerances, report_dir, filter, shard);
   if (*check) return run_check_scene(pack_dir, scene_file, as_json);
   if (*diff) return run_diff_packs(pack_dir, other_dir, as_json);
 

@@ -1,9 +1,6 @@
 #include "lavapipe.hpp"
 
-#include <vulkan/vulkan.h>
-
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -16,13 +13,15 @@
 
 #include "frontend/frontend.hpp"
 #include "optimize/spirv_tools.hpp"
+#include "render/vulkan_context.hpp"
 
 namespace kiln::gpu {
 namespace {
 
-void check(VkResult result, const char* what) {
-  if (result != VK_SUCCESS) throw std::runtime_error(std::string(what) + " failed: VkResult " + std::to_string(result));
-}
+using render::check;
+using render::HostBuffer;
+using render::ImageDesc;
+using render::VulkanObjects;
 
 std::string read_text(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -34,31 +33,7 @@ std::string read_text(const std::filesystem::path& path) {
 }  // namespace
 
 struct Lavapipe::State {
-  VkInstance instance = VK_NULL_HANDLE;
-  VkPhysicalDevice physical = VK_NULL_HANDLE;
-  VkDevice device = VK_NULL_HANDLE;
-  VkQueue queue = VK_NULL_HANDLE;
-  uint32_t queue_family = 0;
-  VkCommandPool pool = VK_NULL_HANDLE;
-  VkPhysicalDeviceProperties properties{};
-  VkPhysicalDeviceDriverProperties driver{};
-  VkPhysicalDeviceMemoryProperties memory{};
-  bool float16 = false;
-
-  ~State() {
-    if (device) {
-      vkDeviceWaitIdle(device);
-      if (pool) vkDestroyCommandPool(device, pool, nullptr);
-      vkDestroyDevice(device, nullptr);
-    }
-    if (instance) vkDestroyInstance(instance, nullptr);
-  }
-
-  uint32_t memory_type(uint32_t bits, VkMemoryPropertyFlags flags) const {
-    for (uint32_t i = 0; i < memory.memoryTypeCount; ++i)
-      if ((bits & (1u << i)) && (memory.memoryTypes[i].propertyFlags & flags) == flags) return i;
-    throw std::runtime_error("no Vulkan memory type with the requested properties");
-  }
+  std::unique_ptr<render::VulkanContext> context;
 };
 
 Lavapipe::Lavapipe(std::unique_ptr<State> state) : state_(std::move(state)) {}
@@ -66,210 +41,16 @@ Lavapipe::~Lavapipe() = default;
 
 std::unique_ptr<Lavapipe> Lavapipe::open(std::string& error) {
   auto state = std::make_unique<State>();
-  VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
-  app.pApplicationName = "kiln-probe";
-  app.apiVersion = VK_API_VERSION_1_2;
-  VkInstanceCreateInfo instance_info{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
-  instance_info.pApplicationInfo = &app;
-  if (vkCreateInstance(&instance_info, nullptr, &state->instance) != VK_SUCCESS) {
-    error = "cannot create a Vulkan instance (is the Vulkan loader installed? Debian: libvulkan1 mesa-vulkan-drivers)";
-    return nullptr;
-  }
-  uint32_t count = 0;
-  vkEnumeratePhysicalDevices(state->instance, &count, nullptr);
-  std::vector<VkPhysicalDevice> devices(count);
-  vkEnumeratePhysicalDevices(state->instance, &count, devices.data());
-  for (VkPhysicalDevice candidate : devices) {
-    VkPhysicalDeviceDriverProperties driver{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
-    VkPhysicalDeviceProperties2 properties{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
-    properties.pNext = &driver;
-    vkGetPhysicalDeviceProperties2(candidate, &properties);
-    if (driver.driverID == VK_DRIVER_ID_MESA_LLVMPIPE) {
-      state->physical = candidate;
-      state->properties = properties.properties;
-      state->driver = driver;
-      break;
-    }
-  }
-  if (!state->physical) {
-    error = "no lavapipe device among " + std::to_string(count) +
-            " Vulkan device(s): install Debian's mesa-vulkan-drivers (kiln runs shaders on lavapipe only)";
-    return nullptr;
-  }
-  vkGetPhysicalDeviceMemoryProperties(state->physical, &state->memory);
-
-  VkPhysicalDeviceVulkan12Features supported12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
-  VkPhysicalDeviceFeatures2 supported{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
-  supported.pNext = &supported12;
-  vkGetPhysicalDeviceFeatures2(state->physical, &supported);
-  state->float16 = supported12.shaderFloat16 == VK_TRUE;
-
-  uint32_t families = 0;
-  vkGetPhysicalDeviceQueueFamilyProperties(state->physical, &families, nullptr);
-  std::vector<VkQueueFamilyProperties> family_properties(families);
-  vkGetPhysicalDeviceQueueFamilyProperties(state->physical, &families, family_properties.data());
-  auto graphics = std::find_if(family_properties.begin(), family_properties.end(),
-                               [](const VkQueueFamilyProperties& f) { return f.queueFlags & VK_QUEUE_GRAPHICS_BIT; });
-  if (graphics == family_properties.end()) {
-    error = "the lavapipe device has no graphics queue";
-    return nullptr;
-  }
-  state->queue_family = static_cast<uint32_t>(graphics - family_properties.begin());
-
-  float priority = 1.0f;
-  VkDeviceQueueCreateInfo queue_info{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
-  queue_info.queueFamilyIndex = state->queue_family;
-  queue_info.queueCount = 1;
-  queue_info.pQueuePriorities = &priority;
-  VkPhysicalDeviceVulkan12Features enabled12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
-  enabled12.shaderFloat16 = supported12.shaderFloat16;
-  VkPhysicalDeviceFeatures2 enabled{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
-  enabled.pNext = &enabled12;
-  VkDeviceCreateInfo device_info{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
-  device_info.pNext = &enabled;
-  device_info.queueCreateInfoCount = 1;
-  device_info.pQueueCreateInfos = &queue_info;
-  if (vkCreateDevice(state->physical, &device_info, nullptr, &state->device) != VK_SUCCESS) {
-    error = "cannot create the lavapipe logical device";
-    return nullptr;
-  }
-  vkGetDeviceQueue(state->device, state->queue_family, 0, &state->queue);
-  VkCommandPoolCreateInfo pool_info{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-  pool_info.queueFamilyIndex = state->queue_family;
-  pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-  if (vkCreateCommandPool(state->device, &pool_info, nullptr, &state->pool) != VK_SUCCESS) {
-    error = "cannot create a command pool";
-    return nullptr;
-  }
+  state->context = render::VulkanContext::open_lavapipe(error);
+  if (!state->context) return nullptr;
   return std::unique_ptr<Lavapipe>(new Lavapipe(std::move(state)));
 }
 
-std::string Lavapipe::device_name() const { return state_->properties.deviceName; }
-std::string Lavapipe::driver_info() const {
-  return std::string(state_->driver.driverName) + " " + state_->driver.driverInfo;
-}
-bool Lavapipe::supports_float16() const { return state_->float16; }
+std::string Lavapipe::device_name() const { return state_->context->device_name(); }
+std::string Lavapipe::driver_info() const { return state_->context->driver_info(); }
+bool Lavapipe::supports_float16() const { return state_->context->supports_float16(); }
 
 namespace {
-
-// Owns every object one probe run creates; destroyed in reverse order whatever happens.
-struct RunObjects {
-  VkDevice device;
-  std::vector<VkBuffer> buffers;
-  std::vector<VkImage> images;
-  std::vector<VkImageView> views;
-  std::vector<VkDeviceMemory> memories;
-  VkSampler sampler = VK_NULL_HANDLE;
-  VkRenderPass render_pass = VK_NULL_HANDLE;
-  VkFramebuffer framebuffer = VK_NULL_HANDLE;
-  std::vector<VkShaderModule> modules;
-  VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
-  VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
-  VkPipeline pipeline = VK_NULL_HANDLE;
-  VkDescriptorPool descriptor_pool = VK_NULL_HANDLE;
-
-  explicit RunObjects(VkDevice d) : device(d) {}
-  ~RunObjects() {
-    if (descriptor_pool) vkDestroyDescriptorPool(device, descriptor_pool, nullptr);
-    if (pipeline) vkDestroyPipeline(device, pipeline, nullptr);
-    if (pipeline_layout) vkDestroyPipelineLayout(device, pipeline_layout, nullptr);
-    if (set_layout) vkDestroyDescriptorSetLayout(device, set_layout, nullptr);
-    for (VkShaderModule m : modules) vkDestroyShaderModule(device, m, nullptr);
-    if (framebuffer) vkDestroyFramebuffer(device, framebuffer, nullptr);
-    if (render_pass) vkDestroyRenderPass(device, render_pass, nullptr);
-    if (sampler) vkDestroySampler(device, sampler, nullptr);
-    for (VkImageView v : views) vkDestroyImageView(device, v, nullptr);
-    for (VkImage i : images) vkDestroyImage(device, i, nullptr);
-    for (VkBuffer b : buffers) vkDestroyBuffer(device, b, nullptr);
-    for (VkDeviceMemory m : memories) vkFreeMemory(device, m, nullptr);
-  }
-};
-
-struct HostBuffer {
-  VkBuffer buffer = VK_NULL_HANDLE;
-  void* mapped = nullptr;
-};
-
-HostBuffer make_host_buffer(const Lavapipe* /*unused*/, VkDevice device, RunObjects& objects,
-                            const VkPhysicalDeviceMemoryProperties& memory, VkDeviceSize size, VkBufferUsageFlags usage) {
-  VkBufferCreateInfo info{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
-  info.size = size;
-  info.usage = usage;
-  HostBuffer result;
-  check(vkCreateBuffer(device, &info, nullptr, &result.buffer), "vkCreateBuffer");
-  objects.buffers.push_back(result.buffer);
-  VkMemoryRequirements requirements;
-  vkGetBufferMemoryRequirements(device, result.buffer, &requirements);
-  VkMemoryAllocateInfo allocate{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-  allocate.allocationSize = requirements.size;
-  const VkMemoryPropertyFlags flags = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-  allocate.memoryTypeIndex = UINT32_MAX;
-  for (uint32_t i = 0; i < memory.memoryTypeCount; ++i)
-    if ((requirements.memoryTypeBits & (1u << i)) && (memory.memoryTypes[i].propertyFlags & flags) == flags) {
-      allocate.memoryTypeIndex = i;
-      break;
-    }
-  if (allocate.memoryTypeIndex == UINT32_MAX) throw std::runtime_error("no host-visible memory");
-  VkDeviceMemory bound;
-  check(vkAllocateMemory(device, &allocate, nullptr, &bound), "vkAllocateMemory");
-  objects.memories.push_back(bound);
-  check(vkBindBufferMemory(device, result.buffer, bound, 0), "vkBindBufferMemory");
-  check(vkMapMemory(device, bound, 0, size, 0, &result.mapped), "vkMapMemory");
-  return result;
-}
-
-VkImage make_image(VkDevice device, RunObjects& objects, uint32_t (*pick)(const void*, uint32_t, VkMemoryPropertyFlags),
-                   const void* picker, VkFormat format, uint32_t width, uint32_t height, VkImageUsageFlags usage) {
-  VkImageCreateInfo info{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-  info.imageType = VK_IMAGE_TYPE_2D;
-  info.format = format;
-  info.extent = {width, height, 1};
-  info.mipLevels = 1;
-  info.arrayLayers = 1;
-  info.samples = VK_SAMPLE_COUNT_1_BIT;
-  info.tiling = VK_IMAGE_TILING_OPTIMAL;
-  info.usage = usage;
-  info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  VkImage image;
-  check(vkCreateImage(device, &info, nullptr, &image), "vkCreateImage");
-  objects.images.push_back(image);
-  VkMemoryRequirements requirements;
-  vkGetImageMemoryRequirements(device, image, &requirements);
-  VkMemoryAllocateInfo allocate{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-  allocate.allocationSize = requirements.size;
-  allocate.memoryTypeIndex = pick(picker, requirements.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-  VkDeviceMemory bound;
-  check(vkAllocateMemory(device, &allocate, nullptr, &bound), "vkAllocateMemory");
-  objects.memories.push_back(bound);
-  check(vkBindImageMemory(device, image, bound, 0), "vkBindImageMemory");
-  return image;
-}
-
-VkImageView make_view(VkDevice device, RunObjects& objects, VkImage image, VkFormat format) {
-  VkImageViewCreateInfo info{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
-  info.image = image;
-  info.viewType = VK_IMAGE_VIEW_TYPE_2D;
-  info.format = format;
-  info.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-  VkImageView view;
-  check(vkCreateImageView(device, &info, nullptr, &view), "vkCreateImageView");
-  objects.views.push_back(view);
-  return view;
-}
-
-void barrier(VkCommandBuffer cmd, VkImage image, VkImageLayout from, VkImageLayout to, VkAccessFlags src_access,
-             VkAccessFlags dst_access, VkPipelineStageFlags src_stage, VkPipelineStageFlags dst_stage) {
-  VkImageMemoryBarrier b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
-  b.oldLayout = from;
-  b.newLayout = to;
-  b.srcAccessMask = src_access;
-  b.dstAccessMask = dst_access;
-  b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = image;
-  b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-  vkCmdPipelineBarrier(cmd, src_stage, dst_stage, 0, 0, nullptr, 0, nullptr, 1, &b);
-}
 
 VkFormat vk_format(ProbeTexture::Format format) {
   switch (format) {
@@ -310,60 +91,58 @@ std::vector<ProbeOutput> Lavapipe::run(const ProbeProgram& program, const std::v
                                        const std::optional<ProbeTexture>& texture, double* milliseconds,
                                        const std::vector<ProbeBuffer>& buffers) {
   if (inputs.empty()) return {};
-  if (program.float16 && !state_->float16) throw std::runtime_error("the lavapipe device lacks shaderFloat16");
-  State& s = *state_;
-  VkDevice device = s.device;
-  RunObjects objects(device);
-  auto pick = [](const void* state, uint32_t bits, VkMemoryPropertyFlags flags) {
-    return static_cast<const State*>(state)->memory_type(bits, flags);
-  };
+  render::VulkanContext& context = *state_->context;
+  if (program.float16 && !context.supports_float16()) throw std::runtime_error("the lavapipe device lacks shaderFloat16");
+  VkDevice device = context.device();
+  VulkanObjects objects(context);
 
   const uint32_t width = kProbeWidth;
   const uint32_t height = static_cast<uint32_t>((inputs.size() + width - 1) / width);
   const size_t records = size_t(width) * height;
 
   // Input records, padded with the last one so that every pixel reads a valid record.
-  HostBuffer input = make_host_buffer(this, device, objects, s.memory, records * sizeof(ProbeInput),
-                                      VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  HostBuffer input = objects.host_buffer(records * sizeof(ProbeInput), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
   auto* records_out = static_cast<ProbeInput*>(input.mapped);
   for (size_t i = 0; i < records; ++i) records_out[i] = inputs[std::min(i, inputs.size() - 1)];
-  HostBuffer readback = make_host_buffer(this, device, objects, s.memory, records * sizeof(ProbeOutput),
-                                         VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+  HostBuffer readback = objects.host_buffer(records * sizeof(ProbeOutput), VK_BUFFER_USAGE_TRANSFER_DST_BIT);
 
   std::vector<HostBuffer> extra;
   for (const ProbeBuffer& b : buffers) {
-    extra.push_back(make_host_buffer(this, device, objects, s.memory, std::max<size_t>(b.bytes.size(), 16),
-                                     b.uniform ? VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT : VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
+    extra.push_back(objects.host_buffer(
+        b.bytes.size(), b.uniform ? VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT : VK_BUFFER_USAGE_STORAGE_BUFFER_BIT));
     std::memcpy(extra.back().mapped, b.bytes.data(), b.bytes.size());
   }
 
-  const VkFormat color_format = VK_FORMAT_R32G32B32A32_SFLOAT;
-  VkImage color = make_image(device, objects, pick, &s, color_format, width, height,
-                             VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT);
-  VkImageView color_view = make_view(device, objects, color, color_format);
+  ImageDesc color_desc{VK_FORMAT_R32G32B32A32_SFLOAT, width, height};
+  color_desc.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  VkImage color = objects.image(color_desc);
+  VkImageView color_view = objects.view(color, color_desc);
 
   // Optional texture (uploaded through a staging buffer).
+  ImageDesc texture_desc;
   VkImage texture_image = VK_NULL_HANDLE;
   VkImageView texture_view = VK_NULL_HANDLE;
+  VkSampler sampler = VK_NULL_HANDLE;
   HostBuffer staging;
   if (texture) {
     std::vector<uint8_t> bytes = encode_texels(*texture);
-    staging = make_host_buffer(this, device, objects, s.memory, bytes.size(), VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
+    staging = objects.host_buffer(bytes.size(), VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
     std::memcpy(staging.mapped, bytes.data(), bytes.size());
-    texture_image = make_image(device, objects, pick, &s, vk_format(texture->format), texture->width, texture->height,
-                               VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT);
-    texture_view = make_view(device, objects, texture_image, vk_format(texture->format));
-    VkSamplerCreateInfo sampler{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
-    sampler.magFilter = VK_FILTER_LINEAR;
-    sampler.minFilter = VK_FILTER_LINEAR;
-    sampler.mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR;
-    sampler.addressModeU = sampler.addressModeV = sampler.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-    sampler.maxLod = 0.0f;
-    check(vkCreateSampler(device, &sampler, nullptr, &objects.sampler), "vkCreateSampler");
+    texture_desc = {vk_format(texture->format), texture->width, texture->height};
+    texture_desc.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    texture_image = objects.image(texture_desc);
+    texture_view = objects.view(texture_image, texture_desc);
+    VkSamplerCreateInfo info{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+    info.magFilter = VK_FILTER_LINEAR;
+    info.minFilter = VK_FILTER_LINEAR;
+    info.mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR;
+    info.addressModeU = info.addressModeV = info.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    info.maxLod = 0.0f;
+    sampler = objects.sampler(info);
   }
 
   VkAttachmentDescription attachment{};
-  attachment.format = color_format;
+  attachment.format = color_desc.format;
   attachment.samples = VK_SAMPLE_COUNT_1_BIT;
   attachment.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
   attachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
@@ -381,15 +160,19 @@ std::vector<ProbeOutput> Lavapipe::run(const ProbeProgram& program, const std::v
   pass_info.pAttachments = &attachment;
   pass_info.subpassCount = 1;
   pass_info.pSubpasses = &subpass;
-  check(vkCreateRenderPass(device, &pass_info, nullptr, &objects.render_pass), "vkCreateRenderPass");
+  VkRenderPass render_pass;
+  check(vkCreateRenderPass(device, &pass_info, nullptr, &render_pass), "vkCreateRenderPass");
+  objects.adopt(render_pass);
   VkFramebufferCreateInfo framebuffer_info{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
-  framebuffer_info.renderPass = objects.render_pass;
+  framebuffer_info.renderPass = render_pass;
   framebuffer_info.attachmentCount = 1;
   framebuffer_info.pAttachments = &color_view;
   framebuffer_info.width = width;
   framebuffer_info.height = height;
   framebuffer_info.layers = 1;
-  check(vkCreateFramebuffer(device, &framebuffer_info, nullptr, &objects.framebuffer), "vkCreateFramebuffer");
+  VkFramebuffer framebuffer;
+  check(vkCreateFramebuffer(device, &framebuffer_info, nullptr, &framebuffer), "vkCreateFramebuffer");
+  objects.adopt(framebuffer);
 
   std::vector<VkDescriptorSetLayoutBinding> bindings;
   bindings.push_back({kProbeInputBinding, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr});
@@ -405,28 +188,23 @@ std::vector<ProbeOutput> Lavapipe::run(const ProbeProgram& program, const std::v
   VkDescriptorSetLayoutCreateInfo set_info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
   set_info.bindingCount = static_cast<uint32_t>(bindings.size());
   set_info.pBindings = bindings.data();
-  check(vkCreateDescriptorSetLayout(device, &set_info, nullptr, &objects.set_layout), "vkCreateDescriptorSetLayout");
+  VkDescriptorSetLayout set_layout;
+  check(vkCreateDescriptorSetLayout(device, &set_info, nullptr, &set_layout), "vkCreateDescriptorSetLayout");
+  objects.adopt(set_layout);
   VkPipelineLayoutCreateInfo layout_info{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
   layout_info.setLayoutCount = 1;
-  layout_info.pSetLayouts = &objects.set_layout;
-  check(vkCreatePipelineLayout(device, &layout_info, nullptr, &objects.pipeline_layout), "vkCreatePipelineLayout");
+  layout_info.pSetLayouts = &set_layout;
+  VkPipelineLayout pipeline_layout;
+  check(vkCreatePipelineLayout(device, &layout_info, nullptr, &pipeline_layout), "vkCreatePipelineLayout");
+  objects.adopt(pipeline_layout);
 
-  auto module = [&](const std::vector<uint32_t>& code) {
-    VkShaderModuleCreateInfo info{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
-    info.codeSize = code.size() * sizeof(uint32_t);
-    info.pCode = code.data();
-    VkShaderModule m;
-    check(vkCreateShaderModule(device, &info, nullptr, &m), "vkCreateShaderModule");
-    objects.modules.push_back(m);
-    return m;
-  };
   VkPipelineShaderStageCreateInfo stages[2]{};
   stages[0].sType = stages[1].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
   stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-  stages[0].module = module(program.vertex);
+  stages[0].module = objects.shader_module(program.vertex);
   stages[0].pName = "ProbeVertex";
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-  stages[1].module = module(program.fragment);
+  stages[1].module = objects.shader_module(program.fragment);
   stages[1].pName = "ProbeFragment";
   VkPipelineVertexInputStateCreateInfo vertex_input{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
   VkPipelineInputAssemblyStateCreateInfo assembly{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
@@ -458,10 +236,12 @@ std::vector<ProbeOutput> Lavapipe::run(const ProbeProgram& program, const std::v
   pipeline_info.pRasterizationState = &raster;
   pipeline_info.pMultisampleState = &multisample;
   pipeline_info.pColorBlendState = &blend_state;
-  pipeline_info.layout = objects.pipeline_layout;
-  pipeline_info.renderPass = objects.render_pass;
-  check(vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &pipeline_info, nullptr, &objects.pipeline),
+  pipeline_info.layout = pipeline_layout;
+  pipeline_info.renderPass = render_pass;
+  VkPipeline pipeline;
+  check(vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &pipeline_info, nullptr, &pipeline),
         "vkCreateGraphicsPipelines");
+  objects.adopt(pipeline);
 
   const auto buffer_count = static_cast<uint32_t>(buffers.size());
   VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1 + buffer_count},
@@ -472,16 +252,18 @@ std::vector<ProbeOutput> Lavapipe::run(const ProbeProgram& program, const std::v
   pool_info.maxSets = 1;
   pool_info.poolSizeCount = 4;
   pool_info.pPoolSizes = sizes;
-  check(vkCreateDescriptorPool(device, &pool_info, nullptr, &objects.descriptor_pool), "vkCreateDescriptorPool");
+  VkDescriptorPool descriptor_pool;
+  check(vkCreateDescriptorPool(device, &pool_info, nullptr, &descriptor_pool), "vkCreateDescriptorPool");
+  objects.adopt(descriptor_pool);
   VkDescriptorSetAllocateInfo set_allocate{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-  set_allocate.descriptorPool = objects.descriptor_pool;
+  set_allocate.descriptorPool = descriptor_pool;
   set_allocate.descriptorSetCount = 1;
-  set_allocate.pSetLayouts = &objects.set_layout;
+  set_allocate.pSetLayouts = &set_layout;
   VkDescriptorSet set;
   check(vkAllocateDescriptorSets(device, &set_allocate, &set), "vkAllocateDescriptorSets");
   VkDescriptorBufferInfo buffer_info{input.buffer, 0, VK_WHOLE_SIZE};
   VkDescriptorImageInfo image_info{VK_NULL_HANDLE, texture_view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-  VkDescriptorImageInfo sampler_info{objects.sampler, VK_NULL_HANDLE, VK_IMAGE_LAYOUT_UNDEFINED};
+  VkDescriptorImageInfo sampler_info{sampler, VK_NULL_HANDLE, VK_IMAGE_LAYOUT_UNDEFINED};
   std::vector<VkWriteDescriptorSet> writes(1, VkWriteDescriptorSet{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET});
   writes[0].dstSet = set;
   writes[0].dstBinding = kProbeInputBinding;
@@ -514,70 +296,45 @@ std::vector<ProbeOutput> Lavapipe::run(const ProbeProgram& program, const std::v
   }
   vkUpdateDescriptorSets(device, static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
 
-  VkCommandBufferAllocateInfo command_info{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-  command_info.commandPool = s.pool;
-  command_info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-  command_info.commandBufferCount = 1;
-  VkCommandBuffer cmd;
-  check(vkAllocateCommandBuffers(device, &command_info, &cmd), "vkAllocateCommandBuffers");
-  struct FreeCommand {
-    VkDevice d;
-    VkCommandPool p;
-    VkCommandBuffer c;
-    ~FreeCommand() { vkFreeCommandBuffers(d, p, 1, &c); }
-  } free_command{device, s.pool, cmd};
-
-  VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-  begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-  auto submit = [&](double* ms) {
-    VkSubmitInfo submit_info{VK_STRUCTURE_TYPE_SUBMIT_INFO};
-    submit_info.commandBufferCount = 1;
-    submit_info.pCommandBuffers = &cmd;
-    auto t0 = std::chrono::steady_clock::now();
-    check(vkQueueSubmit(s.queue, 1, &submit_info, VK_NULL_HANDLE), "vkQueueSubmit");
-    check(vkQueueWaitIdle(s.queue), "vkQueueWaitIdle");
-    if (ms) *ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  };
-
   if (texture) {
-    check(vkBeginCommandBuffer(cmd, &begin), "vkBeginCommandBuffer");
-    barrier(cmd, texture_image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
-            VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
-    VkBufferImageCopy region{};
-    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-    region.imageExtent = {texture->width, texture->height, 1};
-    vkCmdCopyBufferToImage(cmd, staging.buffer, texture_image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
-    barrier(cmd, texture_image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
-            VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
-            VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT);
-    check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
-    submit(nullptr);
+    context.submit([&](VkCommandBuffer cmd) {
+      render::image_barrier(cmd, texture_image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                            VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
+                            VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
+      VkBufferImageCopy region{};
+      region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+      region.imageExtent = {texture->width, texture->height, 1};
+      vkCmdCopyBufferToImage(cmd, staging.buffer, texture_image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+      render::image_barrier(cmd, texture_image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                            VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT,
+                            VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                            VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT);
+    });
   }
 
-  check(vkBeginCommandBuffer(cmd, &begin), "vkBeginCommandBuffer");
-  VkClearValue clear{};
-  VkRenderPassBeginInfo pass_begin{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
-  pass_begin.renderPass = objects.render_pass;
-  pass_begin.framebuffer = objects.framebuffer;
-  pass_begin.renderArea = scissor;
-  pass_begin.clearValueCount = 1;
-  pass_begin.pClearValues = &clear;
-  vkCmdBeginRenderPass(cmd, &pass_begin, VK_SUBPASS_CONTENTS_INLINE);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, objects.pipeline);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, objects.pipeline_layout, 0, 1, &set, 0, nullptr);
-  vkCmdDraw(cmd, 3, 1, 0, 0);
-  vkCmdEndRenderPass(cmd);
-  check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
-  submit(milliseconds);
+  context.submit(
+      [&](VkCommandBuffer cmd) {
+        VkClearValue clear{};
+        VkRenderPassBeginInfo pass_begin{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
+        pass_begin.renderPass = render_pass;
+        pass_begin.framebuffer = framebuffer;
+        pass_begin.renderArea = scissor;
+        pass_begin.clearValueCount = 1;
+        pass_begin.pClearValues = &clear;
+        vkCmdBeginRenderPass(cmd, &pass_begin, VK_SUBPASS_CONTENTS_INLINE);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout, 0, 1, &set, 0, nullptr);
+        vkCmdDraw(cmd, 3, 1, 0, 0);
+        vkCmdEndRenderPass(cmd);
+      },
+      milliseconds);
 
-  check(vkResetCommandBuffer(cmd, 0), "vkResetCommandBuffer");
-  check(vkBeginCommandBuffer(cmd, &begin), "vkBeginCommandBuffer");
-  VkBufferImageCopy copy{};
-  copy.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-  copy.imageExtent = {width, height, 1};
-  vkCmdCopyImageToBuffer(cmd, color, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback.buffer, 1, &copy);
-  check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
-  submit(nullptr);
+  context.submit([&](VkCommandBuffer cmd) {
+    VkBufferImageCopy copy{};
+    copy.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    copy.imageExtent = {width, height, 1};
+    vkCmdCopyImageToBuffer(cmd, color, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback.buffer, 1, &copy);
+  });
 
   const auto* values = static_cast<const ProbeOutput*>(readback.mapped);
   return std::vector<ProbeOutput>(values, values + inputs.size());

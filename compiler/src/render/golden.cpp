@@ -1,0 +1,216 @@
+#include "render/golden.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <stdexcept>
+
+namespace kiln::render {
+
+std::vector<ToleranceClass> load_tolerances(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path.string() + ": error: cannot open the tolerance file");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw std::runtime_error(path.string() + ": error: invalid JSON: " + e.what());
+  }
+  std::vector<ToleranceClass> classes;
+  for (const auto& c : j.at("classes")) {
+    ToleranceClass t;
+    t.name = c.at("name").get<std::string>();
+    t.when_any = c.value("when_any", std::vector<std::string>{});
+    t.when_all = c.value("when_all", std::vector<std::string>{});
+    t.max_channel_difference = c.at("max_channel_difference").get<int>();
+    t.max_fraction_over = c.at("max_fraction_over").get<double>();
+    t.max_relative_rmse = c.at("max_relative_rmse").get<double>();
+    t.reason = c.value("reason", "");
+    if (t.reason.empty()) throw std::runtime_error(path.string() + ": error: class '" + t.name + "' states no reason");
+    classes.push_back(t);
+  }
+  if (classes.empty()) throw std::runtime_error(path.string() + ": error: no tolerance classes");
+  return classes;
+}
+
+ComparisonLimits limits_for(const std::vector<ToleranceClass>& classes, const std::vector<std::string>& keywords) {
+  ComparisonLimits limits;
+  for (const ToleranceClass& c : classes) {
+    auto present = [&](const std::string& k) { return std::find(keywords.begin(), keywords.end(), k) != keywords.end(); };
+    bool matches = c.when_any.empty() || std::any_of(c.when_any.begin(), c.when_any.end(), present);
+    matches = matches && std::all_of(c.when_all.begin(), c.when_all.end(), present);
+    if (!matches) continue;
+    limits.classes.push_back(c.name);
+    limits.max_channel_difference = std::max(limits.max_channel_difference, c.max_channel_difference);
+    limits.max_fraction_over = std::max(limits.max_fraction_over, c.max_fraction_over);
+    limits.max_relative_rmse = std::max(limits.max_relative_rmse, c.max_relative_rmse);
+  }
+  return limits;
+}
+
+Comparison compare_images(const Image& rendered, const Image& reference, bool linear_output,
+                          const ComparisonLimits& limits) {
+  if (rendered.width != reference.width || rendered.height != reference.height)
+    throw std::runtime_error("image sizes differ: rendered " + std::to_string(rendered.width) + "x" +
+                             std::to_string(rendered.height) + ", reference " + std::to_string(reference.width) + "x" +
+                             std::to_string(reference.height));
+  Comparison c;
+  std::vector<uint8_t> a = encode_srgb8(rendered, linear_output), b = encode_srgb8(reference, linear_output);
+  size_t pixels = size_t(rendered.width) * rendered.height, over = 0;
+  double error = 0, energy = 0;
+  for (size_t p = 0; p < pixels; ++p) {
+    if (reference.rgba[p * 4 + 3] == kUnstablePixel) {
+      ++c.unstable;
+      continue;
+    }
+    int worst = 0;
+    for (int ch = 0; ch < 3; ++ch) {
+      worst = std::max(worst, std::abs(int(a[p * 4 + ch]) - int(b[p * 4 + ch])));
+      double r = rendered.rgba[p * 4 + ch], g = reference.rgba[p * 4 + ch];
+      if (!std::isfinite(r)) {
+        ++c.non_finite;
+        continue;
+      }
+      error += (r - g) * (r - g);
+      energy += g * g;
+    }
+    c.max_difference = std::max(c.max_difference, worst);
+    if (worst > limits.max_channel_difference) ++over;
+  }
+  c.fraction_over = double(over) / double(pixels);
+  c.relative_rmse = energy > 0 ? std::sqrt(error / energy) : std::sqrt(error);
+  c.passed = c.non_finite == 0 && c.fraction_over <= limits.max_fraction_over &&
+             c.relative_rmse <= limits.max_relative_rmse;
+  return c;
+}
+
+std::string write_failure_images(const std::filesystem::path& dir, const std::string& stem, const Image& rendered,
+                                 const Image& reference, bool linear_output, const std::string& title,
+                                 const std::string& details) {
+  std::filesystem::create_directories(dir);
+  std::vector<uint8_t> a = encode_srgb8(rendered, linear_output), b = encode_srgb8(reference, linear_output);
+  std::vector<uint8_t> diff(a.size());
+  for (size_t i = 0; i < a.size(); ++i)
+    diff[i] = i % 4 == 3 ? 255 : static_cast<uint8_t>(std::min(255, std::abs(int(a[i]) - int(b[i])) * 16));
+  write_png(dir / (stem + ".render.png"), rendered.width, rendered.height, a);
+  write_png(dir / (stem + ".reference.png"), rendered.width, rendered.height, b);
+  write_png(dir / (stem + ".diff.png"), rendered.width, rendered.height, diff);
+  auto img = [&](const char* kind) {
+    return "<td><img src=\"" + stem + "." + kind + ".png\" width=\"256\" style=\"image-rendering:pixelated\"></td>";
+  };
+  return "<tr><td><b>" + title + "</b><br>" + details + "</td>" + img("render") + img("reference") + img("diff") + "</tr>";
+}
+
+void write_html_report(const std::filesystem::path& path, const std::string& title, const std::vector<std::string>& rows) {
+  std::string html = "<!doctype html><meta charset=\"utf-8\"><title>" + title + "</title><h1>" + title +
+                     "</h1><table border=\"1\" cellpadding=\"4\"><tr><th>variant</th><th>lavapipe</th>"
+                     "<th>CPU reference</th><th>|difference| x 16</th></tr>";
+  for (const std::string& row : rows) html += row;
+  html += "</table>\n";
+  write_file_atomically(path, html);
+}
+
+}  // namespace kiln::render
+
+#include <chrono>
+#include <cstdio>
+#include <ostream>
+
+#include "kiln/pack_reader.hpp"
+#include "render/renderer.hpp"
+
+namespace kiln::render {
+
+std::string variant_name(const std::vector<std::string>& keywords) {
+  if (keywords.empty()) return "(none)";
+  std::vector<std::string> sorted = keywords;
+  std::sort(sorted.begin(), sorted.end());
+  std::string name;
+  for (const std::string& k : sorted) name += (name.empty() ? "" : " ") + k;
+  return name;
+}
+
+namespace {
+
+std::string format(const char* fmt, double value) {
+  char text[64];
+  std::snprintf(text, sizeof text, fmt, value);
+  return text;
+}
+
+}  // namespace
+
+GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream& out) {
+  auto start = std::chrono::steady_clock::now();
+  GoldenTestSummary summary;
+  PackReader pack = PackReader::open(options.pack_dir);
+  Scene scene = load_scene(options.scene);
+  std::vector<ToleranceClass> tolerances = load_tolerances(options.tolerances);
+  std::ifstream index_file(options.golden_dir / "index.json");
+  if (!index_file)
+    throw std::runtime_error((options.golden_dir / "index.json").string() +
+                             ": error: no golden index (make one with kiln-reference goldens)");
+  nlohmann::json index = nlohmann::json::parse(index_file);
+  std::string error;
+  auto context = VulkanContext::open_lavapipe(error);
+  if (!context) throw std::runtime_error("kiln test: error: " + error);
+  SceneRenderer renderer(*context, pack, scene, index.value("width", 0u), index.value("height", 0u));
+  out << "kiln test: pack " << pack.name() << ", scene " << scene.name << ", " << renderer.width() << "x"
+      << renderer.height() << " on " << context->device_name() << " (" << context->driver_info() << ")\n";
+
+  std::vector<std::string> rows;
+  const size_t count = pack.variant_count("Forward");
+  for (size_t i = 0; i < count; ++i) {
+    if (i % options.shard_count != options.shard_index) continue;
+    SelectedVariant variant = pack.variant("Forward", i);
+    std::string name = variant_name(variant.keywords);
+    if (!options.filter.empty() && name.find(options.filter) == std::string::npos) continue;
+    const bool linear = std::find(variant.keywords.begin(), variant.keywords.end(), "_LINEAR_OUTPUT") != variant.keywords.end();
+    auto golden = index["variants"].find(name);
+    if (golden == index["variants"].end()) {
+      out << "NOT RUN  #" << i << " " << name << ": no reference image in " << options.golden_dir.string() << "\n";
+      ++summary.not_run;
+      continue;
+    }
+    Image rendered;
+    try {
+      rendered = renderer.render(variant);
+    } catch (const std::exception& e) {
+      out << "NOT RUN  #" << i << " " << name << ": " << e.what() << "\n";
+      ++summary.not_run;
+      continue;
+    }
+    Image reference = read_kimg(options.golden_dir / golden->get<std::string>());
+    ComparisonLimits limits = limits_for(tolerances, variant.keywords);
+    Comparison c = compare_images(rendered, reference, linear, limits);
+    std::string classes;
+    for (const auto& n : limits.classes) classes += (classes.empty() ? "" : "+") + n;
+    std::string details = "pixels over " + std::to_string(limits.max_channel_difference) + "/255 " +
+                          format("%.3f%%", c.fraction_over * 100) + " (limit " +
+                          format("%.3f%%", limits.max_fraction_over * 100) + "), max " +
+                          std::to_string(c.max_difference) + "/255, relative RMSE " + format("%.2e", c.relative_rmse) +
+                          " (limit " + format("%.1e", limits.max_relative_rmse) + ")" +
+                          (c.non_finite ? ", " + std::to_string(c.non_finite) + " NaN/Inf values" : "") +
+                          (c.unstable ? ", " + std::to_string(c.unstable) + " shadow-tie pixels skipped" : "") + " [" +
+                          classes + "]";
+    out << (c.passed ? "PASS     #" : "FAIL     #") << i << " " << name << ": " << details << "\n";
+    if (c.passed) {
+      ++summary.passed;
+    } else {
+      ++summary.failed;
+      if (!options.report_dir.empty())
+        rows.push_back(write_failure_images(options.report_dir, "variant" + std::to_string(i), rendered, reference,
+                                            linear, "#" + std::to_string(i) + " " + name, details));
+    }
+  }
+  if (!rows.empty()) {
+    write_html_report(options.report_dir / "index.html", "kiln test: " + pack.name() + " / " + scene.name, rows);
+    out << "kiln test: report with the failing images: " << (options.report_dir / "index.html").string() << "\n";
+  }
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  out << "kiln test: " << summary.passed << " passed, " << summary.failed << " failed, " << summary.not_run
+      << " not run, " << format("%.1f s", summary.seconds) << "\n";
+  return summary;
+}
+
+}  // namespace kiln::render

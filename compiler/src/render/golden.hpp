@@ -1,0 +1,87 @@
+// `kiln test`: renders every Forward variant of a pack and compares each image with the reference image
+// the CPU reference computed for it (a golden directory written by `kiln-reference goldens`), under the
+// limits of a tolerance file. Prints one line per variant (metric, measured value, limit); on a failure
+// writes the rendered, reference and difference images and an HTML page showing them side by side.
+#pragma once
+
+#include <filesystem>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "render/image.hpp"
+
+namespace kiln::render {
+
+// Reference alpha marking a pixel whose shadow test is tied within fp32 error of its inputs (a shadow edge
+// that may fall on either side of the pixel): excluded from both metrics and counted separately.
+inline constexpr float kUnstablePixel = 2.0f;
+
+// Limits for a class of variants; a variant is held to the loosest limits of every class it matches.
+struct ToleranceClass {
+  std::string name;
+  std::vector<std::string> when_any;  // keywords; empty: every variant
+  std::vector<std::string> when_all;  // and all of these
+  int max_channel_difference = 2;     // of 255, on the display-encoded (ACES, sRGB, 8-bit) image
+  double max_fraction_over = 0.001;   // of pixels with a channel over that difference
+  double max_relative_rmse = 1e-3;    // on the shader's float output, RGB
+  std::string reason;
+};
+std::vector<ToleranceClass> load_tolerances(const std::filesystem::path& path);
+
+struct ComparisonLimits {
+  int max_channel_difference = 0;
+  double max_fraction_over = 0;
+  double max_relative_rmse = 0;
+  std::vector<std::string> classes;
+};
+ComparisonLimits limits_for(const std::vector<ToleranceClass>& classes, const std::vector<std::string>& keywords);
+
+struct Comparison {
+  double fraction_over = 0;     // pixels with a channel difference over the limit
+  int max_difference = 0;       // largest 8-bit channel difference
+  double relative_rmse = 0;
+  size_t non_finite = 0;        // NaN or Inf values in the rendered image
+  size_t unstable = 0;          // pixels the reference marked kUnstablePixel (not compared)
+  bool passed = false;
+};
+// `linear_output`: the images hold linear radiance (_LINEAR_OUTPUT); both are tone-mapped for display.
+Comparison compare_images(const Image& rendered, const Image& reference, bool linear_output, const ComparisonLimits& limits);
+
+// Writes <dir>/<stem>.render.png, .reference.png, .diff.png (|difference| x 16) and returns the HTML row.
+std::string write_failure_images(const std::filesystem::path& dir, const std::string& stem, const Image& rendered,
+                                 const Image& reference, bool linear_output, const std::string& title,
+                                 const std::string& details);
+void write_html_report(const std::filesystem::path& path, const std::string& title, const std::vector<std::string>& rows);
+
+}  // namespace kiln::render
+
+namespace kiln::render {
+
+struct GoldenTestOptions {
+  std::filesystem::path pack_dir;
+  std::filesystem::path scene;
+  std::filesystem::path golden_dir;   // index.json + reference images (kiln-reference goldens)
+  std::filesystem::path tolerances;
+  std::filesystem::path report_dir;   // failures: images + index.html
+  std::string filter;                 // only variants whose keyword list contains this text
+  unsigned shard_index = 0, shard_count = 1;
+};
+
+struct GoldenTestSummary {
+  size_t passed = 0;
+  size_t failed = 0;
+  size_t not_run = 0;  // counted as failures: a skipped variant is never a pass
+  double seconds = 0;
+  bool ok() const { return failed == 0 && not_run == 0 && passed > 0; }
+};
+
+// Every Forward variant of the pack (of the shard), rendered with the scene and compared with its golden.
+GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream& out);
+
+// The keyword list of a variant as goldens and reports name it: sorted, space-separated, "(none)" if empty.
+std::string variant_name(const std::vector<std::string>& keywords);
+
+}  // namespace kiln::render

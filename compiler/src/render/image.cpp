@@ -1,0 +1,146 @@
+#include "render/image.hpp"
+
+#include <png.h>
+#include <unistd.h>
+
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace kiln::render {
+namespace {
+
+double aces_fitted(double x) {
+  // Narkowicz 2015, "ACES Filmic Tone Mapping Curve" (the display curve, not the shader under test).
+  return std::clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
+}
+
+double srgb_encode(double linear) {
+  linear = std::clamp(linear, 0.0, 1.0);
+  return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1.0 / 2.4) - 0.055;
+}
+
+std::filesystem::path temporary_for(const std::filesystem::path& path) {
+  return path.string() + ".tmp" + std::to_string(::getpid());
+}
+
+}  // namespace
+
+void write_file_atomically(const std::filesystem::path& path, const std::string& bytes) {
+  auto temporary = temporary_for(path);
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    if (!out.flush()) {
+      std::error_code ec;
+      std::filesystem::remove(temporary, ec);
+      throw std::runtime_error(path.string() + ": error: cannot write");
+    }
+  }
+  std::filesystem::rename(temporary, path);
+}
+
+std::vector<uint8_t> encode_srgb8(const Image& image, bool apply_aces) {
+  std::vector<uint8_t> out(size_t(image.width) * image.height * 4);
+  for (size_t i = 0; i < out.size(); ++i) {
+    if (i % 4 == 3) {
+      out[i] = 255;
+      continue;
+    }
+    double v = image.rgba[i];
+    if (!std::isfinite(v)) v = 0;  // NaN/Inf are reported by the metrics, not by the encoder
+    if (apply_aces) v = aces_fitted(v);
+    out[i] = static_cast<uint8_t>(std::lround(srgb_encode(v) * 255.0));
+  }
+  return out;
+}
+
+void write_png(const std::filesystem::path& path, uint32_t width, uint32_t height, const std::vector<uint8_t>& rgba8) {
+  png_image png;
+  std::memset(&png, 0, sizeof png);
+  png.version = PNG_IMAGE_VERSION;
+  png.width = width;
+  png.height = height;
+  png.format = PNG_FORMAT_RGBA;
+  png_alloc_size_t size = 0;
+  if (!png_image_write_get_memory_size(png, size, 0, rgba8.data(), 0, nullptr))
+    throw std::runtime_error(path.string() + ": error: PNG encoding failed: " + png.message);
+  std::string bytes(size, '\0');
+  if (!png_image_write_to_memory(&png, bytes.data(), &size, 0, rgba8.data(), 0, nullptr))
+    throw std::runtime_error(path.string() + ": error: PNG encoding failed: " + png.message);
+  bytes.resize(size);
+  write_file_atomically(path, bytes);
+}
+
+std::vector<uint8_t> read_png(const std::filesystem::path& path, uint32_t& width, uint32_t& height) {
+  png_image png;
+  std::memset(&png, 0, sizeof png);
+  png.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&png, path.c_str()))
+    throw std::runtime_error(path.string() + ": error: cannot read PNG: " + png.message);
+  png.format = PNG_FORMAT_RGBA;
+  std::vector<uint8_t> pixels(PNG_IMAGE_SIZE(png));
+  if (!png_image_finish_read(&png, nullptr, pixels.data(), 0, nullptr))
+    throw std::runtime_error(path.string() + ": error: cannot decode PNG: " + png.message);
+  width = png.width;
+  height = png.height;
+  return pixels;
+}
+
+void write_exr(const std::filesystem::path& path, const Image& image) {
+  auto temporary = temporary_for(path);
+  {
+    Imf::Header header(static_cast<int>(image.width), static_cast<int>(image.height));
+    const char* names[4] = {"R", "G", "B", "A"};
+    Imf::FrameBuffer frame;
+    for (int c = 0; c < 4; ++c) {
+      header.channels().insert(names[c], Imf::Channel(Imf::FLOAT));
+      frame.insert(names[c], Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(const_cast<float*>(image.rgba.data() + c)),
+                                        sizeof(float) * 4, sizeof(float) * 4 * image.width));
+    }
+    Imf::OutputFile file(temporary.c_str(), header);
+    file.setFrameBuffer(frame);
+    file.writePixels(static_cast<int>(image.height));
+  }
+  std::filesystem::rename(temporary, path);
+}
+
+void write_kimg(const std::filesystem::path& path, const Image& image) {
+  std::string bytes = "KIMG";
+  auto put = [&](uint32_t v) { bytes.append(reinterpret_cast<const char*>(&v), 4); };
+  put(1);
+  put(image.width);
+  put(image.height);
+  bytes.append(reinterpret_cast<const char*>(image.rgba.data()), image.rgba.size() * sizeof(float));
+  write_file_atomically(path, bytes);
+}
+
+Image read_kimg(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string bytes = text.str();
+  auto fail = [&](const std::string& m) { return std::runtime_error(path.string() + ": error: " + m); };
+  if (bytes.size() < 16 || bytes.compare(0, 4, "KIMG") != 0) throw fail("not a KIMG image");
+  uint32_t header[3];
+  std::memcpy(header, bytes.data() + 4, 12);
+  if (header[0] != 1) throw fail("KIMG version " + std::to_string(header[0]) + " (expected 1)");
+  Image image;
+  image.width = header[1];
+  image.height = header[2];
+  size_t floats = size_t(image.width) * image.height * 4;
+  if (bytes.size() != 16 + floats * 4) throw fail("truncated KIMG image");
+  image.rgba.resize(floats);
+  std::memcpy(image.rgba.data(), bytes.data() + 16, floats * 4);
+  return image;
+}
+
+}  // namespace kiln::render

@@ -1,0 +1,910 @@
+#include "render/renderer.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+namespace kiln::render {
+namespace {
+
+using nlohmann::json;
+
+constexpr VkFormat kColorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+constexpr uint32_t kGBufferTargets = 5;
+
+[[noreturn]] void fail(const std::string& message) { throw std::runtime_error("kiln render: error: " + message); }
+
+bool has(const std::vector<std::string>& keywords, const char* keyword) {
+  return std::find(keywords.begin(), keywords.end(), keyword) != keywords.end();
+}
+
+// Fills a constant or storage buffer at the offsets a reflected block records.
+class BlockWriter {
+ public:
+  BlockWriter(const json& resource, void* memory, size_t capacity)
+      : resource_(resource), memory_(static_cast<uint8_t*>(memory)), capacity_(capacity) {}
+  void floats(const std::string& member, std::initializer_list<double> values, size_t element = 0) {
+    std::vector<float> f(values.begin(), values.end());
+    write(member, f.data(), f.size() * 4, element);
+  }
+  void uints(const std::string& member, std::initializer_list<uint32_t> values) {
+    std::vector<uint32_t> u(values);
+    write(member, u.data(), u.size() * 4, 0);
+  }
+  // HLSL float4x4 in a constant buffer is column-major: column c of M is stored at offset 16 c.
+  void matrix(const std::string& member, const Mat4& m, size_t element = 0) {
+    float f[16];
+    for (int c = 0; c < 4; ++c)
+      for (int r = 0; r < 4; ++r) f[c * 4 + r] = static_cast<float>(m[r][c]);
+    write(member, f, sizeof f, element);
+  }
+
+ private:
+  void write(const std::string& member, const void* data, size_t bytes, size_t element) {
+    for (const json& m : resource_.value("members", json::array())) {
+      if (m.value("name", "") != member) continue;
+      size_t offset = m["offset"].get<size_t>() + element * m.value("array_stride", size_t(0));
+      if (offset + bytes > capacity_) fail("member " + member + " overruns block " + resource_.value("name", ""));
+      std::memcpy(memory_ + offset, data, bytes);
+      return;
+    }
+    // A member no variant of the pass reads was removed from the reflection: nothing to write.
+  }
+  const json& resource_;
+  uint8_t* memory_;
+  size_t capacity_;
+};
+
+void matrix_std430(float* out, const Mat4& m) {
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r) out[c * 4 + r] = static_cast<float>(m[r][c]);
+}
+
+std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail("cannot open " + path.string());
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// The DFG table shipped with the shader library (KDFG v2, see tests/reference/reference.hpp).
+struct DfgTexture {
+  uint32_t width = 0, height = 0;
+  std::vector<float> rg;
+};
+DfgTexture load_dfg(const std::filesystem::path& path) {
+  std::string bytes = read_file(path);
+  uint32_t header[4];
+  if (bytes.size() < 20 || bytes.compare(0, 4, "KDFG") != 0) fail(path.string() + " is not a KDFG table");
+  std::memcpy(header, bytes.data() + 4, 16);
+  if (header[0] != 2) fail(path.string() + ": KDFG version " + std::to_string(header[0]) + " (expected 2)");
+  DfgTexture t{header[1], header[2], {}};
+  t.rg.resize(size_t(t.width) * t.height * 2);
+  if (bytes.size() != 20 + t.rg.size() * 4) fail(path.string() + ": truncated KDFG table");
+  std::memcpy(t.rg.data(), bytes.data() + 20, t.rg.size() * 4);
+  return t;
+}
+
+struct Texture {
+  VkImage image = VK_NULL_HANDLE;
+  VkImageView view = VK_NULL_HANDLE;
+  ImageDesc desc;
+};
+
+struct GpuMesh {
+  HostBuffer vertices;
+  HostBuffer indices;
+  uint32_t index_count = 0;
+};
+
+// A render pass + framebuffer over color targets and a depth target.
+struct Target {
+  VkRenderPass pass = VK_NULL_HANDLE;
+  VkFramebuffer framebuffer = VK_NULL_HANDLE;
+  std::vector<Texture> colors;
+  Texture depth;
+  uint32_t width = 0, height = 0;
+};
+
+// One descriptor-set layout built from a pass's reflected layout (every resource, both stages).
+struct PassLayout {
+  const json* resources = nullptr;
+  VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
+  VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
+  const json* resource(const std::string& name) const {
+    for (const json& r : *resources)
+      if (r.value("name", "") == name) return &r;
+    return nullptr;
+  }
+};
+
+VkDescriptorType descriptor_type(const std::string& kind) {
+  if (kind == "uniform_buffer") return VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+  if (kind == "storage_buffer") return VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  if (kind == "texture") return VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE;
+  if (kind == "sampler") return VK_DESCRIPTOR_TYPE_SAMPLER;
+  fail("reflected resource kind '" + kind + "' is not supported by the renderer");
+}
+
+}  // namespace
+
+int cascades_for(const std::vector<std::string>& keywords, const Scene& scene) {
+  return has(keywords, "_MAIN_LIGHT_SHADOWS_CASCADE") ? scene.cascade_count : 1;
+}
+
+struct SceneRenderer::State {
+  VulkanContext& context;
+  const PackReader& pack;
+  VulkanObjects objects;
+  VkDescriptorPool pool = VK_NULL_HANDLE;
+  GpuMesh sphere, plane;
+  Environment environment;
+  Texture dfg, environment_map;
+  VkSampler compare_sampler = VK_NULL_HANDLE, linear_sampler = VK_NULL_HANDLE;
+  PassLayout forward, shadow;
+  std::vector<HostBuffer> per_material, per_object;
+  HostBuffer lights, tiles, shadow_matrices;
+  struct Frame {
+    FrameSetup setup;
+    HostBuffer per_frame;
+    Texture main_atlas;
+    std::vector<VkDescriptorSet> object_sets;  // Forward pass, per object
+  };
+  std::map<int, Frame> frames;  // by cascade count
+  Texture additional_atlas;
+  bool additional_rendered = false;
+  Target color_target;
+  HostBuffer readback;
+  std::map<std::pair<uint32_t, uint32_t>, VkPipeline> shadow_pipelines;  // (vertex, fragment) blob ids
+
+  State(VulkanContext& c, const PackReader& p) : context(c), pack(p), objects(c) {}
+};
+
+namespace {
+
+GpuMesh upload_mesh(VulkanObjects& objects, const Mesh& mesh) {
+  GpuMesh g;
+  g.vertices = objects.host_buffer(mesh.vertices.size() * 4, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
+  std::memcpy(g.vertices.mapped, mesh.vertices.data(), mesh.vertices.size() * 4);
+  g.indices = objects.host_buffer(mesh.indices.size() * 4, VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
+  std::memcpy(g.indices.mapped, mesh.indices.data(), mesh.indices.size() * 4);
+  g.index_count = static_cast<uint32_t>(mesh.indices.size());
+  return g;
+}
+
+// Uploads texels (per layer, per mip, tightly packed float data in `levels[mip][layer]`).
+Texture upload_texture(VulkanContext& context, VulkanObjects& objects, ImageDesc desc,
+                       const std::vector<std::vector<const float*>>& levels, uint32_t texel_floats) {
+  desc.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+  Texture t{objects.image(desc), VK_NULL_HANDLE, desc};
+  t.view = objects.view(t.image, desc);
+  size_t total = 0;
+  for (uint32_t m = 0; m < desc.mip_levels; ++m)
+    total += size_t(desc.layers) * std::max(1u, desc.width >> m) * std::max(1u, desc.height >> m) * texel_floats * 4;
+  HostBuffer staging = objects.host_buffer(total, VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
+  std::vector<VkBufferImageCopy> regions;
+  size_t offset = 0;
+  for (uint32_t m = 0; m < desc.mip_levels; ++m) {
+    uint32_t w = std::max(1u, desc.width >> m), h = std::max(1u, desc.height >> m);
+    for (uint32_t layer = 0; layer < desc.layers; ++layer) {
+      size_t bytes = size_t(w) * h * texel_floats * 4;
+      std::memcpy(static_cast<uint8_t*>(staging.mapped) + offset, levels[m][layer], bytes);
+      VkBufferImageCopy region{};
+      region.bufferOffset = offset;
+      region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, m, layer, 1};
+      region.imageExtent = {w, h, 1};
+      regions.push_back(region);
+      offset += bytes;
+    }
+  }
+  context.submit([&](VkCommandBuffer cmd) {
+    image_barrier(cmd, t.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                  VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
+                  VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
+    vkCmdCopyBufferToImage(cmd, staging.buffer, t.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                           static_cast<uint32_t>(regions.size()), regions.data());
+    image_barrier(cmd, t.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
+                  VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT);
+  });
+  return t;
+}
+
+Target make_target(VulkanContext& context, VulkanObjects& objects, uint32_t width, uint32_t height, uint32_t colors,
+                   VkImageLayout depth_final) {
+  Target t;
+  t.width = width;
+  t.height = height;
+  std::vector<VkAttachmentDescription> attachments;
+  std::vector<VkAttachmentReference> color_refs;
+  std::vector<VkImageView> views;
+  for (uint32_t i = 0; i < colors; ++i) {
+    ImageDesc d{kColorFormat, width, height};
+    d.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    Texture tex{objects.image(d), VK_NULL_HANDLE, d};
+    tex.view = objects.view(tex.image, d);
+    t.colors.push_back(tex);
+    views.push_back(tex.view);
+    VkAttachmentDescription a{};
+    a.format = kColorFormat;
+    a.samples = VK_SAMPLE_COUNT_1_BIT;
+    a.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    a.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    a.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+    a.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    a.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    a.finalLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    attachments.push_back(a);
+    color_refs.push_back({i, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL});
+  }
+  ImageDesc dd{kDepthFormat, width, height};
+  dd.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  t.depth = {objects.image(dd), VK_NULL_HANDLE, dd};
+  t.depth.view = objects.view(t.depth.image, dd);
+  views.push_back(t.depth.view);
+  VkAttachmentDescription depth{};
+  depth.format = kDepthFormat;
+  depth.samples = VK_SAMPLE_COUNT_1_BIT;
+  depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  depth.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+  depth.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  depth.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  depth.finalLayout = depth_final;
+  attachments.push_back(depth);
+  VkAttachmentReference depth_ref{colors, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
+  VkSubpassDescription subpass{};
+  subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+  subpass.colorAttachmentCount = colors;
+  subpass.pColorAttachments = color_refs.data();
+  subpass.pDepthStencilAttachment = &depth_ref;
+  // Later passes sample the depth (shadow maps) or copy the colors: make the writes visible to them.
+  VkSubpassDependency dependency{};
+  dependency.srcSubpass = 0;
+  dependency.dstSubpass = VK_SUBPASS_EXTERNAL;
+  dependency.srcStageMask = VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+  dependency.dstStageMask = VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT;
+  dependency.srcAccessMask = VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+  dependency.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT;
+  VkRenderPassCreateInfo info{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
+  info.attachmentCount = static_cast<uint32_t>(attachments.size());
+  info.pAttachments = attachments.data();
+  info.subpassCount = 1;
+  info.pSubpasses = &subpass;
+  info.dependencyCount = 1;
+  info.pDependencies = &dependency;
+  check(vkCreateRenderPass(context.device(), &info, nullptr, &t.pass), "vkCreateRenderPass");
+  objects.adopt(t.pass);
+  VkFramebufferCreateInfo fb{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
+  fb.renderPass = t.pass;
+  fb.attachmentCount = static_cast<uint32_t>(views.size());
+  fb.pAttachments = views.data();
+  fb.width = width;
+  fb.height = height;
+  fb.layers = 1;
+  check(vkCreateFramebuffer(context.device(), &fb, nullptr, &t.framebuffer), "vkCreateFramebuffer");
+  objects.adopt(t.framebuffer);
+  return t;
+}
+
+PassLayout make_pass_layout(VulkanContext& context, VulkanObjects& objects, const json& pass) {
+  PassLayout layout;
+  layout.resources = &pass["layout"]["resources"];
+  std::vector<VkDescriptorSetLayoutBinding> bindings;
+  for (const json& r : *layout.resources) {
+    if (r.value("set", 0) != 0) fail("resource " + r.value("name", "") + " is in set " + std::to_string(r.value("set", 0)) + "; the renderer binds set 0 only");
+    bindings.push_back({r["binding"].get<uint32_t>(), descriptor_type(r["kind"].get<std::string>()),
+                        r.value("count", 1u), VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, nullptr});
+  }
+  VkDescriptorSetLayoutCreateInfo set_info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+  set_info.bindingCount = static_cast<uint32_t>(bindings.size());
+  set_info.pBindings = bindings.data();
+  check(vkCreateDescriptorSetLayout(context.device(), &set_info, nullptr, &layout.set_layout),
+        "vkCreateDescriptorSetLayout");
+  objects.adopt(layout.set_layout);
+  VkPipelineLayoutCreateInfo info{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  info.setLayoutCount = 1;
+  info.pSetLayouts = &layout.set_layout;
+  check(vkCreatePipelineLayout(context.device(), &info, nullptr, &layout.pipeline_layout), "vkCreatePipelineLayout");
+  objects.adopt(layout.pipeline_layout);
+  return layout;
+}
+
+const json& find_pass(const PackReader& pack, const std::string& name) {
+  for (const json& p : pack.manifest()["passes"])
+    if (p["name"] == name) return p;
+  fail("pack '" + pack.name() + "' has no " + name + " pass");
+}
+
+// The vertex attributes a vertex stage reads, matched by name to the mesh's interleaved layout.
+std::vector<VkVertexInputAttributeDescription> vertex_attributes(const StageView& vertex) {
+  std::vector<VkVertexInputAttributeDescription> attributes;
+  if (!vertex.reflection) return attributes;
+  for (const json& input : vertex.reflection->value("inputs", json::array())) {
+    std::string name = input.value("name", "");
+    name = name.substr(name.rfind('.') + 1);
+    uint32_t location = input["location"].get<uint32_t>();
+    if (name == "positionOS") attributes.push_back({location, 0, VK_FORMAT_R32G32B32_SFLOAT, 0});
+    else if (name == "normalOS") attributes.push_back({location, 0, VK_FORMAT_R32G32B32_SFLOAT, 12});
+    else if (name == "tangentOS") attributes.push_back({location, 0, VK_FORMAT_R32G32B32A32_SFLOAT, 24});
+    else if (name == "uv") attributes.push_back({location, 0, VK_FORMAT_R32G32_SFLOAT, 40});
+    else fail("vertex input '" + input.value("name", "") + "' has no mesh attribute (POSITION, NORMAL, TANGENT, TEXCOORD0)");
+  }
+  return attributes;
+}
+
+VkPipeline make_pipeline(VulkanContext& context, VulkanObjects& objects, const SelectedVariant& variant,
+                         VkRenderPass pass, uint32_t color_targets, VkPipelineLayout layout) {
+  const StageView* vs = variant.stage("vertex");
+  const StageView* fs = variant.stage("fragment");
+  if (!vs || !fs || vs->spirv.empty() || fs->spirv.empty())
+    fail("variant " + variant.pass + " #" + std::to_string(variant.index) + " has no SPIR-V (build the pack with the spirv target)");
+  VkPipelineShaderStageCreateInfo stages[2]{};
+  stages[0].sType = stages[1].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+  stages[0].module = objects.shader_module(vs->spirv.data(), vs->spirv.size());
+  stages[0].pName = vs->entry_point.c_str();
+  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+  stages[1].module = objects.shader_module(fs->spirv.data(), fs->spirv.size());
+  stages[1].pName = fs->entry_point.c_str();
+  auto attributes = vertex_attributes(*vs);
+  VkVertexInputBindingDescription binding{0, kVertexFloats * 4, VK_VERTEX_INPUT_RATE_VERTEX};
+  VkPipelineVertexInputStateCreateInfo vertex_input{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+  vertex_input.vertexBindingDescriptionCount = 1;
+  vertex_input.pVertexBindingDescriptions = &binding;
+  vertex_input.vertexAttributeDescriptionCount = static_cast<uint32_t>(attributes.size());
+  vertex_input.pVertexAttributeDescriptions = attributes.data();
+  VkPipelineInputAssemblyStateCreateInfo assembly{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+  assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  VkPipelineViewportStateCreateInfo viewport_state{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+  viewport_state.viewportCount = 1;
+  viewport_state.scissorCount = 1;
+  VkDynamicState dynamic_states[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+  VkPipelineDynamicStateCreateInfo dynamic{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+  dynamic.dynamicStateCount = 2;
+  dynamic.pDynamicStates = dynamic_states;
+  VkPipelineRasterizationStateCreateInfo raster{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+  raster.polygonMode = VK_POLYGON_MODE_FILL;
+  raster.cullMode = VK_CULL_MODE_NONE;  // the Forward pass handles back faces (SV_IsFrontFace)
+  raster.lineWidth = 1.0f;
+  VkPipelineMultisampleStateCreateInfo multisample{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+  multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  VkPipelineDepthStencilStateCreateInfo depth{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
+  depth.depthTestEnable = VK_TRUE;
+  depth.depthWriteEnable = VK_TRUE;
+  depth.depthCompareOp = VK_COMPARE_OP_LESS;
+  std::vector<VkPipelineColorBlendAttachmentState> blends(color_targets);
+  for (auto& b : blends) b.colorWriteMask = 0xf;
+  VkPipelineColorBlendStateCreateInfo blend_state{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+  blend_state.attachmentCount = color_targets;
+  blend_state.pAttachments = blends.data();
+  VkGraphicsPipelineCreateInfo info{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+  info.stageCount = 2;
+  info.pStages = stages;
+  info.pVertexInputState = &vertex_input;
+  info.pInputAssemblyState = &assembly;
+  info.pViewportState = &viewport_state;
+  info.pRasterizationState = &raster;
+  info.pMultisampleState = &multisample;
+  info.pDepthStencilState = &depth;
+  info.pColorBlendState = &blend_state;
+  info.pDynamicState = &dynamic;
+  info.layout = layout;
+  info.renderPass = pass;
+  VkPipeline pipeline;
+  check(vkCreateGraphicsPipelines(context.device(), VK_NULL_HANDLE, 1, &info, nullptr, &pipeline),
+        "vkCreateGraphicsPipelines");
+  return pipeline;
+}
+
+void set_viewport(VkCommandBuffer cmd, uint32_t x, uint32_t y, uint32_t w, uint32_t h) {
+  VkViewport viewport{float(x), float(y), float(w), float(h), 0, 1};
+  VkRect2D scissor{{int32_t(x), int32_t(y)}, {w, h}};
+  vkCmdSetViewport(cmd, 0, 1, &viewport);
+  vkCmdSetScissor(cmd, 0, 1, &scissor);
+}
+
+Image read_color(VulkanContext& context, const HostBuffer& readback, VkImage image, uint32_t width, uint32_t height) {
+  context.submit([&](VkCommandBuffer cmd) {
+    VkBufferImageCopy copy{};
+    copy.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    copy.imageExtent = {width, height, 1};
+    vkCmdCopyImageToBuffer(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback.buffer, 1, &copy);
+  });
+  Image out{width, height, {}};
+  out.rgba.resize(size_t(width) * height * 4);
+  std::memcpy(out.rgba.data(), readback.mapped, out.rgba.size() * 4);
+  return out;
+}
+
+}  // namespace
+
+SceneRenderer::SceneRenderer(VulkanContext& context, const PackReader& pack, const Scene& scene, uint32_t width,
+                             uint32_t height)
+    : state_(std::make_unique<State>(context, pack)), scene_(scene),
+      width_(width ? width : scene.width), height_(height ? height : scene.height) {
+  scene_.width = width_;
+  scene_.height = height_;
+  State& s = *state_;
+  VkDevice device = context.device();
+  s.sphere = upload_mesh(s.objects, make_sphere(64, 32));
+  s.plane = upload_mesh(s.objects, make_plane(32));
+
+  // Environment cube (prefiltered mips) and the DFG table.
+  s.environment = load_environment(scene_.environment);
+  ImageDesc cube{VK_FORMAT_R32G32B32A32_SFLOAT, s.environment.size, s.environment.size, s.environment.mips, 6, true};
+  std::vector<std::vector<const float*>> cube_levels;
+  for (uint32_t m = 0; m < s.environment.mips; ++m) {
+    uint32_t n = s.environment.level_size(m);
+    cube_levels.emplace_back();
+    for (uint32_t face = 0; face < 6; ++face) cube_levels.back().push_back(s.environment.levels[m].data() + size_t(face) * n * n * 4);
+  }
+  s.environment_map = upload_texture(context, s.objects, cube, cube_levels, 4);
+  DfgTexture dfg = load_dfg(scene_.dfg);
+  s.dfg = upload_texture(context, s.objects, {VK_FORMAT_R32G32_SFLOAT, dfg.width, dfg.height}, {{dfg.rg.data()}}, 2);
+
+  VkSamplerCreateInfo linear{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+  linear.magFilter = linear.minFilter = VK_FILTER_LINEAR;
+  linear.mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR;
+  linear.addressModeU = linear.addressModeV = linear.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  linear.maxLod = 16.0f;
+  s.linear_sampler = s.objects.sampler(linear);
+  // Nearest compared taps: each tap is one texel's test, which the CPU reference reproduces exactly.
+  VkSamplerCreateInfo compare{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+  compare.magFilter = compare.minFilter = VK_FILTER_NEAREST;
+  compare.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+  compare.addressModeU = compare.addressModeV = compare.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  compare.compareEnable = VK_TRUE;
+  compare.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
+  s.compare_sampler = s.objects.sampler(compare);
+
+  s.forward = make_pass_layout(context, s.objects, find_pass(pack, "Forward"));
+  s.shadow = make_pass_layout(context, s.objects, find_pass(pack, "ShadowCaster"));
+  for (const json& r : *s.forward.resources) {
+    static const std::set<std::string> provided = {
+        "PerFrame", "PerMaterial", "PerObject", "_MainLightShadowMap", "sampler_ShadowCompare",
+        "_AdditionalLightsShadowMap", "_EnvironmentMap", "sampler_LinearClamp", "_DFG", "_AdditionalLights",
+        "_TileLightIndices", "_AdditionalShadowMatrices"};
+    if (!provided.count(r.value("name", "")))
+      fail("the Forward pass binds '" + r.value("name", "") + "', which the renderer does not provide");
+  }
+
+  // Per object constants.
+  const json* material_block = s.forward.resource("PerMaterial");
+  const json* object_block = s.forward.resource("PerObject");
+  if (!material_block || !object_block) fail("the Forward pass has no PerMaterial/PerObject constant buffer");
+  for (const Object& o : scene_.objects) {
+    HostBuffer m = s.objects.host_buffer((*material_block)["size"].get<size_t>(), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+    BlockWriter mw(*material_block, m.mapped, m.size);
+    mw.floats("_BaseColor", {o.material.base_color[0], o.material.base_color[1], o.material.base_color[2], 1.0});
+    mw.floats("_Metallic", {o.material.metallic});
+    mw.floats("_PerceptualRoughness", {o.material.perceptual_roughness});
+    mw.floats("_Reflectance", {o.material.reflectance});
+    mw.floats("_Anisotropy", {o.material.anisotropy});
+    s.per_material.push_back(m);
+    HostBuffer b = s.objects.host_buffer((*object_block)["size"].get<size_t>(), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+    BlockWriter ow(*object_block, b.mapped, b.size);
+    Mat4 world = object_to_world(o);
+    ow.matrix("_ObjectToWorld", world);
+    ow.matrix("_WorldToObject", mat_inverse(world));
+    s.per_object.push_back(b);
+  }
+
+  // Lights (64 bytes each, std430) and the Forward+ tile lists (the latter per frame size, built below).
+  s.lights = s.objects.host_buffer(std::max<size_t>(scene_.lights.size(), 1) * 64, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  // Light records and shadow matrices do not depend on the main-light cascade layout.
+  const FrameSetup base = setup_frame(scene_, 1);
+  auto* light_words = static_cast<float*>(s.lights.mapped);
+  for (size_t i = 0; i < scene_.lights.size(); ++i) {
+    const AdditionalLightDesc& l = scene_.lights[i];
+    double cos_inner = std::cos(l.inner_degrees * 3.14159265358979323846 / 180);
+    double cos_outer = std::cos(l.outer_degrees * 3.14159265358979323846 / 180);
+    double spot_scale = 1.0 / std::max(cos_inner - cos_outer, 1e-4);
+    float record[16] = {float(l.position[0]), float(l.position[1]), float(l.position[2]), float(1.0 / (l.range * l.range)),
+                        float(l.color[0] * l.intensity), float(l.color[1] * l.intensity), float(l.color[2] * l.intensity),
+                        float(base.light_first_shadow_view[i]),
+                        float(l.direction[0]), float(l.direction[1]), float(l.direction[2]), l.spot ? 1.0f : 0.0f,
+                        float(spot_scale), float(-cos_outer * spot_scale), 0.0f, 0.0f};
+    std::memcpy(light_words + i * 16, record, sizeof record);
+  }
+  s.tiles = s.objects.host_buffer(base.tile_lists.size() * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  std::memcpy(s.tiles.mapped, base.tile_lists.data(), base.tile_lists.size() * 4);
+  s.shadow_matrices = s.objects.host_buffer(std::max<size_t>(base.additional_views.size(), 1) * 64,
+                                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  for (size_t i = 0; i < base.additional_views.size(); ++i)
+    matrix_std430(static_cast<float*>(s.shadow_matrices.mapped) + i * 16, base.additional_views[i].world_to_shadow);
+
+  ImageDesc atlas{kDepthFormat, std::max(1u, base.additional_atlas_width), std::max(1u, base.additional_atlas_height)};
+  atlas.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  s.additional_atlas = {s.objects.image(atlas), VK_NULL_HANDLE, atlas};
+  s.additional_atlas.view = s.objects.view(s.additional_atlas.image, atlas);
+
+  // Descriptor pool: Forward sets for two frame layouts, shadow sets for every view, G-buffer sets.
+  const uint32_t sets = static_cast<uint32_t>(scene_.objects.size()) * (2 + 16 + 2) + 8;
+  VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, sets * 4}, {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, sets * 3},
+                                  {VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE, sets * 4}, {VK_DESCRIPTOR_TYPE_SAMPLER, sets * 2}};
+  VkDescriptorPoolCreateInfo pool_info{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+  pool_info.maxSets = sets;
+  pool_info.poolSizeCount = 4;
+  pool_info.pPoolSizes = sizes;
+  check(vkCreateDescriptorPool(device, &pool_info, nullptr, &s.pool), "vkCreateDescriptorPool");
+  s.objects.adopt(s.pool);
+
+  s.color_target = make_target(context, s.objects, width_, height_, 1, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL);
+  s.readback = s.objects.host_buffer(size_t(width_) * height_ * 16, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+}
+
+SceneRenderer::~SceneRenderer() = default;
+
+namespace {
+
+// Writes every resource of `layout` into `set`: the frame's buffers and textures, the object's constants,
+// and (shadow passes) the shadow view's constants.
+void write_set(VkDevice device, VkDescriptorSet set, const PassLayout& layout,
+               const std::function<VkDescriptorBufferInfo(const std::string&)>& buffer,
+               const std::function<VkDescriptorImageInfo(const std::string&)>& image) {
+  std::vector<VkWriteDescriptorSet> writes;
+  std::vector<std::unique_ptr<VkDescriptorBufferInfo>> buffers;
+  std::vector<std::unique_ptr<VkDescriptorImageInfo>> images;
+  for (const json& r : *layout.resources) {
+    VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+    w.dstSet = set;
+    w.dstBinding = r["binding"].get<uint32_t>();
+    w.descriptorCount = 1;
+    w.descriptorType = descriptor_type(r["kind"].get<std::string>());
+    const std::string name = r.value("name", "");
+    if (w.descriptorType == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER || w.descriptorType == VK_DESCRIPTOR_TYPE_STORAGE_BUFFER) {
+      buffers.push_back(std::make_unique<VkDescriptorBufferInfo>(buffer(name)));
+      w.pBufferInfo = buffers.back().get();
+    } else {
+      images.push_back(std::make_unique<VkDescriptorImageInfo>(image(name)));
+      w.pImageInfo = images.back().get();
+    }
+    writes.push_back(w);
+  }
+  vkUpdateDescriptorSets(device, static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
+}
+
+VkDescriptorSet allocate_set(VkDevice device, VkDescriptorPool pool, VkDescriptorSetLayout layout) {
+  VkDescriptorSetAllocateInfo info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+  info.descriptorPool = pool;
+  info.descriptorSetCount = 1;
+  info.pSetLayouts = &layout;
+  VkDescriptorSet set;
+  check(vkAllocateDescriptorSets(device, &info, &set), "vkAllocateDescriptorSets");
+  return set;
+}
+
+void draw_objects(VkCommandBuffer cmd, const Scene& scene, const GpuMesh& sphere, const GpuMesh& plane,
+                  VkPipelineLayout layout, const std::vector<VkDescriptorSet>& sets) {
+  for (size_t i = 0; i < scene.objects.size(); ++i) {
+    const GpuMesh& mesh = scene.objects[i].shape == Object::Shape::Plane ? plane : sphere;
+    VkDeviceSize offset = 0;
+    vkCmdBindVertexBuffers(cmd, 0, 1, &mesh.vertices.buffer, &offset);
+    vkCmdBindIndexBuffer(cmd, mesh.indices.buffer, 0, VK_INDEX_TYPE_UINT32);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &sets[i], 0, nullptr);
+    vkCmdDrawIndexed(cmd, mesh.index_count, 1, 0, 0, 0);
+  }
+}
+
+}  // namespace
+
+const FrameSetup& SceneRenderer::frame(int cascades) {
+  State& s = *state_;
+  auto found = s.frames.find(cascades);
+  if (found != s.frames.end()) return found->second.setup;
+  State::Frame& f = s.frames[cascades];
+  f.setup = setup_frame(scene_, cascades);
+  const json* block = s.forward.resource("PerFrame");
+  if (!block) fail("the Forward pass has no PerFrame constant buffer");
+  f.per_frame = s.objects.host_buffer((*block)["size"].get<size_t>(), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+  BlockWriter w(*block, f.per_frame.mapped, f.per_frame.size);
+  const Scene& sc = scene_;
+  w.matrix("_ViewProjection", f.setup.view_projection);
+  w.floats("_CameraPositionWS", {sc.camera_position[0], sc.camera_position[1], sc.camera_position[2], 1});
+  w.floats("_MainLightDirectionWS", {sc.main_light_direction[0], sc.main_light_direction[1], sc.main_light_direction[2], 0});
+  w.floats("_MainLightColor", {sc.main_light_color[0] * sc.main_light_illuminance, sc.main_light_color[1] * sc.main_light_illuminance,
+                               sc.main_light_color[2] * sc.main_light_illuminance, 1});
+  for (size_t c = 0; c < f.setup.main_views.size(); ++c) {
+    w.matrix("_MainLightWorldToShadow", f.setup.main_views[c].world_to_shadow, c);
+    const auto& sphere = f.setup.cascade_spheres[c];
+    w.floats("_CascadeSplitSpheres", {sphere[0], sphere[1], sphere[2], sphere[3]}, c);
+  }
+  w.floats("_MainLightShadowParams", {sc.main_shadow.strength, sc.main_shadow.receiver_depth_bias,
+                                      1.0 / f.setup.main_atlas_size, double(f.setup.main_views.size())});
+  w.floats("_AdditionalShadowParams", {sc.additional_shadow.strength, sc.additional_shadow.receiver_depth_bias,
+                                       1.0 / std::max(1u, f.setup.additional_atlas_width), 0});
+  w.floats("_FogColor", {sc.fog_color[0], sc.fog_color[1], sc.fog_color[2], 1});
+  w.floats("_FogParams", {sc.fog_density, sc.fog_start, sc.fog_end, 0});
+  for (size_t i = 0; i < 9; ++i)
+    w.floats("_AmbientSH", {s.environment.sh[i][0], s.environment.sh[i][1], s.environment.sh[i][2], 0}, i);
+  w.floats("_EnvironmentParams", {double(s.environment.mips - 1), sc.exposure, sc.environment_intensity, 0});
+  w.floats("_GlossyEnvironmentColor", {sc.glossy_environment_color[0], sc.glossy_environment_color[1], sc.glossy_environment_color[2], 0});
+  w.floats("_ProbePositionWS", {0, 0, 0, 0});  // no box projection in the test scenes
+  w.uints("_LightCounts", {uint32_t(sc.lights.size()), sc.tile_size, f.setup.tiles_x, 0});
+  w.floats("_CameraForwardWS", {f.setup.camera_forward[0], f.setup.camera_forward[1], f.setup.camera_forward[2], 0});
+
+  ImageDesc atlas{kDepthFormat, f.setup.main_atlas_size, f.setup.main_atlas_size};
+  atlas.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  f.main_atlas = {s.objects.image(atlas), VK_NULL_HANDLE, atlas};
+  f.main_atlas.view = s.objects.view(f.main_atlas.image, atlas);
+
+  VkDevice device = s.context.device();
+  for (size_t i = 0; i < sc.objects.size(); ++i) {
+    VkDescriptorSet set = allocate_set(device, s.pool, s.forward.set_layout);
+    write_set(
+        device, set, s.forward,
+        [&](const std::string& name) -> VkDescriptorBufferInfo {
+          if (name == "PerFrame") return {f.per_frame.buffer, 0, VK_WHOLE_SIZE};
+          if (name == "PerMaterial") return {s.per_material[i].buffer, 0, VK_WHOLE_SIZE};
+          if (name == "PerObject") return {s.per_object[i].buffer, 0, VK_WHOLE_SIZE};
+          if (name == "_AdditionalLights") return {s.lights.buffer, 0, VK_WHOLE_SIZE};
+          if (name == "_TileLightIndices") return {s.tiles.buffer, 0, VK_WHOLE_SIZE};
+          if (name == "_AdditionalShadowMatrices") return {s.shadow_matrices.buffer, 0, VK_WHOLE_SIZE};
+          fail("no buffer for '" + name + "'");
+        },
+        [&](const std::string& name) -> VkDescriptorImageInfo {
+          if (name == "_MainLightShadowMap") return {VK_NULL_HANDLE, f.main_atlas.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+          if (name == "_AdditionalLightsShadowMap")
+            return {VK_NULL_HANDLE, s.additional_atlas.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+          if (name == "_EnvironmentMap") return {VK_NULL_HANDLE, s.environment_map.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+          if (name == "_DFG") return {VK_NULL_HANDLE, s.dfg.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+          if (name == "sampler_ShadowCompare") return {s.compare_sampler, VK_NULL_HANDLE, VK_IMAGE_LAYOUT_UNDEFINED};
+          if (name == "sampler_LinearClamp") return {s.linear_sampler, VK_NULL_HANDLE, VK_IMAGE_LAYOUT_UNDEFINED};
+          fail("no image for '" + name + "'");
+        });
+    f.object_sets.push_back(set);
+  }
+
+  // The shadow maps this layout samples, rendered by the ShadowCaster pass.
+  auto render_atlas = [&](const Texture& target, const std::vector<ShadowView>& views, bool punctual) {
+    const json* caster_block = s.shadow.resource("ShadowCaster");
+    if (!caster_block) fail("the ShadowCaster pass has no ShadowCaster constant buffer");
+    SelectedVariant variant = s.pack.select("ShadowCaster", punctual ? std::vector<std::string>{"_CASTING_PUNCTUAL_LIGHT_SHADOW"}
+                                                                      : std::vector<std::string>{});
+    const StageView* vs = variant.stage("vertex");
+    const StageView* fs = variant.stage("fragment");
+    // A depth-only render pass over the atlas.
+    VkAttachmentDescription depth{};
+    depth.format = kDepthFormat;
+    depth.samples = VK_SAMPLE_COUNT_1_BIT;
+    depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    depth.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+    depth.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    depth.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    depth.finalLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+    VkAttachmentReference ref{0, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
+    VkSubpassDescription subpass{};
+    subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+    subpass.pDepthStencilAttachment = &ref;
+    VkSubpassDependency dependency{};
+    dependency.srcSubpass = 0;
+    dependency.dstSubpass = VK_SUBPASS_EXTERNAL;
+    dependency.srcStageMask = VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
+    dependency.dstStageMask = VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT;
+    dependency.srcAccessMask = VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+    dependency.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT;
+    VkRenderPassCreateInfo pass_info{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
+    pass_info.attachmentCount = 1;
+    pass_info.pAttachments = &depth;
+    pass_info.subpassCount = 1;
+    pass_info.pSubpasses = &subpass;
+    pass_info.dependencyCount = 1;
+    pass_info.pDependencies = &dependency;
+    VkRenderPass pass;
+    check(vkCreateRenderPass(device, &pass_info, nullptr, &pass), "vkCreateRenderPass");
+    s.objects.adopt(pass);
+    VkFramebufferCreateInfo fb{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
+    fb.renderPass = pass;
+    fb.attachmentCount = 1;
+    fb.pAttachments = &target.view;
+    fb.width = target.desc.width;
+    fb.height = target.desc.height;
+    fb.layers = 1;
+    VkFramebuffer framebuffer;
+    check(vkCreateFramebuffer(device, &fb, nullptr, &framebuffer), "vkCreateFramebuffer");
+    s.objects.adopt(framebuffer);
+    VkPipeline pipeline = make_pipeline(s.context, s.objects, variant, pass, 0, s.shadow.pipeline_layout);
+    s.objects.adopt(pipeline);
+    (void)vs;
+    (void)fs;
+    std::vector<std::vector<VkDescriptorSet>> view_sets;
+    for (const ShadowView& view : views) {
+      HostBuffer constants = s.objects.host_buffer((*caster_block)["size"].get<size_t>(), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+      BlockWriter cw(*caster_block, constants.mapped, constants.size);
+      cw.matrix("_ShadowViewProjection", view.view_projection);
+      cw.floats("_ShadowLightPositionWS", {view.light_position[0], view.light_position[1], view.light_position[2], 1});
+      cw.floats("_ShadowLightDirectionWS", {view.light_direction[0], view.light_direction[1], view.light_direction[2], 0});
+      const ShadowDesc& d = punctual ? sc.additional_shadow : sc.main_shadow;
+      cw.floats("_ShadowBias", {d.caster_depth_bias, d.caster_normal_bias, 0, 0});
+      std::vector<VkDescriptorSet> sets;
+      for (size_t i = 0; i < sc.objects.size(); ++i) {
+        VkDescriptorSet set = allocate_set(device, s.pool, s.shadow.set_layout);
+        write_set(
+            device, set, s.shadow,
+            [&](const std::string& name) -> VkDescriptorBufferInfo {
+              if (name == "PerObject") return {s.per_object[i].buffer, 0, VK_WHOLE_SIZE};
+              if (name == "ShadowCaster") return {constants.buffer, 0, VK_WHOLE_SIZE};
+              if (name == "PerFrame") return {f.per_frame.buffer, 0, VK_WHOLE_SIZE};
+              fail("the ShadowCaster pass binds '" + name + "', which the renderer does not provide");
+            },
+            [&](const std::string& name) -> VkDescriptorImageInfo {
+              fail("the ShadowCaster pass binds '" + name + "', which the renderer does not provide");
+            });
+        sets.push_back(set);
+      }
+      view_sets.push_back(sets);
+    }
+    s.context.submit([&](VkCommandBuffer cmd) {
+      VkClearValue clear{};
+      clear.depthStencil = {1.0f, 0};
+      VkRenderPassBeginInfo begin{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
+      begin.renderPass = pass;
+      begin.framebuffer = framebuffer;
+      begin.renderArea = {{0, 0}, {target.desc.width, target.desc.height}};
+      begin.clearValueCount = 1;
+      begin.pClearValues = &clear;
+      vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+      for (size_t v = 0; v < views.size(); ++v) {
+        set_viewport(cmd, views[v].x, views[v].y, views[v].size, views[v].size);
+        draw_objects(cmd, sc, s.sphere, s.plane, s.shadow.pipeline_layout, view_sets[v]);
+      }
+      vkCmdEndRenderPass(cmd);
+    });
+  };
+  render_atlas(f.main_atlas, f.setup.main_views, false);
+  if (!s.additional_rendered) {
+    s.additional_rendered = true;
+    if (f.setup.additional_views.empty()) {
+      // No shadowed light: a cleared (fully lit) atlas still has to be bound.
+      s.context.submit([&](VkCommandBuffer cmd) {
+        image_barrier(cmd, s.additional_atlas.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                      VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
+        VkClearDepthStencilValue one{1.0f, 0};
+        VkImageSubresourceRange range{VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, 1};
+        vkCmdClearDepthStencilImage(cmd, s.additional_atlas.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &one, 1, &range);
+        image_barrier(cmd, s.additional_atlas.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
+                      VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT);
+      });
+    } else {
+      render_atlas(s.additional_atlas, f.setup.additional_views, true);
+    }
+  }
+  return f.setup;
+}
+
+Image SceneRenderer::render(const std::vector<std::string>& keywords) {
+  return render(state_->pack.select("Forward", keywords));
+}
+
+Image SceneRenderer::render(const SelectedVariant& variant) {
+  State& s = *state_;
+  if (variant.pass != "Forward") fail("kiln render draws Forward pass variants (got " + variant.pass + ")");
+  frame(cascades_for(variant.keywords, scene_));
+  State::Frame& f = s.frames[cascades_for(variant.keywords, scene_)];
+  if (has(variant.keywords, "_HALF_PRECISION") && !s.context.supports_float16())
+    fail("this lavapipe lacks shaderFloat16, needed by _HALF_PRECISION variants");
+  auto t0 = std::chrono::steady_clock::now();
+  VulkanObjects per_variant(s.context);
+  VkPipeline pipeline = make_pipeline(s.context, per_variant, variant, s.color_target.pass, 1, s.forward.pipeline_layout);
+  per_variant.adopt(pipeline);
+  last_pipeline_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  s.context.submit(
+      [&](VkCommandBuffer cmd) {
+        VkClearValue clears[2]{};
+        clears[1].depthStencil = {1.0f, 0};
+        VkRenderPassBeginInfo begin{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
+        begin.renderPass = s.color_target.pass;
+        begin.framebuffer = s.color_target.framebuffer;
+        begin.renderArea = {{0, 0}, {width_, height_}};
+        begin.clearValueCount = 2;
+        begin.pClearValues = clears;
+        vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+        set_viewport(cmd, 0, 0, width_, height_);
+        draw_objects(cmd, scene_, s.sphere, s.plane, s.forward.pipeline_layout, f.object_sets);
+        vkCmdEndRenderPass(cmd);
+      },
+      &last_draw_ms_);
+  return read_color(s.context, s.readback, s.color_target.colors[0].image, width_, height_);
+}
+
+GBuffer SceneRenderer::render_gbuffer(const PackReader& debug_pack) {
+  State& s = *state_;
+  frame(1);
+  State::Frame& f = s.frames[1];
+  VkDevice device = s.context.device();
+  VulkanObjects local(s.context);
+  const json& pass = find_pass(debug_pack, "GBuffer");
+  PassLayout layout = make_pass_layout(s.context, local, pass);
+  Target target = make_target(s.context, local, width_, height_, kGBufferTargets, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL);
+  VkPipeline pipeline = make_pipeline(s.context, local, debug_pack.select("GBuffer", {}), target.pass, kGBufferTargets,
+                                      layout.pipeline_layout);
+  local.adopt(pipeline);
+  std::vector<VkDescriptorSet> sets;
+  for (size_t i = 0; i < scene_.objects.size(); ++i) {
+    VkDescriptorSet set = allocate_set(device, s.pool, layout.set_layout);
+    write_set(
+        device, set, layout,
+        [&](const std::string& name) -> VkDescriptorBufferInfo {
+          if (name == "PerFrame") return {f.per_frame.buffer, 0, VK_WHOLE_SIZE};
+          if (name == "PerMaterial") return {s.per_material[i].buffer, 0, VK_WHOLE_SIZE};
+          if (name == "PerObject") return {s.per_object[i].buffer, 0, VK_WHOLE_SIZE};
+          fail("the GBuffer pass binds '" + name + "', which the renderer does not provide");
+        },
+        [&](const std::string& name) -> VkDescriptorImageInfo {
+          fail("the GBuffer pass binds '" + name + "', which the renderer does not provide");
+        });
+    sets.push_back(set);
+  }
+  s.context.submit([&](VkCommandBuffer cmd) {
+    VkClearValue clears[kGBufferTargets + 1]{};
+    clears[kGBufferTargets].depthStencil = {1.0f, 0};
+    VkRenderPassBeginInfo begin{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
+    begin.renderPass = target.pass;
+    begin.framebuffer = target.framebuffer;
+    begin.renderArea = {{0, 0}, {width_, height_}};
+    begin.clearValueCount = kGBufferTargets + 1;
+    begin.pClearValues = clears;
+    vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+    set_viewport(cmd, 0, 0, width_, height_);
+    draw_objects(cmd, scene_, s.sphere, s.plane, layout.pipeline_layout, sets);
+    vkCmdEndRenderPass(cmd);
+  });
+  GBuffer g;
+  Image* outputs[kGBufferTargets] = {&g.position, &g.normal, &g.tangent, &g.material0, &g.material1};
+  for (uint32_t i = 0; i < kGBufferTargets; ++i)
+    *outputs[i] = read_color(s.context, s.readback, target.colors[i].image, width_, height_);
+  return g;
+}
+
+namespace {
+
+ShadowAtlas read_depth(VulkanContext& context, VulkanObjects& objects, VkImage image, uint32_t width, uint32_t height) {
+  HostBuffer buffer = objects.host_buffer(size_t(width) * height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+  context.submit([&](VkCommandBuffer cmd) {
+    image_barrier(cmd, image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                  VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_ACCESS_SHADER_READ_BIT, VK_ACCESS_TRANSFER_READ_BIT,
+                  VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
+    VkBufferImageCopy copy{};
+    copy.imageSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 0, 1};
+    copy.imageExtent = {width, height, 1};
+    vkCmdCopyImageToBuffer(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buffer.buffer, 1, &copy);
+    image_barrier(cmd, image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_READ_BIT, VK_ACCESS_SHADER_READ_BIT,
+                  VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT);
+  });
+  ShadowAtlas atlas{width, height, std::vector<float>(size_t(width) * height)};
+  std::memcpy(atlas.depth.data(), buffer.mapped, atlas.depth.size() * 4);
+  return atlas;
+}
+
+}  // namespace
+
+ShadowAtlas SceneRenderer::main_shadow_atlas(int cascades) {
+  const FrameSetup& setup = frame(cascades);
+  VulkanObjects local(state_->context);
+  return read_depth(state_->context, local, state_->frames[cascades].main_atlas.image, setup.main_atlas_size,
+                    setup.main_atlas_size);
+}
+
+ShadowAtlas SceneRenderer::additional_shadow_atlas() {
+  frame(1);
+  VulkanObjects local(state_->context);
+  const ImageDesc& d = state_->additional_atlas.desc;
+  return read_depth(state_->context, local, state_->additional_atlas.image, d.width, d.height);
+}
+
+}  // namespace kiln::render

@@ -1,0 +1,74 @@
+// Renders a scene with a pack's Forward pass on lavapipe: shadow maps by the pack's ShadowCaster pass (a
+// directional map or a 2x2 cascade atlas, and an atlas for shadowed point/spot lights), the Forward pass per
+// object, readback of the float image the fragment shader wrote. Resources are bound by the names and
+// binding numbers the pack's reflection records (never hard-coded), and constant buffers are filled at the
+// member offsets it records. Pipelines and scene resources are made once and reused across variants.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "kiln/pack_reader.hpp"
+#include "render/environment.hpp"
+#include "render/image.hpp"
+#include "render/scene.hpp"
+#include "render/vulkan_context.hpp"
+
+namespace kiln::render {
+
+// What the debug pack's GBuffer pass wrote, per pixel (see shaderlib/passes/DebugGBuffer.hlsl).
+struct GBuffer {
+  Image position;   // xyz world position as interpolated, w 1 where covered, 0 for background
+  Image normal;     // xyz interpolated (not renormalized) world normal, w +1 front face, -1 back face
+  Image tangent;    // xyz interpolated world tangent, w bitangent sign
+  Image material0;  // rgb base color, a metallic
+  Image material1;  // x perceptual roughness, y reflectance, z anisotropy
+};
+
+// A depth atlas as the ShadowCaster pass rendered it (depth in [0, 1], row-major, top row first).
+struct ShadowAtlas {
+  uint32_t width = 0;
+  uint32_t height = 0;
+  std::vector<float> depth;
+};
+
+class SceneRenderer {
+ public:
+  // `width`/`height` 0: the scene's size. Throws std::runtime_error on a pack or scene the renderer cannot
+  // use (a missing pass, a resource name it does not provide, a light list that overflows a tile).
+  SceneRenderer(VulkanContext& context, const PackReader& pack, const Scene& scene, uint32_t width = 0,
+                uint32_t height = 0);
+  ~SceneRenderer();
+  SceneRenderer(const SceneRenderer&) = delete;
+  SceneRenderer& operator=(const SceneRenderer&) = delete;
+
+  // The Forward pass variant for `keywords` (PackReader::select rules), or a variant by index.
+  Image render(const std::vector<std::string>& keywords);
+  Image render(const SelectedVariant& variant);
+  // Milliseconds of the last render: pipeline creation and draw (submit to idle).
+  double last_pipeline_ms() const { return last_pipeline_ms_; }
+  double last_draw_ms() const { return last_draw_ms_; }
+
+  GBuffer render_gbuffer(const PackReader& debug_pack);
+  // The shadow maps a variant with `cascades` (1 or the scene's count) reads, and the additional-light atlas.
+  ShadowAtlas main_shadow_atlas(int cascades);
+  ShadowAtlas additional_shadow_atlas();
+  const FrameSetup& frame(int cascades);
+  const Scene& scene() const { return scene_; }
+  uint32_t width() const { return width_; }
+  uint32_t height() const { return height_; }
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+  Scene scene_;  // with the image size overridden
+  uint32_t width_, height_;
+  double last_pipeline_ms_ = 0, last_draw_ms_ = 0;
+};
+
+// The number of cascades a Forward variant's shadow layout uses: 1 unless it has _MAIN_LIGHT_SHADOWS_CASCADE.
+int cascades_for(const std::vector<std::string>& keywords, const Scene& scene);
+
+}  // namespace kiln::render

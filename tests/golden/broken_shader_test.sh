@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# golden.broken_shader_fails: proves the golden suite catches a wrong shader. A copy of the shader library
+# gets a sign error in F_Schlick; the pack built from it must fail kiln test against the CPU reference,
+# and the unmodified library must pass the same variants.
+#   broken_shader_test.sh KILN KILN_REFERENCE SOURCE_DIR WORK_DIR
+set -euo pipefail
+kiln=$1 reference=$2 source=$3 work=$4
+rm -rf "$work" && mkdir -p "$work"
+cp -r "$source/shaderlib" "$source/variants" "$work/"
+# The outdoor_day scene profile keeps a few dozen Forward variants: enough to exercise the lobe everywhere.
+profile="$work/variants/scenes/outdoor_day.json"
+grep -q 'return f0 + (f90 - f0) \* f;' "$work/shaderlib/BRDF.hlsl" || {
+  echo "broken_shader_test: F_Schlick not found in the expected form; update this test"; exit 1; }
+sed -i 's/return f0 + (f90 - f0) \* f;/return f0 - (f90 - f0) * f;/' "$work/shaderlib/BRDF.hlsl"
+"$kiln" build "$work/variants/lit.pack.json" --scene "$profile" -o "$work/broken" --cache "$work/cache" -q
+"$kiln" build "$source/variants/lit.pack.json" --scene "$profile" -o "$work/good" --cache "$work/cache" -q
+"$kiln" build "$source/variants/debug.pack.json" -o "$work/debug" --cache "$work/cache" -q
+scene="$source/variants/scenes/render/spheres.json"
+tolerances="$source/variants/scenes/render/tolerances.json"
+"$reference" goldens --pack "$work/good" --debug-pack "$work/debug" --scene "$scene" -o "$work/goldens"
+"$kiln" test "$work/good" --scene "$scene" --golden "$work/goldens" --tolerances "$tolerances" > "$work/good.log" || {
+  cat "$work/good.log"; echo "broken_shader_test: the unmodified library must pass"; exit 1; }
+if "$kiln" test "$work/broken" --scene "$scene" --golden "$work/goldens" --tolerances "$tolerances" \
+     --report "$work/report" > "$work/broken.log"; then
+  cat "$work/broken.log"; echo "broken_shader_test: a sign error in F_Schlick passed the golden suite"; exit 1
+fi
+passed=$(grep -c '^PASS' "$work/broken.log" || true)
+failed=$(grep -c '^FAIL' "$work/broken.log" || true)
+echo "broken F_Schlick: $failed variants failed, $passed passed"
+test -f "$work/report/index.html" || { echo "broken_shader_test: no HTML report written"; exit 1; }
+[ "$passed" -eq 0 ] || { grep '^PASS' "$work/broken.log"; echo "broken_shader_test: some variants missed the error"; exit 1; }
