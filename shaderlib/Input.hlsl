@@ -73,7 +73,7 @@ struct AdditionalLight
     float4x4 _ShadowViewProjection;
     float4   _ShadowLightPositionWS;      // xyz: punctual light position
     float4   _ShadowLightDirectionWS;     // xyz: unit vector towards a directional light
-    float4   _ShadowBias;                 // x depth bias (world units along L), y normal bias (world units)
+    float4   _ShadowBias;                 // x depth bias (world units, away from the light), y normal bias (world units)
 };
 
 #endif // KILN_INPUT_INCLUDED

@@ -55,13 +55,15 @@ float3 ApplyReceiverDepthBias(float3 shadowCoord, float depthBias)
     return float3(shadowCoord.xy, shadowCoord.z - depthBias);
 }
 
-// Caster-side bias (ShadowCaster pass): push along L by the depth bias and against the normal by the
-// normal bias, scaled by the sine of the angle so that grazing surfaces get more (Unity's ApplyShadowBias).
+// Caster-side bias (ShadowCaster pass): push away from the light by the depth bias and against the normal
+// by the normal bias, scaled by the sine of the angle so that grazing surfaces get more (Unity's
+// ApplyShadowBias, whose callers pass both biases negated). Pushing towards the light instead puts every
+// lit receiver behind its own caster: acne everywhere (kiln test's unoccluded-light check caught it).
 float3 ApplyShadowBias(float3 positionWS, float3 normalWS, float3 lightDirectionWS, float depthBias, float normalBias)
 {
     float invNoL = 1.0 - saturate(dot(lightDirectionWS, normalWS));
     float scale = invNoL * normalBias;
-    positionWS = lightDirectionWS * depthBias + positionWS;
+    positionWS = lightDirectionWS * -depthBias + positionWS;
     positionWS = normalWS * -scale + positionWS;
     return positionWS;
 }

@@ -83,7 +83,11 @@ int run_render(const std::string& pack_dir, const std::string& keywords, const s
     kiln::render::Image image = renderer.render(variant);
     bool linear = std::find(variant.keywords.begin(), variant.keywords.end(), "_LINEAR_OUTPUT") != variant.keywords.end();
     kiln::render::write_png(png_out, image.width, image.height, kiln::render::encode_srgb8(image, linear));
-    if (!exr_out.empty()) kiln::render::write_exr(exr_out, image);
+    if (!exr_out.empty()) {
+      // .kimg: kiln's raw float image (render/image.hpp), read by tests without an EXR library.
+      if (exr_out.ends_with(".kimg")) kiln::render::write_kimg(exr_out, image);
+      else kiln::render::write_exr(exr_out, image);
+    }
     std::cout << "kiln render: " << png_out << " (" << image.width << "x" << image.height << ", variant "
               << kiln::render::variant_name(variant.keywords) << ", pipeline " << format_ms(renderer.last_pipeline_ms())
               << ", draw " << format_ms(renderer.last_draw_ms()) << ")\n";
@@ -333,7 +337,7 @@ int main(int argc, char** argv) {
   render->add_option("--variant", variant_keywords, "The variant's keywords, space-separated (selection rules: docs/design.md)");
   render->add_option("--scene", scene_file, "Render scene (variants/scenes/render/*.json)")->required()->check(CLI::ExistingFile);
   render->add_option("-o,--output", png_out, "PNG output (8-bit sRGB, tone-mapped)")->required();
-  render->add_option("--exr", exr_out, "Also write the float image (OpenEXR, 32-bit)");
+  render->add_option("--exr", exr_out, "Also write the float image (OpenEXR, 32-bit; a .kimg name writes kiln's raw float format)");
   render->add_option("--size", size_text, "Image size WxH (default: the scene's)");
 
   CLI::App* test = app.add_subcommand("test", "Render every Forward variant and compare it with its CPU-reference golden");

@@ -764,7 +764,15 @@ const FrameSetup& SceneRenderer::frame(int cascades) {
   render_atlas(f.main_atlas, f.setup.main_views, false);
   if (!s.additional_rendered) {
     s.additional_rendered = true;
-    if (f.setup.additional_views.empty()) {
+    // A pack stripped of punctual shadow casters (a scene profile without light shadows) has no Forward
+    // variant that samples the atlas either; it stays cleared (fully lit).
+    bool punctual_caster = true;
+    try {
+      s.pack.select("ShadowCaster", {"_CASTING_PUNCTUAL_LIGHT_SHADOW"});
+    } catch (const PackError&) {
+      punctual_caster = false;
+    }
+    if (f.setup.additional_views.empty() || !punctual_caster) {
       // No shadowed light: a cleared (fully lit) atlas still has to be bound.
       s.context.submit([&](VkCommandBuffer cmd) {
         image_barrier(cmd, s.additional_atlas.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
