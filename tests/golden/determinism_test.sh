@@ -41,16 +41,22 @@ render plain "$scene" "_ADDITIONAL_LIGHTS _ADDITIONAL_LIGHT_SHADOWS"
 render tiled "$scene" "_ADDITIONAL_LIGHTS _ADDITIONAL_LIGHT_SHADOWS _FORWARD_PLUS"
 same plain tiled "Forward+ must shade like the plain loop over the same lights"
 
-# Fog of zero density: the factor is exactly 1.
-python3 - "$scene" "$out/nofog_density.json" <<'PY'
+# Writes a copy of the scene with absolute data paths, edited by a Python statement on `r` (its "render").
+derive() {
+  python3 - "$scene" "$out/$1.json" "$2" <<'PY'
 import json, os, sys
 scene = json.load(open(sys.argv[1]))
 base = os.path.dirname(os.path.abspath(sys.argv[1]))
-env = scene["render"]["environment"]
-env["file"] = os.path.join(base, env["file"]); env["dfg"] = os.path.join(base, env["dfg"])
-scene["render"]["fog"]["density"] = 0.0
+r = scene["render"]
+r["environment"]["file"] = os.path.join(base, r["environment"]["file"])
+r["environment"]["dfg"] = os.path.join(base, r["environment"]["dfg"])
+exec(sys.argv[3])
 json.dump(scene, open(sys.argv[2], "w"))
 PY
+}
+
+# Fog of zero density: the factor is exactly 1.
+derive nofog_density 'r["fog"]["density"] = 0.0'
 render fog_none "$out/nofog_density.json" ""
 render fog_exp_zero "$out/nofog_density.json" "FOG_EXP"
 render fog_exp2_zero "$out/nofog_density.json" "FOG_EXP2"
@@ -58,15 +64,7 @@ same fog_none fog_exp_zero "FOG_EXP with density 0 must match no fog"
 same fog_none fog_exp2_zero "FOG_EXP2 with density 0 must match no fog"
 
 # Shadows with nothing to occlude: only the ground plane, which cannot shadow itself.
-python3 - "$scene" "$out/unoccluded.json" <<'PY'
-import json, os, sys
-scene = json.load(open(sys.argv[1]))
-base = os.path.dirname(os.path.abspath(sys.argv[1]))
-env = scene["render"]["environment"]
-env["file"] = os.path.join(base, env["file"]); env["dfg"] = os.path.join(base, env["dfg"])
-scene["render"]["objects"] = [o for o in scene["render"]["objects"] if o.get("shape") == "plane"]
-json.dump(scene, open(sys.argv[2], "w"))
-PY
+derive unoccluded 'r["objects"] = [o for o in r["objects"] if o.get("shape") == "plane"]'
 render unshadowed "$out/unoccluded.json" ""
 render shadowed "$out/unoccluded.json" "_MAIN_LIGHT_SHADOWS"
 render shadowed_cascades "$out/unoccluded.json" "_MAIN_LIGHT_SHADOWS_CASCADE _SHADOWS_SOFT"

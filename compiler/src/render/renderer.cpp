@@ -669,8 +669,6 @@ const FrameSetup& SceneRenderer::frame(int cascades) {
     if (!caster_block) fail("the ShadowCaster pass has no ShadowCaster constant buffer");
     SelectedVariant variant = s.pack.select("ShadowCaster", punctual ? std::vector<std::string>{"_CASTING_PUNCTUAL_LIGHT_SHADOW"}
                                                                       : std::vector<std::string>{});
-    const StageView* vs = variant.stage("vertex");
-    const StageView* fs = variant.stage("fragment");
     // A depth-only render pass over the atlas.
     VkAttachmentDescription depth{};
     depth.format = kDepthFormat;
@@ -714,8 +712,6 @@ const FrameSetup& SceneRenderer::frame(int cascades) {
     s.objects.adopt(framebuffer);
     VkPipeline pipeline = make_pipeline(s.context, s.objects, variant, pass, 0, s.shadow.pipeline_layout);
     s.objects.adopt(pipeline);
-    (void)vs;
-    (void)fs;
     std::vector<std::vector<VkDescriptorSet>> view_sets;
     for (const ShadowView& view : views) {
       HostBuffer constants = s.objects.host_buffer((*caster_block)["size"].get<size_t>(), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
