@@ -12,7 +12,7 @@
 #include "kiln/pack_reader.hpp"
 #include "lint/lint.hpp"
 #include "render/golden.hpp"
-#include "render/renderer.hpp"
+#include "render/backend.hpp"
 #include "tools/pack_tools.hpp"
 
 namespace {
@@ -63,7 +63,8 @@ std::vector<std::string> split_words(const std::string& text) {
 }
 
 int run_render(const std::string& pack_dir, const std::string& keywords, const std::string& scene_file,
-               const std::string& png_out, const std::string& exr_out, const std::string& size_text) {
+               const std::string& png_out, const std::string& exr_out, const std::string& size_text,
+               const std::string& api) {
   try {
     uint32_t width = 0, height = 0;
     if (!size_text.empty() && std::sscanf(size_text.c_str(), "%ux%u", &width, &height) != 2) {
@@ -72,15 +73,11 @@ int run_render(const std::string& pack_dir, const std::string& keywords, const s
     }
     kiln::PackReader pack = kiln::PackReader::open(pack_dir);
     kiln::render::Scene scene = kiln::render::load_scene(scene_file);
-    std::string error;
-    auto context = kiln::render::VulkanContext::open_lavapipe(error);
-    if (!context) {
-      std::cerr << "kiln render: error: " << error << "\n";
-      return 1;
-    }
-    kiln::render::SceneRenderer renderer(*context, pack, scene, width, height);
+    auto renderer = kiln::render::Backend::open(kiln::render::parse_api(api), pack, scene, width, height);
     kiln::SelectedVariant variant = pack.select("Forward", split_words(keywords));
-    kiln::render::Image image = renderer.render(variant);
+    auto start = std::chrono::steady_clock::now();
+    kiln::render::Image image = renderer->render(variant);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     bool linear = std::find(variant.keywords.begin(), variant.keywords.end(), "_LINEAR_OUTPUT") != variant.keywords.end();
     kiln::render::write_png(png_out, image.width, image.height, kiln::render::encode_srgb8(image, linear));
     if (!exr_out.empty()) {
@@ -89,8 +86,8 @@ int run_render(const std::string& pack_dir, const std::string& keywords, const s
       else kiln::render::write_exr(exr_out, image);
     }
     std::cout << "kiln render: " << png_out << " (" << image.width << "x" << image.height << ", variant "
-              << kiln::render::variant_name(variant.keywords) << ", pipeline " << format_ms(renderer.last_pipeline_ms())
-              << ", draw " << format_ms(renderer.last_draw_ms()) << ")\n";
+              << kiln::render::variant_name(variant.keywords) << ", " << renderer->device() << ", " << format_ms(ms)
+              << " including shader compilation)\n";
     return 0;
   } catch (const std::exception& e) {
     std::cerr << e.what() << "\n";
@@ -100,7 +97,7 @@ int run_render(const std::string& pack_dir, const std::string& keywords, const s
 
 int run_test(const std::string& pack_dir, const std::string& scene_file, const std::string& golden_dir,
              const std::string& tolerances, const std::string& report_dir, const std::string& filter,
-             const std::string& shard) {
+             const std::string& shard, const std::string& api, const std::string& against) {
   kiln::render::GoldenTestOptions options;
   options.pack_dir = pack_dir;
   options.scene = scene_file;
@@ -108,6 +105,8 @@ int run_test(const std::string& pack_dir, const std::string& scene_file, const s
   options.tolerances = tolerances;
   options.report_dir = report_dir;
   options.filter = filter;
+  options.api = api;
+  options.against = against;
   if (!shard.empty() && (std::sscanf(shard.c_str(), "%u/%u", &options.shard_index, &options.shard_count) != 2 ||
                          options.shard_count == 0 || options.shard_index >= options.shard_count)) {
     std::cerr << "kiln test: error: --shard wants I/N with I < N (got '" << shard << "')\n";
@@ -332,13 +331,16 @@ int main(int argc, char** argv) {
   diff->add_flag("--json", as_json, "Print JSON");
 
   std::string variant_keywords, png_out, exr_out, size_text, golden_dir, tolerances, report_dir, filter, shard;
-  CLI::App* render = app.add_subcommand("render", "Render a scene with one Forward variant of a pack on lavapipe");
+  std::string api = "vulkan";
+  const char* api_help = "vulkan (SPIR-V on lavapipe), gl (GLSL 450 on llvmpipe OpenGL 4.5) or gles (GLSL ES on llvmpipe OpenGL ES 3.2)";
+  CLI::App* render = app.add_subcommand("render", "Render a scene with one Forward variant of a pack (lavapipe or llvmpipe GL)");
   render->add_option("pack_dir", pack_dir, "Directory holding a pack (or its manifest)")->required();
   render->add_option("--variant", variant_keywords, "The variant's keywords, space-separated (selection rules: docs/design.md)");
   render->add_option("--scene", scene_file, "Render scene (variants/scenes/render/*.json)")->required()->check(CLI::ExistingFile);
   render->add_option("-o,--output", png_out, "PNG output (8-bit sRGB, tone-mapped)")->required();
   render->add_option("--exr", exr_out, "Also write the float image (OpenEXR, 32-bit; a .kimg name writes kiln's raw float format)");
   render->add_option("--size", size_text, "Image size WxH (default: the scene's)");
+  render->add_option("--api", api, api_help)->check(CLI::IsMember({"vulkan", "gl", "gles"}));
 
   CLI::App* test = app.add_subcommand("test", "Render every Forward variant and compare it with its CPU-reference golden");
   test->add_option("pack_dir", pack_dir, "Directory holding a pack (or its manifest)")->required();
@@ -348,10 +350,14 @@ int main(int argc, char** argv) {
   test->add_option("--report", report_dir, "Directory for failure images and index.html");
   test->add_option("--filter", filter, "Only variants whose keyword list contains this text");
   test->add_option("--shard", shard, "I/N: run every N-th variant starting at I");
+  test->add_option("--api", api, api_help)->check(CLI::IsMember({"vulkan", "gl", "gles"}));
+  std::string against;
+  test->add_option("--against", against, "Compare with this API's image of each variant instead of the reference image")
+      ->check(CLI::IsMember({"vulkan", "gl", "gles"}));
 
   CLI11_PARSE(app, argc, argv);
-  if (*render) return run_render(pack_dir, variant_keywords, scene_file, png_out, exr_out, size_text);
-  if (*test) return run_test(pack_dir, scene_file, golden_dir, tolerances, report_dir, filter, shard);
+  if (*render) return run_render(pack_dir, variant_keywords, scene_file, png_out, exr_out, size_text, api);
+  if (*test) return run_test(pack_dir, scene_file, golden_dir, tolerances, report_dir, filter, shard, api, against);
   if (*check) return run_check_scene(pack_dir, scene_file, as_json);
   if (*diff) return run_diff_packs(pack_dir, other_dir, as_json);
 

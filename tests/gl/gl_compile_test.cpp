@@ -1,14 +1,16 @@
 // Every variant's GLSL 450 and GLSL ES 3.10 output, compiled and linked by a real OpenGL driver (Mesa llvmpipe,
 // OpenGL 4.5 core and OpenGL ES 3.2 through EGL's surfaceless platform): the GL targets are accepted by a
-// driver, not only produced. (Rendering them and comparing with the Vulkan images is issue 5's remaining work.)
+// driver, not only produced. The Forward pass is left to the golden tests (`ctest -L golden`, golden.gl.* and
+// golden.gles.*), which compile, link and draw every Forward variant's GL outputs and compare the images with
+// the CPU reference; this test covers the other passes' variants, and the Forward pass with one program.
 #include <gtest/gtest.h>
 
 #include <map>
 #include <set>
 
-#include "gl_driver.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
+#include "render/gl_context.hpp"
 #include "test_support.hpp"
 
 namespace kiln {
@@ -40,13 +42,14 @@ class GlDrivers : public ::testing::Test {
     std::set<std::string> failing_keywords;
   };
 
-  // Compiles and links each distinct (vertex, fragment) source pair of every variant.
-  static Outcome run(gl::GlDriver& driver, bool gles) {
+  // Compiles and links each distinct (vertex, fragment) source pair of every variant, except the Forward pass
+  // beyond its first variant (drawn by the golden tests).
+  static Outcome run(render::GlContext& driver, bool gles) {
     Outcome outcome;
     PackReader pack = PackReader::open(*dir_ / "pack");
     std::map<std::pair<std::string_view, std::string_view>, bool> seen;
     for (const std::string& pass : pack.passes())
-      for (size_t i = 0; i < pack.variant_count(pass); ++i) {
+      for (size_t i = 0; i < (pass == "Forward" ? 1 : pack.variant_count(pass)); ++i) {
         SelectedVariant v = pack.variant(pass, i);
         const StageView* vs = v.stage("vertex");
         const StageView* fs = v.stage("fragment");
@@ -56,7 +59,9 @@ class GlDrivers : public ::testing::Test {
         if (!seen.emplace(std::pair{vertex, fragment}, true).second) continue;
         ++outcome.programs;
         std::string log;
-        if (!driver.compile_and_link(std::string(vertex), std::string(fragment), log)) {
+        if (unsigned program = driver.compile_and_link(std::string(vertex), std::string(fragment), log)) {
+          driver.gl().DeleteProgram(program);
+        } else {
           std::string keywords;
           for (const auto& k : v.keywords) keywords += (keywords.empty() ? "" : " ") + k;
           outcome.failures.push_back(pass + " [" + keywords + "]: " + log);
@@ -77,12 +82,12 @@ bool GlDrivers::built_ = false;
 // floats to mediump 32-bit floats for GL (compiler/src/cross/widen_float16.hpp), because SPIRV-Cross would
 // otherwise require GL_AMD_gpu_shader_half_float or GL_NV_gpu_shader5, which llvmpipe (like most GL drivers)
 // lacks.
-void expect_every_program_links(gl::Api api, bool gles) {
+void expect_every_program_links(render::GlApi api, bool gles) {
   std::string error;
-  auto driver = gl::GlDriver::open(api, error);
+  auto driver = render::GlContext::open(api, error);
   ASSERT_TRUE(driver) << error;
   GlDrivers::Outcome outcome = GlDrivers::run(*driver, gles);
-  EXPECT_GT(outcome.programs, 1000u);
+  EXPECT_GT(outcome.programs, 3u);  // Forward (one), ShadowCaster (two), DepthOnly, DepthNormals
   EXPECT_TRUE(outcome.failures.empty()) << outcome.failures.size() << " of " << outcome.programs << " failed on "
                                         << driver->renderer() << "; first: " << outcome.failures.front();
   EXPECT_TRUE(outcome.failing_keywords.empty());
@@ -90,14 +95,14 @@ void expect_every_program_links(gl::Api api, bool gles) {
             << "\n";
 }
 
-TEST_F(GlDrivers, EveryVariantsGlsl450CompilesAndLinksOnOpenGl45) {
+TEST_F(GlDrivers, UndrawnPassesGlsl450CompilesAndLinksOnOpenGl45) {
   ASSERT_TRUE(built_);
-  expect_every_program_links(gl::Api::DesktopGl45, false);
+  expect_every_program_links(render::GlApi::DesktopGl45, false);
 }
 
-TEST_F(GlDrivers, EveryVariantsGlslEsCompilesAndLinksOnOpenGlEs32) {
+TEST_F(GlDrivers, UndrawnPassesGlslEsCompilesAndLinksOnOpenGlEs32) {
   ASSERT_TRUE(built_);
-  expect_every_program_links(gl::Api::Gles32, true);
+  expect_every_program_links(render::GlApi::Gles32, true);
 }
 
 }  // namespace

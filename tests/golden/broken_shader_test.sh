@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # golden.broken_shader_fails: proves the golden suite catches a wrong shader. A copy of the shader library
 # gets a sign error in F_Schlick (the real3 version DirectBRDF calls); the pack built from it must fail
-# kiln test against the CPU reference, and the unmodified library must pass the same variants. The error
-# changes Fresnel only where LoH is small, so the variants whose images show grazing half vectors fail (the
-# ones with the additional lights); the suite as a whole must fail, and at least a third of the variants.
+# kiln test against the CPU reference, on Vulkan and on OpenGL ES, and the unmodified library must pass the
+# same variants. The error changes Fresnel only where LoH is small, so the variants whose images show grazing
+# half vectors fail (the ones with the additional lights); the suite as a whole must fail, and at least a
+# third of the variants. Then a manifest whose GL records swap two texture bindings must be refused by the GL
+# renderer (the records are checked against the linked program), so a pack and its records cannot drift.
 #   broken_shader_test.sh KILN KILN_REFERENCE SOURCE_DIR WORK_DIR
 set -euo pipefail
 kiln=$1 reference=$2 source=$3 work=$4
@@ -31,3 +33,36 @@ failed=$(grep -c '^FAIL' "$work/broken.log" || true)
 echo "broken F_Schlick: $failed variants failed, $passed passed"
 test -f "$work/report/index.html" || { echo "broken_shader_test: no HTML report written"; exit 1; }
 [ "$failed" -ge $(( (passed + failed) / 3 )) ] || { echo "broken_shader_test: too few variants caught the error"; exit 1; }
+
+# The same broken pack through its GLSL ES output on llvmpipe.
+if "$kiln" test "$work/broken" --api gles --scene "$scene" --golden "$work/goldens" --tolerances "$tolerances" \
+     > "$work/broken-gles.log"; then
+  cat "$work/broken-gles.log"; echo "broken_shader_test: a sign error in F_Schlick passed the GLSL ES golden suite"; exit 1
+fi
+echo "broken F_Schlick, GLSL ES: $(grep -c '^FAIL' "$work/broken-gles.log" || true) variants failed"
+
+# Swapped GL bindings in the manifest: the texture units the records give no longer match the program.
+cp -r "$work/good" "$work/swapped"
+python3 - "$work/swapped" <<'PY'
+import glob, json, sys
+path = glob.glob(sys.argv[1] + "/*.manifest.json")[0]
+manifest = json.load(open(path))
+swapped = 0
+for reflection in manifest["reflections"]:
+    for api in ("glsl", "gles"):
+        records = {r["texture"]: r for r in reflection.get(api, {}).get("combined_image_samplers", [])}
+        if "_DFG" in records and "_EnvironmentMap" in records:
+            a, b = records["_DFG"], records["_EnvironmentMap"]
+            a["binding"], b["binding"] = b["binding"], a["binding"]
+            swapped += 1
+assert swapped, "no stage samples both _DFG and _EnvironmentMap"
+json.dump(manifest, open(path, "w"))
+PY
+for api in gl gles; do
+  if "$kiln" render "$work/swapped" --api $api --scene "$scene" --variant "" -o "$work/swapped.png" 2> "$work/swapped.err"; then
+    echo "broken_shader_test: $api rendered with swapped binding records"; exit 1
+  fi
+  grep -q "the manifest records binding .* but the GL driver reports" "$work/swapped.err" || {
+    cat "$work/swapped.err"; echo "broken_shader_test: wrong diagnostic for swapped GL bindings"; exit 1; }
+  echo "swapped GL bindings ($api): $(cat "$work/swapped.err")"
+done

@@ -1,15 +1,16 @@
 #!/usr/bin/env bash
-# golden.determinism and golden.cross_variant: the same variant renders bit-identical images twice, and
-# variants that must look the same do (Forward+ vs the plain light loop, fog with zero density vs no fog,
-# main-light shadows with nothing to occlude vs no shadows).
+# golden.determinism and golden.cross_variant: the same variant renders bit-identical images twice (on each
+# API), and variants that must look the same do (Forward+ vs the plain light loop, fog with zero density vs no
+# fog, main-light shadows with nothing to occlude vs no shadows). Also: GALLIVM_PERF=nopt, which the golden
+# tests set to halve llvmpipe's JIT time, changes no bit of an image (LLVM's IR passes keep IEEE results).
 #   determinism_test.sh KILN SOURCE_DIR WORK_DIR (WORK_DIR/packs/lit from golden.setup)
 set -euo pipefail
 kiln=$1 source=$2 work=$3
 out="$work/cross" && rm -rf "$out" && mkdir -p "$out"
 pack="$work/packs/lit" scene="$source/variants/scenes/render/spheres.json"
-render() {
-  "$kiln" render "$pack" --scene "$2" --variant "$3" -o "$out/$1.png" --exr "$out/$1.exr" > /dev/null
-  "$kiln" render "$pack" --scene "$2" --variant "$3" -o "$out/$1.png" --exr "$out/$1.kimg" > /dev/null
+render() {  # NAME SCENE VARIANT [API]
+  "$kiln" render "$pack" --api "${4:-vulkan}" --scene "$2" --variant "$3" -o "$out/$1.png" --exr "$out/$1.exr" > /dev/null
+  "$kiln" render "$pack" --api "${4:-vulkan}" --scene "$2" --variant "$3" -o "$out/$1.png" --exr "$out/$1.kimg" > /dev/null
 }
 # Bit-identical PNG and EXR.
 same() {
@@ -32,9 +33,15 @@ sys.exit(0 if worst <= 1e-5 else f"{sys.argv[3]}")
 PY
 }
 variant="_MAIN_LIGHT_SHADOWS_CASCADE _SHADOWS_SOFT _ADDITIONAL_LIGHTS _ADDITIONAL_LIGHT_SHADOWS FOG_EXP2 _MULTISCATTER"
-render twice_a "$scene" "$variant"
-render twice_b "$scene" "$variant"
-same twice_a twice_b "one variant rendered twice must be bit-identical"
+for api in vulkan gl gles; do
+  render twice_a_$api "$scene" "$variant" $api
+  render twice_b_$api "$scene" "$variant" $api
+  same twice_a_$api twice_b_$api "one variant rendered twice must be bit-identical ($api)"
+  # Both compiled now (no Mesa shader cache, whose key may not include the flag), with and without IR passes.
+  MESA_SHADER_CACHE_DISABLE=true GALLIVM_PERF=nopt render unoptimized_$api "$scene" "$variant" $api
+  MESA_SHADER_CACHE_DISABLE=true GALLIVM_PERF= render optimized_$api "$scene" "$variant" $api
+  same unoptimized_$api optimized_$api "GALLIVM_PERF=nopt must not change the image ($api)"
+done
 
 # Forward+ lists every light that can reach a tile, in index order; the others add exactly 0.
 render plain "$scene" "_ADDITIONAL_LIGHTS _ADDITIONAL_LIGHT_SHADOWS"

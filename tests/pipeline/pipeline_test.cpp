@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <map>
+#include <set>
 
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
@@ -188,8 +189,62 @@ TEST_F(SmallLibrary, HalfPrecisionIsWidenedToMediumpForGlOnly) {
   }
 }
 
+// The MSL output has no compiler on Linux; what can be checked is that the manifest's MSL records are the
+// entry point's resource arguments: the same [[buffer(n)]], [[texture(n)]] and [[sampler(n)]] attributes, each
+// argument declared for the resource the record names (as its type, e.g. `constant PerFrame&`, or as its
+// name), and every named resource one the stage's SPIR-V reflection lists. Returns the problems found.
+std::vector<std::string> msl_record_problems(const StageView& stage) {
+  std::vector<std::string> problems;
+  const std::string msl(stage.msl);
+  const size_t entry = msl.find(" " + stage.entry_point + "(");
+  const size_t open = entry == std::string::npos ? entry : msl.find('(', entry);
+  const size_t close = open == std::string::npos ? open : msl.find(")\n", open);
+  if (close == std::string::npos) return {"no entry point '" + stage.entry_point + "' in the MSL"};
+  // Arguments: "type name [[attribute]]", split at commas outside template brackets.
+  std::map<std::string, std::string> arguments;  // "buffer(0)" -> declaration
+  std::string argument;
+  int depth = 0;
+  for (size_t i = open + 1; i <= close; ++i) {
+    char c = msl[i];
+    depth += (c == '<') - (c == '>');
+    if ((c == ',' && depth == 0) || i == close) {
+      for (const char* kind : {"[[buffer(", "[[texture(", "[[sampler("}) {
+        size_t at = argument.find(kind);
+        if (at == std::string::npos) continue;
+        std::string key = argument.substr(at + 2, argument.find(")]]", at) - at - 1);
+        arguments[key] = argument.substr(0, at);
+      }
+      argument.clear();
+    } else {
+      argument += c;
+    }
+  }
+  std::set<std::string> declared;
+  for (const auto& r : stage.reflection->value("resources", nlohmann::json::array())) declared.insert(r["name"]);
+  size_t records = 0;
+  for (const auto& r : stage.reflection->at("msl").at("resources")) {
+    ++records;
+    const std::string name = r["name"], key = r["kind"].get<std::string>() + "(" + std::to_string(r["index"].get<int>()) + ")";
+    auto found = arguments.find(key);
+    if (found == arguments.end()) {
+      problems.push_back(name + ": the MSL entry point has no [[" + key + "]] argument");
+      continue;
+    }
+    const std::string& d = found->second;
+    if (d.find(" " + name + "&") == std::string::npos && d.find(" " + name + " ") == std::string::npos &&
+        d.find(" " + name + "_") == std::string::npos)
+      problems.push_back(name + ": [[" + key + "]] is declared as '" + d + "'");
+    if (!declared.count(name)) problems.push_back(name + ": not a resource of the stage's SPIR-V reflection");
+  }
+  if (records != arguments.size())
+    problems.push_back(std::to_string(arguments.size()) + " resource arguments in the MSL, " + std::to_string(records) +
+                       " records in the manifest");
+  return problems;
+}
+
 // The bundled library: every variant of the default pack compiles to SPIR-V, GLSL, GLSL ES and MSL with no
-// warning, every variant is selectable through the reader, and stripped combinations are clear errors.
+// warning, every variant is selectable through the reader, every variant's MSL resource records match its
+// MSL, and stripped combinations are clear errors.
 TEST(BundledLibrary, DefaultPackBuildsWithoutWarningsAndEveryVariantIsSelectable) {
   testing::TempDir dir;
   DiagnosticSink sink;
@@ -209,6 +264,8 @@ TEST(BundledLibrary, DefaultPackBuildsWithoutWarningsAndEveryVariantIsSelectable
         EXPECT_FALSE(stage.glsl.empty());
         EXPECT_FALSE(stage.gles.empty());
         EXPECT_FALSE(stage.msl.empty());
+        for (const std::string& problem : msl_record_problems(stage))
+          ADD_FAILURE() << pass << " #" << i << " " << stage.stage << ": " << problem;
       }
     }
   }

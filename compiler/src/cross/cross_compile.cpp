@@ -6,6 +6,8 @@
 #include <spirv_cross/spirv_glsl.hpp>
 #include <spirv_cross/spirv_msl.hpp>
 
+#include <map>
+
 #ifndef KILN_SPIRV_CROSS_VERSION
 #define KILN_SPIRV_CROSS_VERSION "unknown"
 #endif
@@ -84,15 +86,22 @@ CrossResult to_msl(const std::vector<uint32_t>& spirv) {
   options.platform = spirv_cross::CompilerMSL::Options::macOS;
   options.set_msl_version(2, 1);
   compiler.set_msl_options(options);
+  // Names as the HLSL declares them (and as the SPIR-V reflection and the GL records name them), taken before
+  // compile(): SPIRV-Cross renames a StructuredBuffer's variable that collides with its block's name
+  // ("_AdditionalLights" becomes "_AdditionalLights_1" in the MSL), and a user binds by the declared name.
+  // For an HLSL cbuffer (an unnamed block instance) the name is the block's, e.g. "PerFrame".
+  spirv_cross::ShaderResources resources = compiler.get_shader_resources();
+  std::map<uint32_t, std::string> declared;
+  for (const auto* list : {&resources.uniform_buffers, &resources.storage_buffers, &resources.separate_images,
+                           &resources.separate_samplers, &resources.sampled_images})
+    for (const auto& resource : *list) declared[resource.id] = resource.name;
   result.source = compiler.compile();
   json indices = json::array();
-  spirv_cross::ShaderResources resources = compiler.get_shader_resources();
   auto record = [&](const spirv_cross::SmallVector<spirv_cross::Resource>& list, const char* kind) {
     for (const auto& resource : list) {
       uint32_t index = compiler.get_automatic_msl_resource_binding(resource.id);
       if (index == uint32_t(-1)) continue;  // not used by the entry point
-      // resource.name: for an HLSL cbuffer (an unnamed block instance) the block's name, e.g. "PerFrame".
-      indices.push_back({{"name", resource.name}, {"kind", kind}, {"index", index}});
+      indices.push_back({{"name", declared.at(resource.id)}, {"kind", kind}, {"index", index}});
     }
   };
   record(resources.uniform_buffers, "buffer");

@@ -101,10 +101,11 @@ std::string write_failure_images(const std::filesystem::path& dir, const std::st
   return "<tr><td><b>" + title + "</b><br>" + details + "</td>" + img("render") + img("reference") + img("diff") + "</tr>";
 }
 
-void write_html_report(const std::filesystem::path& path, const std::string& title, const std::vector<std::string>& rows) {
+void write_html_report(const std::filesystem::path& path, const std::string& title, const std::vector<std::string>& rows,
+                       const std::string& rendered_by, const std::string& compared_with) {
   std::string html = "<!doctype html><meta charset=\"utf-8\"><title>" + title + "</title><h1>" + title +
-                     "</h1><table border=\"1\" cellpadding=\"4\"><tr><th>variant</th><th>lavapipe</th>"
-                     "<th>CPU reference</th><th>|difference| x 16</th></tr>";
+                     "</h1><table border=\"1\" cellpadding=\"4\"><tr><th>variant</th><th>" + rendered_by + "</th>"
+                     "<th>" + compared_with + "</th><th>|difference| x 16</th></tr>";
   for (const std::string& row : rows) html += row;
   html += "</table>\n";
   write_file_atomically(path, html);
@@ -117,7 +118,7 @@ void write_html_report(const std::filesystem::path& path, const std::string& tit
 #include <ostream>
 
 #include "kiln/pack_reader.hpp"
-#include "render/renderer.hpp"
+#include "render/backend.hpp"
 
 namespace kiln::render {
 
@@ -151,12 +152,15 @@ GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream
     throw std::runtime_error((options.golden_dir / "index.json").string() +
                              ": error: no golden index (make one with kiln-reference goldens)");
   nlohmann::json index = nlohmann::json::parse(index_file);
-  std::string error;
-  auto context = VulkanContext::open_lavapipe(error);
-  if (!context) throw std::runtime_error("kiln test: error: " + error);
-  SceneRenderer renderer(*context, pack, scene, index.value("width", 0u), index.value("height", 0u));
-  out << "kiln test: pack " << pack.name() << ", scene " << scene.name << ", " << renderer.width() << "x"
-      << renderer.height() << " on " << context->device_name() << " (" << context->driver_info() << ")\n";
+  const Api api = parse_api(options.api);
+  auto renderer = Backend::open(api, pack, scene, index.value("width", 0u), index.value("height", 0u));
+  out << "kiln test: pack " << pack.name() << ", scene " << scene.name << ", " << renderer->width() << "x"
+      << renderer->height() << ", " << renderer->device() << "\n";
+  std::unique_ptr<Backend> other;
+  if (!options.against.empty()) {
+    other = Backend::open(parse_api(options.against), pack, scene, renderer->width(), renderer->height());
+    out << "kiln test: compared with " << other->device() << " (not with the reference images)\n";
+  }
 
   std::vector<std::string> rows;
   const size_t count = pack.variant_count("Forward");
@@ -174,13 +178,26 @@ GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream
     }
     Image rendered;
     try {
-      rendered = renderer.render(variant);
+      rendered = renderer->render(variant);
     } catch (const std::exception& e) {
       out << "NOT RUN  #" << i << " " << name << ": " << e.what() << "\n";
       ++summary.not_run;
       continue;
     }
     Image reference = read_kimg(options.golden_dir / golden->get<std::string>());
+    if (other) {
+      Image expected;
+      try {
+        expected = other->render(variant);
+      } catch (const std::exception& e) {
+        out << "NOT RUN  #" << i << " " << name << ": " << options.against << ": " << e.what() << "\n";
+        ++summary.not_run;
+        continue;
+      }
+      for (size_t p = 0; p + 3 < expected.rgba.size(); p += 4)
+        if (reference.rgba[p + 3] == kUnstablePixel) expected.rgba[p + 3] = kUnstablePixel;
+      reference = std::move(expected);
+    }
     ComparisonLimits limits = limits_for(tolerances, variant.keywords);
     Comparison c = compare_images(rendered, reference, linear, limits);
     std::string classes;
@@ -204,7 +221,9 @@ GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream
     }
   }
   if (!rows.empty()) {
-    write_html_report(options.report_dir / "index.html", "kiln test: " + pack.name() + " / " + scene.name, rows);
+    write_html_report(options.report_dir / "index.html", "kiln test: " + pack.name() + " / " + scene.name + " (" + options.api + ")",
+                      rows, api == Api::Vulkan ? "lavapipe" : "llvmpipe " + options.api,
+                      options.against.empty() ? "CPU reference" : options.against);
     out << "kiln test: report with the failing images: " << (options.report_dir / "index.html").string() << "\n";
   }
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

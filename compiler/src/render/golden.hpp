@@ -54,7 +54,8 @@ Comparison compare_images(const Image& rendered, const Image& reference, bool li
 std::string write_failure_images(const std::filesystem::path& dir, const std::string& stem, const Image& rendered,
                                  const Image& reference, bool linear_output, const std::string& title,
                                  const std::string& details);
-void write_html_report(const std::filesystem::path& path, const std::string& title, const std::vector<std::string>& rows);
+void write_html_report(const std::filesystem::path& path, const std::string& title, const std::vector<std::string>& rows,
+                       const std::string& rendered_by = "lavapipe", const std::string& compared_with = "CPU reference");
 
 }  // namespace kiln::render
 
@@ -67,6 +68,10 @@ struct GoldenTestOptions {
   std::filesystem::path tolerances;
   std::filesystem::path report_dir;   // failures: images + index.html
   std::string filter;                 // only variants whose keyword list contains this text
+  std::string api = "vulkan";         // vulkan, gl or gles (render/backend.hpp)
+  // Another API: compare each image with that API's image of the same variant instead of the reference image
+  // (same limits; the reference still marks the shadow-tie pixels).
+  std::string against;
   unsigned shard_index = 0, shard_count = 1;
 };
 

@@ -1,5 +1,7 @@
 #include "render/renderer.hpp"
 
+#include "render/scene_data.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -18,78 +20,10 @@ constexpr VkFormat kColorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 constexpr uint32_t kGBufferTargets = 5;
 
-[[noreturn]] void fail(const std::string& message) { throw std::runtime_error("kiln render: error: " + message); }
+[[noreturn]] void fail(const std::string& message) { render_error(message); }
 
 bool has(const std::vector<std::string>& keywords, const char* keyword) {
   return std::find(keywords.begin(), keywords.end(), keyword) != keywords.end();
-}
-
-// Fills a constant or storage buffer at the offsets a reflected block records.
-class BlockWriter {
- public:
-  BlockWriter(const json& resource, void* memory, size_t capacity)
-      : resource_(resource), memory_(static_cast<uint8_t*>(memory)), capacity_(capacity) {}
-  void floats(const std::string& member, std::initializer_list<double> values, size_t element = 0) {
-    std::vector<float> f(values.begin(), values.end());
-    write(member, f.data(), f.size() * 4, element);
-  }
-  void uints(const std::string& member, std::initializer_list<uint32_t> values) {
-    std::vector<uint32_t> u(values);
-    write(member, u.data(), u.size() * 4, 0);
-  }
-  // HLSL float4x4 in a constant buffer is column-major: column c of M is stored at offset 16 c.
-  void matrix(const std::string& member, const Mat4& m, size_t element = 0) {
-    float f[16];
-    for (int c = 0; c < 4; ++c)
-      for (int r = 0; r < 4; ++r) f[c * 4 + r] = static_cast<float>(m[r][c]);
-    write(member, f, sizeof f, element);
-  }
-
- private:
-  void write(const std::string& member, const void* data, size_t bytes, size_t element) {
-    for (const json& m : resource_.value("members", json::array())) {
-      if (m.value("name", "") != member) continue;
-      size_t offset = m["offset"].get<size_t>() + element * m.value("array_stride", size_t(0));
-      if (offset + bytes > capacity_) fail("member " + member + " overruns block " + resource_.value("name", ""));
-      std::memcpy(memory_ + offset, data, bytes);
-      return;
-    }
-    // A member no variant of the pass reads was removed from the reflection: nothing to write.
-  }
-  const json& resource_;
-  uint8_t* memory_;
-  size_t capacity_;
-};
-
-void matrix_std430(float* out, const Mat4& m) {
-  for (int c = 0; c < 4; ++c)
-    for (int r = 0; r < 4; ++r) out[c * 4 + r] = static_cast<float>(m[r][c]);
-}
-
-std::string read_file(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail("cannot open " + path.string());
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-// The DFG table shipped with the shader library (KDFG v2, see tests/reference/reference.hpp).
-struct DfgTexture {
-  uint32_t width = 0, height = 0;
-  std::vector<float> rg;
-};
-DfgTexture load_dfg(const std::filesystem::path& path) {
-  std::string bytes = read_file(path);
-  uint32_t header[4];
-  if (bytes.size() < 20 || bytes.compare(0, 4, "KDFG") != 0) fail(path.string() + " is not a KDFG table");
-  std::memcpy(header, bytes.data() + 4, 16);
-  if (header[0] != 2) fail(path.string() + ": KDFG version " + std::to_string(header[0]) + " (expected 2)");
-  DfgTexture t{header[1], header[2], {}};
-  t.rg.resize(size_t(t.width) * t.height * 2);
-  if (bytes.size() != 20 + t.rg.size() * 4) fail(path.string() + ": truncated KDFG table");
-  std::memcpy(t.rg.data(), bytes.data() + 20, t.rg.size() * 4);
-  return t;
 }
 
 struct Texture {
@@ -118,11 +52,6 @@ struct PassLayout {
   const json* resources = nullptr;
   VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
   VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
-  const json* resource(const std::string& name) const {
-    for (const json& r : *resources)
-      if (r.value("name", "") == name) return &r;
-    return nullptr;
-  }
 };
 
 VkDescriptorType descriptor_type(const std::string& kind) {
@@ -144,8 +73,8 @@ struct SceneRenderer::State {
   const PackReader& pack;
   VulkanObjects objects;
   VkDescriptorPool pool = VK_NULL_HANDLE;
+  SceneData data;
   GpuMesh sphere, plane;
-  Environment environment;
   Texture dfg, environment_map;
   VkSampler compare_sampler = VK_NULL_HANDLE, linear_sampler = VK_NULL_HANDLE;
   PassLayout forward, shadow;
@@ -162,12 +91,34 @@ struct SceneRenderer::State {
   bool additional_rendered = false;
   Target color_target;
   HostBuffer readback;
-  std::map<std::pair<uint32_t, uint32_t>, VkPipeline> shadow_pipelines;  // (vertex, fragment) blob ids
+  // Passes other than Forward and ShadowCaster (DepthOnly, DepthNormals): their layout and per-object sets.
+  struct SimplePass {
+    PassLayout layout;
+    std::vector<VkDescriptorSet> object_sets;
+  };
+  std::map<std::string, SimplePass> simple_passes;
 
-  State(VulkanContext& c, const PackReader& p) : context(c), pack(p), objects(c) {}
+  State(VulkanContext& c, const PackReader& p, const Scene& scene) : context(c), pack(p), objects(c), data(p, scene) {}
+
+  // The buffers the Forward and GBuffer passes bind, for one object of a frame.
+  VkDescriptorBufferInfo buffer_info(const std::string& name, size_t object, const Frame& frame) const {
+    if (name == "PerFrame") return {frame.per_frame.buffer, 0, VK_WHOLE_SIZE};
+    if (name == "PerMaterial") return {per_material.at(object).buffer, 0, VK_WHOLE_SIZE};
+    if (name == "PerObject") return {per_object.at(object).buffer, 0, VK_WHOLE_SIZE};
+    if (name == "_AdditionalLights") return {lights.buffer, 0, VK_WHOLE_SIZE};
+    if (name == "_TileLightIndices") return {tiles.buffer, 0, VK_WHOLE_SIZE};
+    if (name == "_AdditionalShadowMatrices") return {shadow_matrices.buffer, 0, VK_WHOLE_SIZE};
+    fail("no buffer for '" + name + "'");
+  }
 };
 
 namespace {
+
+HostBuffer upload_buffer(VulkanObjects& objects, const Bytes& bytes, VkBufferUsageFlags usage) {
+  HostBuffer b = objects.host_buffer(std::max<size_t>(bytes.size(), 16), usage);
+  std::memcpy(b.mapped, bytes.data(), bytes.size());
+  return b;
+}
 
 GpuMesh upload_mesh(VulkanObjects& objects, const Mesh& mesh) {
   GpuMesh g;
@@ -317,26 +268,11 @@ PassLayout make_pass_layout(VulkanContext& context, VulkanObjects& objects, cons
   return layout;
 }
 
-const json& find_pass(const PackReader& pack, const std::string& name) {
-  for (const json& p : pack.manifest()["passes"])
-    if (p["name"] == name) return p;
-  fail("pack '" + pack.name() + "' has no " + name + " pass");
-}
-
-// The vertex attributes a vertex stage reads, matched by name to the mesh's interleaved layout.
 std::vector<VkVertexInputAttributeDescription> vertex_attributes(const StageView& vertex) {
+  static constexpr VkFormat formats[] = {VK_FORMAT_UNDEFINED, VK_FORMAT_R32_SFLOAT, VK_FORMAT_R32G32_SFLOAT,
+                                         VK_FORMAT_R32G32B32_SFLOAT, VK_FORMAT_R32G32B32A32_SFLOAT};
   std::vector<VkVertexInputAttributeDescription> attributes;
-  if (!vertex.reflection) return attributes;
-  for (const json& input : vertex.reflection->value("inputs", json::array())) {
-    std::string name = input.value("name", "");
-    name = name.substr(name.rfind('.') + 1);
-    uint32_t location = input["location"].get<uint32_t>();
-    if (name == "positionOS") attributes.push_back({location, 0, VK_FORMAT_R32G32B32_SFLOAT, 0});
-    else if (name == "normalOS") attributes.push_back({location, 0, VK_FORMAT_R32G32B32_SFLOAT, 12});
-    else if (name == "tangentOS") attributes.push_back({location, 0, VK_FORMAT_R32G32B32A32_SFLOAT, 24});
-    else if (name == "uv") attributes.push_back({location, 0, VK_FORMAT_R32G32_SFLOAT, 40});
-    else fail("vertex input '" + input.value("name", "") + "' has no mesh attribute (POSITION, NORMAL, TANGENT, TEXCOORD0)");
-  }
+  for (const MeshAttribute& a : mesh_attributes(vertex)) attributes.push_back({a.location, 0, formats[a.components], a.offset});
   return attributes;
 }
 
@@ -428,26 +364,26 @@ Image read_color(VulkanContext& context, const HostBuffer& readback, VkImage ima
 
 SceneRenderer::SceneRenderer(VulkanContext& context, const PackReader& pack, const Scene& scene, uint32_t width,
                              uint32_t height)
-    : state_(std::make_unique<State>(context, pack)), scene_(scene),
-      width_(width ? width : scene.width), height_(height ? height : scene.height) {
+    : scene_(scene), width_(width ? width : scene.width), height_(height ? height : scene.height) {
   scene_.width = width_;
   scene_.height = height_;
+  state_ = std::make_unique<State>(context, pack, scene_);
   State& s = *state_;
   VkDevice device = context.device();
   s.sphere = upload_mesh(s.objects, make_sphere(64, 32));
   s.plane = upload_mesh(s.objects, make_plane(32));
 
   // Environment cube (prefiltered mips) and the DFG table.
-  s.environment = load_environment(scene_.environment);
-  ImageDesc cube{VK_FORMAT_R32G32B32A32_SFLOAT, s.environment.size, s.environment.size, s.environment.mips, 6, true};
+  const Environment& environment = s.data.environment();
+  ImageDesc cube{VK_FORMAT_R32G32B32A32_SFLOAT, environment.size, environment.size, environment.mips, 6, true};
   std::vector<std::vector<const float*>> cube_levels;
-  for (uint32_t m = 0; m < s.environment.mips; ++m) {
-    uint32_t n = s.environment.level_size(m);
+  for (uint32_t m = 0; m < environment.mips; ++m) {
+    uint32_t n = environment.level_size(m);
     cube_levels.emplace_back();
-    for (uint32_t face = 0; face < 6; ++face) cube_levels.back().push_back(s.environment.levels[m].data() + size_t(face) * n * n * 4);
+    for (uint32_t face = 0; face < 6; ++face) cube_levels.back().push_back(environment.levels[m].data() + size_t(face) * n * n * 4);
   }
   s.environment_map = upload_texture(context, s.objects, cube, cube_levels, 4);
-  DfgTexture dfg = load_dfg(scene_.dfg);
+  const DfgTable& dfg = s.data.dfg();
   s.dfg = upload_texture(context, s.objects, {VK_FORMAT_R32G32_SFLOAT, dfg.width, dfg.height}, {{dfg.rg.data()}}, 2);
 
   VkSamplerCreateInfo linear{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
@@ -465,61 +401,18 @@ SceneRenderer::SceneRenderer(VulkanContext& context, const PackReader& pack, con
   compare.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
   s.compare_sampler = s.objects.sampler(compare);
 
-  s.forward = make_pass_layout(context, s.objects, find_pass(pack, "Forward"));
-  s.shadow = make_pass_layout(context, s.objects, find_pass(pack, "ShadowCaster"));
-  for (const json& r : *s.forward.resources) {
-    static const std::set<std::string> provided = {
-        "PerFrame", "PerMaterial", "PerObject", "_MainLightShadowMap", "sampler_ShadowCompare",
-        "_AdditionalLightsShadowMap", "_EnvironmentMap", "sampler_LinearClamp", "_DFG", "_AdditionalLights",
-        "_TileLightIndices", "_AdditionalShadowMatrices"};
-    if (!provided.count(r.value("name", "")))
-      fail("the Forward pass binds '" + r.value("name", "") + "', which the renderer does not provide");
+  s.forward = make_pass_layout(context, s.objects, s.data.forward_pass());
+  s.shadow = make_pass_layout(context, s.objects, s.data.shadow_pass());
+  const SceneData::Frame& base_frame = s.data.frame(1);
+  for (size_t i = 0; i < scene_.objects.size(); ++i) {
+    s.per_material.push_back(upload_buffer(s.objects, s.data.buffer("PerMaterial", i, base_frame), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT));
+    s.per_object.push_back(upload_buffer(s.objects, s.data.buffer("PerObject", i, base_frame), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT));
   }
-
-  // Per object constants.
-  const json* material_block = s.forward.resource("PerMaterial");
-  const json* object_block = s.forward.resource("PerObject");
-  if (!material_block || !object_block) fail("the Forward pass has no PerMaterial/PerObject constant buffer");
-  for (const Object& o : scene_.objects) {
-    HostBuffer m = s.objects.host_buffer((*material_block)["size"].get<size_t>(), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
-    BlockWriter mw(*material_block, m.mapped, m.size);
-    mw.floats("_BaseColor", {o.material.base_color[0], o.material.base_color[1], o.material.base_color[2], 1.0});
-    mw.floats("_Metallic", {o.material.metallic});
-    mw.floats("_PerceptualRoughness", {o.material.perceptual_roughness});
-    mw.floats("_Reflectance", {o.material.reflectance});
-    mw.floats("_Anisotropy", {o.material.anisotropy});
-    s.per_material.push_back(m);
-    HostBuffer b = s.objects.host_buffer((*object_block)["size"].get<size_t>(), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
-    BlockWriter ow(*object_block, b.mapped, b.size);
-    Mat4 world = object_to_world(o);
-    ow.matrix("_ObjectToWorld", world);
-    ow.matrix("_WorldToObject", mat_inverse(world));
-    s.per_object.push_back(b);
-  }
-
-  // Lights (64 bytes each, std430) and the Forward+ tile lists (the latter per frame size, built below).
-  s.lights = s.objects.host_buffer(std::max<size_t>(scene_.lights.size(), 1) * 64, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
-  // Light records and shadow matrices do not depend on the main-light cascade layout.
-  const FrameSetup base = setup_frame(scene_, 1);
-  auto* light_words = static_cast<float*>(s.lights.mapped);
-  for (size_t i = 0; i < scene_.lights.size(); ++i) {
-    const AdditionalLightDesc& l = scene_.lights[i];
-    double cos_inner = std::cos(l.inner_degrees * 3.14159265358979323846 / 180);
-    double cos_outer = std::cos(l.outer_degrees * 3.14159265358979323846 / 180);
-    double spot_scale = 1.0 / std::max(cos_inner - cos_outer, 1e-4);
-    float record[16] = {float(l.position[0]), float(l.position[1]), float(l.position[2]), float(1.0 / (l.range * l.range)),
-                        float(l.color[0] * l.intensity), float(l.color[1] * l.intensity), float(l.color[2] * l.intensity),
-                        float(base.light_first_shadow_view[i]),
-                        float(l.direction[0]), float(l.direction[1]), float(l.direction[2]), l.spot ? 1.0f : 0.0f,
-                        float(spot_scale), float(-cos_outer * spot_scale), 0.0f, 0.0f};
-    std::memcpy(light_words + i * 16, record, sizeof record);
-  }
-  s.tiles = s.objects.host_buffer(base.tile_lists.size() * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
-  std::memcpy(s.tiles.mapped, base.tile_lists.data(), base.tile_lists.size() * 4);
-  s.shadow_matrices = s.objects.host_buffer(std::max<size_t>(base.additional_views.size(), 1) * 64,
-                                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
-  for (size_t i = 0; i < base.additional_views.size(); ++i)
-    matrix_std430(static_cast<float*>(s.shadow_matrices.mapped) + i * 16, base.additional_views[i].world_to_shadow);
+  s.lights = upload_buffer(s.objects, s.data.buffer("_AdditionalLights", 0, base_frame), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  s.tiles = upload_buffer(s.objects, s.data.buffer("_TileLightIndices", 0, base_frame), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  s.shadow_matrices = upload_buffer(s.objects, s.data.buffer("_AdditionalShadowMatrices", 0, base_frame),
+                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  const FrameSetup& base = base_frame.setup;
 
   ImageDesc atlas{kDepthFormat, std::max(1u, base.additional_atlas_width), std::max(1u, base.additional_atlas_height)};
   atlas.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
@@ -527,7 +420,7 @@ SceneRenderer::SceneRenderer(VulkanContext& context, const PackReader& pack, con
   s.additional_atlas.view = s.objects.view(s.additional_atlas.image, atlas);
 
   // Descriptor pool: Forward sets for two frame layouts, shadow sets for every view, G-buffer sets.
-  const uint32_t sets = static_cast<uint32_t>(scene_.objects.size()) * (2 + 16 + 2) + 8;
+  const uint32_t sets = static_cast<uint32_t>(scene_.objects.size()) * (2 + 16 + 2 + 2) + 8;
   VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, sets * 4}, {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, sets * 3},
                                   {VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE, sets * 4}, {VK_DESCRIPTOR_TYPE_SAMPLER, sets * 2}};
   VkDescriptorPoolCreateInfo pool_info{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
@@ -601,35 +494,10 @@ const FrameSetup& SceneRenderer::frame(int cascades) {
   auto found = s.frames.find(cascades);
   if (found != s.frames.end()) return found->second.setup;
   State::Frame& f = s.frames[cascades];
-  f.setup = setup_frame(scene_, cascades);
-  const json* block = s.forward.resource("PerFrame");
-  if (!block) fail("the Forward pass has no PerFrame constant buffer");
-  f.per_frame = s.objects.host_buffer((*block)["size"].get<size_t>(), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
-  BlockWriter w(*block, f.per_frame.mapped, f.per_frame.size);
+  const SceneData::Frame& data = s.data.frame(cascades);
+  f.setup = data.setup;
+  f.per_frame = upload_buffer(s.objects, data.per_frame, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
   const Scene& sc = scene_;
-  w.matrix("_ViewProjection", f.setup.view_projection);
-  w.floats("_CameraPositionWS", {sc.camera_position[0], sc.camera_position[1], sc.camera_position[2], 1});
-  w.floats("_MainLightDirectionWS", {sc.main_light_direction[0], sc.main_light_direction[1], sc.main_light_direction[2], 0});
-  w.floats("_MainLightColor", {sc.main_light_color[0] * sc.main_light_illuminance, sc.main_light_color[1] * sc.main_light_illuminance,
-                               sc.main_light_color[2] * sc.main_light_illuminance, 1});
-  for (size_t c = 0; c < f.setup.main_views.size(); ++c) {
-    w.matrix("_MainLightWorldToShadow", f.setup.main_views[c].world_to_shadow, c);
-    const auto& sphere = f.setup.cascade_spheres[c];
-    w.floats("_CascadeSplitSpheres", {sphere[0], sphere[1], sphere[2], sphere[3]}, c);
-  }
-  w.floats("_MainLightShadowParams", {sc.main_shadow.strength, sc.main_shadow.receiver_depth_bias,
-                                      1.0 / f.setup.main_atlas_size, double(f.setup.main_views.size())});
-  w.floats("_AdditionalShadowParams", {sc.additional_shadow.strength, sc.additional_shadow.receiver_depth_bias,
-                                       1.0 / std::max(1u, f.setup.additional_atlas_width), 0});
-  w.floats("_FogColor", {sc.fog_color[0], sc.fog_color[1], sc.fog_color[2], 1});
-  w.floats("_FogParams", {sc.fog_density, sc.fog_start, sc.fog_end, 0});
-  for (size_t i = 0; i < 9; ++i)
-    w.floats("_AmbientSH", {s.environment.sh[i][0], s.environment.sh[i][1], s.environment.sh[i][2], 0}, i);
-  w.floats("_EnvironmentParams", {double(s.environment.mips - 1), sc.exposure, sc.environment_intensity, 0});
-  w.floats("_GlossyEnvironmentColor", {sc.glossy_environment_color[0], sc.glossy_environment_color[1], sc.glossy_environment_color[2], 0});
-  w.floats("_ProbePositionWS", {0, 0, 0, 0});  // no box projection in the test scenes
-  w.uints("_LightCounts", {uint32_t(sc.lights.size()), sc.tile_size, f.setup.tiles_x, 0});
-  w.floats("_CameraForwardWS", {f.setup.camera_forward[0], f.setup.camera_forward[1], f.setup.camera_forward[2], 0});
 
   ImageDesc atlas{kDepthFormat, f.setup.main_atlas_size, f.setup.main_atlas_size};
   atlas.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
@@ -641,15 +509,7 @@ const FrameSetup& SceneRenderer::frame(int cascades) {
     VkDescriptorSet set = allocate_set(device, s.pool, s.forward.set_layout);
     write_set(
         device, set, s.forward,
-        [&](const std::string& name) -> VkDescriptorBufferInfo {
-          if (name == "PerFrame") return {f.per_frame.buffer, 0, VK_WHOLE_SIZE};
-          if (name == "PerMaterial") return {s.per_material[i].buffer, 0, VK_WHOLE_SIZE};
-          if (name == "PerObject") return {s.per_object[i].buffer, 0, VK_WHOLE_SIZE};
-          if (name == "_AdditionalLights") return {s.lights.buffer, 0, VK_WHOLE_SIZE};
-          if (name == "_TileLightIndices") return {s.tiles.buffer, 0, VK_WHOLE_SIZE};
-          if (name == "_AdditionalShadowMatrices") return {s.shadow_matrices.buffer, 0, VK_WHOLE_SIZE};
-          fail("no buffer for '" + name + "'");
-        },
+        [&](const std::string& name) { return s.buffer_info(name, i, f); },
         [&](const std::string& name) -> VkDescriptorImageInfo {
           if (name == "_MainLightShadowMap") return {VK_NULL_HANDLE, f.main_atlas.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
           if (name == "_AdditionalLightsShadowMap")
@@ -665,8 +525,6 @@ const FrameSetup& SceneRenderer::frame(int cascades) {
 
   // The shadow maps this layout samples, rendered by the ShadowCaster pass.
   auto render_atlas = [&](const Texture& target, const std::vector<ShadowView>& views, bool punctual) {
-    const json* caster_block = s.shadow.resource("ShadowCaster");
-    if (!caster_block) fail("the ShadowCaster pass has no ShadowCaster constant buffer");
     SelectedVariant variant = s.pack.select("ShadowCaster", punctual ? std::vector<std::string>{"_CASTING_PUNCTUAL_LIGHT_SHADOW"}
                                                                       : std::vector<std::string>{});
     // A depth-only render pass over the atlas.
@@ -714,13 +572,7 @@ const FrameSetup& SceneRenderer::frame(int cascades) {
     s.objects.adopt(pipeline);
     std::vector<std::vector<VkDescriptorSet>> view_sets;
     for (const ShadowView& view : views) {
-      HostBuffer constants = s.objects.host_buffer((*caster_block)["size"].get<size_t>(), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
-      BlockWriter cw(*caster_block, constants.mapped, constants.size);
-      cw.matrix("_ShadowViewProjection", view.view_projection);
-      cw.floats("_ShadowLightPositionWS", {view.light_position[0], view.light_position[1], view.light_position[2], 1});
-      cw.floats("_ShadowLightDirectionWS", {view.light_direction[0], view.light_direction[1], view.light_direction[2], 0});
-      const ShadowDesc& d = punctual ? sc.additional_shadow : sc.main_shadow;
-      cw.floats("_ShadowBias", {d.caster_depth_bias, d.caster_normal_bias, 0, 0});
+      HostBuffer constants = upload_buffer(s.objects, s.data.caster_constants(view), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
       std::vector<VkDescriptorSet> sets;
       for (size_t i = 0; i < sc.objects.size(); ++i) {
         VkDescriptorSet set = allocate_set(device, s.pool, s.shadow.set_layout);
@@ -762,13 +614,7 @@ const FrameSetup& SceneRenderer::frame(int cascades) {
     s.additional_rendered = true;
     // A pack stripped of punctual shadow casters (a scene profile without light shadows) has no Forward
     // variant that samples the atlas either; it stays cleared (fully lit).
-    bool punctual_caster = true;
-    try {
-      s.pack.select("ShadowCaster", {"_CASTING_PUNCTUAL_LIGHT_SHADOW"});
-    } catch (const PackError&) {
-      punctual_caster = false;
-    }
-    if (f.setup.additional_views.empty() || !punctual_caster) {
+    if (f.setup.additional_views.empty() || !s.data.has_punctual_caster()) {
       // No shadowed light: a cleared (fully lit) atlas still has to be bound.
       s.context.submit([&](VkCommandBuffer cmd) {
         image_barrier(cmd, s.additional_atlas.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
@@ -794,14 +640,38 @@ Image SceneRenderer::render(const std::vector<std::string>& keywords) {
 
 Image SceneRenderer::render(const SelectedVariant& variant) {
   State& s = *state_;
-  if (variant.pass != "Forward") fail("kiln render draws Forward pass variants (got " + variant.pass + ")");
+  if (variant.pass == "ShadowCaster") fail("the ShadowCaster pass draws shadow maps, not images");
   frame(cascades_for(variant.keywords, scene_));
   State::Frame& f = s.frames[cascades_for(variant.keywords, scene_)];
+  const PassLayout* layout = &s.forward;
+  const std::vector<VkDescriptorSet>* sets = &f.object_sets;
+  if (variant.pass != "Forward") {
+    // A pass that reads only the frame, material and object constants (DepthOnly, DepthNormals).
+    auto [it, inserted] = s.simple_passes.try_emplace(variant.pass);
+    if (inserted) {
+      it->second.layout = make_pass_layout(s.context, s.objects, find_pass(s.pack, variant.pass));
+      for (size_t i = 0; i < scene_.objects.size(); ++i) {
+        VkDescriptorSet set = allocate_set(s.context.device(), s.pool, it->second.layout.set_layout);
+        write_set(
+            s.context.device(), set, it->second.layout,
+            [&](const std::string& name) {
+              if (name == "PerFrame" || name == "PerMaterial" || name == "PerObject") return s.buffer_info(name, i, f);
+              fail("the " + variant.pass + " pass binds '" + name + "', which the renderer does not provide");
+            },
+            [&](const std::string& name) -> VkDescriptorImageInfo {
+              fail("the " + variant.pass + " pass binds '" + name + "', which the renderer does not provide");
+            });
+        it->second.object_sets.push_back(set);
+      }
+    }
+    layout = &it->second.layout;
+    sets = &it->second.object_sets;
+  }
   if (has(variant.keywords, "_HALF_PRECISION") && !s.context.supports_float16())
     fail("this lavapipe lacks shaderFloat16, needed by _HALF_PRECISION variants");
   auto t0 = std::chrono::steady_clock::now();
   VulkanObjects per_variant(s.context);
-  VkPipeline pipeline = make_pipeline(s.context, per_variant, variant, s.color_target.pass, 1, s.forward.pipeline_layout);
+  VkPipeline pipeline = make_pipeline(s.context, per_variant, variant, s.color_target.pass, 1, layout->pipeline_layout);
   per_variant.adopt(pipeline);
   last_pipeline_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   s.context.submit(
@@ -817,7 +687,7 @@ Image SceneRenderer::render(const SelectedVariant& variant) {
         vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
         set_viewport(cmd, 0, 0, width_, height_);
-        draw_objects(cmd, scene_, s.sphere, s.plane, s.forward.pipeline_layout, f.object_sets);
+        draw_objects(cmd, scene_, s.sphere, s.plane, layout->pipeline_layout, *sets);
         vkCmdEndRenderPass(cmd);
       },
       &last_draw_ms_);
@@ -842,9 +712,7 @@ GBuffer SceneRenderer::render_gbuffer(const PackReader& debug_pack) {
     write_set(
         device, set, layout,
         [&](const std::string& name) -> VkDescriptorBufferInfo {
-          if (name == "PerFrame") return {f.per_frame.buffer, 0, VK_WHOLE_SIZE};
-          if (name == "PerMaterial") return {s.per_material[i].buffer, 0, VK_WHOLE_SIZE};
-          if (name == "PerObject") return {s.per_object[i].buffer, 0, VK_WHOLE_SIZE};
+          if (name == "PerFrame" || name == "PerMaterial" || name == "PerObject") return s.buffer_info(name, i, f);
           fail("the GBuffer pass binds '" + name + "', which the renderer does not provide");
         },
         [&](const std::string& name) -> VkDescriptorImageInfo {

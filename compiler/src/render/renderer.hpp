@@ -44,7 +44,9 @@ class SceneRenderer {
   SceneRenderer(const SceneRenderer&) = delete;
   SceneRenderer& operator=(const SceneRenderer&) = delete;
 
-  // The Forward pass variant for `keywords` (PackReader::select rules), or a variant by index.
+  // The Forward pass variant for `keywords` (PackReader::select rules), or a selected variant of any pass that
+  // draws an image (Forward, and passes that read only the frame, material and object constants: DepthOnly,
+  // DepthNormals).
   Image render(const std::vector<std::string>& keywords);
   Image render(const SelectedVariant& variant);
   // Milliseconds of the last render: pipeline creation and draw (submit to idle).

@@ -16,8 +16,9 @@ namespace kiln {
 
 // Part of every cache key: bump it whenever a compile job's output changes for the same input and tool
 // versions (kiln's own version does not change between commits). 2: GL targets widen 16-bit floats, name
-// blocks by their interface name, and pair texel fetches with a dummy sampler.
-inline constexpr int kCompileJobRevision = 2;
+// blocks by their interface name, and pair texel fetches with a dummy sampler. 3: MSL records name resources
+// as declared (not as SPIRV-Cross renamed a colliding variable).
+inline constexpr int kCompileJobRevision = 3;
 
 struct CompileJob {
   uint64_t id = 0;

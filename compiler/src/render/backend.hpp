@@ -1,0 +1,33 @@
+// The graphics APIs kiln renders a pack's outputs with, behind one interface: Vulkan (the SPIR-V, on Mesa
+// lavapipe), OpenGL 4.5 core (the GLSL 450 output) and OpenGL ES 3.2 (the GLSL ES output), both on Mesa
+// llvmpipe. `kiln render` and `kiln test` take --api.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "kiln/pack_reader.hpp"
+#include "render/image.hpp"
+#include "render/scene.hpp"
+
+namespace kiln::render {
+
+enum class Api { Vulkan, Gl, Gles };
+// "vulkan", "gl", "gles"; throws std::runtime_error for anything else.
+Api parse_api(const std::string& name);
+std::string api_name(Api api);
+
+class Backend {
+ public:
+  // Opens the API's device and sets the scene up for the pack's Forward pass. Throws std::runtime_error with
+  // a clear message (no device, a pack or scene the renderer cannot use).
+  static std::unique_ptr<Backend> open(Api api, const PackReader& pack, const Scene& scene, uint32_t width = 0,
+                                       uint32_t height = 0);
+  virtual ~Backend() = default;
+  virtual Image render(const SelectedVariant& variant) = 0;
+  virtual std::string device() const = 0;  // e.g. "lavapipe: llvmpipe (LLVM 15.0.6, 256 bits), Mesa 22.3.6"
+  virtual uint32_t width() const = 0;
+  virtual uint32_t height() const = 0;
+};
+
+}  // namespace kiln::render
