@@ -2,7 +2,8 @@
 # golden.determinism and golden.cross_variant: the same variant renders bit-identical images twice (on each
 # API), and variants that must look the same do (Forward+ vs the plain light loop, fog with zero density vs no
 # fog, main-light shadows with nothing to occlude vs no shadows). Also: GALLIVM_PERF=nopt, which the golden
-# tests set to halve llvmpipe's JIT time, changes no bit of an image (LLVM's IR passes keep IEEE results).
+# tests set to halve llvmpipe's JIT time, changes no bit of an image (LLVM's IR passes keep IEEE results). And
+# each keyword acts: shadows darken, fog blends, Forward+ shades only the lights its tile lists name.
 #   determinism_test.sh KILN SOURCE_DIR WORK_DIR (WORK_DIR/packs/lit from golden.setup)
 set -euo pipefail
 kiln=$1 source=$2 work=$3
@@ -48,6 +49,22 @@ render plain "$scene" "_ADDITIONAL_LIGHTS _ADDITIONAL_LIGHT_SHADOWS"
 render tiled "$scene" "_ADDITIONAL_LIGHTS _ADDITIONAL_LIGHT_SHADOWS _FORWARD_PLUS"
 same plain tiled "Forward+ must shade like the plain loop over the same lights"
 
+# A is darker than B on average over RGB by at least FRACTION (the keyword under test does something).
+darker() {
+  python3 - "$out/$1.kimg" "$out/$2.kimg" "$3" "$4" <<'PY'
+import array, sys
+def mean(path):
+    data = open(path, "rb").read()
+    pixels = array.array("f"); pixels.frombytes(data[16:])
+    rgb = [v for i, v in enumerate(pixels) if i % 4 != 3]
+    return sum(rgb) / len(rgb)
+a, b, fraction = mean(sys.argv[1]), mean(sys.argv[2]), float(sys.argv[3])
+ok = a < b * (1 - fraction)
+print(("darker" if ok else "NOT DARKER") + f": {sys.argv[1]} mean {a:.5f} vs {sys.argv[2]} mean {b:.5f} (by at least {fraction:.1%})")
+sys.exit(0 if ok else sys.argv[4])
+PY
+}
+
 # Writes a copy of the scene with absolute data paths, edited by a Python statement on `r` (its "render").
 derive() {
   python3 - "$scene" "$out/$1.json" "$2" <<'PY'
@@ -77,3 +94,19 @@ render shadowed "$out/unoccluded.json" "_MAIN_LIGHT_SHADOWS"
 render shadowed_cascades "$out/unoccluded.json" "_MAIN_LIGHT_SHADOWS_CASCADE _SHADOWS_SOFT"
 close unshadowed shadowed "hard shadows from an unoccluded light must match no shadows"
 close unshadowed shadowed_cascades "soft cascaded shadows from an unoccluded light must match no shadows"
+
+# Each keyword acts: shadows darken, fog blends towards its (dark) color here, Forward+ reads its tile lists.
+render lit_only "$scene" ""
+render sun_shadows "$scene" "_MAIN_LIGHT_SHADOWS"
+darker sun_shadows lit_only 0.02 "main-light shadows must darken the image"
+render point_lights "$scene" "_ADDITIONAL_LIGHTS"
+render point_shadows "$scene" "_ADDITIONAL_LIGHTS _ADDITIONAL_LIGHT_SHADOWS"
+darker point_shadows point_lights 0.002 "additional-light shadows must darken the image"
+derive dark_fog 'r["fog"]["color"] = [0.0, 0.0, 0.0]'
+render dark_fog_none "$out/dark_fog.json" ""
+render dark_fog_exp2 "$out/dark_fog.json" "FOG_EXP2"
+darker dark_fog_exp2 dark_fog_none 0.02 "black fog must darken the image"
+derive short_bins 'r["tile_binning_range_scale"] = 0.05'
+render short_bins_plain "$out/short_bins.json" "_ADDITIONAL_LIGHTS"
+render short_bins_tiled "$out/short_bins.json" "_ADDITIONAL_LIGHTS _FORWARD_PLUS"
+darker short_bins_tiled short_bins_plain 0.002 "Forward+ must shade only the lights of its tile lists"

@@ -8,6 +8,9 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <thread>
+
+#include "common/parallel.hpp"
 
 #include "reference.hpp"
 #include "render/golden.hpp"
@@ -50,32 +53,42 @@ int make_goldens(const std::string& pack_dir, const std::string& debug_dir, cons
   index["width"] = renderer.width();
   index["height"] = renderer.height();
   index["device"] = context->device_name() + " (" + context->driver_info() + ")";
+  // Which variants need an image of their own (Forward+ shares the plain loop's), then the shading, in
+  // parallel: each image is independent and deterministic. Frames and shadow atlases come from the renderer,
+  // on this thread, before.
   std::map<std::string, std::string> files;  // reference key -> file
-  size_t shaded = 0;
+  std::vector<SelectedVariant> to_shade;
   for (size_t i = 0; i < pack.variant_count("Forward"); ++i) {
     SelectedVariant variant = pack.variant("Forward", i);
     std::string key = render::variant_name(reference::reference_key(variant.keywords));
     auto found = files.find(key);
     if (found == files.end()) {
+      found = files.emplace(key, "reference" + std::to_string(files.size()) + ".kimg").first;
       int cascades = render::cascades_for(variant.keywords, scene);
       if (!main_atlases.count(cascades)) main_atlases[cascades] = renderer.main_shadow_atlas(cascades);
-      reference::ReferenceInputs inputs;
-      inputs.scene = &renderer.scene();
-      inputs.environment = &environment;
-      inputs.dfg = &dfg;
-      inputs.gbuffer = &gbuffer;
-      inputs.frame = &renderer.frame(cascades);
-      inputs.main_shadow = &main_atlases[cascades];
-      inputs.additional_shadow = &additional;
-      inputs.additional_frame = &renderer.frame(1);
-      render::Image image = reference::shade_image(inputs, variant.keywords);
-      std::string file = "reference" + std::to_string(files.size()) + ".kimg";
-      render::write_kimg(std::filesystem::path(output) / file, image);
-      found = files.emplace(key, file).first;
-      ++shaded;
+      renderer.frame(cascades);
+      to_shade.push_back(variant);
     }
     index["variants"][render::variant_name(variant.keywords)] = found->second;
   }
+  renderer.frame(1);
+  kiln::parallel_for(to_shade.size(), std::max(1u, std::thread::hardware_concurrency()), [&](size_t n) {
+    const SelectedVariant& variant = to_shade[n];
+    int cascades = render::cascades_for(variant.keywords, scene);
+    reference::ReferenceInputs inputs;
+    inputs.scene = &renderer.scene();
+    inputs.environment = &environment;
+    inputs.dfg = &dfg;
+    inputs.gbuffer = &gbuffer;
+    inputs.frame = &renderer.frame(cascades);  // made above: a lookup
+    inputs.main_shadow = &main_atlases.at(cascades);
+    inputs.additional_shadow = &additional;
+    inputs.additional_frame = &renderer.frame(1);
+    render::Image image = reference::shade_image(inputs, variant.keywords);
+    const std::string& file = files.at(render::variant_name(reference::reference_key(variant.keywords)));
+    render::write_kimg(std::filesystem::path(output) / file, image);
+  });
+  const size_t shaded = to_shade.size();
   render::write_file_atomically(std::filesystem::path(output) / "index.json", index.dump(1) + "\n");
   std::cout << "kiln-reference: " << shaded << " reference images for " << pack.variant_count("Forward")
             << " Forward variants of " << pack.name() << " (scene " << scene.name << ") in " << output << "\n";

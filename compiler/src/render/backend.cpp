@@ -25,38 +25,22 @@ std::string api_name(Api api) {
 
 namespace {
 
-class VulkanBackend final : public Backend {
+// A context and the renderer that draws with it; `device` describes them for reports.
+template <typename Context, typename Renderer>
+class ContextBackend final : public Backend {
  public:
-  VulkanBackend(std::unique_ptr<VulkanContext> context, const PackReader& pack, const Scene& scene, uint32_t width,
-                uint32_t height)
-      : context_(std::move(context)), renderer_(*context_, pack, scene, width, height) {}
+  ContextBackend(std::unique_ptr<Context> context, const PackReader& pack, const Scene& scene, uint32_t width,
+                 uint32_t height, std::string device)
+      : context_(std::move(context)), renderer_(*context_, pack, scene, width, height), device_(std::move(device)) {}
   Image render(const SelectedVariant& variant) override { return renderer_.render(variant); }
-  std::string device() const override {
-    return "Vulkan on " + context_->device_name() + " (" + context_->driver_info() + ")";
-  }
+  std::string device() const override { return device_; }
   uint32_t width() const override { return renderer_.width(); }
   uint32_t height() const override { return renderer_.height(); }
 
  private:
-  std::unique_ptr<VulkanContext> context_;
-  SceneRenderer renderer_;
-};
-
-class GlBackend final : public Backend {
- public:
-  GlBackend(std::unique_ptr<GlContext> context, const PackReader& pack, const Scene& scene, uint32_t width,
-            uint32_t height)
-      : context_(std::move(context)), renderer_(*context_, pack, scene, width, height) {}
-  Image render(const SelectedVariant& variant) override { return renderer_.render(variant); }
-  std::string device() const override {
-    return std::string(context_->api() == GlApi::Gles32 ? "GLSL ES" : "GLSL 450") + " on " + context_->renderer();
-  }
-  uint32_t width() const override { return renderer_.width(); }
-  uint32_t height() const override { return renderer_.height(); }
-
- private:
-  std::unique_ptr<GlContext> context_;
-  GlSceneRenderer renderer_;
+  std::unique_ptr<Context> context_;
+  Renderer renderer_;
+  std::string device_;
 };
 
 }  // namespace
@@ -67,11 +51,15 @@ std::unique_ptr<Backend> Backend::open(Api api, const PackReader& pack, const Sc
   if (api == Api::Vulkan) {
     auto context = VulkanContext::open_lavapipe(error);
     if (!context) throw std::runtime_error("kiln render: error: " + error);
-    return std::make_unique<VulkanBackend>(std::move(context), pack, scene, width, height);
+    std::string device = "Vulkan on " + context->device_name() + " (" + context->driver_info() + ")";
+    return std::make_unique<ContextBackend<VulkanContext, SceneRenderer>>(std::move(context), pack, scene, width,
+                                                                          height, std::move(device));
   }
   auto context = GlContext::open(api == Api::Gles ? GlApi::Gles32 : GlApi::DesktopGl45, error);
   if (!context) throw std::runtime_error("kiln render: error: " + error);
-  return std::make_unique<GlBackend>(std::move(context), pack, scene, width, height);
+  std::string device = std::string(api == Api::Gles ? "GLSL ES" : "GLSL 450") + " on " + context->renderer();
+  return std::make_unique<ContextBackend<GlContext, GlSceneRenderer>>(std::move(context), pack, scene, width, height,
+                                                                      std::move(device));
 }
 
 }  // namespace kiln::render

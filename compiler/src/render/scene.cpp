@@ -244,6 +244,8 @@ Scene load_scene(const std::filesystem::path& path) {
     }
   }
   scene.tile_size = static_cast<uint32_t>(read_number(r, "tile_size", scene.tile_size, path, 4, 256));
+  scene.tile_binning_range_scale =
+      read_number(r, "tile_binning_range_scale", scene.tile_binning_range_scale, path, 1e-3, 1);
   if (r.contains("fog")) {
     const auto& f = r["fog"];
     if (f.contains("color")) scene.fog_color = read_vec3(f["color"], path, "fog.color");
@@ -474,9 +476,10 @@ FrameSetup setup_frame(const Scene& scene, int cascades) {
     const auto& l = scene.lights[index];
     double x0 = 1e30, y0 = 1e30, x1 = -1e30, y1 = -1e30;
     bool everywhere = false;
+    const double r = l.range * scene.tile_binning_range_scale;
     for (int corner = 0; corner < 8; ++corner) {
-      Vec3 p = {l.position[0] + ((corner & 1) ? l.range : -l.range), l.position[1] + ((corner & 2) ? l.range : -l.range),
-                l.position[2] + ((corner & 4) ? l.range : -l.range)};
+      Vec3 p = {l.position[0] + ((corner & 1) ? r : -r), l.position[1] + ((corner & 2) ? r : -r),
+                l.position[2] + ((corner & 4) ? r : -r)};
       auto clip = mat_apply(f.view_projection, {p[0], p[1], p[2], 1});
       if (clip[3] <= scene.near_plane * 0.5) {
         everywhere = true;

@@ -82,6 +82,9 @@ struct Scene {
   ShadowDesc additional_shadow;
   std::vector<AdditionalLightDesc> lights;
   uint32_t tile_size = 16;                 // Forward+ tile, pixels
+  // Below 1: lights are binned into tiles with a smaller range than they shade with, so a Forward+ shader that
+  // reads its lists must lose light (a test of the lists being used; 1 for correct images).
+  double tile_binning_range_scale = 1;
   Vec3 fog_color{0.5, 0.6, 0.7};
   double fog_density = 0.05;               // FOG_EXP, FOG_EXP2
   double fog_start = 2, fog_end = 30;      // FOG_LINEAR
