@@ -8,7 +8,6 @@
 #include <map>
 #include <set>
 
-#include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
 #include "render/gl_context.hpp"
 #include "test_support.hpp"
@@ -16,25 +15,12 @@
 namespace kiln {
 namespace {
 
-// The default pack, built once for the suite.
+// The default pack as golden.setup built it (ctest fixture `golden`; building it again here would cost a
+// cold build of every variant on CI).
 class GlDrivers : public ::testing::Test {
  public:
-  static void SetUpTestSuite() {
-    dir_ = new testing::TempDir();
-    BuildOptions options;
-    options.pack_file = std::filesystem::path(KILN_SOURCE_DIR) / "variants/lit.pack.json";
-    options.output_dir = *dir_ / "pack";
-    // A cache in the build tree, shared by the suite's test processes (ctest runs each test separately).
-    options.cache_dir = KILN_GL_TEST_CACHE;
-    options.worker_executable = KILN_WORKER_PATH;
-    options.targets = {Target::Glsl, Target::Gles};
-    DiagnosticSink sink;
-    built_ = build_pack(options, sink).ok;
-  }
-  static void TearDownTestSuite() {
-    delete dir_;
-    dir_ = nullptr;
-  }
+  static void SetUpTestSuite() { built_ = std::filesystem::exists(pack_dir()); }
+  static std::filesystem::path pack_dir() { return std::filesystem::path(KILN_GOLDEN_WORK) / "packs/lit"; }
 
   struct Outcome {
     size_t programs = 0;
@@ -46,7 +32,7 @@ class GlDrivers : public ::testing::Test {
   // beyond its first variant (drawn by the golden tests).
   static Outcome run(render::GlContext& driver, bool gles) {
     Outcome outcome;
-    PackReader pack = PackReader::open(*dir_ / "pack");
+    PackReader pack = PackReader::open(pack_dir());
     std::map<std::pair<std::string_view, std::string_view>, bool> seen;
     for (const std::string& pass : pack.passes())
       for (size_t i = 0; i < (pass == "Forward" ? 1 : pack.variant_count(pass)); ++i) {
@@ -71,11 +57,9 @@ class GlDrivers : public ::testing::Test {
     return outcome;
   }
 
-  static testing::TempDir* dir_;
   static bool built_;
 };
 
-testing::TempDir* GlDrivers::dir_ = nullptr;
 bool GlDrivers::built_ = false;
 
 // Every variant compiles and links, the explicit-fp16 (_HALF_PRECISION) ones included: kiln widens their 16-bit
