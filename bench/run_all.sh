@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates bench/REPORT.md and bench/plots/*.png from scratch: installs the Debian packages, builds,
-# then runs the four instruments and the report. About 45 minutes on 2 cores; do not run other heavy jobs
+# then runs the five instruments and the report. About 45 minutes on 2 cores; do not run other heavy jobs
 # meanwhile (the build benchmark edits shaderlib/Fog.hlsl temporarily and restores it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -12,5 +12,8 @@ python3 bench/build_speed.py --kiln build/ci/compiler/kiln --reps 3
 python3 bench/scaling.py --kiln build/ci/compiler/kiln
 KILN_STRESS_REPORT="$PWD/bench/results/stress.json" build/ci/tests/kiln_tests_stress
 build/ci/bench/kiln-shading-study bench/results/shading_study.json
+build/ci/compiler/kiln build variants/lit.pack.json -o build/ci/packs/lit --cache build/ci/kiln-cache -q
+build/ci/compiler/kiln build variants/debug.pack.json -o build/ci/packs/debug --cache build/ci/kiln-cache -q
+build/ci/bench/kiln-frame-cost build/ci/packs/lit build/ci/packs/debug bench/results/frame_cost.json
 python3 bench/report.py
 echo "wrote bench/REPORT.md"
