@@ -13,7 +13,6 @@
 #include <ctime>
 #include <fstream>
 #include <iostream>
-#include <sstream>
 
 #include <nlohmann/json.hpp>
 
@@ -25,13 +24,6 @@ namespace {
 
 using namespace kiln;
 using nlohmann::json;
-
-std::string read_file(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 // Average number of lights the Forward+ loop visits per covered pixel (its tile's list length).
 double tile_lights_per_pixel(const render::FrameSetup& frame, const render::GBuffer& g, uint32_t width, uint32_t tile) {
@@ -50,11 +42,8 @@ json measure_scene(render::VulkanContext& context, const PackReader& pack, const
                    const std::filesystem::path& scene_file, int frames) {
   render::Scene scene = render::load_scene(scene_file);
   render::SceneRenderer renderer(context, pack, scene);
-  render::GBuffer gbuffer = renderer.render_gbuffer(debug);
-  render::Environment environment = render::load_environment(scene.environment);
-  reference::DfgTable dfg = reference::decode_dfg_table(read_file(scene.dfg));
-  render::ShadowAtlas main_shadow = renderer.main_shadow_atlas(1);
-  render::ShadowAtlas additional = renderer.additional_shadow_atlas();
+  reference::SceneInputs reference_inputs(renderer, debug);  // the variants below all use one cascade
+  const render::GBuffer& gbuffer = reference_inputs.gbuffer();
   const render::FrameSetup& frame = renderer.frame(1);
   const double lights = double(renderer.scene().lights.size());
 
@@ -87,20 +76,11 @@ json measure_scene(render::VulkanContext& context, const PackReader& pack, const
       ms.push_back(renderer.last_draw_ms());
     }
     std::sort(ms.begin(), ms.end());
-    reference::ReferenceInputs inputs;
-    inputs.scene = &renderer.scene();
-    inputs.environment = &environment;
-    inputs.dfg = &dfg;
-    inputs.gbuffer = &gbuffer;
-    inputs.frame = &frame;
-    inputs.main_shadow = &main_shadow;
-    inputs.additional_shadow = &additional;
-    inputs.additional_frame = &frame;
     // The per-vertex row is measured against the full per-pixel shading of every light: its error is what the
     // keyword gives up (the 8-light cap, specular, interpolation).
     std::vector<std::string> exact = row.keywords;
     std::replace(exact.begin(), exact.end(), std::string("_ADDITIONAL_LIGHTS_VERTEX"), std::string("_ADDITIONAL_LIGHTS"));
-    render::Image reference = reference::shade_image(inputs, exact);
+    render::Image reference = reference::shade_image(reference_inputs.inputs(exact), exact);
     render::ComparisonLimits limits{2, 1.0, 1.0, {}};
     render::Comparison c = render::compare_images(image, reference, false, limits);
     out["variants"].push_back({{"name", row.name},

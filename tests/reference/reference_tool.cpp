@@ -20,19 +20,13 @@
 
 namespace {
 
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 int make_goldens(const std::string& pack_dir, const std::string& debug_dir, const std::string& scene_file,
                  const std::string& dfg_file, const std::string& output, uint32_t width, uint32_t height) {
   using namespace kiln;
   PackReader pack = PackReader::open(pack_dir);
   PackReader debug = PackReader::open(debug_dir);
   render::Scene scene = render::load_scene(scene_file);
+  if (!dfg_file.empty()) scene.dfg = dfg_file;
   std::string error;
   auto context = render::VulkanContext::open_lavapipe(error);
   if (!context) {
@@ -40,11 +34,7 @@ int make_goldens(const std::string& pack_dir, const std::string& debug_dir, cons
     return 1;
   }
   render::SceneRenderer renderer(*context, pack, scene, width, height);
-  render::GBuffer gbuffer = renderer.render_gbuffer(debug);
-  render::Environment environment = render::load_environment(scene.environment);
-  reference::DfgTable dfg = reference::decode_dfg_table(read_file(dfg_file.empty() ? scene.dfg.string() : dfg_file));
-  std::map<int, render::ShadowAtlas> main_atlases;
-  render::ShadowAtlas additional = renderer.additional_shadow_atlas();
+  reference::SceneInputs inputs(renderer, debug);
   std::filesystem::create_directories(output);
 
   nlohmann::json index;
@@ -64,27 +54,14 @@ int make_goldens(const std::string& pack_dir, const std::string& debug_dir, cons
     auto found = files.find(key);
     if (found == files.end()) {
       found = files.emplace(key, "reference" + std::to_string(files.size()) + ".kimg").first;
-      int cascades = render::cascades_for(variant.keywords, scene);
-      if (!main_atlases.count(cascades)) main_atlases[cascades] = renderer.main_shadow_atlas(cascades);
-      renderer.frame(cascades);
+      inputs.prepare(variant.keywords);
       to_shade.push_back(variant);
     }
     index["variants"][render::variant_name(variant.keywords)] = found->second;
   }
-  renderer.frame(1);
   kiln::parallel_for(to_shade.size(), std::max(1u, std::thread::hardware_concurrency()), [&](size_t n) {
     const SelectedVariant& variant = to_shade[n];
-    int cascades = render::cascades_for(variant.keywords, scene);
-    reference::ReferenceInputs inputs;
-    inputs.scene = &renderer.scene();
-    inputs.environment = &environment;
-    inputs.dfg = &dfg;
-    inputs.gbuffer = &gbuffer;
-    inputs.frame = &renderer.frame(cascades);  // made above: a lookup
-    inputs.main_shadow = &main_atlases.at(cascades);
-    inputs.additional_shadow = &additional;
-    inputs.additional_frame = &renderer.frame(1);
-    render::Image image = reference::shade_image(inputs, variant.keywords);
+    render::Image image = reference::shade_image(inputs.inputs(variant.keywords), variant.keywords);
     const std::string& file = files.at(render::variant_name(reference::reference_key(variant.keywords)));
     render::write_kimg(std::filesystem::path(output) / file, image);
   });
