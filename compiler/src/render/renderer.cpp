@@ -168,6 +168,20 @@ Texture upload_texture(VulkanContext& context, VulkanObjects& objects, ImageDesc
   return t;
 }
 
+// An attachment cleared at the start of its render pass and stored at the end.
+VkAttachmentDescription cleared_attachment(VkFormat format, VkImageLayout final_layout) {
+  VkAttachmentDescription a{};
+  a.format = format;
+  a.samples = VK_SAMPLE_COUNT_1_BIT;
+  a.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  a.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  a.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+  a.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  a.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  a.finalLayout = final_layout;
+  return a;
+}
+
 Target make_target(VulkanContext& context, VulkanObjects& objects, uint32_t width, uint32_t height, uint32_t colors,
                    VkImageLayout depth_final) {
   Target t;
@@ -183,16 +197,7 @@ Target make_target(VulkanContext& context, VulkanObjects& objects, uint32_t widt
     tex.view = objects.view(tex.image, d);
     t.colors.push_back(tex);
     views.push_back(tex.view);
-    VkAttachmentDescription a{};
-    a.format = kColorFormat;
-    a.samples = VK_SAMPLE_COUNT_1_BIT;
-    a.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    a.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    a.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
-    a.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    a.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    a.finalLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    attachments.push_back(a);
+    attachments.push_back(cleared_attachment(kColorFormat, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL));
     color_refs.push_back({i, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL});
   }
   ImageDesc dd{kDepthFormat, width, height};
@@ -200,16 +205,7 @@ Target make_target(VulkanContext& context, VulkanObjects& objects, uint32_t widt
   t.depth = {objects.image(dd), VK_NULL_HANDLE, dd};
   t.depth.view = objects.view(t.depth.image, dd);
   views.push_back(t.depth.view);
-  VkAttachmentDescription depth{};
-  depth.format = kDepthFormat;
-  depth.samples = VK_SAMPLE_COUNT_1_BIT;
-  depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  depth.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
-  depth.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-  depth.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  depth.finalLayout = depth_final;
-  attachments.push_back(depth);
+  attachments.push_back(cleared_attachment(kDepthFormat, depth_final));
   VkAttachmentReference depth_ref{colors, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
   VkSubpassDescription subpass{};
   subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
@@ -528,15 +524,7 @@ const FrameSetup& SceneRenderer::frame(int cascades) {
     SelectedVariant variant = s.pack.select("ShadowCaster", punctual ? std::vector<std::string>{"_CASTING_PUNCTUAL_LIGHT_SHADOW"}
                                                                       : std::vector<std::string>{});
     // A depth-only render pass over the atlas.
-    VkAttachmentDescription depth{};
-    depth.format = kDepthFormat;
-    depth.samples = VK_SAMPLE_COUNT_1_BIT;
-    depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    depth.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
-    depth.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-    depth.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    depth.finalLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+    const VkAttachmentDescription depth = cleared_attachment(kDepthFormat, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
     VkAttachmentReference ref{0, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
     VkSubpassDescription subpass{};
     subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
