@@ -7,6 +7,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "allocator.hpp"
 #include "common/files.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
@@ -40,7 +41,8 @@ void print_summary(const kiln::BuildReport& r, std::ostream& out) {
         << f.unique_compiles << " compiles -> " << f.unique_binaries << " unique binaries";
   out << "\n";
   if (!r.up_to_date)
-    out << "  compiled " << r.compiled << ", cache hits " << r.cache_hits
+    out << "  compiled " << r.compiled << " (back ends " << r.back_ends << ", cached back ends " << r.back_end_hits
+        << "), cache hits " << r.cache_hits
         << (r.cache_rejected ? ", rejected cache entries " + std::to_string(r.cache_rejected) : std::string())
         << ", workers " << r.workers_started << "\n";
   if (!r.up_to_date && !r.strip_report.empty()) {
@@ -268,7 +270,7 @@ int run_diff_packs(const std::string& a, const std::string& b, bool as_json) {
 int main(int argc, char** argv) {
   CLI::App app{"kiln: shader permutation compiler (HLSL -> SPIR-V, GLSL, GLSL ES, MSL variant packs)"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", std::string("kiln ") + kiln::kKilnVersion);
+  app.set_version_flag("--version", std::string("kiln ") + kiln::kKilnVersion + "\nallocator: " + kiln::allocator_description());
 
   kiln::BuildOptions options;
   std::string pack_file, output, cache_dir, depfile;

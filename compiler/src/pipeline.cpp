@@ -455,8 +455,6 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   {
     StageTimer timer(report, "dedupe");
     std::map<Hash128, size_t> by_key;
-    std::string target_list;
-    for (Target t : targets) target_list += std::string(target_name(t)) + ",";
     for (size_t i = 0; i < stage_sources.size(); ++i) {
       StageSource& s = stage_sources[i];
       const std::string entry_name = display_path(plan->declarations[s.pass].entry);
@@ -470,7 +468,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       Hash128 key = Hasher()
                         .add(fingerprint)
                         .add(options.optimize ? 1 : 0)
-                        .add(target_list)
+                        .add(target_names)
                         .add(stage_name(s.stage))
                         .add(entry_point)
                         .add(s.text)
@@ -483,13 +481,18 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     report.funnel.unique_compiles = binaries.size();
   }
 
-  // Stage 5-7: cache, then compile the misses in worker processes (cross-compile and reflect there too).
+  // Stage 5-7: compile the cache misses in worker processes, in two halves. Each stage source's front end
+  // (glslang) runs once; its module is hashed, and the back end (legalize, validate, optimize, validate,
+  // reflect, cross-compile) runs once per distinct module, so stage sources that differ only in code their
+  // entry point never reaches (a fragment keyword's branch in a file the vertex stage also includes) share
+  // one. Both halves are cached: the back end's result under the module's key, and under the source's key
+  // an alias to it with the front end's warnings.
   {
     StageTimer timer(report, "compile");
     std::optional<Cache> cache;
     if (options.cache_dir) cache.emplace(*options.cache_dir);
     std::vector<CompileJob> jobs;
-    std::vector<size_t> job_binary;
+    std::vector<size_t> job_subject;  // FrontEnd job -> binary, BackEnd job -> module
     for (size_t b = 0; b < binaries.size(); ++b) {
       bool rejected = false;
       if (cache) {
@@ -503,6 +506,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       const StageSource& s = stage_sources[binaries[b].source];
       CompileJob job;
       job.id = b;
+      job.kind = JobKind::FrontEnd;
       job.stage = binaries[b].stage;
       job.entry_point = binaries[b].entry_point;
       job.source_name = display_path(plan->declarations[s.pass].entry);
@@ -510,78 +514,159 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       job.targets = targets;
       job.optimize = options.optimize;
       jobs.push_back(std::move(job));
-      job_binary.push_back(b);
+      job_subject.push_back(b);
     }
-    std::vector<size_t> fresh;  // binaries compiled in this build, cached once the build is known good
+    report.compiled = jobs.size();
+
+    struct Module {
+      Hash128 key;
+      std::optional<WorkerOutcome> result;  // the back end's (or the cache's)
+      bool fresh = false;                   // compiled in this build: cached once the build is known good
+      std::vector<size_t> waiting;          // binaries whose front end produced this module
+    };
+    std::vector<Module> modules;
+    std::map<Hash128, size_t> module_by_key;
+    std::vector<std::vector<FrontendMessage>> front_messages(binaries.size());
+    std::vector<size_t> binary_module(binaries.size(), SIZE_MAX);
     size_t done = report.cache_hits;
     if (options.progress) options.progress(done, binaries.size(), report.cache_hits);
+
+    auto fail = [&](size_t b, const WorkerOutcome& outcome) {
+      Binary& binary = binaries[b];
+      const StageSource& s = stage_sources[binary.source];
+      std::string variant = variant_description(*plan, s);
+      const size_t order = stage_sources.size() + b;
+      if (outcome.kind != WorkerOutcome::Kind::Done) {
+        report.internal_errors = true;
+        // A reproducer next to the outputs: the exact preprocessed source the worker was given.
+        std::filesystem::path dir = options.output_dir / "kiln-ice";
+        std::filesystem::create_directories(dir, ec);
+        std::filesystem::path repro = dir / (plan->pack.passes[s.pass].name + "." + std::string(stage_name(s.stage)) +
+                                             "." + slug(s.defines) + ".hlsl");
+        std::string header = "// kiln internal compiler error: the compiler worker " + outcome.detail + "\n// " +
+                             variant + ", entry point " + binary.entry_point + "\n// reproduce: glslangValidator -D -V -S " +
+                             (s.stage == Stage::Vertex ? "vert" : "frag") + " -e " + binary.entry_point + " " +
+                             repro.filename().string() + "\n";
+        write_file_atomic(repro, header + s.text);
+        sink.report(DiagId::InternalCompilerError, SourceLocation{display_path(plan->declarations[s.pass].entry), 0, 0},
+                    "internal compiler error: the compiler worker " + outcome.detail + " while compiling " + variant,
+                    {"reproducer written to " + repro.string(), "this is a bug in the compiler, not in your shader"});
+        return;
+      }
+      const std::string entry_name = display_path(plan->declarations[s.pass].entry);
+      const std::string& step = outcome.output.failed_step;
+      if (step == "entry-point") {
+        SourceLocation at = locate_json_string(plan->pack.file.string(), plan->pack.text, binary.entry_point);
+        collect(DiagId::MissingEntryPoint, at,
+                "entry point '" + binary.entry_point + "' of the " + std::string(stage_name(s.stage)) +
+                    " stage is not defined in '" + entry_name + "'",
+                variant, order);
+        return;
+      }
+      DiagId id = step == "frontend" ? DiagId::HlslError
+                  : step.rfind("validate", 0) == 0 ? DiagId::SpirvInvalid
+                  : step.rfind("cross", 0) == 0 ? DiagId::CrossCompileFailed
+                  : DiagId::OptimizerFailed;
+      // Only the first error: glslang's later ones cascade from it ("'declaration' : Expected").
+      auto first = std::find_if(outcome.output.messages.begin(), outcome.output.messages.end(),
+                                [](const FrontendMessage& m) { return m.severity == Severity::Error; });
+      if (first != outcome.output.messages.end()) {
+        std::string prefix = id == DiagId::HlslError ? "" : step + ": ";
+        collect(id, located(*first, entry_name), prefix + first->text, variant, order);
+      } else {
+        collect(id, SourceLocation{entry_name, 0, 0}, step + " failed", variant, order);
+      }
+    };
+    // A binary whose module's back end has finished (or failed) is done.
+    auto settle = [&](size_t b, const WorkerOutcome& result) {
+      if (result.kind == WorkerOutcome::Kind::Done && result.output.ok) {
+        JobOutput out = result.output;
+        out.messages.insert(out.messages.begin(), front_messages[b].begin(), front_messages[b].end());
+        binaries[b].output = std::move(out);
+      } else {
+        fail(b, result);
+      }
+      ++done;
+      if (options.progress) options.progress(done, binaries.size(), report.cache_hits);
+    };
+
     if (!jobs.empty()) {
       unsigned workers = options.jobs ? options.jobs : std::max(1u, std::thread::hardware_concurrency());
       std::filesystem::path exe = options.worker_executable.empty() ? default_worker_executable() : options.worker_executable;
       WorkerPool pool(exe, workers, WorkerLimits{options.worker_timeout, options.worker_memory_limit_mb});
       pool.run(jobs, [&](size_t j, WorkerOutcome outcome) {
-        Binary& binary = binaries[job_binary[j]];
-        const StageSource& s = stage_sources[binary.source];
-        std::string variant = variant_description(*plan, s);
-        if (outcome.kind != WorkerOutcome::Kind::Done) {
-          report.internal_errors = true;
-          // A reproducer next to the outputs: the exact preprocessed source the worker was given.
-          std::filesystem::path dir = options.output_dir / "kiln-ice";
-          std::filesystem::create_directories(dir, ec);
-          std::filesystem::path repro = dir / (plan->pack.passes[s.pass].name + "." + std::string(stage_name(s.stage)) +
-                                               "." + slug(s.defines) + ".hlsl");
-          std::string header = "// kiln internal compiler error: the compiler worker " + outcome.detail + "\n// " +
-                               variant + ", entry point " + binary.entry_point + "\n// reproduce: glslangValidator -D -V -S " +
-                               (s.stage == Stage::Vertex ? "vert" : "frag") + " -e " + binary.entry_point + " " +
-                               repro.filename().string() + "\n";
-          write_file_atomic(repro, header + s.text);
-          sink.report(DiagId::InternalCompilerError, SourceLocation{display_path(plan->declarations[s.pass].entry), 0, 0},
-                      "internal compiler error: the compiler worker " + outcome.detail + " while compiling " + variant,
-                      {"reproducer written to " + repro.string(), "this is a bug in the compiler, not in your shader"});
-        } else if (!outcome.output.ok) {
-          const std::string entry_name = display_path(plan->declarations[s.pass].entry);
-          const std::string& step = outcome.output.failed_step;
-          if (step == "entry-point") {
-            SourceLocation at = locate_json_string(plan->pack.file.string(), plan->pack.text, binary.entry_point);
-            collect(DiagId::MissingEntryPoint, at,
-                    "entry point '" + binary.entry_point + "' of the " + std::string(stage_name(s.stage)) +
-                        " stage is not defined in '" + entry_name + "'",
-                    variant, stage_sources.size() + job_binary[j]);
-          } else {
-            DiagId id = step == "frontend" ? DiagId::HlslError
-                        : step.rfind("validate", 0) == 0 ? DiagId::SpirvInvalid
-                        : step.rfind("cross", 0) == 0 ? DiagId::CrossCompileFailed
-                        : DiagId::OptimizerFailed;
-            // Only the first error: glslang's later ones cascade from it ("'declaration' : Expected").
-            auto first = std::find_if(outcome.output.messages.begin(), outcome.output.messages.end(),
-                                      [](const FrontendMessage& m) { return m.severity == Severity::Error; });
-            if (first != outcome.output.messages.end()) {
-              std::string prefix = id == DiagId::HlslError ? "" : step + ": ";
-              collect(id, located(*first, entry_name), prefix + first->text, variant, stage_sources.size() + job_binary[j]);
-            } else {
-              collect(id, SourceLocation{entry_name, 0, 0}, step + " failed", variant, stage_sources.size() + job_binary[j]);
-            }
-          }
-        } else {
-          for (const FrontendMessage& m : outcome.output.messages)
-            if (m.severity == Severity::Warning)
-              collect(DiagId::HlslWarning, located(m, ""), m.text, variant, stage_sources.size() + job_binary[j]);
-          binary.output = std::move(outcome.output);
-          fresh.push_back(job_binary[j]);
+        if (jobs[j].kind == JobKind::BackEnd) {
+          Module& module = modules[job_subject[j]];
+          module.fresh = outcome.kind == WorkerOutcome::Kind::Done && outcome.output.ok;
+          module.result = std::move(outcome);
+          for (size_t b : module.waiting) settle(b, *module.result);
+          module.waiting.clear();
+          return;
         }
-        ++done;
-        if (options.progress) options.progress(done, binaries.size(), report.cache_hits);
+        const size_t b = job_subject[j];
+        if (outcome.kind != WorkerOutcome::Kind::Done || !outcome.output.ok) {
+          settle(b, outcome);
+          return;
+        }
+        const StageSource& s = stage_sources[binaries[b].source];
+        for (const FrontendMessage& m : outcome.output.messages)
+          if (m.severity == Severity::Warning)
+            collect(DiagId::HlslWarning, located(m, ""), m.text, variant_description(*plan, s), stage_sources.size() + b);
+        front_messages[b] = std::move(outcome.output.messages);
+        const std::vector<uint32_t>& spirv = outcome.output.spirv;
+        Hash128 key = Hasher()
+                          .add(fingerprint)
+                          .add(options.optimize ? 1 : 0)
+                          .add(target_names)
+                          .add(stage_name(binaries[b].stage))
+                          .add(binaries[b].entry_point)
+                          .add(std::string_view(reinterpret_cast<const char*>(spirv.data()), spirv.size() * 4))
+                          .finish();
+        auto [it, inserted] = module_by_key.emplace(key, modules.size());
+        binary_module[b] = it->second;
+        if (inserted) {
+          Module module{key, std::nullopt, false, {}};
+          bool rejected = false;
+          if (cache) {
+            if (auto cached = cache->load(key, rejected)) {
+              module.result = WorkerOutcome{WorkerOutcome::Kind::Done, std::move(*cached), ""};
+              ++report.back_end_hits;
+            }
+            if (rejected) ++report.cache_rejected;
+          }
+          if (!module.result) {
+            CompileJob back = jobs[j];
+            back.kind = JobKind::BackEnd;
+            back.id = modules.size();
+            back.source.clear();
+            back.spirv = spirv;
+            jobs.push_back(std::move(back));  // runs next, in whichever worker is free
+            job_subject.push_back(modules.size());
+            ++report.back_ends;
+          }
+          modules.push_back(std::move(module));
+        }
+        Module& module = modules[it->second];
+        if (module.result) settle(b, *module.result);
+        else module.waiting.push_back(b);
       });
       report.workers_started = pool.spawned();
-      report.compiled = jobs.size();
     }
     // A build with errors in the user's input leaves no cache entry behind. Internal compiler errors are
     // not the input's fault: the other variants' results are kept, so the next build only retries those.
     const bool user_errors = std::any_of(grouped.begin(), grouped.end(), [](const Grouped& g) {
       return diagnostic_info(g.id).severity == Severity::Error;
     });
-    if (cache && !user_errors)
-      for (size_t b : fresh) cache->store(binaries[b].key, *binaries[b].output);
+    if (cache && !user_errors) {
+      for (const Module& module : modules)
+        if (module.fresh) cache->store(module.key, module.result->output);
+      for (size_t b = 0; b < binaries.size(); ++b) {
+        if (binary_module[b] == SIZE_MAX || !binaries[b].output) continue;
+        const Module& module = modules[binary_module[b]];
+        if (module.fresh || module.result->kind == WorkerOutcome::Kind::Done)
+          cache->store_alias(binaries[b].key, module.key, front_messages[b]);
+      }
+    }
   }
   for (Grouped& g : grouped) std::sort(g.variants.begin(), g.variants.end());
   std::sort(grouped.begin(), grouped.end(), [](const Grouped& a, const Grouped& b) { return a.variants[0].first < b.variants[0].first; });

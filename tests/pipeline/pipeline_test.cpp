@@ -71,6 +71,8 @@ TEST_F(SmallLibrary, IncludeEditRecompilesExactlyTheVariantsThatReadIt) {
   // 2 vertex sources (SHADOWS on/off; FOG is fragment-only) + 4 fragment sources.
   EXPECT_EQ(first.funnel.unique_compiles, 6u);
   EXPECT_EQ(first.compiled, 6u);
+  // V never calls ShadowTerm: both vertex sources give one front-end module, so one vertex back end.
+  EXPECT_EQ(first.back_ends, 5u);
   dir.write("lib/Fog.hlsl", "#pragma once\nfloat FogTerm(float x) { return exp2(-2.0 * x); }\n");
   BuildReport second = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
   ASSERT_TRUE(second.ok) << errors_of(sink);
@@ -78,6 +80,28 @@ TEST_F(SmallLibrary, IncludeEditRecompilesExactlyTheVariantsThatReadIt) {
   // Only the fragment variants with FOG include Fog.hlsl: 2 recompiles, 4 cache hits.
   EXPECT_EQ(second.compiled, 2u);
   EXPECT_EQ(second.cache_hits, 4u);
+}
+
+TEST_F(SmallLibrary, EditThatChangesNoReachableCodeRunsOnlyFrontEnds) {
+  DiagnosticSink sink;
+  ASSERT_TRUE(build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink).ok) << errors_of(sink);
+  const std::string first_archive = testing::read_file(dir / "out/p.kpack");
+  // A comment and a helper nobody calls: every stage source's text changes, no entry point's code does.
+  dir.write("lib/Shadows.hlsl", "#pragma once\n// soft shadows: later\nfloat Unused(float x) { return x * x; }\n"
+                                "float ShadowTerm(float x) { return saturate(x * 0.5); }\n");
+  BuildReport second = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
+  ASSERT_TRUE(second.ok) << errors_of(sink);
+  EXPECT_EQ(second.cache_hits, 0u);
+  EXPECT_EQ(second.compiled, 6u);
+  EXPECT_EQ(second.back_ends, 0u);
+  EXPECT_EQ(second.back_end_hits, 5u);
+  EXPECT_EQ(testing::read_file(dir / "out/p.kpack"), first_archive);
+  // The sources' new keys now name those modules: a fresh output directory is served whole from the cache.
+  BuildReport third = build(dir / "p.pack.json", dir / "fresh", dir / "cache", 2, sink);
+  ASSERT_TRUE(third.ok) << errors_of(sink);
+  EXPECT_EQ(third.cache_hits, 6u);
+  EXPECT_EQ(third.compiled, 0u);
+  EXPECT_EQ(testing::read_file(dir / "fresh/p.kpack"), first_archive);
 }
 
 TEST_F(SmallLibrary, DepfileListsEveryIncludedFile) {

@@ -56,6 +56,50 @@ TEST(Cache, CorruptTruncatedOrForeignEntriesAreMisses) {
   EXPECT_TRUE(cache.load(key, rejected));
 }
 
+TEST(Cache, AliasServesItsTargetWithItsOwnMessagesFirst) {
+  testing::TempDir dir;
+  Cache cache(dir.path());
+  Hash128 source = hash128("source"), module = hash128("module");
+  JobOutput result = sample_output();
+  result.messages.push_back({Severity::Warning, "", 0, "from the back end"});
+  ASSERT_TRUE(cache.store(module, result));
+  ASSERT_TRUE(cache.store_alias(source, module, {{Severity::Warning, "S.hlsl", 3, "from the front end"}}));
+  bool rejected = true;
+  auto loaded = cache.load(source, rejected);
+  ASSERT_TRUE(loaded);
+  EXPECT_FALSE(rejected);
+  EXPECT_EQ(loaded->spirv, result.spirv);
+  ASSERT_EQ(loaded->messages.size(), 2u);
+  EXPECT_EQ(loaded->messages[0].text, "from the front end");
+  EXPECT_EQ(loaded->messages[0].line, 3);
+  EXPECT_EQ(loaded->messages[1].text, "from the back end");
+}
+
+TEST(Cache, AliasWhoseTargetIsMissingCorruptOrAnAliasIsAMiss) {
+  testing::TempDir dir;
+  Cache cache(dir.path());
+  Hash128 source = hash128("source"), module = hash128("module"), chain = hash128("chain");
+  ASSERT_TRUE(cache.store_alias(source, module, {}));
+  bool rejected = true;
+  EXPECT_FALSE(cache.load(source, rejected));  // target missing: a plain miss
+  EXPECT_FALSE(rejected);
+
+  ASSERT_TRUE(cache.store(module, sample_output()));
+  std::string good = testing::read_file(cache.entry_path(module));
+  std::string corrupt = good;
+  corrupt[corrupt.size() - 5] ^= 1;
+  dir.write(cache.entry_path(module).lexically_relative(dir.path()).string(), corrupt);
+  EXPECT_FALSE(cache.load(source, rejected));
+  EXPECT_TRUE(rejected);
+
+  // kiln never writes an alias to an alias; one found is rejected, not followed.
+  ASSERT_TRUE(cache.store_alias(chain, source, {}));
+  ASSERT_TRUE(cache.store(module, sample_output()));
+  EXPECT_FALSE(cache.load(chain, rejected));
+  EXPECT_TRUE(rejected);
+  EXPECT_TRUE(cache.load(source, rejected));
+}
+
 TEST(Cache, FailuresAreNeverStored) {
   testing::TempDir dir;
   Cache cache(dir.path());

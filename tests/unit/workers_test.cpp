@@ -22,7 +22,7 @@ const char* kValid = "float4 main() : SV_Target { return float4(1.0, 0.5, 0.25, 
 // glslang 12.0.0 segfaults on this (ARCHITECTURE.md).
 const char* kCrash = "float4 main(float4) : SV_Target { return 0; }\n";
 
-std::vector<WorkerOutcome> run_jobs(const std::vector<CompileJob>& jobs, WorkerLimits limits = {}, unsigned workers = 2) {
+std::vector<WorkerOutcome> run_jobs(std::vector<CompileJob> jobs, WorkerLimits limits = {}, unsigned workers = 2) {
   WorkerPool pool(KILN_WORKER_PATH, workers, limits);
   std::vector<WorkerOutcome> outcomes(jobs.size());
   pool.run(jobs, [&](size_t i, WorkerOutcome o) { outcomes[i] = std::move(o); });
@@ -73,6 +73,16 @@ TEST(Workers, WorkerOverItsMemoryLimitIsAnInternalError) {
   ::unsetenv("KILN_WORKER_FAULT_INJECTION");
   EXPECT_EQ(outcomes[0].kind, WorkerOutcome::Kind::OutOfMemory);
   EXPECT_EQ(outcomes[1].kind, WorkerOutcome::Kind::Done);
+}
+
+// The compile workers are where the allocator matters (bench/REPORT.md section 1): they must be running on
+// the one the build was configured with, and with mimalloc an allocation past the limit must still throw
+// (WorkerOverItsMemoryLimitIsAnInternalError above), not abort.
+TEST(Workers, WorkerRunsOnTheConfiguredAllocator) {
+  std::string version = testing::run({KILN_WORKER_PATH, "--version"}, std::filesystem::temp_directory_path()).out;
+  EXPECT_NE(version.find(KILN_EXPECT_MIMALLOC ? "allocator: mimalloc 2." : "allocator: glibc malloc"), std::string::npos)
+      << version;
+  EXPECT_EQ(version.find("not serving"), std::string::npos) << version;
 }
 
 }  // namespace

@@ -71,8 +71,10 @@ struct BuildReport {
   Funnel funnel;
   std::vector<StageTiming> timings;
   std::vector<StripLine> strip_report;
-  size_t compiled = 0;              // jobs sent to workers
-  size_t cache_hits = 0;
+  size_t compiled = 0;              // stage sources compiled (front ends run)
+  size_t back_ends = 0;             // back ends run: one per distinct front-end module not in the cache
+  size_t back_end_hits = 0;         // front-end modules whose back end was in the cache
+  size_t cache_hits = 0;            // stage sources found whole in the cache (nothing run)
   size_t cache_rejected = 0;
   unsigned workers_started = 0;
   std::filesystem::path manifest;

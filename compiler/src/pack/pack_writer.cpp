@@ -9,6 +9,8 @@
 namespace kiln {
 namespace {
 
+constexpr int kZstdLevel = 3;
+
 void put32(std::string& out, uint32_t v) {
   for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>(v >> (8 * i)));
 }
@@ -31,13 +33,15 @@ uint32_t ArchiveBuilder::add(std::string_view bytes) {
 }
 
 std::string ArchiveBuilder::finish(unsigned threads) const {
-  // zstd level 9: GLSL and MSL text shrink ~5x; each blob is its own frame so the reader can decompress
-  // one variant without touching the others. Compression is deterministic for a given level.
+  // zstd's default level 3: GLSL and MSL text shrink ~4x; each blob is its own frame so the reader can
+  // decompress one variant without touching the others. Compression is deterministic for a given level.
+  // Measured on the default pack's 5,212 blobs (85 MB): level 3 writes 22.2 MB in a quarter of level 9's
+  // time (20.7 MB); the pack is rewritten on every rebuild, so the writer's time matters more than 7%.
   std::vector<std::string> stored(blobs_.size());
   parallel_for(blobs_.size(), threads, [&](size_t i) {
     const std::string& blob = blobs_[i];
     std::string frame(ZSTD_compressBound(blob.size()), '\0');
-    size_t size = ZSTD_compress(frame.data(), frame.size(), blob.data(), blob.size(), 9);
+    size_t size = ZSTD_compress(frame.data(), frame.size(), blob.data(), blob.size(), kZstdLevel);
     if (!ZSTD_isError(size) && size < blob.size()) {
       frame.resize(size);
       stored[i] = std::move(frame);

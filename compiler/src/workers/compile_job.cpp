@@ -8,19 +8,27 @@ namespace kiln {
 
 using nlohmann::json;
 
-JobOutput run_compile_job(Frontend& frontend, const CompileJob& job) {
+namespace {
+
+JobOutput run_front_end(Frontend& frontend, const CompileJob& job) {
   JobOutput out;
   CompileResult compiled = frontend.compile({job.stage, job.entry_point, job.source_name, job.source});
   out.messages = std::move(compiled.messages);
   if (compiled.missing_entry_point) {
     out.failed_step = "entry-point";
-    return out;
-  }
-  if (!compiled.ok) {
+  } else if (!compiled.ok) {
     out.failed_step = "frontend";
-    return out;
+  } else {
+    out.ok = true;
+    out.spirv = std::move(compiled.spirv);
   }
-  SpirvStepResult spirv = legalize_validate_optimize(std::move(compiled.spirv), job.optimize);
+  return out;
+}
+
+// Legalize, validate, optimize, validate, reflect, cross-compile: everything after the front end.
+JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
+  JobOutput out;
+  SpirvStepResult spirv = legalize_validate_optimize(std::move(module), job.optimize);
   if (!spirv.ok) {
     out.failed_step = spirv.step;
     for (std::string& message : spirv.messages) out.messages.push_back({Severity::Error, "", 0, std::move(message)});
@@ -44,8 +52,39 @@ JobOutput run_compile_job(Frontend& frontend, const CompileJob& job) {
   return out;
 }
 
+}  // namespace
+
+JobOutput run_compile_job(Frontend& frontend, const CompileJob& job) {
+  if (job.kind == JobKind::BackEnd) return run_back_end(job.spirv, job);
+  JobOutput front = run_front_end(frontend, job);
+  if (job.kind == JobKind::FrontEnd || !front.ok) return front;
+  JobOutput out = run_back_end(std::move(front.spirv), job);
+  out.messages.insert(out.messages.begin(), front.messages.begin(), front.messages.end());
+  return out;
+}
+
+namespace {
+
+std::vector<uint8_t> words_to_binary(const std::vector<uint32_t>& words) {
+  std::vector<uint8_t> bytes(words.size() * 4);
+  for (size_t i = 0; i < words.size(); ++i)
+    for (int b = 0; b < 4; ++b) bytes[i * 4 + b] = static_cast<uint8_t>(words[i] >> (8 * b));
+  return bytes;
+}
+
+std::vector<uint32_t> binary_to_words(const std::vector<uint8_t>& bytes) {
+  if (bytes.size() % 4 != 0) throw std::runtime_error("SPIR-V size is not a multiple of 4");
+  std::vector<uint32_t> words(bytes.size() / 4);
+  for (size_t i = 0; i < words.size(); ++i)
+    for (int b = 0; b < 4; ++b) words[i] |= static_cast<uint32_t>(bytes[i * 4 + b]) << (8 * b);
+  return words;
+}
+
+}  // namespace
+
 std::vector<uint8_t> encode_job(const CompileJob& job) {
   json j{{"id", job.id},
+         {"kind", static_cast<int>(job.kind)},
          {"stage", stage_name(job.stage)},
          {"entry", job.entry_point},
          {"source_name", job.source_name},
@@ -54,6 +93,7 @@ std::vector<uint8_t> encode_job(const CompileJob& job) {
   json targets = json::array();
   for (Target t : job.targets) targets.push_back(target_name(t));
   j["targets"] = targets;
+  if (!job.spirv.empty()) j["spirv"] = json::binary(words_to_binary(job.spirv));
   return json::to_cbor(j);
 }
 
@@ -61,6 +101,10 @@ CompileJob decode_job(const std::vector<uint8_t>& bytes) {
   json j = json::from_cbor(bytes);
   CompileJob job;
   job.id = j.at("id").get<uint64_t>();
+  int kind = j.at("kind").get<int>();
+  if (kind < 0 || kind > static_cast<int>(JobKind::BackEnd)) throw std::runtime_error("unknown job kind");
+  job.kind = static_cast<JobKind>(kind);
+  if (j.contains("spirv")) job.spirv = binary_to_words(j.at("spirv").get_binary());
   job.stage = parse_stage(j.at("stage").get<std::string>()).value_or(Stage::Fragment);
   job.entry_point = j.at("entry").get<std::string>();
   job.source_name = j.at("source_name").get<std::string>();
@@ -77,10 +121,7 @@ std::vector<uint8_t> encode_output(const JobOutput& output) {
   for (const FrontendMessage& m : output.messages)
     messages.push_back({{"severity", static_cast<int>(m.severity)}, {"path", m.path}, {"line", m.line}, {"text", m.text}});
   j["messages"] = messages;
-  std::vector<uint8_t> spirv(output.spirv.size() * 4);
-  for (size_t i = 0; i < output.spirv.size(); ++i)
-    for (int b = 0; b < 4; ++b) spirv[i * 4 + b] = static_cast<uint8_t>(output.spirv[i] >> (8 * b));
-  j["spirv"] = json::binary(std::move(spirv));
+  j["spirv"] = json::binary(words_to_binary(output.spirv));
   json sources = json::object();
   for (const auto& [target, text] : output.sources) sources[std::string(target_name(target))] = text;
   j["sources"] = sources;
@@ -96,11 +137,7 @@ JobOutput decode_output(const std::vector<uint8_t>& bytes) {
   for (const json& m : j.at("messages"))
     out.messages.push_back({static_cast<Severity>(m.at("severity").get<int>()), m.at("path").get<std::string>(),
                             m.at("line").get<int>(), m.at("text").get<std::string>()});
-  const auto& spirv = j.at("spirv").get_binary();
-  if (spirv.size() % 4 != 0) throw std::runtime_error("SPIR-V size is not a multiple of 4");
-  out.spirv.resize(spirv.size() / 4);
-  for (size_t i = 0; i < out.spirv.size(); ++i)
-    for (int b = 0; b < 4; ++b) out.spirv[i] |= static_cast<uint32_t>(spirv[i * 4 + b]) << (8 * b);
+  out.spirv = binary_to_words(j.at("spirv").get_binary());
   for (auto& [name, text] : j.at("sources").items())
     if (auto target = parse_target(name)) out.sources[*target] = text.get<std::string>();
   out.reflection = j.at("reflection");

@@ -20,12 +20,20 @@ namespace kiln {
 // as declared (not as SPIRV-Cross renamed a colliding variable).
 inline constexpr int kCompileJobRevision = 3;
 
+// A compile runs in two halves so that stage sources which differ only in code the entry point never
+// reaches (a fragment-only keyword's branch in a file the vertex stage also includes) are legalized,
+// optimized and cross-compiled once: the build hashes each front end's SPIR-V and sends one back end per
+// distinct module. Full does both halves in one job.
+enum class JobKind { Full, FrontEnd, BackEnd };
+
 struct CompileJob {
   uint64_t id = 0;
+  JobKind kind = JobKind::Full;
   Stage stage = Stage::Fragment;
   std::string entry_point;
   std::string source_name;
-  std::string source;  // preprocessed
+  std::string source;          // preprocessed (Full, FrontEnd)
+  std::vector<uint32_t> spirv;  // the front end's module (BackEnd)
   std::vector<Target> targets;
   bool optimize = true;
 };
@@ -41,6 +49,7 @@ struct JobOutput {
   nlohmann::json reflection;               // reflect_spirv + "gl" / "msl" bindings
 };
 
+// FrontEnd: `spirv` is the front end's (not yet legal) module. BackEnd and Full: the finished output.
 JobOutput run_compile_job(Frontend& frontend, const CompileJob& job);
 
 std::vector<uint8_t> encode_job(const CompileJob& job);

@@ -10,6 +10,8 @@
 
 #include <cerrno>
 #include <cstring>
+#include <deque>
+#include <numeric>
 #include <new>
 #include <thread>
 
@@ -151,9 +153,18 @@ void WorkerPool::stop(Worker& worker, bool kill_now) {
   worker.buffer.clear();
 }
 
-void WorkerPool::run(const std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done) {
-  while (workers_.size() < std::min<size_t>(count_, jobs.size())) workers_.push_back(new Worker);
-  size_t next = 0, finished = 0;
+void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done) {
+  std::deque<size_t> ready(jobs.size());
+  std::iota(ready.begin(), ready.end(), size_t{0});
+  size_t known = jobs.size(), finished = 0;
+  // Jobs appended by on_done go to the front of the queue: a follow-up carries a finished job's result,
+  // which is released as soon as it runs.
+  auto finish = [&](size_t index, WorkerOutcome outcome) {
+    ++finished;
+    on_done(index, std::move(outcome));
+    for (size_t i = jobs.size(); i > known; --i) ready.push_front(i - 1);
+    known = jobs.size();
+  };
   auto fail_job = [&](Worker& worker, WorkerOutcome::Kind kind, std::string detail, bool kill_now) {
     size_t index = static_cast<size_t>(worker.job);
     worker.job = -1;
@@ -168,24 +179,25 @@ void WorkerPool::run(const std::vector<CompileJob>& jobs, const std::function<vo
     WorkerOutcome outcome;
     outcome.kind = kind;
     outcome.detail = std::move(detail);
-    ++finished;
-    on_done(index, std::move(outcome));
+    finish(index, std::move(outcome));
   };
 
   while (finished < jobs.size()) {
+    while (workers_.size() < std::min<size_t>(count_, jobs.size())) workers_.push_back(new Worker);
     // Hand out work to idle workers.
     for (Worker* worker : workers_) {
-      if (worker->job >= 0 || next >= jobs.size()) continue;
+      if (worker->job >= 0 || ready.empty()) continue;
+      size_t next = ready.front();
+      ready.pop_front();
       std::string error;
       if (worker->pid < 0 && !spawn(*worker, error)) {
         WorkerOutcome outcome;
         outcome.kind = WorkerOutcome::Kind::Failed;
         outcome.detail = error;
-        ++finished;
-        on_done(next++, std::move(outcome));
+        finish(next, std::move(outcome));
         continue;
       }
-      worker->job = static_cast<long>(next++);
+      worker->job = static_cast<long>(next);
       worker->started = std::chrono::steady_clock::now();
       if (!write_message(worker->to_worker, encode_job(jobs[static_cast<size_t>(worker->job)])))
         fail_job(*worker, WorkerOutcome::Kind::Crashed, "", false);
@@ -203,8 +215,8 @@ void WorkerPool::run(const std::vector<CompileJob>& jobs, const std::function<vo
       wait = std::min(wait, std::max(left, std::chrono::milliseconds(0)));
     }
     if (fds.empty()) continue;
-    int ready = ::poll(fds.data(), fds.size(), static_cast<int>(wait.count()) + 1);
-    if (ready < 0 && errno != EINTR) break;
+    int polled_count = ::poll(fds.data(), fds.size(), static_cast<int>(wait.count()) + 1);
+    if (polled_count < 0 && errno != EINTR) break;
     now = std::chrono::steady_clock::now();
     for (size_t i = 0; i < fds.size(); ++i) {
       Worker& worker = *polled[i];
@@ -237,8 +249,7 @@ void WorkerPool::run(const std::vector<CompileJob>& jobs, const std::function<vo
               outcome.detail = std::string("sent a malformed result: ") + error.what();
               stop(worker, true);
             }
-            ++finished;
-            on_done(index, std::move(outcome));
+            finish(index, std::move(outcome));
           }
         }
       } else if (now - worker.started >= limits_.job_timeout) {

@@ -33,8 +33,9 @@ class WorkerPool {
   WorkerPool(const WorkerPool&) = delete;
   WorkerPool& operator=(const WorkerPool&) = delete;
 
-  // Runs every job; `on_done(index, outcome)` is called on this thread as each finishes.
-  void run(const std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done);
+  // Runs every job; `on_done(index, outcome)` is called on this thread as each finishes. It may append
+  // follow-up jobs to `jobs` (run next, in the same workers); `index` always indexes `jobs`.
+  void run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done);
   unsigned spawned() const { return spawned_; }
 
  private:
