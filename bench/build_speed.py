@@ -53,6 +53,13 @@ def naive_commands(kiln, pack, work):
     return lines, len(listing["variants"])
 
 
+def compare_packs(a, b):
+    """True when two output directories hold byte-identical archives and manifests."""
+    names = sorted(n for n in os.listdir(a) if n.endswith((".kpack", ".manifest.json")))
+    return names == sorted(n for n in os.listdir(b) if n.endswith((".kpack", ".manifest.json"))) and all(
+        open(os.path.join(a, n), "rb").read() == open(os.path.join(b, n), "rb").read() for n in names)
+
+
 def timed(cmd, env=None):
     """Wall time and the peak RSS of the largest child process (KiB)."""
     start = time.perf_counter()
@@ -66,6 +73,7 @@ def timed(cmd, env=None):
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--kiln", required=True)
+    parser.add_argument("--kiln-glibc", help="the same kiln built with -DKILN_MIMALLOC=OFF: one more cold configuration")
     parser.add_argument("--pack", default=os.path.join(ROOT, "variants/lit.pack.json"))
     parser.add_argument("--reps", type=int, default=3)
     parser.add_argument("--jobs", type=int, default=os.cpu_count())
@@ -84,17 +92,28 @@ def main():
             f.write("\n".join(lines) + "\n")
 
         # An include that only some variants read: Fog.hlsl is included only by the fog variants.
-        shadows = os.path.join(ROOT, "shaderlib/Fog.hlsl")
-        original = open(shadows).read()
+        fog = os.path.join(ROOT, "shaderlib/Fog.hlsl")
+        original = open(fog).read()
+        code_anchor = "max(fogParams.z - fogParams.y, 1e-4)"
+        assert code_anchor in original, "bench/build_speed.py: the FOG_LINEAR code it edits has moved"
 
-        def kiln_cmd(out, cache, jobs):
-            return [kiln, "build", args.pack, "-o", out, "--cache", cache, "-j", str(jobs), "-q"]
+        def comment_edit(n):
+            # Changes the text of every fog variant, not the code any entry point reaches.
+            return original + f"\n// benchmark edit {n}\nfloat KilnBenchEdit{n}() {{ return 0.0; }}\n"
 
-        def cold(jobs):
-            out, cache = os.path.join(work, f"cold{jobs}"), os.path.join(work, f"cache-cold{jobs}")
+        def code_edit(n):
+            # Changes FOG_LINEAR's code: those variants' modules change, the other fog variants' do not.
+            return original.replace(code_anchor, f"max(fogParams.z - fogParams.y, {1e-4 + (n + 1) * 1e-7:.7e})")
+
+        def kiln_cmd(out, cache, jobs, exe=kiln):
+            return [exe, "build", args.pack, "-o", out, "--cache", cache, "-j", str(jobs), "-q"]
+
+        def cold(jobs, exe=kiln):
+            tag = f"{jobs}" if exe == kiln else f"{jobs}-other"
+            out, cache = os.path.join(work, f"cold{tag}"), os.path.join(work, f"cache-cold{tag}")
             shutil.rmtree(out, ignore_errors=True)
             shutil.rmtree(cache, ignore_errors=True)
-            return timed(kiln_cmd(out, cache, jobs))[0]
+            return timed(kiln_cmd(out, cache, jobs, exe))[0]
 
         warm_out, warm_cache = os.path.join(work, "warm"), os.path.join(work, "cache-warm")
         timed(kiln_cmd(warm_out, warm_cache, args.jobs))  # prime the cache
@@ -109,16 +128,20 @@ def main():
 
         edit_counter = [0]
 
-        def include_edit():
-            edit_counter[0] += 1
-            with open(shadows, "w") as f:
-                f.write(original + f"\n// benchmark edit {edit_counter[0]}\nfloat KilnBenchEdit{edit_counter[0]}() {{ return 0.0; }}\n")
+        def with_edit(text, cmd):
+            with open(fog, "w") as f:
+                f.write(text)
             try:
-                elapsed, _ = timed(kiln_cmd(warm_out, warm_cache, args.jobs))
+                return timed(cmd)
             finally:
-                with open(shadows, "w") as f:
+                with open(fog, "w") as f:
                     f.write(original)
-            return elapsed
+
+        def include_edit(make_text):
+            def run_edit():
+                edit_counter[0] += 1  # a new edit each time: never a cache hit
+                return with_edit(make_text(edit_counter[0]), kiln_cmd(warm_out, warm_cache, args.jobs))[0]
+            return run_edit
 
         def naive_serial():
             return timed(["bash", script])[0]
@@ -126,15 +149,19 @@ def main():
         def naive_parallel():
             return timed(f"xargs -P {args.jobs} -I CMD -d '\\n' bash -c CMD < {joblist}")[0]
 
-        configs = {
-            f"kiln cold -j{args.jobs}": lambda: cold(args.jobs),
+        configs = {f"kiln cold -j{args.jobs}": lambda: cold(args.jobs)}
+        if args.kiln_glibc:
+            glibc = os.path.abspath(args.kiln_glibc)
+            configs[f"kiln cold -j{args.jobs}, glibc malloc"] = lambda: cold(args.jobs, glibc)
+        configs.update({
             "kiln cold -j1": lambda: cold(1),
             "kiln warm (full cache, no pack)": warm_full_cache,
             "kiln no-change rebuild": no_change,
-            "kiln after editing Fog.hlsl": include_edit,
+            "kiln after a code edit in Fog.hlsl": include_edit(code_edit),
+            "kiln after a comment edit in Fog.hlsl": include_edit(comment_edit),
             "naive loop, serial": naive_serial,
             f"naive loop, xargs -P{args.jobs}": naive_parallel,
-        }
+        })
         samples = {name: [] for name in configs}
         for rep in range(args.reps):
             for name, fn in configs.items():
@@ -143,16 +170,11 @@ def main():
 
         # One more instrumented build for the funnel, stage times, and what the include edit recompiled.
         cold_out = os.path.join(work, "funnel")
-        stats_run = run([kiln, "build", args.pack, "-o", cold_out, "--cache", os.path.join(work, "cache-funnel"), "-j", str(args.jobs)])
-        with open(shadows, "w") as f:
-            f.write(original + "\n// benchmark edit for the recompile count\n")
-        try:
-            edit_run = run([kiln, "build", args.pack, "-o", cold_out, "--cache", os.path.join(work, "cache-funnel"), "-j", str(args.jobs)])
-        finally:
-            with open(shadows, "w") as f:
-                f.write(original)
+        funnel_cmd = [kiln, "build", args.pack, "-o", cold_out, "--cache", os.path.join(work, "cache-funnel"), "-j", str(args.jobs)]
+        stats_run = run(funnel_cmd)
+        edit_summaries = {"code": with_edit(code_edit(0), funnel_cmd)[1], "comment": with_edit(comment_edit(0), funnel_cmd)[1]}
         peak_kib = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-        manifest = json.load(open(os.path.join(cold_out, "lit.manifest.json")))
+        manifest = json.load(open(os.path.join(cold_out, json.load(open(args.pack))["name"] + ".manifest.json")))
 
         result = {
             "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
@@ -164,7 +186,9 @@ def main():
             "naive_stage_compiles": len(lines),
             "funnel": manifest["funnel"],
             "kiln_summary": stats_run.stdout,
-            "include_edit_summary": edit_run.stdout,
+            "edit_summaries": edit_summaries,
+            "glibc_pack_identical": compare_packs(os.path.join(work, f"cold{args.jobs}"), os.path.join(work, f"cold{args.jobs}-other"))
+            if args.kiln_glibc else None,
             "peak_child_rss_mib": round(peak_kib / 1024, 1),
             "reps": args.reps,
             "samples_s": samples,

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates bench/REPORT.md and bench/plots/*.png from scratch: installs the Debian packages, builds,
-# then runs the five instruments and the report. About 45 minutes on 2 cores; do not run other heavy jobs
+# then runs the five instruments and the report. About 55 minutes on 2 cores; do not run other heavy jobs
 # meanwhile (the build benchmark edits shaderlib/Fog.hlsl temporarily and restores it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -8,7 +8,10 @@ bash .ci/install-deps
 cmake --preset ci
 cmake --build --preset ci
 mkdir -p bench/results
-python3 bench/build_speed.py --kiln build/ci/compiler/kiln --reps 3
+# The same kiln on glibc's malloc, for the allocator comparison in section 1.
+cmake -S . -B build/glibc -G Ninja -DCMAKE_BUILD_TYPE=Release -DKILN_MIMALLOC=OFF -DKILN_BUILD_TESTS=OFF -DKILN_BUILD_BENCH=OFF
+cmake --build build/glibc --target kiln kiln-worker
+python3 bench/build_speed.py --kiln build/ci/compiler/kiln --kiln-glibc build/glibc/compiler/kiln --reps 3
 python3 bench/scaling.py --kiln build/ci/compiler/kiln
 KILN_STRESS_REPORT="$PWD/bench/results/stress.json" build/ci/tests/kiln_tests_stress
 build/ci/bench/kiln-shading-study bench/results/shading_study.json
