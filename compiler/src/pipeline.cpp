@@ -660,12 +660,10 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     if (cache && !user_errors) {
       for (const Module& module : modules)
         if (module.fresh) cache->store(module.key, module.result->output);
-      for (size_t b = 0; b < binaries.size(); ++b) {
-        if (binary_module[b] == SIZE_MAX || !binaries[b].output) continue;
-        const Module& module = modules[binary_module[b]];
-        if (module.fresh || module.result->kind == WorkerOutcome::Kind::Done)
-          cache->store_alias(binaries[b].key, module.key, front_messages[b]);
-      }
+      // A binary has an output only when its module's result is good (compiled now or already cached).
+      for (size_t b = 0; b < binaries.size(); ++b)
+        if (binary_module[b] != SIZE_MAX && binaries[b].output)
+          cache->store_alias(binaries[b].key, modules[binary_module[b]].key, front_messages[b]);
     }
   }
   for (Grouped& g : grouped) std::sort(g.variants.begin(), g.variants.end());

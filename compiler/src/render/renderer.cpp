@@ -278,62 +278,18 @@ VkPipeline make_pipeline(VulkanContext& context, VulkanObjects& objects, const S
   const StageView* fs = variant.stage("fragment");
   if (!vs || !fs || vs->spirv.empty() || fs->spirv.empty())
     fail("variant " + variant.pass + " #" + std::to_string(variant.index) + " has no SPIR-V (build the pack with the spirv target)");
-  VkPipelineShaderStageCreateInfo stages[2]{};
-  stages[0].sType = stages[1].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
-  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-  stages[0].module = objects.shader_module(vs->spirv.data(), vs->spirv.size());
-  stages[0].pName = vs->entry_point.c_str();
-  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-  stages[1].module = objects.shader_module(fs->spirv.data(), fs->spirv.size());
-  stages[1].pName = fs->entry_point.c_str();
-  auto attributes = vertex_attributes(*vs);
-  VkVertexInputBindingDescription binding{0, kVertexFloats * 4, VK_VERTEX_INPUT_RATE_VERTEX};
-  VkPipelineVertexInputStateCreateInfo vertex_input{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
-  vertex_input.vertexBindingDescriptionCount = 1;
-  vertex_input.pVertexBindingDescriptions = &binding;
-  vertex_input.vertexAttributeDescriptionCount = static_cast<uint32_t>(attributes.size());
-  vertex_input.pVertexAttributeDescriptions = attributes.data();
-  VkPipelineInputAssemblyStateCreateInfo assembly{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
-  assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
-  VkPipelineViewportStateCreateInfo viewport_state{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
-  viewport_state.viewportCount = 1;
-  viewport_state.scissorCount = 1;
-  VkDynamicState dynamic_states[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
-  VkPipelineDynamicStateCreateInfo dynamic{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
-  dynamic.dynamicStateCount = 2;
-  dynamic.pDynamicStates = dynamic_states;
-  VkPipelineRasterizationStateCreateInfo raster{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
-  raster.polygonMode = VK_POLYGON_MODE_FILL;
-  raster.cullMode = VK_CULL_MODE_NONE;  // the Forward pass handles back faces (SV_IsFrontFace)
-  raster.lineWidth = 1.0f;
-  VkPipelineMultisampleStateCreateInfo multisample{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
-  multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
-  VkPipelineDepthStencilStateCreateInfo depth{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
-  depth.depthTestEnable = VK_TRUE;
-  depth.depthWriteEnable = VK_TRUE;
-  depth.depthCompareOp = VK_COMPARE_OP_LESS;
-  std::vector<VkPipelineColorBlendAttachmentState> blends(color_targets);
-  for (auto& b : blends) b.colorWriteMask = 0xf;
-  VkPipelineColorBlendStateCreateInfo blend_state{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
-  blend_state.attachmentCount = color_targets;
-  blend_state.pAttachments = blends.data();
-  VkGraphicsPipelineCreateInfo info{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
-  info.stageCount = 2;
-  info.pStages = stages;
-  info.pVertexInputState = &vertex_input;
-  info.pInputAssemblyState = &assembly;
-  info.pViewportState = &viewport_state;
-  info.pRasterizationState = &raster;
-  info.pMultisampleState = &multisample;
-  info.pDepthStencilState = &depth;
-  info.pColorBlendState = &blend_state;
-  info.pDynamicState = &dynamic;
-  info.layout = layout;
-  info.renderPass = pass;
-  VkPipeline pipeline;
-  check(vkCreateGraphicsPipelines(context.device(), VK_NULL_HANDLE, 1, &info, nullptr, &pipeline),
-        "vkCreateGraphicsPipelines");
-  return pipeline;
+  GraphicsPipelineDesc desc;
+  desc.vertex = objects.shader_module(vs->spirv.data(), vs->spirv.size());
+  desc.vertex_entry = vs->entry_point.c_str();
+  desc.fragment = objects.shader_module(fs->spirv.data(), fs->spirv.size());
+  desc.fragment_entry = fs->entry_point.c_str();
+  desc.vertex_bindings = {{0, kVertexFloats * 4, VK_VERTEX_INPUT_RATE_VERTEX}};
+  desc.vertex_attributes = vertex_attributes(*vs);
+  desc.color_targets = color_targets;
+  desc.depth = true;  // every pass here renders into a depth attachment
+  desc.layout = layout;
+  desc.render_pass = pass;
+  return create_graphics_pipeline(context.device(), desc);
 }
 
 void set_viewport(VkCommandBuffer cmd, uint32_t x, uint32_t y, uint32_t w, uint32_t h) {

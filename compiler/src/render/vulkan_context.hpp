@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -105,6 +106,26 @@ class VulkanObjects {
 };
 
 bool is_depth_format(VkFormat format);
+
+// A graphics pipeline as kiln's renderers build them: triangle lists, no culling (shaders handle back faces
+// through SV_IsFrontFace), one sample, every colour target written without blending. The fields say what
+// differs between the scene renderer and the probe harness of the tests.
+struct GraphicsPipelineDesc {
+  VkShaderModule vertex = VK_NULL_HANDLE;
+  const char* vertex_entry = "main";
+  VkShaderModule fragment = VK_NULL_HANDLE;
+  const char* fragment_entry = "main";
+  std::vector<VkVertexInputBindingDescription> vertex_bindings;
+  std::vector<VkVertexInputAttributeDescription> vertex_attributes;
+  uint32_t color_targets = 1;
+  bool depth = false;                       // depth test and write, LESS (the render pass has a depth attachment)
+  std::optional<VkExtent2D> fixed_viewport;  // otherwise viewport and scissor are dynamic state
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkRenderPass render_pass = VK_NULL_HANDLE;
+};
+
+// The caller owns the pipeline (VulkanObjects::adopt).
+VkPipeline create_graphics_pipeline(VkDevice device, const GraphicsPipelineDesc& desc);
 
 // A layout transition of every subresource of `image`.
 void image_barrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkImageLayout from, VkImageLayout to,
