@@ -1,69 +1,94 @@
-// Times each step of one compile job on a preprocessed stage source (from `kiln build --emit preprocessed`):
-// front end, legalization, validation, optimization, validation, the three cross-compilers, reflection.
-// usage: kiln-compile-steps FILE.hlsl vertex|fragment ENTRY [repetitions]
+// Times each step of one compile job on a preprocessed stage source (from `kiln build --emit preprocessed`),
+// in the order a worker runs them: front end (glslang), legalize, validate, optimize, validate, reflect, the
+// three cross-compilers. Linked with the same allocator as kiln-worker, so the numbers are the workers'.
+// usage: kiln-compile-steps FILE.hlsl vertex|fragment ENTRY [repetitions] [--json OUT]
 #include <algorithm>
 #include <chrono>
 #include <fstream>
+#include <functional>
 #include <iostream>
-#include <map>
 #include <sstream>
+#include <string_view>
 
+#include <nlohmann/json.hpp>
+
+#include "../compiler/cli/allocator.hpp"
 #include "cross/cross_compile.hpp"
 #include "frontend/frontend.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "reflect/reflect.hpp"
 
 int main(int argc, char** argv) {
-  if (argc < 4) {
-    std::cerr << "usage: kiln-compile-steps FILE.hlsl vertex|fragment ENTRY [repetitions]\n";
+  std::vector<std::string_view> args(argv + 1, argv + argc);
+  std::string json_out;
+  if (auto at = std::find(args.begin(), args.end(), "--json"); at != args.end() && at + 1 != args.end()) {
+    json_out = std::string(*(at + 1));
+    args.erase(at, at + 2);
+  }
+  if (args.size() < 3) {
+    std::cerr << "usage: kiln-compile-steps FILE.hlsl vertex|fragment ENTRY [repetitions] [--json OUT]\n";
     return 2;
   }
-  std::ifstream in(argv[1]);
+  const std::string path(args[0]), entry(args[2]);
+  std::ifstream in(path);
   std::stringstream text;
   text << in.rdbuf();
-  std::string source = text.str();
-  kiln::Stage stage = kiln::parse_stage(argv[2]).value_or(kiln::Stage::Fragment);
-  int reps = argc > 4 ? std::stoi(argv[4]) : 9;
+  const std::string source = text.str();
+  const kiln::Stage stage = kiln::parse_stage(args[1]).value_or(kiln::Stage::Fragment);
+  const int reps = args.size() > 3 ? std::stoi(std::string(args[3])) : 9;
   auto frontend = kiln::make_glslang_frontend();
-  std::map<std::string, std::vector<double>> times;
+
   using clock = std::chrono::steady_clock;
-  auto ms = [](clock::time_point a, clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
-  for (int r = 0; r < reps; ++r) {
-    auto t0 = clock::now();
-    kiln::CompileResult compiled = frontend->compile({stage, argv[3], argv[1], source});
-    auto t1 = clock::now();
-    if (!compiled.ok) {
-      std::cerr << "compile failed\n";
-      return 1;
+  std::vector<std::string> names;
+  std::vector<std::vector<double>> times;
+  auto timed = [&](size_t index, const char* name, const std::function<bool()>& step) {
+    if (times.size() <= index) {
+      names.push_back(name);
+      times.emplace_back();
     }
-    auto legal = kiln::legalize_validate_optimize(compiled.spirv, false);
-    auto t2 = clock::now();
-    auto full = kiln::legalize_validate_optimize(compiled.spirv, true);
-    auto t3 = clock::now();
-    auto glsl = kiln::cross_compile(full.spirv, kiln::Target::Glsl, stage);
-    auto t4 = clock::now();
-    auto gles = kiln::cross_compile(full.spirv, kiln::Target::Gles, stage);
-    auto t5 = clock::now();
-    auto msl = kiln::cross_compile(full.spirv, kiln::Target::Msl, stage);
-    auto t6 = clock::now();
-    auto reflection = kiln::reflect_spirv(full.spirv);
-    auto t7 = clock::now();
-    auto validated = kiln::validate_spirv(legal.spirv);
-    auto t8 = clock::now();
-    times["8 spirv-val of the legalized module alone"].push_back(ms(t7, t8));
-    times["1 front end (glslang)"].push_back(ms(t0, t1));
-    times["2 legalize + validate"].push_back(ms(t1, t2));
-    times["3 optimize + validate (incl. step 2 again)"].push_back(ms(t2, t3));
-    times["4 SPIRV-Cross GLSL 450"].push_back(ms(t3, t4));
-    times["5 SPIRV-Cross GLSL ES 310"].push_back(ms(t4, t5));
-    times["6 SPIRV-Cross MSL"].push_back(ms(t5, t6));
-    times["7 reflect"].push_back(ms(t6, t7));
-    if (r == 0)
-      std::cout << "SPIR-V words: front end " << compiled.spirv.size() << ", legalized " << legal.spirv.size()
-                << ", optimized " << full.spirv.size() << "\n";
+    auto start = clock::now();
+    bool ok = step();
+    times[index].push_back(std::chrono::duration<double, std::milli>(clock::now() - start).count());
+    if (!ok) {
+      std::cerr << "kiln-compile-steps: step '" << name << "' failed on " << path << "\n";
+      std::exit(1);
+    }
+  };
+  nlohmann::json words;
+  for (int r = 0; r < reps; ++r) {
+    kiln::CompileResult front;
+    kiln::SpirvStepResult legal, optimized;
+    size_t i = 0;
+    timed(i++, "front end (glslang)", [&] {
+      front = frontend->compile({stage, entry, path, source});
+      return front.ok;
+    });
+    timed(i++, "legalize", [&] { return (legal = kiln::legalize_spirv(front.spirv)).ok; });
+    timed(i++, "validate", [&] { return kiln::validate_spirv(legal.spirv).ok; });
+    timed(i++, "optimize (-O)", [&] { return (optimized = kiln::optimize_spirv(legal.spirv)).ok; });
+    timed(i++, "validate again", [&] { return kiln::validate_spirv(optimized.spirv).ok; });
+    timed(i++, "reflect", [&] { return !kiln::reflect_spirv(optimized.spirv).is_null(); });
+    timed(i++, "SPIRV-Cross GLSL 450", [&] { return kiln::cross_compile(optimized.spirv, kiln::Target::Glsl, stage).ok; });
+    timed(i++, "SPIRV-Cross GLSL ES 310", [&] { return kiln::cross_compile(optimized.spirv, kiln::Target::Gles, stage).ok; });
+    timed(i++, "SPIRV-Cross MSL", [&] { return kiln::cross_compile(optimized.spirv, kiln::Target::Msl, stage).ok; });
+    words = {{"front_end", front.spirv.size()}, {"legalized", legal.spirv.size()}, {"optimized", optimized.spirv.size()}};
   }
-  for (auto& [step, values] : times) {
-    std::sort(values.begin(), values.end());
-    std::cout << step << ": median " << values[values.size() / 2] << " ms\n";
+  nlohmann::json steps = nlohmann::json::array();
+  double total = 0;
+  for (size_t i = 0; i < names.size(); ++i) {
+    std::sort(times[i].begin(), times[i].end());
+    double median = times[i][times[i].size() / 2];
+    total += median;
+    steps.push_back({{"step", names[i]}, {"median_ms", median}});
+    std::cout << names[i] << ": median " << median << " ms\n";
+  }
+  std::cout << "sum of medians: " << total << " ms; SPIR-V words: " << words.dump() << "\n";
+  if (!json_out.empty()) {
+    std::ofstream out(json_out);
+    out << nlohmann::json{{"source", path}, {"stage", std::string(args[1])}, {"entry", entry}, {"repetitions", reps},
+                          {"allocator", kiln::allocator_description()}, {"spirv_words", words}, {"steps", steps},
+                          {"total_ms", total}}
+               .dump(2)
+        << "\n";
   }
 }

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates bench/REPORT.md and bench/plots/*.png from scratch: installs the Debian packages, builds,
-# then runs the five instruments and the report. About 55 minutes on 2 cores; do not run other heavy jobs
+# then runs the six instruments and the report. About 55 minutes on 2 cores; do not run other heavy jobs
 # meanwhile (the build benchmark edits shaderlib/Fog.hlsl temporarily and restores it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -12,6 +12,14 @@ mkdir -p bench/results
 cmake -S . -B build/glibc -G Ninja -DCMAKE_BUILD_TYPE=Release -DKILN_MIMALLOC=OFF -DKILN_BUILD_TESTS=OFF -DKILN_BUILD_BENCH=OFF
 cmake --build build/glibc --target kiln kiln-worker
 python3 bench/build_speed.py --kiln build/ci/compiler/kiln --kiln-glibc build/glibc/compiler/kiln --reps 3
+# Where one compile's time goes: the largest Forward fragment and vertex sources of the default pack.
+steps_dir=$(mktemp -d)
+build/ci/compiler/kiln build variants/lit.pack.json -o "$steps_dir" --cache build/ci/kiln-cache --emit preprocessed -q
+build/ci/bench/kiln-compile-steps "$(ls -S "$steps_dir"/emit/Forward/fragment/*.hlsl | head -1)" fragment LitFragment 15 \
+  --json bench/results/compile_steps_fragment.json
+build/ci/bench/kiln-compile-steps "$(ls -S "$steps_dir"/emit/Forward/vertex/*.hlsl | head -1)" vertex LitVertex 15 \
+  --json bench/results/compile_steps_vertex.json
+rm -rf "$steps_dir"
 python3 bench/scaling.py --kiln build/ci/compiler/kiln
 KILN_STRESS_REPORT="$PWD/bench/results/stress.json" build/ci/tests/kiln_tests_stress
 build/ci/bench/kiln-shading-study bench/results/shading_study.json

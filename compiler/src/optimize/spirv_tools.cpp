@@ -43,33 +43,41 @@ SpirvStepResult validate_spirv(const std::vector<uint32_t>& spirv) {
   return result;
 }
 
-SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize) {
+namespace {
+
+SpirvStepResult run_recipe(const std::vector<uint32_t>& spirv, const char* step, void (*recipe)(spvtools::Optimizer&)) {
   SpirvStepResult result;
-  {
-    result.step = "legalize";
-    spvtools::Optimizer legalizer(kTargetEnv);
-    legalizer.SetMessageConsumer(collect_into(result.messages));
-    legalizer.RegisterLegalizationPasses();
-    std::vector<uint32_t> legal;
-    if (!legalizer.Run(spirv.data(), spirv.size(), &legal, optimizer_options())) return result;
-    spirv = std::move(legal);
-  }
-  result.step = "validate";
-  if (!run_validator(spirv, result.messages)) return result;
-  if (optimize) {
-    result.step = "optimize";
-    spvtools::Optimizer optimizer(kTargetEnv);
-    optimizer.SetMessageConsumer(collect_into(result.messages));
-    optimizer.RegisterPerformancePasses();
-    std::vector<uint32_t> optimized;
-    if (!optimizer.Run(spirv.data(), spirv.size(), &optimized, optimizer_options())) return result;
-    spirv = std::move(optimized);
-    result.step = "validate-optimized";
-    if (!run_validator(spirv, result.messages)) return result;
-  }
-  result.ok = true;
-  result.spirv = std::move(spirv);
+  result.step = step;
+  spvtools::Optimizer optimizer(kTargetEnv);
+  optimizer.SetMessageConsumer(collect_into(result.messages));
+  recipe(optimizer);
+  result.ok = optimizer.Run(spirv.data(), spirv.size(), &result.spirv, optimizer_options());
+  if (!result.ok) result.spirv.clear();
   return result;
+}
+
+}  // namespace
+
+SpirvStepResult legalize_spirv(const std::vector<uint32_t>& spirv) {
+  return run_recipe(spirv, "legalize", [](spvtools::Optimizer& o) { o.RegisterLegalizationPasses(); });
+}
+
+SpirvStepResult optimize_spirv(const std::vector<uint32_t>& spirv) {
+  return run_recipe(spirv, "optimize", [](spvtools::Optimizer& o) { o.RegisterPerformancePasses(); });
+}
+
+SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize) {
+  SpirvStepResult result = legalize_spirv(spirv);
+  if (!result.ok) return result;
+  result.step = "validate";
+  result.ok = run_validator(result.spirv, result.messages);
+  if (!result.ok || !optimize) return result;
+  SpirvStepResult optimized = optimize_spirv(result.spirv);
+  optimized.messages.insert(optimized.messages.begin(), result.messages.begin(), result.messages.end());
+  if (!optimized.ok) return optimized;
+  optimized.step = "validate-optimized";
+  optimized.ok = run_validator(optimized.spirv, optimized.messages);
+  return optimized;
 }
 
 std::string disassemble_spirv(const std::vector<uint32_t>& spirv) {
