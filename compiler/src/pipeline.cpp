@@ -531,26 +531,37 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     size_t done = report.cache_hits;
     if (options.progress) options.progress(done, binaries.size(), report.cache_hits);
 
-    auto fail = [&](size_t b, const WorkerOutcome& outcome) {
+    // `module`: the front end's SPIR-V, when the worker died in the back end.
+    auto fail = [&](size_t b, const WorkerOutcome& outcome, const std::vector<uint32_t>* module) {
       Binary& binary = binaries[b];
       const StageSource& s = stage_sources[binary.source];
       std::string variant = variant_description(*plan, s);
       const size_t order = stage_sources.size() + b;
       if (outcome.kind != WorkerOutcome::Kind::Done) {
         report.internal_errors = true;
-        // A reproducer next to the outputs: the exact preprocessed source the worker was given.
+        // A reproducer next to the outputs: the exact preprocessed source the worker was given, and for a
+        // back-end death the module it was given too, with the SPIRV-Tools commands that replay the back end.
         std::filesystem::path dir = options.output_dir / "kiln-ice";
         std::filesystem::create_directories(dir, ec);
-        std::filesystem::path repro = dir / (plan->pack.passes[s.pass].name + "." + std::string(stage_name(s.stage)) +
-                                             "." + slug(s.defines) + ".hlsl");
+        const std::string base = plan->pack.passes[s.pass].name + "." + std::string(stage_name(s.stage)) + "." + slug(s.defines);
+        std::filesystem::path repro = dir / (base + ".hlsl");
         std::string header = "// kiln internal compiler error: the compiler worker " + outcome.detail + "\n// " +
                              variant + ", entry point " + binary.entry_point + "\n// reproduce: glslangValidator -D -V -S " +
                              (s.stage == Stage::Vertex ? "vert" : "frag") + " -e " + binary.entry_point + " " +
                              repro.filename().string() + "\n";
+        std::vector<std::string> notes{"reproducer written to " + repro.string()};
+        if (module) {
+          std::filesystem::path spv = dir / (base + ".spv");
+          write_file_atomic(spv, std::string_view(reinterpret_cast<const char*>(module->data()), module->size() * 4));
+          header += "// the front end succeeded; the worker died in the back end, given " + spv.filename().string() +
+                    ":\n// spirv-opt --legalize-hlsl " + base + ".spv -o legal.spv && spirv-val --target-env vulkan1.1 "
+                    "legal.spv && spirv-opt -O legal.spv -o opt.spv && spirv-cross opt.spv\n";
+          notes.push_back("the front end's SPIR-V module (the back end's input) written to " + spv.string());
+        }
+        notes.push_back("this is a bug in the compiler, not in your shader");
         write_file_atomic(repro, header + s.text);
         sink.report(DiagId::InternalCompilerError, SourceLocation{display_path(plan->declarations[s.pass].entry), 0, 0},
-                    "internal compiler error: the compiler worker " + outcome.detail + " while compiling " + variant,
-                    {"reproducer written to " + repro.string(), "this is a bug in the compiler, not in your shader"});
+                    "internal compiler error: the compiler worker " + outcome.detail + " while compiling " + variant, notes);
         return;
       }
       const std::string entry_name = display_path(plan->declarations[s.pass].entry);
@@ -578,13 +589,13 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       }
     };
     // A binary whose module's back end has finished (or failed) is done.
-    auto settle = [&](size_t b, const WorkerOutcome& result) {
+    auto settle = [&](size_t b, const WorkerOutcome& result, const std::vector<uint32_t>* module) {
       if (result.kind == WorkerOutcome::Kind::Done && result.output.ok) {
         JobOutput out = result.output;
         out.messages.insert(out.messages.begin(), front_messages[b].begin(), front_messages[b].end());
         binaries[b].output = std::move(out);
       } else {
-        fail(b, result);
+        fail(b, result, module);
       }
       ++done;
       if (options.progress) options.progress(done, binaries.size(), report.cache_hits);
@@ -599,13 +610,13 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
           Module& module = modules[job_subject[j]];
           module.fresh = outcome.kind == WorkerOutcome::Kind::Done && outcome.output.ok;
           module.result = std::move(outcome);
-          for (size_t b : module.waiting) settle(b, *module.result);
+          for (size_t b : module.waiting) settle(b, *module.result, &jobs[j].spirv);
           module.waiting.clear();
           return;
         }
         const size_t b = job_subject[j];
         if (outcome.kind != WorkerOutcome::Kind::Done || !outcome.output.ok) {
-          settle(b, outcome);
+          settle(b, outcome, nullptr);
           return;
         }
         const StageSource& s = stage_sources[binaries[b].source];
@@ -647,7 +658,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
           modules.push_back(std::move(module));
         }
         Module& module = modules[it->second];
-        if (module.result) settle(b, *module.result);
+        if (module.result) settle(b, *module.result, &spirv);
         else module.waiting.push_back(b);
       });
       report.workers_started = pool.spawned();

@@ -104,6 +104,48 @@ TEST_F(SmallLibrary, EditThatChangesNoReachableCodeRunsOnlyFrontEnds) {
   EXPECT_EQ(testing::read_file(dir / "fresh/p.kpack"), first_archive);
 }
 
+// Two fragment sources that differ only in a function F never calls share one module, so one back end: when
+// it crashes, both are internal compiler errors (each with its keywords), and only the vertex stage is cached.
+TEST(TwoHalves, BackEndCrashIsAnInternalErrorForEverySourceSharingItsModule) {
+  testing::TempDir dir;
+  dir.write("S.hlsl",
+            "#pragma multi_compile_fragment _ UNUSED_BRANCH\n"
+            "float KilnFaultCrashBackEnd(float x) { return x * 0.5; }\n"
+            "#ifdef UNUSED_BRANCH\nfloat NeverCalled() { return 2.0; }\n#endif\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "float4 F() : SV_Target { return KilnFaultCrashBackEnd(1.0).xxxx; }\n");
+  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  DiagnosticSink sink;
+  ::setenv("KILN_WORKER_FAULT_INJECTION", "1", 1);
+  BuildReport report = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
+  ::unsetenv("KILN_WORKER_FAULT_INJECTION");
+  EXPECT_FALSE(report.ok);
+  EXPECT_TRUE(report.internal_errors);
+  EXPECT_EQ(report.compiled, 3u);   // 1 vertex + 2 fragment sources
+  EXPECT_EQ(report.back_ends, 2u);  // 1 vertex + 1 fragment module
+  std::vector<std::string> crashed;
+  for (const Diagnostic& d : sink.diagnostics())
+    if (d.id == DiagId::InternalCompilerError) crashed.push_back(d.message);
+  ASSERT_EQ(crashed.size(), 2u) << errors_of(sink);
+  std::sort(crashed.begin(), crashed.end());
+  EXPECT_NE(crashed[0].find("signal 11"), std::string::npos) << crashed[0];
+  EXPECT_NE(crashed[0].find("fragment stage, keywords [<none>]"), std::string::npos) << crashed[0];
+  EXPECT_NE(crashed[1].find("fragment stage, keywords [UNUSED_BRANCH]"), std::string::npos) << crashed[1];
+  // Each reproducer comes with the module the back end was given, and that module is valid front-end output.
+  size_t modules_written = 0;
+  for (const auto& f : testing::files_below(dir / "out/kiln-ice"))
+    if (f.extension() == ".spv") {
+      ++modules_written;
+      std::string bytes = testing::read_file(f);
+      ASSERT_GE(bytes.size(), 4u);
+      EXPECT_EQ(static_cast<unsigned char>(bytes[0]), 0x03);  // SPIR-V magic 0x07230203, little-endian
+      EXPECT_NE(bytes.find("KilnFaultCrashBackEnd"), std::string::npos);
+    }
+  EXPECT_EQ(modules_written, 2u);
+  EXPECT_FALSE(std::filesystem::exists(dir / "out/p.manifest.json"));
+  EXPECT_EQ(testing::files_below(dir / "cache").size(), 2u);  // the vertex source's alias and its module
+}
+
 TEST_F(SmallLibrary, DepfileListsEveryIncludedFile) {
   DiagnosticSink sink;
   BuildOptions options;

@@ -39,6 +39,34 @@ TEST(Workers, CompileProducesEveryTarget) {
   EXPECT_NE(outcomes[0].output.sources.at(Target::Msl).find("#include <metal_stdlib>"), std::string::npos);
 }
 
+// The build's two halves: a FrontEnd job returns the glslang module; a BackEnd job appended from on_done
+// (as the pipeline does for each new module) runs in the same pool and finishes the compile.
+TEST(Workers, BackEndAppendedByOnDoneFinishesWhatTheFrontEndStarted) {
+  std::vector<CompileJob> jobs{job(kValid), job(kValid)};
+  jobs[0].kind = JobKind::FrontEnd;
+  jobs[1].kind = JobKind::Full;
+  WorkerPool pool(KILN_WORKER_PATH, 2, {});
+  std::vector<WorkerOutcome> outcomes(3);
+  pool.run(jobs, [&](size_t i, WorkerOutcome o) {
+    if (i == 0 && o.output.ok) {
+      CompileJob back = jobs[0];
+      back.kind = JobKind::BackEnd;
+      back.source.clear();
+      back.spirv = o.output.spirv;
+      jobs.push_back(std::move(back));
+    }
+    outcomes.at(i) = std::move(o);
+  });
+  ASSERT_EQ(jobs.size(), 3u);
+  ASSERT_TRUE(outcomes[0].output.ok);
+  EXPECT_TRUE(outcomes[0].output.sources.empty());  // a front end stops at the module
+  ASSERT_TRUE(outcomes[2].output.ok) << outcomes[2].output.failed_step;
+  ASSERT_TRUE(outcomes[1].output.ok);
+  // Front end + back end gives what one Full job gives.
+  EXPECT_EQ(outcomes[2].output.spirv, outcomes[1].output.spirv);
+  EXPECT_EQ(outcomes[2].output.sources, outcomes[1].output.sources);
+}
+
 TEST(Workers, GlslangCrashCostsOneJobAndTheOthersStillBuild) {
   auto outcomes = run_jobs({job(kValid), job(kCrash), job(kValid), job(kValid)}, {}, 1);
   EXPECT_EQ(outcomes[0].kind, WorkerOutcome::Kind::Done);

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <csignal>
 #include <cstring>
 #include <deque>
 #include <numeric>
@@ -264,7 +265,8 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
 namespace {
 
 // Test-only fault injection, enabled by KILN_WORKER_FAULT_INJECTION=1: a source containing
-// "kiln-fault: hang" or "kiln-fault: oom" makes this worker hang or exhaust its memory.
+// "kiln-fault: hang" or "kiln-fault: oom" makes this worker hang or exhaust its memory; a back end whose
+// module names a function KilnFaultCrashBackEnd crashes it (SIGSEGV), as a SPIRV-Tools bug would.
 void inject_fault(const CompileJob& job) {
   static const bool enabled = [] {
     const char* env = std::getenv("KILN_WORKER_FAULT_INJECTION");
@@ -277,6 +279,8 @@ void inject_fault(const CompileJob& job) {
     std::vector<std::vector<char>> hog;
     for (;;) hog.emplace_back(64 << 20, 'x');
   }
+  std::string_view module(reinterpret_cast<const char*>(job.spirv.data()), job.spirv.size() * 4);
+  if (job.kind == JobKind::BackEnd && module.find("KilnFaultCrashBackEnd") != std::string_view::npos) std::raise(SIGSEGV);
 }
 
 }  // namespace
