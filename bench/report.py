@@ -96,10 +96,12 @@ def build_speed_section(w, r):
     w("")
     w("Funnel of the default pack:")
     w("")
-    w("| declared | valid (constraints) | kept (materials, scenes) | stage variants | unique per stage | compiles | unique binaries |")
-    w("|---|---|---|---|---|---|---|")
+    modules = f.get("unique_modules")
+    w("| declared | valid (constraints) | kept (materials, scenes) | stage variants | unique per stage | compiles | "
+      + ("front-end modules | " if modules is not None else "") + "unique binaries |")
+    w("|---|---|---|---|---|---|" + ("---|" if modules is not None else "") + "---|")
     w(f"| {f['declared']} | {f['valid']} | {f['kept']} | {f['stage_instances']} | {f['unique_preprocessed']} | "
-      f"{f['unique_compiles']} | {f['unique_binaries']} |")
+      f"{f['unique_compiles']} | " + (f"{modules} | " if modules is not None else "") + f"{f['unique_binaries']} |")
     w("")
     w("Cold build, stage times (one instrumented run; `compiled` counts front ends, `back ends` the distinct modules):")
     w("")

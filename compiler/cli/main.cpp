@@ -38,7 +38,8 @@ void print_summary(const kiln::BuildReport& r, std::ostream& out) {
       << " valid -> " << f.kept << " after stripping";
   if (!r.up_to_date)
     out << " -> " << f.stage_instances << " stage variants -> " << f.unique_preprocessed << " unique per stage -> "
-        << f.unique_compiles << " compiles -> " << f.unique_binaries << " unique binaries";
+        << f.unique_compiles << " compiles -> " << f.unique_modules << " modules -> " << f.unique_binaries
+        << " unique binaries";
   out << "\n";
   if (!r.up_to_date)
     out << "  compiled " << r.compiled << " (back ends " << r.back_ends << ", cached back ends " << r.back_end_hits

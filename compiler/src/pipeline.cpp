@@ -493,10 +493,11 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     if (options.cache_dir) cache.emplace(*options.cache_dir);
     std::vector<CompileJob> jobs;
     std::vector<size_t> job_subject;  // FrontEnd job -> binary, BackEnd job -> module
+    std::vector<std::optional<Hash128>> module_of(binaries.size());  // for the funnel
     for (size_t b = 0; b < binaries.size(); ++b) {
       bool rejected = false;
       if (cache) {
-        binaries[b].output = cache->load(binaries[b].key, rejected);
+        binaries[b].output = cache->load(binaries[b].key, rejected, &module_of[b]);
         if (rejected) ++report.cache_rejected;
         if (binaries[b].output) {
           ++report.cache_hits;
@@ -635,6 +636,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
                           .finish();
         auto [it, inserted] = module_by_key.emplace(key, modules.size());
         binary_module[b] = it->second;
+        module_of[b] = key;
         if (inserted) {
           Module module{key, std::nullopt, false, {}};
           bool rejected = false;
@@ -663,6 +665,11 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       });
       report.workers_started = pool.spawned();
     }
+    // Distinct modules among the built binaries, whether compiled now or found through cache aliases.
+    std::set<Hash128> distinct_modules;
+    for (size_t b = 0; b < binaries.size(); ++b)
+      if (binaries[b].output) distinct_modules.insert(module_of[b].value_or(binaries[b].key));
+    report.funnel.unique_modules = distinct_modules.size();
     // A build with errors in the user's input leaves no cache entry behind. Internal compiler errors are
     // not the input's fault: the other variants' results are kept, so the next build only retries those.
     const bool user_errors = std::any_of(grouped.begin(), grouped.end(), [](const Grouped& g) {
@@ -777,7 +784,8 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
                   {"inputs_hash", inputs_hash},
                   {"funnel", {{"declared", f.declared}, {"valid", f.valid}, {"kept", f.kept},
                               {"stage_instances", f.stage_instances}, {"unique_preprocessed", f.unique_preprocessed},
-                              {"unique_compiles", f.unique_compiles}, {"unique_binaries", f.unique_binaries}}},
+                              {"unique_compiles", f.unique_compiles}, {"unique_modules", f.unique_modules},
+                              {"unique_binaries", f.unique_binaries}}},
                   {"constraints", constraints_json(plan->pack)},
                   {"materials", materials_json(plan->pack)},
                   {"scene_features", plan->pack.scene_features_json.empty() ? json::object()

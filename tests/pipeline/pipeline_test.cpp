@@ -73,6 +73,7 @@ TEST_F(SmallLibrary, IncludeEditRecompilesExactlyTheVariantsThatReadIt) {
   EXPECT_EQ(first.compiled, 6u);
   // V never calls ShadowTerm: both vertex sources give one front-end module, so one vertex back end.
   EXPECT_EQ(first.back_ends, 5u);
+  EXPECT_EQ(first.funnel.unique_modules, 5u);
   dir.write("lib/Fog.hlsl", "#pragma once\nfloat FogTerm(float x) { return exp2(-2.0 * x); }\n");
   BuildReport second = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
   ASSERT_TRUE(second.ok) << errors_of(sink);
@@ -101,6 +102,7 @@ TEST_F(SmallLibrary, EditThatChangesNoReachableCodeRunsOnlyFrontEnds) {
   ASSERT_TRUE(third.ok) << errors_of(sink);
   EXPECT_EQ(third.cache_hits, 6u);
   EXPECT_EQ(third.compiled, 0u);
+  EXPECT_EQ(third.funnel.unique_modules, 5u);  // known through the aliases, without compiling
   EXPECT_EQ(testing::read_file(dir / "fresh/p.kpack"), first_archive);
 }
 

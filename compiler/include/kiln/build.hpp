@@ -39,7 +39,7 @@ struct BuildOptions {
   std::function<void(size_t done, size_t total, size_t cache_hits)> progress;
 };
 
-// declared -> valid -> after scene stripping -> unique per stage -> unique binaries
+// declared -> valid -> after scene stripping -> unique per stage -> compiles -> modules -> unique binaries
 struct Funnel {
   uint64_t declared = 0;
   bool declared_saturated = false;
@@ -47,7 +47,8 @@ struct Funnel {
   uint64_t kept = 0;
   uint64_t stage_instances = 0;    // variants x stages
   uint64_t unique_preprocessed = 0;  // distinct (pass, stage, stage keywords)
-  uint64_t unique_compiles = 0;    // distinct preprocessed text + entry + stage: what is compiled
+  uint64_t unique_compiles = 0;    // distinct preprocessed text + entry + stage: front ends run
+  uint64_t unique_modules = 0;     // distinct front-end SPIR-V modules: back ends run
   uint64_t unique_binaries = 0;    // distinct optimized SPIR-V: what the pack stores
 };
 

@@ -63,7 +63,8 @@ std::optional<Cache::Entry> Cache::read(const Hash128& key, bool& rejected) cons
   return entry;
 }
 
-std::optional<JobOutput> Cache::load(const Hash128& key, bool& rejected) const {
+std::optional<JobOutput> Cache::load(const Hash128& key, bool& rejected, std::optional<Hash128>* target_key) const {
+  if (target_key) target_key->reset();
   std::optional<Entry> entry = read(key, rejected);
   if (!entry || !entry->alias) return entry ? std::optional<JobOutput>(std::move(entry->output)) : std::nullopt;
   std::optional<Entry> target = read(*entry->alias, rejected);
@@ -71,6 +72,7 @@ std::optional<JobOutput> Cache::load(const Hash128& key, bool& rejected) const {
     rejected = rejected || target.has_value();  // an alias to an alias is not something kiln writes
     return std::nullopt;
   }
+  if (target_key) *target_key = entry->alias;
   JobOutput output = std::move(target->output);
   std::vector<FrontendMessage>& front = entry->output.messages;
   output.messages.insert(output.messages.begin(), front.begin(), front.end());

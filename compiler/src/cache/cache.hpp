@@ -24,8 +24,9 @@ class Cache {
   const std::filesystem::path& directory() const { return directory_; }
 
   // Nothing on a miss; `rejected` is set when an entry existed but failed its checks. An alias is
-  // followed: the result is its target's, with the alias's messages first.
-  std::optional<JobOutput> load(const Hash128& key, bool& rejected) const;
+  // followed: the result is its target's, with the alias's messages first, and `target` (if given) is
+  // set to the target's key.
+  std::optional<JobOutput> load(const Hash128& key, bool& rejected, std::optional<Hash128>* target = nullptr) const;
   // Only successful results are ever stored: a failure (or a crash) is never cached.
   bool store(const Hash128& key, const JobOutput& output) const;
   bool store_alias(const Hash128& key, const Hash128& target, const std::vector<FrontendMessage>& messages) const;
