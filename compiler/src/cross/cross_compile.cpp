@@ -17,23 +17,9 @@ namespace {
 
 using nlohmann::json;
 
-CrossResult to_glsl(const std::vector<uint32_t>& input, bool es) {
+// `spirv`: the module with its 16-bit floats already widened for GL.
+CrossResult to_glsl(const std::vector<uint32_t>& spirv, bool es) {
   CrossResult result;
-  // Explicit 16-bit floats become mediump 32-bit floats for GL (see widen_float16.hpp).
-  WidenResult widened = widen_float16_for_gl(input);
-  if (!widened.ok) {
-    result.error = "widening 16-bit floats for GL: " + widened.reason;
-    return result;
-  }
-  if (widened.changed) {
-    SpirvStepResult valid = validate_spirv(widened.spirv);
-    if (!valid.ok) {
-      result.error = "widening 16-bit floats for GL produced invalid SPIR-V:";
-      for (const auto& m : valid.messages) result.error += " " + m;
-      return result;
-    }
-  }
-  const std::vector<uint32_t>& spirv = widened.spirv;
   spirv_cross::CompilerGLSL compiler(spirv);
   spirv_cross::CompilerGLSL::Options options;
   options.version = es ? 310 : 450;      // GLSL 4.50 core / GLSL ES 3.10
@@ -117,18 +103,39 @@ CrossResult to_msl(const std::vector<uint32_t>& spirv) {
 
 }  // namespace
 
-CrossResult cross_compile(const std::vector<uint32_t>& spirv, Target target, Stage) {
+CrossResult CrossCompiler::compile(Target target) {
+  if ((target == Target::Glsl || target == Target::Gles) && !gl_ready_) {
+    gl_ready_ = true;
+    // Explicit 16-bit floats become mediump 32-bit floats for GL (see widen_float16.hpp).
+    WidenResult widened = widen_float16_for_gl(spirv_);
+    if (!widened.ok) {
+      gl_error_ = "widening 16-bit floats for GL: " + widened.reason;
+    } else if (widened.changed) {
+      SpirvStepResult valid = validate_spirv(widened.spirv);
+      if (!valid.ok) {
+        gl_error_ = "widening 16-bit floats for GL produced invalid SPIR-V:";
+        for (const auto& m : valid.messages) gl_error_ += " " + m;
+      }
+    }
+    gl_spirv_ = std::move(widened.spirv);
+  }
   try {
     switch (target) {
-      case Target::Glsl: return to_glsl(spirv, false);
-      case Target::Gles: return to_glsl(spirv, true);
-      case Target::Msl: return to_msl(spirv);
+      case Target::Glsl:
+      case Target::Gles:
+        if (!gl_error_.empty()) return CrossResult{false, gl_error_, {}, {}};
+        return to_glsl(gl_spirv_, target == Target::Gles);
+      case Target::Msl: return to_msl(spirv_);
       case Target::Spirv: break;
     }
     return CrossResult{false, "SPIR-V is not a cross-compilation target", {}, {}};
   } catch (const std::exception& error) {
     return CrossResult{false, error.what(), {}, {}};
   }
+}
+
+CrossResult cross_compile(const std::vector<uint32_t>& spirv, Target target, Stage) {
+  return CrossCompiler(spirv).compile(target);
 }
 
 std::string spirv_cross_version() { return KILN_SPIRV_CROSS_VERSION; }

@@ -20,6 +20,20 @@ struct CrossResult {
   nlohmann::json bindings = nlohmann::json::object();
 };
 
+// One module to every target. The GL targets compile the module with its 16-bit floats widened to mediump
+// (widen_float16.hpp); the widening, and the validation of its result, happen once for GLSL and GLSL ES.
+class CrossCompiler {
+ public:
+  explicit CrossCompiler(const std::vector<uint32_t>& spirv) : spirv_(spirv) {}
+  CrossResult compile(Target target);
+
+ private:
+  const std::vector<uint32_t>& spirv_;
+  bool gl_ready_ = false;
+  std::vector<uint32_t> gl_spirv_;
+  std::string gl_error_;  // why the GL module could not be made
+};
+
 CrossResult cross_compile(const std::vector<uint32_t>& spirv, Target target, Stage stage);
 std::string spirv_cross_version();
 

@@ -36,9 +36,10 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
   }
   out.spirv = std::move(spirv.spirv);
   out.reflection = reflect_spirv(out.spirv);
+  CrossCompiler cross_compiler(out.spirv);
   for (Target target : job.targets) {
     if (target == Target::Spirv) continue;
-    CrossResult cross = cross_compile(out.spirv, target, job.stage);
+    CrossResult cross = cross_compiler.compile(target);
     if (!cross.ok) {
       out.failed_step = "cross-" + std::string(target_name(target));
       out.messages.push_back({Severity::Error, "", 0, cross.error});
