@@ -193,7 +193,7 @@ struct Binary {
   std::string entry_point;
   size_t source = 0;  // a StageSource that produced it
   std::vector<size_t> sources;
-  std::optional<JobOutput> output;
+  std::shared_ptr<const JobOutput> output;  // shared by every binary whose front end gave the same module
 };
 
 std::string variant_description(const Plan& plan, const StageSource& s) {
@@ -474,7 +474,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
                         .add(s.text)
                         .finish();
       auto [it, inserted] = by_key.emplace(key, binaries.size());
-      if (inserted) binaries.push_back(Binary{key, s.stage, entry_point, i, {}, std::nullopt});
+      if (inserted) binaries.push_back(Binary{key, s.stage, entry_point, i, {}, nullptr});
       binaries[it->second].sources.push_back(i);
       s.binary = static_cast<int>(it->second);
     }
@@ -497,7 +497,8 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     for (size_t b = 0; b < binaries.size(); ++b) {
       bool rejected = false;
       if (cache) {
-        binaries[b].output = cache->load(binaries[b].key, rejected, &module_of[b]);
+        if (auto cached = cache->load(binaries[b].key, rejected, &module_of[b]))
+          binaries[b].output = std::make_shared<const JobOutput>(std::move(*cached));
         if (rejected) ++report.cache_rejected;
         if (binaries[b].output) {
           ++report.cache_hits;
@@ -521,14 +522,16 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
 
     struct Module {
       Hash128 key;
-      std::optional<WorkerOutcome> result;  // the back end's (or the cache's)
-      bool fresh = false;                   // compiled in this build: cached once the build is known good
-      std::vector<size_t> waiting;          // binaries whose front end produced this module
+      bool settled = false;                     // its back end has finished, or the cache had it
+      std::shared_ptr<const JobOutput> output;  // when settled and good
+      WorkerOutcome failure;                    // when settled and not good
+      bool fresh = false;                       // compiled in this build: cached once the build is known good
+      std::vector<size_t> waiting;              // binaries whose front end produced it, before it settled
     };
     std::vector<Module> modules;
     std::map<Hash128, size_t> module_by_key;
     std::vector<std::vector<FrontendMessage>> front_messages(binaries.size());
-    std::vector<size_t> binary_module(binaries.size(), SIZE_MAX);
+    std::vector<bool> front_end_ran(binaries.size(), false);
     size_t done = report.cache_hits;
     if (options.progress) options.progress(done, binaries.size(), report.cache_hits);
 
@@ -589,17 +592,15 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
         collect(id, SourceLocation{entry_name, 0, 0}, step + " failed", variant, order);
       }
     };
-    // A binary whose module's back end has finished (or failed) is done.
-    auto settle = [&](size_t b, const WorkerOutcome& result, const std::vector<uint32_t>* module) {
-      if (result.kind == WorkerOutcome::Kind::Done && result.output.ok) {
-        JobOutput out = result.output;
-        out.messages.insert(out.messages.begin(), front_messages[b].begin(), front_messages[b].end());
-        binaries[b].output = std::move(out);
-      } else {
-        fail(b, result, module);
-      }
+    auto count_done = [&] {
       ++done;
       if (options.progress) options.progress(done, binaries.size(), report.cache_hits);
+    };
+    // A binary whose module has settled is done: it shares the module's output, or reports its failure.
+    auto settle = [&](size_t b, const Module& module, const std::vector<uint32_t>& spirv) {
+      if (module.output) binaries[b].output = module.output;
+      else fail(b, module.failure, &spirv);
+      count_done();
     };
 
     if (!jobs.empty()) {
@@ -609,15 +610,20 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       pool.run(jobs, [&](size_t j, WorkerOutcome outcome) {
         if (jobs[j].kind == JobKind::BackEnd) {
           Module& module = modules[job_subject[j]];
+          module.settled = true;
           module.fresh = outcome.kind == WorkerOutcome::Kind::Done && outcome.output.ok;
-          module.result = std::move(outcome);
-          for (size_t b : module.waiting) settle(b, *module.result, &jobs[j].spirv);
-          module.waiting.clear();
+          if (module.fresh) module.output = std::make_shared<const JobOutput>(std::move(outcome.output));
+          else module.failure = std::move(outcome);
+          for (size_t b : module.waiting) settle(b, module, jobs[j].spirv);
+          module.waiting = {};
+          jobs[j].spirv = {};  // the module is settled: its input is no longer needed
           return;
         }
         const size_t b = job_subject[j];
+        front_end_ran[b] = true;
         if (outcome.kind != WorkerOutcome::Kind::Done || !outcome.output.ok) {
-          settle(b, outcome, nullptr);
+          fail(b, outcome, nullptr);
+          count_done();
           return;
         }
         const StageSource& s = stage_sources[binaries[b].source];
@@ -635,24 +641,29 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
                           .add(std::string_view(reinterpret_cast<const char*>(spirv.data()), spirv.size() * 4))
                           .finish();
         auto [it, inserted] = module_by_key.emplace(key, modules.size());
-        binary_module[b] = it->second;
         module_of[b] = key;
         if (inserted) {
-          Module module{key, std::nullopt, false, {}};
+          Module module;
+          module.key = key;
           bool rejected = false;
           if (cache) {
             if (auto cached = cache->load(key, rejected)) {
-              module.result = WorkerOutcome{WorkerOutcome::Kind::Done, std::move(*cached), ""};
+              module.settled = true;
+              module.output = std::make_shared<const JobOutput>(std::move(*cached));
               ++report.back_end_hits;
             }
             if (rejected) ++report.cache_rejected;
           }
-          if (!module.result) {
-            CompileJob back = jobs[j];
-            back.kind = JobKind::BackEnd;
+          if (!module.settled) {
+            CompileJob back;
             back.id = modules.size();
-            back.source.clear();
-            back.spirv = spirv;
+            back.kind = JobKind::BackEnd;
+            back.stage = jobs[j].stage;
+            back.entry_point = jobs[j].entry_point;
+            back.source_name = jobs[j].source_name;
+            back.spirv = std::move(outcome.output.spirv);  // `spirv` is not read again on this path
+            back.targets = jobs[j].targets;
+            back.optimize = jobs[j].optimize;
             jobs.push_back(std::move(back));  // runs next, in whichever worker is free
             job_subject.push_back(modules.size());
             ++report.back_ends;
@@ -660,7 +671,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
           modules.push_back(std::move(module));
         }
         Module& module = modules[it->second];
-        if (module.result) settle(b, *module.result, &spirv);
+        if (module.settled) settle(b, module, spirv);
         else module.waiting.push_back(b);
       });
       report.workers_started = pool.spawned();
@@ -677,11 +688,10 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     });
     if (cache && !user_errors) {
       for (const Module& module : modules)
-        if (module.fresh) cache->store(module.key, module.result->output);
+        if (module.fresh) cache->store(module.key, *module.output);
       // A binary has an output only when its module's result is good (compiled now or already cached).
       for (size_t b = 0; b < binaries.size(); ++b)
-        if (binary_module[b] != SIZE_MAX && binaries[b].output)
-          cache->store_alias(binaries[b].key, modules[binary_module[b]].key, front_messages[b]);
+        if (front_end_ran[b] && binaries[b].output) cache->store_alias(binaries[b].key, *module_of[b], front_messages[b]);
     }
   }
   for (Grouped& g : grouped) std::sort(g.variants.begin(), g.variants.end());
