@@ -134,10 +134,6 @@ CrossResult CrossCompiler::compile(Target target) {
   }
 }
 
-CrossResult cross_compile(const std::vector<uint32_t>& spirv, Target target, Stage) {
-  return CrossCompiler(spirv).compile(target);
-}
-
 std::string spirv_cross_version() { return KILN_SPIRV_CROSS_VERSION; }
 
 }  // namespace kiln

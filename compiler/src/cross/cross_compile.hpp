@@ -34,7 +34,6 @@ class CrossCompiler {
   std::string gl_error_;  // why the GL module could not be made
 };
 
-CrossResult cross_compile(const std::vector<uint32_t>& spirv, Target target, Stage stage);
 std::string spirv_cross_version();
 
 }  // namespace kiln
