@@ -60,6 +60,18 @@ def compare_packs(a, b):
         open(os.path.join(a, n), "rb").read() == open(os.path.join(b, n), "rb").read() for n in names)
 
 
+def file_create_ms(directory, count=500):
+    """Milliseconds to create one small file here: some file systems make it dear, and both sides create many."""
+    os.makedirs(directory, exist_ok=True)
+    start = time.perf_counter()
+    for i in range(count):
+        with open(os.path.join(directory, f"f{i}"), "wb") as f:
+            f.write(b"kiln")
+    elapsed = time.perf_counter() - start
+    shutil.rmtree(directory, ignore_errors=True)
+    return elapsed / count * 1000
+
+
 def timed(cmd, env=None):
     """Wall time and the peak RSS of the largest child process (KiB)."""
     start = time.perf_counter()
@@ -190,6 +202,7 @@ def main():
             "glibc_pack_identical": compare_packs(os.path.join(work, f"cold{args.jobs}"), os.path.join(work, f"cold{args.jobs}-other"))
             if args.kiln_glibc else None,
             "peak_child_rss_mib": round(peak_kib / 1024, 1),
+            "file_create_ms": round(file_create_ms(os.path.join(work, "file-create")), 3),
             "reps": args.reps,
             "samples_s": samples,
             "median_s": {k: statistics.median(v) for k, v in samples.items()},

@@ -42,7 +42,8 @@ void print_summary(const kiln::BuildReport& r, std::ostream& out) {
         << " unique binaries";
   out << "\n";
   if (!r.up_to_date)
-    out << "  compiled " << r.compiled << " (back ends " << r.back_ends << ", cached back ends " << r.back_end_hits
+    out << "  compiled " << r.compiled << " (back ends " << r.back_ends << ", full legalizations "
+        << r.full_legalizations << ", cached back ends " << r.back_end_hits
         << "), cache hits " << r.cache_hits
         << (r.cache_rejected ? ", rejected cache entries " + std::to_string(r.cache_rejected) : std::string())
         << ", workers " << r.workers_started << "\n";

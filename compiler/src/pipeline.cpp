@@ -301,6 +301,11 @@ bool pack_is_current(const std::filesystem::path& directory, const std::string& 
   return stamp && *stamp == stamp_text(directory, name, inputs_hash);
 }
 
+// -j: worker processes, and the threads of the stages that run in kiln itself (preprocess, cache, pack).
+unsigned parallelism(const BuildOptions& options) {
+  return options.jobs ? options.jobs : std::max(1u, std::thread::hardware_concurrency());
+}
+
 }  // namespace
 
 int exit_code(const DiagnosticSink& sink, bool internal_errors) {
@@ -414,8 +419,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       }
     }
     SourceSetIncludes includes(plan->sources, *plan->roots);
-    unsigned threads = options.jobs ? options.jobs : std::max(1u, std::thread::hardware_concurrency());
-    parallel_for(stage_sources.size(), threads, [&](size_t i) {
+    parallel_for(stage_sources.size(), parallelism(options), [&](size_t i) {
       StageSource& s = stage_sources[i];
       const SourceFile* entry = plan->sources.find(plan->declarations[s.pass].entry);
       PreprocessRequest request{s.stage, display_path(entry->path), entry->text, s.defines, &includes};
@@ -488,7 +492,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   // one. Both halves are cached: the back end's result under the module's key, and under the source's key
   // an alias to it with the front end's warnings.
   {
-    StageTimer timer(report, "compile");
+    std::optional<StageTimer> timer(std::in_place, report, "compile");
     std::optional<Cache> cache;
     if (options.cache_dir) cache.emplace(*options.cache_dir);
     std::vector<CompileJob> jobs;
@@ -604,7 +608,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     };
 
     if (!jobs.empty()) {
-      unsigned workers = options.jobs ? options.jobs : std::max(1u, std::thread::hardware_concurrency());
+      const unsigned workers = parallelism(options);
       std::filesystem::path exe = options.worker_executable.empty() ? default_worker_executable() : options.worker_executable;
       WorkerPool pool(exe, workers, WorkerLimits{options.worker_timeout, options.worker_memory_limit_mb});
       pool.run(jobs, [&](size_t j, WorkerOutcome outcome) {
@@ -612,8 +616,12 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
           Module& module = modules[job_subject[j]];
           module.settled = true;
           module.fresh = outcome.kind == WorkerOutcome::Kind::Done && outcome.output.ok;
-          if (module.fresh) module.output = std::make_shared<const JobOutput>(std::move(outcome.output));
-          else module.failure = std::move(outcome);
+          if (module.fresh) {
+            if (outcome.output.full_legalization) ++report.full_legalizations;
+            module.output = std::make_shared<const JobOutput>(std::move(outcome.output));
+          } else {
+            module.failure = std::move(outcome);
+          }
           for (size_t b : module.waiting) settle(b, module, jobs[j].spirv);
           module.waiting = {};
           jobs[j].spirv = {};  // the module is settled: its input is no longer needed
@@ -686,12 +694,18 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     const bool user_errors = std::any_of(grouped.begin(), grouped.end(), [](const Grouped& g) {
       return diagnostic_info(g.id).severity == Severity::Error;
     });
+    timer.reset();
     if (cache && !user_errors) {
-      for (const Module& module : modules)
-        if (module.fresh) cache->store(module.key, *module.output);
+      // Entries are independent files: written on every core (the workers are done by now).
+      StageTimer store_timer(report, "cache store");
+      const unsigned threads = parallelism(options);
+      parallel_for(modules.size(), threads, [&](size_t m) {
+        if (modules[m].fresh) cache->store(modules[m].key, *modules[m].output);
+      });
       // A binary has an output only when its module's result is good (compiled now or already cached).
-      for (size_t b = 0; b < binaries.size(); ++b)
+      parallel_for(binaries.size(), threads, [&](size_t b) {
         if (front_end_ran[b] && binaries[b].output) cache->store_alias(binaries[b].key, *module_of[b], front_messages[b]);
+      });
     }
   }
   for (Grouped& g : grouped) std::sort(g.variants.begin(), g.variants.end());
@@ -803,8 +817,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
                   {"passes", passes_json},
                   {"binaries", binaries_json},
                   {"reflections", reflections_json}};
-    unsigned threads = options.jobs ? options.jobs : std::max(1u, std::thread::hardware_concurrency());
-    if (std::string error = write_pack(options.output_dir, plan->pack.name, archive, manifest, threads); !error.empty()) {
+    if (std::string error = write_pack(options.output_dir, plan->pack.name, archive, manifest, parallelism(options)); !error.empty()) {
       sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, error);
       return finish();
     }

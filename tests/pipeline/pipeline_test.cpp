@@ -148,6 +148,45 @@ TEST(TwoHalves, BackEndCrashIsAnInternalErrorForEverySourceSharingItsModule) {
   EXPECT_EQ(testing::files_below(dir / "cache").size(), 2u);  // the vertex source's alias and its module
 }
 
+// Legalization runs kiln's core recipe first and SPIRV-Tools' full one only when the core result does not
+// validate. EvaluateAttributeAtSample on an interpolant passed through a function is such a case: after
+// inlining, the interpolant is a local copy, which only the full recipe's interpolate-fixup turns back into a
+// pointer to the input variable.
+TEST(Legalization, FullRecipeOnlyWhenTheCoreRecipesResultIsNotValid) {
+  testing::TempDir dir;
+  dir.write("S.hlsl",
+            "#pragma multi_compile_fragment _ AT_SAMPLE\n"
+            "struct Interpolants { float4 position : SV_Position; float2 uv : TEXCOORD0; };\n"
+            "Texture2D _MainTex : register(t0);\nSamplerState _Sampler : register(s1);\n"
+            "float2 SampleUv(Interpolants i) {\n#ifdef AT_SAMPLE\n  return EvaluateAttributeAtSample(i.uv, 0);\n"
+            "#else\n  return i.uv;\n#endif\n}\n"
+            "Interpolants V(float4 p : POSITION) { Interpolants o; o.position = p; o.uv = p.xy; return o; }\n"
+            "float4 F(Interpolants i) : SV_Target { return _MainTex.Sample(_Sampler, SampleUv(i)); }\n");
+  // Not MSL: SPIRV-Cross needs MSL 2.3 for pull-model interpolation, kiln targets 2.1.
+  dir.write("p.pack.json", R"({"name": "p", "targets": ["spirv", "glsl"], "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  DiagnosticSink sink;
+  BuildReport report = build(dir / "p.pack.json", dir / "out", std::nullopt, 2, sink);
+  ASSERT_TRUE(report.ok) << errors_of(sink);
+  EXPECT_EQ(report.back_ends, 3u);           // 1 vertex + 2 fragment modules
+  EXPECT_EQ(report.full_legalizations, 1u);  // the AT_SAMPLE fragment
+  PackReader reader = PackReader::open(dir / "out");
+  const StageView* fragment = reader.select("P", {"AT_SAMPLE"}).stage("fragment");
+  ASSERT_NE(fragment, nullptr);
+  EXPECT_NE(std::string(fragment->glsl).find("interpolateAtSample"), std::string::npos) << fragment->glsl;
+
+  // Without optimization, every module gets the full recipe: the output is what `--legalize-hlsl` gives.
+  BuildOptions options;
+  options.pack_file = dir / "p.pack.json";
+  options.output_dir = dir / "unoptimized";
+  options.jobs = 1;
+  options.optimize = false;
+  options.worker_executable = KILN_WORKER_PATH;
+  DiagnosticSink unoptimized_sink;
+  BuildReport unoptimized = build_pack(options, unoptimized_sink);
+  ASSERT_TRUE(unoptimized.ok) << errors_of(unoptimized_sink);
+  EXPECT_EQ(unoptimized.full_legalizations, unoptimized.back_ends);
+}
+
 TEST_F(SmallLibrary, DepfileListsEveryIncludedFile) {
   DiagnosticSink sink;
   BuildOptions options;

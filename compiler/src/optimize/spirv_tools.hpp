@@ -12,13 +12,17 @@ struct SpirvStepResult {
   std::string step;  // "legalize", "validate", "optimize", "validate-optimized"
   std::vector<std::string> messages;
   std::vector<uint32_t> spirv;
+  bool full_legalization = false;  // the core legalization recipe was not enough (see legalize_spirv_core)
 };
 
-// The whole chain; on failure `step` names the step that failed.
+// The whole chain; on failure `step` names the step that failed. With `optimize`, legalization tries the core
+// recipe first and falls back to SPIRV-Tools' full one when the result does not validate.
 SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize);
-// Its steps alone (kiln-compile-steps times them): SPIRV-Tools' legalization recipe, and the performance
-// recipe (`spirv-opt -O`); neither validates.
+// Its steps alone (kiln-compile-steps times them): SPIRV-Tools' full legalization recipe (`spirv-opt
+// --legalize-hlsl`), kiln's core legalization recipe (its first sixteen passes), and the performance recipe
+// (`spirv-opt -O`); none validates.
 SpirvStepResult legalize_spirv(const std::vector<uint32_t>& spirv);
+SpirvStepResult legalize_spirv_core(const std::vector<uint32_t>& spirv);
 SpirvStepResult optimize_spirv(const std::vector<uint32_t>& spirv);
 // spirv-val alone (used by lint and tests).
 SpirvStepResult validate_spirv(const std::vector<uint32_t>& spirv);

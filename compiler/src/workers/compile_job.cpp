@@ -35,6 +35,7 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
     return out;
   }
   out.spirv = std::move(spirv.spirv);
+  out.full_legalization = spirv.full_legalization;
   out.reflection = reflect_spirv(out.spirv);
   CrossCompiler cross_compiler(out.spirv);
   for (Target target : job.targets) {
@@ -127,6 +128,7 @@ std::vector<uint8_t> encode_output(const JobOutput& output) {
   for (const auto& [target, text] : output.sources) sources[std::string(target_name(target))] = text;
   j["sources"] = sources;
   j["reflection"] = output.reflection;
+  j["full_legalization"] = output.full_legalization;
   return json::to_cbor(j);
 }
 
@@ -142,6 +144,7 @@ JobOutput decode_output(const std::vector<uint8_t>& bytes) {
   for (auto& [name, text] : j.at("sources").items())
     if (auto target = parse_target(name)) out.sources[*target] = text.get<std::string>();
   out.reflection = j.at("reflection");
+  out.full_legalization = j.at("full_legalization").get<bool>();
   return out;
 }
 

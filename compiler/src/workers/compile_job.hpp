@@ -17,8 +17,9 @@ namespace kiln {
 // Part of every cache key: bump it whenever a compile job's output changes for the same input and tool
 // versions (kiln's own version does not change between commits). 2: GL targets widen 16-bit floats, name
 // blocks by their interface name, and pair texel fetches with a dummy sampler. 3: MSL records name resources
-// as declared (not as SPIRV-Cross renamed a colliding variable).
-inline constexpr int kCompileJobRevision = 3;
+// as declared (not as SPIRV-Cross renamed a colliding variable). 4: legalization by the core recipe first
+// (the same code, other ID numbers), outputs record which recipe legalized them.
+inline constexpr int kCompileJobRevision = 4;
 
 // A compile runs in two halves so that stage sources which differ only in code the entry point never
 // reaches (a fragment-only keyword's branch in a file the vertex stage also includes) are legalized,
@@ -47,6 +48,7 @@ struct JobOutput {
   std::vector<uint32_t> spirv;
   std::map<Target, std::string> sources;  // cross-compiled text per target
   nlohmann::json reflection;               // reflect_spirv + "gl" / "msl" bindings
+  bool full_legalization = false;          // legalized by SPIRV-Tools' full recipe (the core one was not enough)
 };
 
 // FrontEnd: `spirv` is the front end's (not yet legal) module. BackEnd and Full: the finished output.
