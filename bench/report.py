@@ -140,7 +140,7 @@ def build_speed_section(w, r):
           + str(steps[0][1]["repetitions"]) + " runs. `optimize (-O)` is exactly `spirv-opt -O`'s recipe. `legalize (core")
         w("recipe)` is the first sixteen passes of SPIRV-Tools' HLSL legalization recipe (inlining, scalar replacement,")
         w("SSA); the full recipe's remaining passes (CCP, loop unrolling, simplification...) are in -O anyway, and it")
-        full = re.search(r"full legalizations (\d+)", (load("build_speed.json") or {}).get("kiln_summary", ""))
+        full = re.search(r"full legalizations (\d+)", r.get("kiln_summary", ""))
         w("runs only when the core recipe's result does not validate"
           + (f" ({full.group(1)} of the default pack's modules in the cold build above)" if full else "")
           + ". The naive loop's `glslangValidator` runs glslang's own list of the same kind of passes.")
