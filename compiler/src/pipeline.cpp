@@ -695,8 +695,9 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       return diagnostic_info(g.id).severity == Severity::Error;
     });
     timer.reset();
+    if (cache) report.cache_rejected += cache->unreadable_segments();
     if (cache && !user_errors) {
-      // Entries are independent files: written on every core (the workers are done by now).
+      // Entries are encoded on every core (the workers are done by now), then written as one segment file.
       StageTimer store_timer(report, "cache store");
       const unsigned threads = parallelism(options);
       parallel_for(modules.size(), threads, [&](size_t m) {
@@ -706,6 +707,9 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       parallel_for(binaries.size(), threads, [&](size_t b) {
         if (front_end_ran[b] && binaries[b].output) cache->store_alias(binaries[b].key, *module_of[b], front_messages[b]);
       });
+      if (std::string error = cache->commit(); !error.empty())
+        sink.report(DiagId::CacheUnwritable, SourceLocation{cache->directory().string(), 0, 0}, error,
+                    {"the outputs are unaffected; the next build compiles these variants again"});
     }
   }
   for (Grouped& g : grouped) std::sort(g.variants.begin(), g.variants.end());

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cache/cache.hpp"
 #include "test_support.hpp"
 
 namespace kiln {
@@ -214,7 +215,7 @@ TEST_F(Cli, GlslangCrashIsAnInternalErrorWithAReproducerAndTheRestIsStillBuilt) 
   EXPECT_NE(testing::read_file(repro).find("float4 F(float4)"), std::string::npos);
   // The other variants were compiled and cached (per stage source: its alias and its module's result);
   // the crash was not.
-  EXPECT_EQ(testing::files_below(dir / "cache").size(), 4u);
+  EXPECT_EQ(Cache(dir / "cache").indexed_keys(), 4u);
   EXPECT_FALSE(std::filesystem::exists(dir / "out/p.manifest.json"));
 }
 
@@ -309,6 +310,18 @@ TEST_F(Cli, InspectOfACorruptPackIsAClearError) {
   auto r = testing::run_kiln({"inspect", "out"}, dir.path());
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(r.err, "out: error: archive of pack 'p' fails its checksum\n");
+}
+
+TEST_F(Cli, UnwritableCacheIsAWarningAndThePackIsStillWritten) {
+  dir.write("S.hlsl", kEntries);
+  dir.write("cache", "a file where the cache directory should be\n");
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err.rfind("cache: warning[K1603]: cannot create the cache directory 'cache': ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find("  note: the outputs are unaffected; the next build compiles these variants again\n"), std::string::npos)
+      << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir / "out/p.manifest.json"));
+  EXPECT_EQ(testing::read_file(dir / "cache"), "a file where the cache directory should be\n");
 }
 
 TEST_F(Cli, ConcurrentBuildsSharingOneCacheAgreeByteForByte) {

@@ -6,54 +6,112 @@
 namespace kiln {
 namespace {
 
-JobOutput sample_output() {
+JobOutput sample_output(const std::string& text = "void main() {}") {
   JobOutput out;
   out.ok = true;
   out.spirv = {0x07230203, 1, 2, 3};
-  out.sources[Target::Glsl] = "#version 450\nvoid main() {}\n";
+  out.sources[Target::Glsl] = "#version 450\n" + text + "\n";
   out.reflection = {{"resources", nlohmann::json::array()}};
   return out;
 }
 
-TEST(Cache, StoredEntryLoadsBackIdentically) {
+// The segment layout, as cache.cpp writes it: a 32-byte header (magic, format, count, index offset, index
+// checksum), the records (each a 48-byte header then its payload), the index (key, offset, size per record).
+constexpr size_t kSegmentHeader = 32, kRecordHeader = 48, kIndexEntry = 32;
+
+uint64_t get64(const std::string& s, size_t at) {
+  uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v |= static_cast<uint64_t>(static_cast<unsigned char>(s[at + i])) << (8 * i);
+  return v;
+}
+void set64(std::string& s, size_t at, uint64_t v) {
+  for (int i = 0; i < 8; ++i) s[at + i] = static_cast<char>(v >> (8 * i));
+}
+
+std::filesystem::path only_segment(Cache& cache) {
+  auto files = cache.segment_files();
+  EXPECT_EQ(files.size(), 1u);
+  return files.empty() ? std::filesystem::path() : files.front();
+}
+
+TEST(Cache, StoredEntryLoadsBackIdenticallyAfterCommit) {
   testing::TempDir dir;
   Cache cache(dir.path());
   Hash128 key = hash128("key");
   ASSERT_TRUE(cache.store(key, sample_output()));
   bool rejected = true;
+  EXPECT_FALSE(cache.load(key, rejected)) << "staged entries are not in the cache before commit()";
+  EXPECT_TRUE(testing::files_below(dir.path()).empty());
+  ASSERT_EQ(cache.commit(), "");
   auto loaded = cache.load(key, rejected);
   ASSERT_TRUE(loaded);
   EXPECT_FALSE(rejected);
   EXPECT_EQ(loaded->spirv, sample_output().spirv);
   EXPECT_EQ(loaded->sources.at(Target::Glsl), sample_output().sources.at(Target::Glsl));
+  // Another process sees it too.
+  Cache other(dir.path());
+  EXPECT_TRUE(other.load(key, rejected));
+  EXPECT_EQ(testing::files_below(dir.path()).size(), 1u);
 }
 
-TEST(Cache, CorruptTruncatedOrForeignEntriesAreMisses) {
+TEST(Cache, CorruptTruncatedOrForeignEntriesAreMissesAndTheNextCommitRewritesThem) {
   testing::TempDir dir;
-  Cache cache(dir.path());
   Hash128 key = hash128("key"), other = hash128("other");
-  ASSERT_TRUE(cache.store(key, sample_output()));
-  std::string good = testing::read_file(cache.entry_path(key));
+  std::filesystem::path segment;
+  {
+    Cache cache(dir.path());
+    ASSERT_TRUE(cache.store(key, sample_output()));
+    ASSERT_EQ(cache.commit(), "");
+    segment = only_segment(cache);
+  }
+  const std::string good = testing::read_file(segment);
+  const std::string name = segment.filename().string();
   bool rejected = false;
 
+  // A flipped bit in the entry's payload: its checksum fails.
   std::string corrupt = good;
-  corrupt[corrupt.size() - 5] ^= 1;
-  dir.write(cache.entry_path(key).lexically_relative(dir.path()).string(), corrupt);
-  EXPECT_FALSE(cache.load(key, rejected));
-  EXPECT_TRUE(rejected);
+  corrupt[kSegmentHeader + kRecordHeader + 5] ^= 1;
+  dir.write(name, corrupt);
+  {
+    Cache cache(dir.path());
+    EXPECT_FALSE(cache.load(key, rejected));
+    EXPECT_TRUE(rejected);
+    // Rewriting fixes it: the new segment holds the entry, the damaged one is gone.
+    ASSERT_TRUE(cache.store(key, sample_output()));
+    ASSERT_EQ(cache.commit(), "");
+    EXPECT_TRUE(cache.load(key, rejected));
+    EXPECT_FALSE(rejected);
+    EXPECT_EQ(testing::read_file(only_segment(cache)), good);
+  }
 
-  dir.write(cache.entry_path(key).lexically_relative(dir.path()).string(), good.substr(0, good.size() - 10));
-  EXPECT_FALSE(cache.load(key, rejected));
-  EXPECT_TRUE(rejected);
+  // A truncated segment: its index is gone, so the whole segment is skipped (counted, not read).
+  dir.write(name, good.substr(0, good.size() - 10));
+  {
+    Cache cache(dir.path());
+    EXPECT_FALSE(cache.load(key, rejected));
+    EXPECT_FALSE(rejected);
+    EXPECT_EQ(cache.unreadable_segments(), 1u);
+    ASSERT_TRUE(cache.store(key, sample_output()));
+    ASSERT_EQ(cache.commit(), "");
+    EXPECT_TRUE(cache.load(key, rejected));
+    EXPECT_EQ(cache.unreadable_segments(), 0u);
+  }
 
-  // An entry copied under another key (a foreign entry) is detected by the key stored inside it.
-  dir.write(cache.entry_path(other).lexically_relative(dir.path()).string(), good);
-  EXPECT_FALSE(cache.load(other, rejected));
-  EXPECT_TRUE(rejected);
-
-  // Rewriting fixes it.
-  ASSERT_TRUE(cache.store(key, sample_output()));
-  EXPECT_TRUE(cache.load(key, rejected));
+  // A foreign entry: the index names `other` for `key`'s record (index checksum recomputed). The key
+  // stored inside the record tells them apart.
+  std::string foreign = good;
+  const size_t index = get64(good, 16);
+  set64(foreign, index, other.low);
+  set64(foreign, index + 8, other.high);
+  set64(foreign, 24, hash64(std::string_view(foreign).substr(index, kIndexEntry)));
+  std::filesystem::remove(dir.path() / name);
+  dir.write("seg-foreign.kseg", foreign);
+  {
+    Cache cache(dir.path());
+    EXPECT_EQ(cache.unreadable_segments(), 0u);
+    EXPECT_FALSE(cache.load(other, rejected));
+    EXPECT_TRUE(rejected);
+  }
 }
 
 TEST(Cache, AliasServesItsTargetWithItsOwnMessagesFirst) {
@@ -64,10 +122,13 @@ TEST(Cache, AliasServesItsTargetWithItsOwnMessagesFirst) {
   result.messages.push_back({Severity::Warning, "", 0, "from the back end"});
   ASSERT_TRUE(cache.store(module, result));
   ASSERT_TRUE(cache.store_alias(source, module, {{Severity::Warning, "S.hlsl", 3, "from the front end"}}));
+  ASSERT_EQ(cache.commit(), "");
   bool rejected = true;
-  auto loaded = cache.load(source, rejected);
+  std::optional<Hash128> target;
+  auto loaded = cache.load(source, rejected, &target);
   ASSERT_TRUE(loaded);
   EXPECT_FALSE(rejected);
+  EXPECT_EQ(target, module);
   EXPECT_EQ(loaded->spirv, result.spirv);
   ASSERT_EQ(loaded->messages.size(), 2u);
   EXPECT_EQ(loaded->messages[0].text, "from the front end");
@@ -77,36 +138,107 @@ TEST(Cache, AliasServesItsTargetWithItsOwnMessagesFirst) {
 
 TEST(Cache, AliasWhoseTargetIsMissingCorruptOrAnAliasIsAMiss) {
   testing::TempDir dir;
-  Cache cache(dir.path());
   Hash128 source = hash128("source"), module = hash128("module"), chain = hash128("chain");
-  ASSERT_TRUE(cache.store_alias(source, module, {}));
   bool rejected = true;
-  EXPECT_FALSE(cache.load(source, rejected));  // target missing: a plain miss
-  EXPECT_FALSE(rejected);
-
-  ASSERT_TRUE(cache.store(module, sample_output()));
-  std::string good = testing::read_file(cache.entry_path(module));
-  std::string corrupt = good;
-  corrupt[corrupt.size() - 5] ^= 1;
-  dir.write(cache.entry_path(module).lexically_relative(dir.path()).string(), corrupt);
-  EXPECT_FALSE(cache.load(source, rejected));
-  EXPECT_TRUE(rejected);
-
+  {
+    Cache cache(dir.path());
+    ASSERT_TRUE(cache.store_alias(source, module, {}));
+    ASSERT_EQ(cache.commit(), "");
+    EXPECT_FALSE(cache.load(source, rejected));  // target missing: a plain miss
+    EXPECT_FALSE(rejected);
+  }
+  std::filesystem::path target_segment;
+  {
+    Cache cache(dir.path());
+    ASSERT_TRUE(cache.store(module, sample_output()));
+    ASSERT_EQ(cache.commit(), "");
+    ASSERT_TRUE(cache.load(source, rejected));
+    for (const auto& file : cache.segment_files())
+      if (testing::read_file(file).size() > 200) target_segment = file;  // the result, not the alias
+  }
+  ASSERT_FALSE(target_segment.empty());
+  std::string corrupt = testing::read_file(target_segment);
+  corrupt[kSegmentHeader + kRecordHeader + 5] ^= 1;
+  dir.write(target_segment.filename().string(), corrupt);
+  {
+    Cache cache(dir.path());
+    EXPECT_FALSE(cache.load(source, rejected));
+    EXPECT_TRUE(rejected);
+  }
   // kiln never writes an alias to an alias; one found is rejected, not followed.
+  Cache cache(dir.path());
   ASSERT_TRUE(cache.store_alias(chain, source, {}));
   ASSERT_TRUE(cache.store(module, sample_output()));
+  ASSERT_EQ(cache.commit(), "");
   EXPECT_FALSE(cache.load(chain, rejected));
   EXPECT_TRUE(rejected);
   EXPECT_TRUE(cache.load(source, rejected));
 }
 
-TEST(Cache, FailuresAreNeverStored) {
+TEST(Cache, FailuresAreNeverStoredAndAnEmptyCommitWritesNothing) {
   testing::TempDir dir;
-  Cache cache(dir.path());
+  Cache cache(dir.path() / "c");
   JobOutput failed;
   failed.ok = false;
   EXPECT_FALSE(cache.store(hash128("k"), failed));
-  EXPECT_TRUE(testing::files_below(dir.path()).empty());
+  EXPECT_EQ(cache.commit(), "");
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "c"));
+}
+
+TEST(Cache, TheSameEntriesMakeTheSameSegmentInAnyOrder) {
+  testing::TempDir dir;
+  Cache a(dir.path() / "a"), b(dir.path() / "b");
+  for (int i = 0; i < 20; ++i) ASSERT_TRUE(a.store(hash128("k" + std::to_string(i)), sample_output(std::to_string(i))));
+  for (int i = 19; i >= 0; --i) ASSERT_TRUE(b.store(hash128("k" + std::to_string(i)), sample_output(std::to_string(i))));
+  ASSERT_EQ(a.commit(), "");
+  ASSERT_EQ(b.commit(), "");
+  std::filesystem::path sa = only_segment(a), sb = only_segment(b);
+  EXPECT_EQ(sa.filename(), sb.filename());
+  EXPECT_EQ(testing::read_file(sa), testing::read_file(sb));
+}
+
+TEST(Cache, SegmentsPastTheLimitAreMergedIntoTheNewOneAndTheLargestIsKept) {
+  testing::TempDir dir;
+  std::filesystem::path largest;
+  {
+    Cache cache(dir.path());
+    for (int i = 0; i < 50; ++i) cache.store(hash128("base" + std::to_string(i)), sample_output(std::to_string(i)));
+    ASSERT_EQ(cache.commit(), "");
+    largest = only_segment(cache);
+  }
+  for (size_t build = 0; build < 2 * Cache::kMaxSegments; ++build) {
+    Cache cache(dir.path());
+    cache.store(hash128("edit" + std::to_string(build)), sample_output("edit"));
+    ASSERT_EQ(cache.commit(), "");
+    EXPECT_LE(cache.segment_files().size(), Cache::kMaxSegments);
+  }
+  Cache cache(dir.path());
+  EXPECT_TRUE(std::filesystem::exists(largest)) << "the bulk of the cache is not rewritten by merges";
+  EXPECT_EQ(cache.indexed_keys(), 50 + 2 * Cache::kMaxSegments);
+  bool rejected = false;
+  for (size_t build = 0; build < 2 * Cache::kMaxSegments; ++build)
+    EXPECT_TRUE(cache.load(hash128("edit" + std::to_string(build)), rejected)) << build;
+  EXPECT_TRUE(cache.load(hash128("base7"), rejected));
+}
+
+TEST(Cache, ABuildKeepsReadingTheSegmentsItOpenedWhenAnotherBuildMergesThemAway) {
+  testing::TempDir dir;
+  for (size_t build = 0; build < Cache::kMaxSegments; ++build) {
+    Cache cache(dir.path());
+    cache.store(hash128("k" + std::to_string(build)), sample_output(std::to_string(build)));
+    ASSERT_EQ(cache.commit(), "");
+  }
+  Cache reader(dir.path());
+  bool rejected = false;
+  ASSERT_TRUE(reader.load(hash128("k0"), rejected));  // the reader has opened every segment
+  {
+    Cache writer(dir.path());
+    writer.store(hash128("new"), sample_output("new"));
+    ASSERT_EQ(writer.commit(), "");
+    EXPECT_EQ(writer.segment_files().size(), 2u);  // the largest, and the merge of the rest with "new"
+  }
+  for (size_t build = 1; build < Cache::kMaxSegments; ++build)
+    EXPECT_TRUE(reader.load(hash128("k" + std::to_string(build)), rejected)) << build;
 }
 
 }  // namespace

@@ -1,20 +1,44 @@
 #include "cache/cache.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <cstring>
+#include <set>
 
 #include "common/files.hpp"
 
 namespace kiln {
 namespace {
 
-constexpr char kMagic[8] = {'K', 'I', 'L', 'N', 'C', 'A', 'C', 'H'};
+// An entry's record: magic, format, kind, key, payload size, payload checksum, payload. The same record
+// whether it sits in the segment a build wrote or in the one a later merge wrote.
+constexpr char kRecordMagic[8] = {'K', 'I', 'L', 'N', 'C', 'A', 'C', 'H'};
 // 2: entries are results or aliases (a stage source's key naming its front-end module's entry).
-constexpr uint32_t kCacheFormat = 2;
-constexpr size_t kHeaderSize = 8 + 4 + 4 + 16 + 8 + 8;
+// 3: entries live in segment files.
+constexpr uint32_t kCacheFormat = 3;
+constexpr size_t kRecordHeaderSize = 8 + 4 + 4 + 16 + 8 + 8;
 enum EntryKind : uint32_t { kResult = 0, kAlias = 1 };
 
+// A segment: magic, format, entry count, index offset, index checksum; the records; the index (key, offset,
+// size per record, ordered by key). The file ends where the index does: a truncated segment is refused.
+constexpr char kSegmentMagic[8] = {'K', 'I', 'L', 'N', 'S', 'E', 'G', 'M'};
+constexpr size_t kSegmentHeaderSize = 8 + 4 + 4 + 8 + 8;
+constexpr size_t kIndexEntrySize = 16 + 8 + 8;
+constexpr const char* kSegmentExtension = ".kseg";
+
+void put32(std::string& out, uint32_t v) {
+  for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>(v >> (8 * i)));
+}
 void put64(std::string& out, uint64_t v) {
   for (int i = 0; i < 8; ++i) out.push_back(static_cast<char>(v >> (8 * i)));
+}
+uint32_t get32(std::string_view in, size_t at) {
+  uint32_t v = 0;
+  for (int i = 0; i < 4; ++i) v |= static_cast<uint32_t>(static_cast<unsigned char>(in[at + i])) << (8 * i);
+  return v;
 }
 uint64_t get64(std::string_view in, size_t at) {
   uint64_t v = 0;
@@ -22,48 +46,132 @@ uint64_t get64(std::string_view in, size_t at) {
   return v;
 }
 
+bool read_exactly(int fd, uint64_t offset, std::string& out, uint64_t size) {
+  out.resize(size);
+  uint64_t done = 0;
+  while (done < size) {
+    ssize_t got = ::pread(fd, out.data() + done, size - done, static_cast<off_t>(offset + done));
+    if (got < 0 && errno == EINTR) continue;
+    if (got <= 0) return false;
+    done += static_cast<uint64_t>(got);
+  }
+  return true;
+}
+
+// The record's kind when its header, key and checksum are right; its payload in `payload`.
+std::optional<uint32_t> check_record(std::string_view record, const Hash128& key, std::string_view* payload) {
+  if (record.size() < kRecordHeaderSize || std::memcmp(record.data(), kRecordMagic, 8) != 0) return std::nullopt;
+  const uint32_t format = get32(record, 8), kind = get32(record, 12);
+  if (format != kCacheFormat || (kind != kResult && kind != kAlias)) return std::nullopt;
+  if (get64(record, 16) != key.low || get64(record, 24) != key.high) return std::nullopt;
+  if (get64(record, 32) != record.size() - kRecordHeaderSize) return std::nullopt;
+  std::string_view body = record.substr(kRecordHeaderSize);
+  if (hash64(body) != get64(record, 40)) return std::nullopt;
+  if (payload) *payload = body;
+  return kind;
+}
+
 }  // namespace
 
 Cache::Cache(std::filesystem::path directory) : directory_(std::move(directory)) {}
 
-std::filesystem::path Cache::entry_path(const Hash128& key) const {
-  std::string hex = key.hex();
-  return directory_ / hex.substr(0, 2) / hex.substr(2);
+Cache::~Cache() { close_segments(); }
+
+void Cache::close_segments() {
+  for (Segment& s : segments_)
+    if (s.fd >= 0) ::close(s.fd);
+  segments_.clear();
+  index_.clear();
+  scanned_ = false;
 }
 
-std::optional<Cache::Entry> Cache::read(const Hash128& key, bool& rejected) const {
-  rejected = false;
-  auto bytes = read_binary_file(entry_path(key));
-  if (!bytes) return std::nullopt;
-  rejected = true;
-  if (bytes->size() < kHeaderSize || std::memcmp(bytes->data(), kMagic, 8) != 0) return std::nullopt;
-  uint32_t format = 0, kind = 0;
-  std::memcpy(&format, bytes->data() + 8, 4);
-  std::memcpy(&kind, bytes->data() + 12, 4);
-  if (format != kCacheFormat || (kind != kResult && kind != kAlias)) return std::nullopt;
-  if (get64(*bytes, 16) != key.low || get64(*bytes, 24) != key.high) return std::nullopt;
-  uint64_t size = get64(*bytes, 32);
-  uint64_t checksum = get64(*bytes, 40);
-  if (size != bytes->size() - kHeaderSize) return std::nullopt;
-  std::string_view payload(bytes->data() + kHeaderSize, size);
-  if (hash64(payload) != checksum) return std::nullopt;
-  Entry entry;
-  if (kind == kAlias) {
-    if (payload.size() < 16) return std::nullopt;
-    entry.alias = Hash128{get64(payload, 0), get64(payload, 8)};
-    payload.remove_prefix(16);
+void Cache::scan() {
+  std::set<std::filesystem::path> damaged;  // found damaged by loads since the last scan: still damaged
+  for (const Segment& s : segments_)
+    if (s.damaged) damaged.insert(s.path);
+  close_segments();
+  scanned_ = true;
+  std::vector<std::filesystem::path> files;
+  std::error_code ec;
+  for (auto it = std::filesystem::directory_iterator(directory_, ec); !ec && it != std::filesystem::directory_iterator();
+       it.increment(ec))
+    if (it->path().extension() == kSegmentExtension && it->is_regular_file(ec)) files.push_back(it->path());
+  std::sort(files.begin(), files.end());
+  for (const std::filesystem::path& path : files) {
+    // Opened once and kept: a merge in another build may remove the file, not what this build reads.
+    int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) continue;  // removed by a merge since the listing
+    struct stat st {};
+    Segment segment{path, fd, 0, damaged.count(path) > 0};
+    const size_t index = segments_.size();
+    segments_.push_back(segment);
+    std::string header, entries;
+    if (::fstat(fd, &st) != 0 || !read_exactly(fd, 0, header, kSegmentHeaderSize) ||
+        std::memcmp(header.data(), kSegmentMagic, 8) != 0 || get32(header, 8) != kCacheFormat) {
+      segments_[index].unreadable = segments_[index].damaged = true;
+      continue;
+    }
+    const uint64_t file_size = static_cast<uint64_t>(st.st_size), count = get32(header, 12),
+                   index_offset = get64(header, 16);
+    segments_[index].size = file_size;
+    if (index_offset < kSegmentHeaderSize || index_offset > file_size ||
+        (file_size - index_offset) != count * kIndexEntrySize || !read_exactly(fd, index_offset, entries, count * kIndexEntrySize) ||
+        hash64(entries) != get64(header, 24)) {
+      segments_[index].unreadable = segments_[index].damaged = true;
+      continue;
+    }
+    for (uint64_t i = 0; i < count; ++i) {
+      const size_t at = i * kIndexEntrySize;
+      const uint64_t offset = get64(entries, at + 16), size = get64(entries, at + 24);
+      if (offset < kSegmentHeaderSize || offset > index_offset || size > index_offset - offset) {
+        segments_[index].damaged = true;
+        continue;
+      }
+      index_[Hash128{get64(entries, at), get64(entries, at + 8)}].push_back({index, offset, size});
+    }
   }
-  try {
-    entry.output = decode_output(std::vector<uint8_t>(payload.begin(), payload.end()));
-  } catch (const std::exception&) {
-    return std::nullopt;
-  }
-  if (!entry.output.ok) return std::nullopt;
-  rejected = false;
-  return entry;
 }
 
-std::optional<JobOutput> Cache::load(const Hash128& key, bool& rejected, std::optional<Hash128>* target_key) const {
+std::optional<std::string> Cache::read_record(const Location& at) {
+  std::string record;
+  if (!read_exactly(segments_[at.segment].fd, at.offset, record, at.size)) return std::nullopt;
+  return record;
+}
+
+std::optional<Cache::Entry> Cache::read(const Hash128& key, bool& rejected) {
+  rejected = false;
+  if (!scanned_) scan();
+  auto found = index_.find(key);
+  if (found == index_.end()) return std::nullopt;
+  // Every good copy of an entry has the same bytes (same key, deterministic compile); the first good one wins.
+  for (const Location& at : found->second) {
+    std::optional<std::string> record = read_record(at);
+    std::string_view payload;
+    std::optional<uint32_t> kind = record ? check_record(*record, key, &payload) : std::nullopt;
+    Entry entry;
+    if (kind && *kind == kAlias) {
+      if (payload.size() < 16) kind.reset();
+      else {
+        entry.alias = Hash128{get64(payload, 0), get64(payload, 8)};
+        payload.remove_prefix(16);
+      }
+    }
+    if (kind) {
+      try {
+        entry.output = decode_output(std::vector<uint8_t>(payload.begin(), payload.end()));
+      } catch (const std::exception&) {
+        kind.reset();
+      }
+    }
+    if (kind && entry.output.ok) return entry;
+    rejected = true;
+    segments_[at.segment].damaged = true;  // the next commit copies its good entries out and removes it
+  }
+  return std::nullopt;
+}
+
+std::optional<JobOutput> Cache::load(const Hash128& key, bool& rejected, std::optional<Hash128>* target_key) {
+  std::lock_guard lock(mutex_);
   if (target_key) target_key->reset();
   std::optional<Entry> entry = read(key, rejected);
   if (!entry || !entry->alias) return entry ? std::optional<JobOutput>(std::move(entry->output)) : std::nullopt;
@@ -79,38 +187,108 @@ std::optional<JobOutput> Cache::load(const Hash128& key, bool& rejected, std::op
   return output;
 }
 
-bool Cache::write(const Hash128& key, uint32_t kind, std::string_view prefix, const JobOutput& output) const {
+bool Cache::stage(const Hash128& key, uint32_t kind, std::string_view prefix, const JobOutput& output) {
   std::vector<uint8_t> encoded = encode_output(output);
   std::string payload(prefix);
   payload.append(reinterpret_cast<const char*>(encoded.data()), encoded.size());
-  std::string bytes(kMagic, 8);
-  uint32_t format = kCacheFormat;
-  bytes.append(reinterpret_cast<const char*>(&format), 4);
-  bytes.append(reinterpret_cast<const char*>(&kind), 4);
-  put64(bytes, key.low);
-  put64(bytes, key.high);
-  put64(bytes, payload.size());
-  put64(bytes, hash64(payload));
-  bytes += payload;
-  std::filesystem::path path = entry_path(key);
-  std::error_code ec;
-  std::filesystem::create_directories(path.parent_path(), ec);
-  return write_file_atomic(path, bytes).empty();
+  std::string record(kRecordMagic, 8);
+  put32(record, kCacheFormat);
+  put32(record, kind);
+  put64(record, key.low);
+  put64(record, key.high);
+  put64(record, payload.size());
+  put64(record, hash64(payload));
+  record += payload;
+  std::lock_guard lock(mutex_);
+  staged_[key] = std::move(record);
+  return true;
 }
 
-bool Cache::store(const Hash128& key, const JobOutput& output) const {
+bool Cache::store(const Hash128& key, const JobOutput& output) {
   if (!output.ok) return false;
-  return write(key, kResult, {}, output);
+  return stage(key, kResult, {}, output);
 }
 
-bool Cache::store_alias(const Hash128& key, const Hash128& target, const std::vector<FrontendMessage>& messages) const {
+bool Cache::store_alias(const Hash128& key, const Hash128& target, const std::vector<FrontendMessage>& messages) {
   JobOutput front;
   front.ok = true;
   front.messages = messages;
   std::string prefix;
   put64(prefix, target.low);
   put64(prefix, target.high);
-  return write(key, kAlias, prefix, front);
+  return stage(key, kAlias, prefix, front);
+}
+
+std::string Cache::commit() {
+  std::lock_guard lock(mutex_);
+  if (staged_.empty()) return {};
+  std::error_code ec;
+  std::filesystem::create_directories(directory_, ec);
+  if (ec) return "cannot create the cache directory '" + directory_.string() + "': " + ec.message();
+  scan();  // what other builds committed meanwhile counts too
+
+  // Merged into the new segment, then removed: damaged segments (their good entries are kept), and when
+  // there are too many, every segment but the largest good one, so the bulk of a cache is not rewritten.
+  std::vector<size_t> merged;
+  const bool too_many = segments_.size() + 1 > kMaxSegments;
+  size_t largest = segments_.size();
+  for (size_t s = 0; s < segments_.size(); ++s)
+    if (!segments_[s].damaged && (largest == segments_.size() || segments_[s].size > segments_[largest].size)) largest = s;
+  for (size_t s = 0; s < segments_.size(); ++s)
+    if (segments_[s].damaged || (too_many && s != largest)) merged.push_back(s);
+  std::map<Hash128, std::string> records = std::move(staged_);
+  staged_.clear();
+  for (const auto& [key, locations] : index_)
+    for (const Location& at : locations)
+      if (std::find(merged.begin(), merged.end(), at.segment) != merged.end() && !records.count(key))
+        if (std::optional<std::string> record = read_record(at); record && check_record(*record, key, nullptr))
+          records.emplace(key, std::move(*record));
+
+  std::string header(kSegmentMagic, 8), index;
+  std::vector<std::string_view> parts(1);  // the header, once complete
+  uint64_t offset = kSegmentHeaderSize;
+  for (const auto& [key, record] : records) {
+    put64(index, key.low);
+    put64(index, key.high);
+    put64(index, offset);
+    put64(index, record.size());
+    parts.push_back(record);
+    offset += record.size();
+  }
+  put32(header, kCacheFormat);
+  put32(header, static_cast<uint32_t>(records.size()));
+  put64(header, offset);
+  put64(header, hash64(index));
+  parts.front() = header;
+  parts.push_back(index);
+  // Each key's record is the same bytes in any build, so the index names the content.
+  const std::string name = "seg-" + hash128(header + index).hex() + kSegmentExtension;
+  std::string error = write_file_atomic(directory_ / name, parts);
+  if (error.empty())
+    for (size_t s : merged)
+      if (segments_[s].path.filename() != name) std::filesystem::remove(segments_[s].path, ec);
+  close_segments();  // the next load sees the new segment
+  return error;
+}
+
+size_t Cache::unreadable_segments() {
+  std::lock_guard lock(mutex_);
+  if (!scanned_) scan();
+  return static_cast<size_t>(std::count_if(segments_.begin(), segments_.end(), [](const Segment& s) { return s.unreadable; }));
+}
+
+size_t Cache::indexed_keys() {
+  std::lock_guard lock(mutex_);
+  if (!scanned_) scan();
+  return index_.size();
+}
+
+std::vector<std::filesystem::path> Cache::segment_files() {
+  std::lock_guard lock(mutex_);
+  if (!scanned_) scan();
+  std::vector<std::filesystem::path> paths;
+  for (const Segment& s : segments_) paths.push_back(s.path);
+  return paths;
 }
 
 }  // namespace kiln

@@ -3,15 +3,26 @@
 // exactly the variants that read it. Two kinds of entry: a back end's result, keyed by the front end's
 // SPIR-V module (plus the same versions and options), and for each stage source an alias naming its
 // module's entry and carrying the front end's warnings; so an edit that changes no code the entry point
-// reaches costs a front end, not a back end. Entries are checksummed; a corrupt, truncated or foreign
-// entry (or an alias whose target is any of those) is a miss and is rewritten. Writes are atomic
-// (temp + rename), so concurrent builds sharing a cache never see torn entries; both writers write the
-// same bytes.
+// reaches costs a front end, not a back end.
+//
+// Storage: segment files. A build stages its new entries in memory and commit() writes them as one
+// segment (`seg-<content hash>.kseg`: a header, the entries, an index of keys and offsets, each part
+// checksummed), by temp file and rename: one file per build instead of one per entry, because creating
+// thousands of small files is what a cold build's cache store cost on ext4 (see docs/design.md).
+// Segments are never modified. When a commit finds more than kMaxSegments, it merges every segment but
+// the largest (and any found damaged) into the new one and removes them; readers keep the segments they
+// opened, so a concurrent build reading a removed segment still reads it. Entries carry their own key
+// and checksum; a corrupt, truncated or foreign entry (or an alias whose target is any of those) is a
+// miss, rewritten by the next commit; a segment whose header or index fails its checks is skipped whole.
+// Two builds writing the same entries write the same segment bytes under the same name.
 #pragma once
 
-#include <atomic>
 #include <filesystem>
+#include <map>
+#include <mutex>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "common/hash.hpp"
 #include "workers/compile_job.hpp"
@@ -20,27 +31,60 @@ namespace kiln {
 
 class Cache {
  public:
+  static constexpr size_t kMaxSegments = 8;
+
   explicit Cache(std::filesystem::path directory);
+  ~Cache();
+  Cache(const Cache&) = delete;
+  Cache& operator=(const Cache&) = delete;
   const std::filesystem::path& directory() const { return directory_; }
 
   // Nothing on a miss; `rejected` is set when an entry existed but failed its checks. An alias is
   // followed: the result is its target's, with the alias's messages first, and `target` (if given) is
-  // set to the target's key.
-  std::optional<JobOutput> load(const Hash128& key, bool& rejected, std::optional<Hash128>* target = nullptr) const;
-  // Only successful results are ever stored: a failure (or a crash) is never cached.
-  bool store(const Hash128& key, const JobOutput& output) const;
-  bool store_alias(const Hash128& key, const Hash128& target, const std::vector<FrontendMessage>& messages) const;
-  std::filesystem::path entry_path(const Hash128& key) const;
+  // set to the target's key. Sees the segments committed when it is first called (after a commit, again).
+  std::optional<JobOutput> load(const Hash128& key, bool& rejected, std::optional<Hash128>* target = nullptr);
+  // Staged in memory until commit(); safe to call from many threads. Only successful results are ever
+  // stored: a failure (or a crash) is never cached.
+  bool store(const Hash128& key, const JobOutput& output);
+  bool store_alias(const Hash128& key, const Hash128& target, const std::vector<FrontendMessage>& messages);
+  // Writes the staged entries as one segment (nothing when none are staged). Empty, or what failed.
+  std::string commit();
+
+  // Segments whose header or index failed its checks, as of the last scan.
+  size_t unreadable_segments();
+  // Distinct keys with an entry in a readable segment (entries themselves are checked when loaded).
+  size_t indexed_keys();
+  std::vector<std::filesystem::path> segment_files();
 
  private:
+  struct Segment {
+    std::filesystem::path path;
+    int fd = -1;
+    uint64_t size = 0;
+    bool unreadable = false;  // its header or index failed its checks
+    bool damaged = false;     // unreadable, or an entry it lists failed its checks
+  };
+  struct Location {
+    size_t segment;
+    uint64_t offset;
+    uint64_t size;
+  };
   struct Entry {
     std::optional<Hash128> alias;
     JobOutput output;  // an alias's: only its messages
   };
-  std::optional<Entry> read(const Hash128& key, bool& rejected) const;
-  bool write(const Hash128& key, uint32_t kind, std::string_view prefix, const JobOutput& output) const;
+  void scan();
+  void close_segments();
+  std::optional<std::string> read_record(const Location& at);
+  std::optional<Entry> read(const Hash128& key, bool& rejected);
+  bool stage(const Hash128& key, uint32_t kind, std::string_view prefix, const JobOutput& output);
 
   std::filesystem::path directory_;
+  std::mutex mutex_;
+  bool scanned_ = false;
+  std::vector<Segment> segments_;
+  std::map<Hash128, std::vector<Location>> index_;
+  std::map<Hash128, std::string> staged_;  // key -> the entry's record, ordered: the segment's bytes are too
 };
 
 }  // namespace kiln

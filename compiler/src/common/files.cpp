@@ -137,22 +137,28 @@ std::optional<std::string> read_binary_file(const std::filesystem::path& path) {
 }
 
 std::string write_file_atomic(const std::filesystem::path& path, std::string_view bytes) {
+  return write_file_atomic(path, std::vector<std::string_view>{bytes});
+}
+
+std::string write_file_atomic(const std::filesystem::path& path, const std::vector<std::string_view>& parts) {
   static std::atomic<uint64_t> counter{0};
   std::filesystem::path temp = path;
   temp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
   int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) return "cannot create '" + temp.string() + "': " + std::strerror(errno);
-  size_t written = 0;
-  while (written < bytes.size()) {
-    ssize_t put = ::write(fd, bytes.data() + written, bytes.size() - written);
-    if (put < 0 && errno == EINTR) continue;
-    if (put <= 0) {
-      std::string error = "cannot write '" + temp.string() + "': " + std::strerror(errno);
-      ::close(fd);
-      ::unlink(temp.c_str());
-      return error;
+  for (std::string_view bytes : parts) {
+    size_t written = 0;
+    while (written < bytes.size()) {
+      ssize_t put = ::write(fd, bytes.data() + written, bytes.size() - written);
+      if (put < 0 && errno == EINTR) continue;
+      if (put <= 0) {
+        std::string error = "cannot write '" + temp.string() + "': " + std::strerror(errno);
+        ::close(fd);
+        ::unlink(temp.c_str());
+        return error;
+      }
+      written += static_cast<size_t>(put);
     }
-    written += static_cast<size_t>(put);
   }
   if (::close(fd) != 0) {
     ::unlink(temp.c_str());
