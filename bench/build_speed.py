@@ -7,7 +7,13 @@ The naive pipeline is what a user's shell loop does for every (variant, stage):
 Each configuration runs `--reps` times, interleaved round-robin so that machine noise hits all of
 them alike; the report gives medians, min-max spread and ratios against the naive pipeline.
 
+With --floor-tool (build/ci/bench/kiln-compile-steps), one more configuration: the library floor, i.e. the
+glslang, SPIRV-Tools and SPIRV-Cross calls of a cold build (every stage source's front end, every distinct
+module's back end) run one after the other in one process, without anything of kiln's own. Divided by the
+number of cores it is the wall time of an ideal parallel build with kiln's recipe and dedupe.
+
 Usage: bench/build_speed.py --kiln build/ci/compiler/kiln [--pack variants/lit.pack.json] [--reps 3]
+                            [--kiln-glibc build/glibc/compiler/kiln] [--floor-tool build/ci/bench/kiln-compile-steps]
 """
 import argparse
 import json
@@ -86,6 +92,7 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--kiln", required=True)
     parser.add_argument("--kiln-glibc", help="the same kiln built with -DKILN_MIMALLOC=OFF: one more cold configuration")
+    parser.add_argument("--floor-tool", help="kiln-compile-steps: times the library floor (see above)")
     parser.add_argument("--pack", default=os.path.join(ROOT, "variants/lit.pack.json"))
     parser.add_argument("--reps", type=int, default=3)
     parser.add_argument("--jobs", type=int, default=os.cpu_count())
@@ -161,6 +168,17 @@ def main():
         def naive_parallel():
             return timed(f"xargs -P {args.jobs} -I CMD -d '\\n' bash -c CMD < {joblist}")[0]
 
+        floor_runs = []
+
+        def library_floor():
+            emit = os.path.join(work, "floor-emit")
+            if not os.path.isdir(emit):  # the stage sources a build compiles, preprocessed (served by the warm cache)
+                run([kiln, "build", args.pack, "-o", emit, "--cache", warm_cache, "-q", "--emit", "preprocessed"])
+            out = os.path.join(work, "floor.json")
+            timed([os.path.abspath(args.floor_tool), "--floor", os.path.join(emit, "emit"), args.pack, "--json", out])
+            floor_runs.append(json.load(open(out)))
+            return floor_runs[-1]["total_s"]
+
         configs = {f"kiln cold -j{args.jobs}": lambda: cold(args.jobs)}
         if args.kiln_glibc:
             glibc = os.path.abspath(args.kiln_glibc)
@@ -174,6 +192,8 @@ def main():
             "naive loop, serial": naive_serial,
             f"naive loop, xargs -P{args.jobs}": naive_parallel,
         })
+        if args.floor_tool:
+            configs["library floor, one process"] = library_floor
         samples = {name: [] for name in configs}
         for rep in range(args.reps):
             for name, fn in configs.items():
@@ -203,6 +223,7 @@ def main():
             if args.kiln_glibc else None,
             "peak_child_rss_mib": round(peak_kib / 1024, 1),
             "file_create_ms": round(file_create_ms(os.path.join(work, "file-create")), 3),
+            "floor_runs": floor_runs,
             "reps": args.reps,
             "samples_s": samples,
             "median_s": {k: statistics.median(v) for k, v in samples.items()},

@@ -1,23 +1,143 @@
-// Times each step of one compile job on a preprocessed stage source (from `kiln build --emit preprocessed`),
-// in the order a worker runs them: front end (glslang), legalize (kiln's core recipe), validate, optimize,
+// Times the steps of compile jobs on preprocessed stage sources (from `kiln build --emit preprocessed`), in
+// the order a worker runs them: front end (glslang), legalize (kiln's core recipe), validate, optimize,
 // validate, reflect, the three cross-compilers. Linked with the same allocator as kiln-worker, so the numbers
-// are the workers'. SPIRV-Tools' full legalization recipe (the fallback) is timed too, outside the total.
-// usage: kiln-compile-steps FILE.hlsl vertex|fragment ENTRY [repetitions] [--json OUT]
+// are the workers'.
+//
+// One source: each step's median over `repetitions` runs; SPIRV-Tools' full legalization recipe (the
+// fallback) is timed too, outside the total.
+//   kiln-compile-steps FILE.hlsl vertex|fragment ENTRY [repetitions] [--json OUT]
+// The floor of a pack: every source the pack's build compiles, once each, one after the other; back-end
+// steps only for the first source of each distinct front-end module, as kiln does. The sum is the library
+// work of a cold build, without kiln's own (planning, preprocessing, processes, cache, pack).
+//   kiln-compile-steps --floor EMIT_DIR PACK.json [--json OUT]
 #include <algorithm>
 #include <chrono>
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <set>
 #include <sstream>
 #include <string_view>
 
 #include <nlohmann/json.hpp>
 
 #include "../compiler/cli/allocator.hpp"
+#include "common/hash.hpp"
 #include "cross/cross_compile.hpp"
 #include "frontend/frontend.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "reflect/reflect.hpp"
+
+namespace {
+
+using clock_type = std::chrono::steady_clock;
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Step names in order and, per step, the times recorded.
+struct StepTimes {
+  std::vector<std::string> names;
+  std::vector<std::vector<double>> times;
+  void record(size_t index, const char* name, double ms) {
+    if (names.size() <= index) {
+      names.push_back(name);
+      times.emplace_back();
+    }
+    times[index].push_back(ms);
+  }
+};
+
+// Runs a worker's steps on one source, recording each step's time. Back-end steps only when `back_end`
+// says so for the front end's module. Exits on a failed step: every source of a good pack compiles.
+nlohmann::json run_steps(kiln::Frontend& frontend, const std::string& path, kiln::Stage stage, const std::string& entry,
+                         StepTimes& out, const std::function<bool(const std::vector<uint32_t>&)>& back_end) {
+  const std::string source = read_file(path);
+  auto timed = [&](size_t index, const char* name, const std::function<bool()>& step) {
+    auto start = clock_type::now();
+    bool ok = step();
+    out.record(index, name, std::chrono::duration<double, std::milli>(clock_type::now() - start).count());
+    if (!ok) {
+      std::cerr << "kiln-compile-steps: step '" << name << "' failed on " << path << "\n";
+      std::exit(1);
+    }
+  };
+  kiln::CompileResult front;
+  kiln::SpirvStepResult legal, optimized;
+  size_t i = 0;
+  timed(i++, "front end (glslang)", [&] {
+    front = frontend.compile({stage, entry, path, source});
+    return front.ok;
+  });
+  if (!back_end(front.spirv)) return nullptr;
+  timed(i++, "legalize (core recipe)", [&] { return (legal = kiln::legalize_spirv_core(front.spirv)).ok; });
+  timed(i++, "validate", [&] { return kiln::validate_spirv(legal.spirv).ok; });
+  timed(i++, "optimize (-O)", [&] { return (optimized = kiln::optimize_spirv(legal.spirv)).ok; });
+  timed(i++, "validate again", [&] { return kiln::validate_spirv(optimized.spirv).ok; });
+  timed(i++, "reflect", [&] { return !kiln::reflect_spirv(optimized.spirv).is_null(); });
+  // As in a worker: the GL module (16-bit floats widened) is made once, inside the first GL step.
+  kiln::CrossCompiler cross(optimized.spirv);
+  timed(i++, "SPIRV-Cross GLSL 450", [&] { return cross.compile(kiln::Target::Glsl).ok; });
+  timed(i++, "SPIRV-Cross GLSL ES 310", [&] { return cross.compile(kiln::Target::Gles).ok; });
+  timed(i++, "SPIRV-Cross MSL", [&] { return cross.compile(kiln::Target::Msl).ok; });
+  return {{"front_end", front.spirv.size()}, {"legalized", legal.spirv.size()}, {"optimized", optimized.spirv.size()}};
+}
+
+void write_json(const std::string& path, const nlohmann::json& j) {
+  if (path.empty()) return;
+  std::ofstream out(path);
+  out << j.dump(2) << "\n";
+}
+
+int floor_mode(const std::string& emit_dir, const std::string& pack_file, const std::string& json_out) {
+  const nlohmann::json pack = nlohmann::json::parse(read_file(pack_file));
+  auto frontend = kiln::make_glslang_frontend();
+  StepTimes steps;
+  std::set<std::string> modules;
+  size_t front_ends = 0, back_ends = 0;
+  const auto start = clock_type::now();
+  for (const auto& pass : pack.at("passes")) {
+    for (const auto& [stage_name, entry] : pass.at("stages").items()) {
+      const std::filesystem::path dir = std::filesystem::path(emit_dir) / pass.at("name").get<std::string>() / stage_name;
+      std::vector<std::filesystem::path> sources;
+      for (const auto& file : std::filesystem::directory_iterator(dir))
+        if (file.path().extension() == ".hlsl") sources.push_back(file.path());
+      std::sort(sources.begin(), sources.end());
+      const kiln::Stage stage = kiln::parse_stage(stage_name).value_or(kiln::Stage::Fragment);
+      for (const auto& source : sources) {
+        ++front_ends;
+        run_steps(*frontend, source.string(), stage, entry.get<std::string>(), steps, [&](const std::vector<uint32_t>& spirv) {
+          std::string key = stage_name + entry.get<std::string>();
+          key.append(reinterpret_cast<const char*>(spirv.data()), spirv.size() * 4);
+          bool fresh = modules.insert(kiln::hash128(key).hex()).second;
+          back_ends += fresh;
+          return fresh;
+        });
+      }
+    }
+  }
+  const double wall = std::chrono::duration<double>(clock_type::now() - start).count();
+  nlohmann::json table = nlohmann::json::array();
+  double total = 0;
+  for (size_t i = 0; i < steps.names.size(); ++i) {
+    double sum = 0;
+    for (double t : steps.times[i]) sum += t;
+    total += sum / 1000;
+    table.push_back({{"step", steps.names[i]}, {"runs", steps.times[i].size()}, {"total_s", sum / 1000}});
+    std::cout << steps.names[i] << ": " << steps.times[i].size() << " runs, " << sum / 1000 << " s\n";
+  }
+  std::cout << "front ends " << front_ends << ", back ends " << back_ends << ", library time " << total << " s (wall "
+            << wall << " s)\n";
+  write_json(json_out, {{"pack", pack_file}, {"allocator", kiln::allocator_description()}, {"front_ends", front_ends},
+                        {"back_ends", back_ends}, {"steps", table}, {"total_s", total}, {"wall_s", wall}});
+  return 0;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   std::vector<std::string_view> args(argv + 1, argv + argc);
@@ -26,88 +146,48 @@ int main(int argc, char** argv) {
     json_out = std::string(*(at + 1));
     args.erase(at, at + 2);
   }
+  if (args.size() == 3 && args[0] == "--floor") return floor_mode(std::string(args[1]), std::string(args[2]), json_out);
   if (args.size() < 3) {
-    std::cerr << "usage: kiln-compile-steps FILE.hlsl vertex|fragment ENTRY [repetitions] [--json OUT]\n";
+    std::cerr << "usage: kiln-compile-steps FILE.hlsl vertex|fragment ENTRY [repetitions] [--json OUT]\n"
+                 "       kiln-compile-steps --floor EMIT_DIR PACK.json [--json OUT]\n";
     return 2;
   }
   const std::string path(args[0]), entry(args[2]);
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  const std::string source = text.str();
   const kiln::Stage stage = kiln::parse_stage(args[1]).value_or(kiln::Stage::Fragment);
   const int reps = args.size() > 3 ? std::stoi(std::string(args[3])) : 9;
   auto frontend = kiln::make_glslang_frontend();
 
-  using clock = std::chrono::steady_clock;
-  std::vector<std::string> names;
-  std::vector<std::vector<double>> times;
-  auto timed = [&](size_t index, const char* name, const std::function<bool()>& step) {
-    if (times.size() <= index) {
-      names.push_back(name);
-      times.emplace_back();
-    }
-    auto start = clock::now();
-    bool ok = step();
-    times[index].push_back(std::chrono::duration<double, std::milli>(clock::now() - start).count());
-    if (!ok) {
-      std::cerr << "kiln-compile-steps: step '" << name << "' failed on " << path << "\n";
-      std::exit(1);
-    }
-  };
+  StepTimes steps;
   nlohmann::json words;
-  for (int r = 0; r < reps; ++r) {
-    kiln::CompileResult front;
-    kiln::SpirvStepResult legal, optimized;
-    size_t i = 0;
-    timed(i++, "front end (glslang)", [&] {
-      front = frontend->compile({stage, entry, path, source});
-      return front.ok;
-    });
-    timed(i++, "legalize (core recipe)", [&] { return (legal = kiln::legalize_spirv_core(front.spirv)).ok; });
-    timed(i++, "validate", [&] { return kiln::validate_spirv(legal.spirv).ok; });
-    timed(i++, "optimize (-O)", [&] { return (optimized = kiln::optimize_spirv(legal.spirv)).ok; });
-    timed(i++, "validate again", [&] { return kiln::validate_spirv(optimized.spirv).ok; });
-    timed(i++, "reflect", [&] { return !kiln::reflect_spirv(optimized.spirv).is_null(); });
-    // As in a worker: the GL module (16-bit floats widened) is made once, inside the first GL step.
-    kiln::CrossCompiler cross(optimized.spirv);
-    timed(i++, "SPIRV-Cross GLSL 450", [&] { return cross.compile(kiln::Target::Glsl).ok; });
-    timed(i++, "SPIRV-Cross GLSL ES 310", [&] { return cross.compile(kiln::Target::Gles).ok; });
-    timed(i++, "SPIRV-Cross MSL", [&] { return cross.compile(kiln::Target::Msl).ok; });
-    words = {{"front_end", front.spirv.size()}, {"legalized", legal.spirv.size()}, {"optimized", optimized.spirv.size()}};
-  }
+  for (int r = 0; r < reps; ++r) words = run_steps(*frontend, path, stage, entry, steps, [](const auto&) { return true; });
   // The full recipe, for comparison: what the core recipe saves, and what a module that needs it costs.
   std::vector<double> full_times;
   size_t full_words = 0;
   {
-    const kiln::CompileResult front = frontend->compile({stage, entry, path, source});
+    const kiln::CompileResult front = frontend->compile({stage, entry, path, read_file(path)});
     for (int r = 0; r < reps; ++r) {
-      auto start = clock::now();
+      auto start = clock_type::now();
       kiln::SpirvStepResult full = kiln::legalize_spirv(front.spirv);
-      full_times.push_back(std::chrono::duration<double, std::milli>(clock::now() - start).count());
+      full_times.push_back(std::chrono::duration<double, std::milli>(clock_type::now() - start).count());
       full_words = full.spirv.size();
     }
     std::sort(full_times.begin(), full_times.end());
   }
   const double full_median = full_times[full_times.size() / 2];
   words["legalized_full_recipe"] = full_words;
-  nlohmann::json steps = nlohmann::json::array();
+  nlohmann::json table = nlohmann::json::array();
   double total = 0;
-  for (size_t i = 0; i < names.size(); ++i) {
-    std::sort(times[i].begin(), times[i].end());
-    double median = times[i][times[i].size() / 2];
+  for (size_t i = 0; i < steps.names.size(); ++i) {
+    std::sort(steps.times[i].begin(), steps.times[i].end());
+    double median = steps.times[i][steps.times[i].size() / 2];
     total += median;
-    steps.push_back({{"step", names[i]}, {"median_ms", median}});
-    std::cout << names[i] << ": median " << median << " ms\n";
+    table.push_back({{"step", steps.names[i]}, {"median_ms", median}});
+    std::cout << steps.names[i] << ": median " << median << " ms\n";
   }
   std::cout << "sum of medians: " << total << " ms; SPIR-V words: " << words.dump() << "\n";
   std::cout << "legalize, full recipe (the fallback, not in the sum): median " << full_median << " ms\n";
-  if (!json_out.empty()) {
-    std::ofstream out(json_out);
-    out << nlohmann::json{{"source", path}, {"stage", std::string(args[1])}, {"entry", entry}, {"repetitions", reps},
-                          {"allocator", kiln::allocator_description()}, {"spirv_words", words}, {"steps", steps},
-                          {"total_ms", total}, {"full_legalization_ms", full_median}}
-               .dump(2)
-        << "\n";
-  }
+  write_json(json_out, {{"source", path}, {"stage", std::string(args[1])}, {"entry", entry}, {"repetitions", reps},
+                        {"allocator", kiln::allocator_description()}, {"spirv_words", words}, {"steps", table},
+                        {"total_ms", total}, {"full_legalization_ms", full_median}});
+  return 0;
 }

@@ -11,7 +11,8 @@ mkdir -p bench/results
 # The same kiln on glibc's malloc, for the allocator comparison in section 1.
 cmake -S . -B build/glibc -G Ninja -DCMAKE_BUILD_TYPE=Release -DKILN_MIMALLOC=OFF -DKILN_BUILD_TESTS=OFF -DKILN_BUILD_BENCH=OFF
 cmake --build build/glibc --target kiln kiln-worker
-python3 bench/build_speed.py --kiln build/ci/compiler/kiln --kiln-glibc build/glibc/compiler/kiln --reps 3
+python3 bench/build_speed.py --kiln build/ci/compiler/kiln --kiln-glibc build/glibc/compiler/kiln \
+  --floor-tool build/ci/bench/kiln-compile-steps --reps 3
 # Where one compile's time goes: the largest Forward fragment and vertex sources of the default pack.
 steps_dir=$(mktemp -d)
 build/ci/compiler/kiln build variants/lit.pack.json -o "$steps_dir" --cache build/ci/kiln-cache --emit preprocessed -q
