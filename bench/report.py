@@ -169,6 +169,21 @@ def build_speed_section(w, r):
         w("| SPIR-V words: front end, legalized, optimized | " + " | ".join(
             f"{c['spirv_words']['front_end']}, {c['spirv_words']['legalized']}, {c['spirv_words']['optimized']}" for _, c in steps) + " |")
         w("")
+    runs = r.get("floor_runs")
+    if runs:
+        totals = {row["step"]: [] for row in runs[0]["steps"]}
+        for run in runs:
+            for row in run["steps"]:
+                totals[row["step"]].append(row["total_s"])
+        w("The library floor by step (`kiln-compile-steps --floor`: every stage source of the cold build once; back-end")
+        w(f"steps once per distinct module; medians of the {len(runs)} interleaved runs above, single process):")
+        w("")
+        w("| step | runs | seconds |")
+        w("|---|---|---|")
+        counts = {row["step"]: row["runs"] for row in runs[0]["steps"]}
+        for step, values in totals.items():
+            w(f"| {step} | {counts[step]} | {statistics.median(values):.2f} |")
+        w("")
 
 
 def scaling_section(w, s):
@@ -427,7 +442,7 @@ def main():
     frame_cost = load("frame_cost.json")
     w("# kiln benchmarks and evidence")
     w("")
-    w("Regenerated from scratch by one command, `bash bench/run_all.sh` (about 55 minutes on 2 cores): it installs the")
+    w("Regenerated from scratch by one command, `bash bench/run_all.sh` (about 60 minutes on 2 cores): it installs the")
     w("Debian packages, builds, runs the six instruments below and this script. Every number below comes from a")
     w("run of these instruments on this machine, at the dates given.")
     w("")
