@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <chrono>
+
 #include "cache/cache.hpp"
 #include "test_support.hpp"
 
@@ -239,6 +241,21 @@ TEST(Cache, ABuildKeepsReadingTheSegmentsItOpenedWhenAnotherBuildMergesThemAway)
   }
   for (size_t build = 1; build < Cache::kMaxSegments; ++build)
     EXPECT_TRUE(reader.load(hash128("k" + std::to_string(build)), rejected)) << build;
+}
+
+TEST(Cache, ACommitRemovesTemporarySegmentsAbandonedAnHourAgo) {
+  testing::TempDir dir;
+  dir.write("seg-0123.kseg.tmp.999.0", "half a segment from a build that was killed");
+  dir.write("seg-4567.kseg.tmp.999.1", "a segment being written right now");
+  dir.write("notes.txt.tmp.1.0", "not kiln's");
+  for (const char* name : {"seg-0123.kseg.tmp.999.0", "notes.txt.tmp.1.0"})
+    std::filesystem::last_write_time(dir.path() / name, std::filesystem::file_time_type::clock::now() - std::chrono::hours(2));
+  Cache cache(dir.path());
+  cache.store(hash128("k"), sample_output());
+  ASSERT_EQ(cache.commit(), "");
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "seg-0123.kseg.tmp.999.0"));
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / "seg-4567.kseg.tmp.999.1"));
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / "notes.txt.tmp.1.0"));
 }
 
 }  // namespace

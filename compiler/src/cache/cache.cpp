@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <set>
 
@@ -219,6 +220,20 @@ bool Cache::store_alias(const Hash128& key, const Hash128& target, const std::ve
   return stage(key, kAlias, prefix, front);
 }
 
+// A build killed while writing its segment leaves the temporary file behind; one an hour old is abandoned
+// (a live build writes its segment in well under a second).
+void Cache::remove_abandoned_temporaries() {
+  std::error_code ec;
+  const auto now = std::filesystem::file_time_type::clock::now();
+  for (auto it = std::filesystem::directory_iterator(directory_, ec); !ec && it != std::filesystem::directory_iterator();
+       it.increment(ec)) {
+    if (it->path().filename().string().find(std::string(kSegmentExtension) + ".tmp.") == std::string::npos) continue;
+    std::error_code file_ec;
+    const auto written = it->last_write_time(file_ec);
+    if (!file_ec && now - written > std::chrono::hours(1)) std::filesystem::remove(it->path(), file_ec);
+  }
+}
+
 std::string Cache::commit() {
   std::lock_guard lock(mutex_);
   if (staged_.empty()) return {};
@@ -226,6 +241,7 @@ std::string Cache::commit() {
   std::filesystem::create_directories(directory_, ec);
   if (ec) return "cannot create the cache directory '" + directory_.string() + "': " + ec.message();
   scan();  // what other builds committed meanwhile counts too
+  remove_abandoned_temporaries();
 
   // Merged into the new segment, then removed: damaged segments (their good entries are kept), and when
   // there are too many, every segment but the largest good one, so the bulk of a cache is not rewritten.

@@ -14,7 +14,8 @@
 // opened, so a concurrent build reading a removed segment still reads it. Entries carry their own key
 // and checksum; a corrupt, truncated or foreign entry (or an alias whose target is any of those) is a
 // miss, rewritten by the next commit; a segment whose header or index fails its checks is skipped whole.
-// Two builds writing the same entries write the same segment bytes under the same name.
+// Two builds writing the same entries write the same segment bytes under the same name. A temporary
+// segment an hour old (its build was killed while writing it) is removed by the next commit.
 #pragma once
 
 #include <filesystem>
@@ -74,6 +75,7 @@ class Cache {
     JobOutput output;  // an alias's: only its messages
   };
   void scan();
+  void remove_abandoned_temporaries();
   void close_segments();
   std::optional<std::string> read_record(const Location& at);
   std::optional<Entry> read(const Hash128& key, bool& rejected);
