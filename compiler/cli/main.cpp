@@ -292,6 +292,9 @@ int main(int argc, char** argv) {
   build->add_option("-j,--jobs", jobs, "Compiler worker processes (default: one per core)");
   auto* cache_opt = build->add_option("--cache", cache_dir, "Cache directory (default: ./.kiln-cache)");
   build->add_flag("--no-cache", no_cache, "Do not read or write the cache")->excludes(cache_opt);
+  uint64_t cache_max_mb = kiln::BuildOptions{}.cache_max_mb;
+  build->add_option("--cache-max-mb", cache_max_mb, "Cache size limit: least recently used entries go first (default: 1024)")
+      ->check(CLI::PositiveNumber);
   build->add_option("--emit", emit, "Dump a stage: variants, preprocessed, spvasm, glsl, msl, reflection (repeatable)")
       ->check(CLI::IsMember(kiln::emit_stage_names()))
       ->delimiter(',');
@@ -375,6 +378,7 @@ int main(int argc, char** argv) {
 
   if (*build) {
     options.output_dir = output;
+    options.cache_max_mb = cache_max_mb;
     return run_build(options, no_cache, cache_dir, quiet);
   }
   if (*list) return run_list(options, as_json);

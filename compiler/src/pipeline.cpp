@@ -494,7 +494,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   {
     std::optional<StageTimer> timer(std::in_place, report, "compile");
     std::optional<Cache> cache;
-    if (options.cache_dir) cache.emplace(*options.cache_dir);
+    if (options.cache_dir) cache.emplace(*options.cache_dir, options.cache_max_mb << 20);
     std::vector<CompileJob> jobs;
     std::vector<size_t> job_subject;  // FrontEnd job -> binary, BackEnd job -> module
     std::vector<std::optional<Hash128>> module_of(binaries.size());  // for the funnel

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 
 #include "cache/cache.hpp"
@@ -241,6 +242,43 @@ TEST(Cache, ABuildKeepsReadingTheSegmentsItOpenedWhenAnotherBuildMergesThemAway)
   }
   for (size_t build = 1; build < Cache::kMaxSegments; ++build)
     EXPECT_TRUE(reader.load(hash128("k" + std::to_string(build)), rejected)) << build;
+}
+
+TEST(Cache, PastItsSizeLimitTheLeastRecentlyUsedSegmentsGoFirst) {
+  testing::TempDir dir;
+  const std::string big(20000, 'x');  // segments of ~20 KB each
+  std::vector<std::filesystem::path> segments;
+  for (int i = 0; i < 3; ++i) {
+    Cache cache(dir.path());
+    cache.store(hash128("k" + std::to_string(i)), sample_output(big + std::to_string(i)));
+    ASSERT_EQ(cache.commit(), "");
+    for (const auto& file : cache.segment_files())
+      if (std::find(segments.begin(), segments.end(), file) == segments.end()) segments.push_back(file);
+    // Distinct ages, oldest first (the file system's clock may be coarse).
+    std::filesystem::last_write_time(segments.back(), std::filesystem::file_time_type::clock::now() - std::chrono::hours(10 - i));
+  }
+  ASSERT_EQ(segments.size(), 3u);
+  const uint64_t one = std::filesystem::file_size(segments[0]);
+  // A build that reads k0 (the oldest segment) and writes k3, with room for three segments: k1's goes.
+  Cache cache(dir.path(), 3 * one + one / 2);
+  bool rejected = false;
+  ASSERT_TRUE(cache.load(hash128("k0"), rejected));
+  cache.store(hash128("k3"), sample_output(big + "3"));
+  ASSERT_EQ(cache.commit(), "");
+  EXPECT_TRUE(std::filesystem::exists(segments[0])) << "used by the build: now the most recently used";
+  EXPECT_FALSE(std::filesystem::exists(segments[1]));
+  EXPECT_TRUE(std::filesystem::exists(segments[2]));
+  EXPECT_TRUE(cache.load(hash128("k3"), rejected));
+  EXPECT_FALSE(cache.load(hash128("k1"), rejected));
+  // A build that only reads (nothing to write) still keeps the limit, and never removes what it wrote.
+  Cache tiny(dir.path(), 1);
+  ASSERT_TRUE(tiny.load(hash128("k2"), rejected));
+  ASSERT_EQ(tiny.commit(), "");
+  EXPECT_TRUE(tiny.segment_files().empty());
+  tiny.store(hash128("k4"), sample_output(big));
+  ASSERT_EQ(tiny.commit(), "");
+  EXPECT_EQ(tiny.segment_files().size(), 1u);
+  EXPECT_TRUE(tiny.load(hash128("k4"), rejected));
 }
 
 TEST(Cache, ACommitRemovesTemporarySegmentsAbandonedAnHourAgo) {

@@ -28,6 +28,7 @@ struct BuildOptions {
   std::filesystem::path output_dir;
   unsigned jobs = 0;                                // 0: one worker per core
   std::optional<std::filesystem::path> cache_dir;  // nothing: no cache
+  uint64_t cache_max_mb = 1024;                     // least recently used segments go past this
   std::set<std::string> emit;                       // stages to dump under <output>/emit/
   std::optional<std::filesystem::path> depfile;
   std::filesystem::path worker_executable;          // empty: default_worker_executable()

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cstring>
 #include <set>
+#include <tuple>
 
 #include "common/files.hpp"
 
@@ -74,7 +75,8 @@ std::optional<uint32_t> check_record(std::string_view record, const Hash128& key
 
 }  // namespace
 
-Cache::Cache(std::filesystem::path directory) : directory_(std::move(directory)) {}
+Cache::Cache(std::filesystem::path directory, uint64_t max_bytes)
+    : directory_(std::move(directory)), max_bytes_(max_bytes) {}
 
 Cache::~Cache() { close_segments(); }
 
@@ -87,9 +89,11 @@ void Cache::close_segments() {
 }
 
 void Cache::scan() {
-  std::set<std::filesystem::path> damaged;  // found damaged by loads since the last scan: still damaged
-  for (const Segment& s : segments_)
+  std::set<std::filesystem::path> damaged, used;  // what loads found since the last scan still holds
+  for (const Segment& s : segments_) {
     if (s.damaged) damaged.insert(s.path);
+    if (s.used) used.insert(s.path);
+  }
   close_segments();
   scanned_ = true;
   std::vector<std::filesystem::path> files;
@@ -103,7 +107,7 @@ void Cache::scan() {
     int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd < 0) continue;  // removed by a merge since the listing
     struct stat st {};
-    Segment segment{path, fd, 0, damaged.count(path) > 0};
+    Segment segment{path, fd, 0, false, damaged.count(path) > 0, used.count(path) > 0};
     const size_t index = segments_.size();
     segments_.push_back(segment);
     std::string header, entries;
@@ -164,7 +168,10 @@ std::optional<Cache::Entry> Cache::read(const Hash128& key, bool& rejected) {
         kind.reset();
       }
     }
-    if (kind && entry.output.ok) return entry;
+    if (kind && entry.output.ok) {
+      segments_[at.segment].used = true;
+      return entry;
+    }
     rejected = true;
     segments_[at.segment].damaged = true;  // the next commit copies its good entries out and removes it
   }
@@ -234,9 +241,48 @@ void Cache::remove_abandoned_temporaries() {
   }
 }
 
+// Used segments get the current time as their modification time: the order of eviction.
+void Cache::mark_used_segments() {
+  for (const Segment& s : segments_)
+    if (s.used && s.fd >= 0) ::futimens(s.fd, nullptr);
+}
+
+void Cache::evict_least_recently_used(const std::filesystem::path& keep) {
+  struct Candidate {
+    std::filesystem::file_time_type time;
+    std::filesystem::path path;
+    uint64_t size;
+  };
+  std::vector<Candidate> candidates;
+  uint64_t total = 0;
+  std::error_code ec;
+  for (auto it = std::filesystem::directory_iterator(directory_, ec); !ec && it != std::filesystem::directory_iterator();
+       it.increment(ec)) {
+    std::error_code file_ec;
+    if (it->path().extension() != kSegmentExtension || !it->is_regular_file(file_ec)) continue;
+    const uint64_t size = it->file_size(file_ec);
+    const auto time = it->last_write_time(file_ec);
+    if (file_ec) continue;
+    total += size;
+    if (it->path() != keep) candidates.push_back({time, it->path(), size});
+  }
+  std::sort(candidates.begin(), candidates.end(),
+            [](const Candidate& a, const Candidate& b) { return std::tie(a.time, a.path) < std::tie(b.time, b.path); });
+  for (const Candidate& c : candidates) {
+    if (total <= max_bytes_) break;
+    if (std::filesystem::remove(c.path, ec)) total -= c.size;
+  }
+}
+
 std::string Cache::commit() {
   std::lock_guard lock(mutex_);
-  if (staged_.empty()) return {};
+  if (!scanned_ && staged_.empty()) return {};  // nothing loaded, nothing to write
+  mark_used_segments();
+  if (staged_.empty()) {
+    evict_least_recently_used({});
+    close_segments();
+    return {};
+  }
   std::error_code ec;
   std::filesystem::create_directories(directory_, ec);
   if (ec) return "cannot create the cache directory '" + directory_.string() + "': " + ec.message();
@@ -280,9 +326,11 @@ std::string Cache::commit() {
   // Each key's record is the same bytes in any build, so the index names the content.
   const std::string name = "seg-" + hash128(header + index).hex() + kSegmentExtension;
   std::string error = write_file_atomic(directory_ / name, parts);
-  if (error.empty())
+  if (error.empty()) {
     for (size_t s : merged)
       if (segments_[s].path.filename() != name) std::filesystem::remove(segments_[s].path, ec);
+    evict_least_recently_used(directory_ / name);
+  }
   close_segments();  // the next load sees the new segment
   return error;
 }

@@ -16,6 +16,9 @@
 // miss, rewritten by the next commit; a segment whose header or index fails its checks is skipped whole.
 // Two builds writing the same entries write the same segment bytes under the same name. A temporary
 // segment an hour old (its build was killed while writing it) is removed by the next commit.
+// Size limit: a commit marks the segments the build read from as used (their modification time), and when
+// the segments take more than the limit, removes the least recently used ones (never the one it wrote)
+// until they fit. Entries of a removed segment are misses, compiled again by the build that needs them.
 #pragma once
 
 #include <filesystem>
@@ -33,8 +36,9 @@ namespace kiln {
 class Cache {
  public:
   static constexpr size_t kMaxSegments = 8;
+  static constexpr uint64_t kDefaultMaxBytes = uint64_t{1} << 30;
 
-  explicit Cache(std::filesystem::path directory);
+  explicit Cache(std::filesystem::path directory, uint64_t max_bytes = kDefaultMaxBytes);
   ~Cache();
   Cache(const Cache&) = delete;
   Cache& operator=(const Cache&) = delete;
@@ -48,7 +52,8 @@ class Cache {
   // stored: a failure (or a crash) is never cached.
   bool store(const Hash128& key, const JobOutput& output);
   bool store_alias(const Hash128& key, const Hash128& target, const std::vector<FrontendMessage>& messages);
-  // Writes the staged entries as one segment (nothing when none are staged). Empty, or what failed.
+  // Marks the segments loads were served from as used; writes the staged entries as one segment (nothing
+  // when none are staged); then keeps the cache within its size limit. Empty, or what failed.
   std::string commit();
 
   // Segments whose header or index failed its checks, as of the last scan.
@@ -64,6 +69,7 @@ class Cache {
     uint64_t size = 0;
     bool unreadable = false;  // its header or index failed its checks
     bool damaged = false;     // unreadable, or an entry it lists failed its checks
+    bool used = false;        // an entry was loaded from it
   };
   struct Location {
     size_t segment;
@@ -76,12 +82,15 @@ class Cache {
   };
   void scan();
   void remove_abandoned_temporaries();
+  void mark_used_segments();
+  void evict_least_recently_used(const std::filesystem::path& keep);
   void close_segments();
   std::optional<std::string> read_record(const Location& at);
   std::optional<Entry> read(const Hash128& key, bool& rejected);
   bool stage(const Hash128& key, uint32_t kind, std::string_view prefix, const JobOutput& output);
 
   std::filesystem::path directory_;
+  uint64_t max_bytes_;
   std::mutex mutex_;
   bool scanned_ = false;
   std::vector<Segment> segments_;
