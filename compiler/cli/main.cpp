@@ -44,7 +44,7 @@ void print_summary(const kiln::BuildReport& r, std::ostream& out) {
   if (!r.up_to_date)
     out << "  compiled " << r.compiled << " (back ends " << r.back_ends << ", full legalizations "
         << r.full_legalizations << ", cached back ends " << r.back_end_hits
-        << "), cache hits " << r.cache_hits
+        << "), cache hits " << r.cache_hits << " (not preprocessed " << r.preprocess_memo_hits << ")"
         << (r.cache_rejected ? ", rejected cache entries " + std::to_string(r.cache_rejected) : std::string())
         << ", workers " << r.workers_started << "\n";
   if (!r.up_to_date && !r.strip_report.empty()) {

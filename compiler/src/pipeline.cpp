@@ -182,9 +182,29 @@ struct StageSource {
   std::vector<std::string> defines;
   size_t first_variant = 0;  // for messages
   bool ok = false;
+  bool preprocessed = false;  // text holds the preprocessed source (not only known through a memo)
   std::string text;
   std::vector<FrontendMessage> messages;
   int binary = -1;
+  std::optional<Hash128> key;            // the source's cache key: from the text, or from a memo
+  Hash128 memo;                          // where its preprocessing memo is cached
+  std::vector<std::string> files_read;   // display names, when preprocessed in this build
+};
+
+// Records every file an include source serves: what one preprocessing read.
+class RecordingIncludes final : public IncludeSource {
+ public:
+  explicit RecordingIncludes(const IncludeSource& inner) : inner_(inner) {}
+  bool resolve(std::string_view requested, std::string_view from, Found& found, std::string& error) const override {
+    if (!inner_.resolve(requested, from, found, error)) return false;
+    read_.insert(found.name);
+    return true;
+  }
+  const std::set<std::string>& read() const { return read_; }
+
+ private:
+  const IncludeSource& inner_;
+  mutable std::set<std::string> read_;
 };
 
 struct Binary {
@@ -395,8 +415,41 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     return finish();
   }
 
+  std::optional<Cache> cache;
+  if (options.cache_dir) cache.emplace(*options.cache_dir, options.cache_max_mb << 20);
+  std::map<std::string, uint64_t> file_hashes;  // display name -> XXH3 of the text, for preprocessing memos
+  const bool memos = cache && !options.emit.count("preprocessed");
+
   // Stage 4: preprocess each (pass, stage, keywords the stage sees) once, then dedupe by content.
   std::vector<StageSource> stage_sources;
+  SourceSetIncludes includes(plan->sources, *plan->roots);
+  auto source_key = [&](const StageSource& s) {
+    return Hasher()
+        .add(fingerprint)
+        .add(options.optimize ? 1 : 0)
+        .add(target_names)
+        .add(stage_name(s.stage))
+        .add(plan->pack.passes[s.pass].entry_points[static_cast<size_t>(s.stage)])
+        .add(s.text)
+        .finish();
+  };
+  auto preprocess_all = [&](const std::vector<size_t>& which) {
+    parallel_for(which.size(), parallelism(options), [&](size_t w) {
+      StageSource& s = stage_sources[which[w]];
+      const SourceFile* entry = plan->sources.find(plan->declarations[s.pass].entry);
+      RecordingIncludes recording(includes);
+      PreprocessRequest request{s.stage, display_path(entry->path), entry->text, s.defines, &recording};
+      PreprocessResult result = frontend->preprocess(request);
+      s.ok = result.ok;
+      s.preprocessed = true;
+      s.text = std::move(result.text);
+      s.messages = std::move(result.messages);
+      if (!s.ok) return;
+      s.key = source_key(s);
+      s.files_read.assign(recording.read().begin(), recording.read().end());
+      s.files_read.push_back(request.entry_name);
+    });
+  };
   // variant_binary_source[p][v][stage] -> index into stage_sources, or -1
   std::vector<std::vector<std::array<int, kStageCount>>> variant_source(plan->passes.size());
   {
@@ -418,16 +471,42 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
         }
       }
     }
-    SourceSetIncludes includes(plan->sources, *plan->roots);
-    parallel_for(stage_sources.size(), parallelism(options), [&](size_t i) {
-      StageSource& s = stage_sources[i];
-      const SourceFile* entry = plan->sources.find(plan->declarations[s.pass].entry);
-      PreprocessRequest request{s.stage, display_path(entry->path), entry->text, s.defines, &includes};
-      PreprocessResult result = frontend->preprocess(request);
-      s.ok = result.ok;
-      s.text = std::move(result.text);
-      s.messages = std::move(result.messages);
-    });
+    // A stage source whose memo is in the cache, with every file it read unchanged, is not preprocessed:
+    // its key comes from the memo, and its text is made only if the cache does not have its result. The
+    // memo key covers the versions, options, stage, entry point, defines, working directory (names in
+    // #line) and the list of every file the scan found (a new file could change what an #include finds).
+    if (memos) {
+      Hasher listing;
+      std::error_code cwd_error;
+      listing.add(std::filesystem::current_path(cwd_error).string());
+      for (const auto& [path, file] : plan->sources.files) {
+        listing.add(path.string());
+        file_hashes[display_path(path)] = hash64(file.text);
+      }
+      const std::string files_listed = listing.finish().hex();
+      for (StageSource& s : stage_sources) {
+        Hasher memo;
+        memo.add("preprocess").add(fingerprint).add(options.optimize ? 1 : 0).add(target_names).add(stage_name(s.stage))
+            .add(plan->pack.passes[s.pass].entry_points[static_cast<size_t>(s.stage)])
+            .add(display_path(plan->declarations[s.pass].entry)).add(files_listed);
+        for (const std::string& define : s.defines) memo.add(define);
+        s.memo = memo.finish();
+        std::optional<PreprocessMemo> known = cache->load_memo(s.memo, [&](const PreprocessMemo& candidate) {
+          return !candidate.files.empty() && std::all_of(candidate.files.begin(), candidate.files.end(), [&](const auto& file) {
+                   auto it = file_hashes.find(file.first);
+                   return it != file_hashes.end() && it->second == file.second;
+                 });
+        });
+        if (!known) continue;
+        s.ok = true;
+        s.key = known->source_key;
+        ++report.preprocess_memo_hits;
+      }
+    }
+    std::vector<size_t> pending;
+    for (size_t i = 0; i < stage_sources.size(); ++i)
+      if (!stage_sources[i].key) pending.push_back(i);
+    preprocess_all(pending);
     report.funnel.unique_preprocessed = stage_sources.size();
   }
   std::map<std::string, std::filesystem::path> by_name;
@@ -469,14 +548,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
         continue;
       }
       const std::string& entry_point = plan->pack.passes[s.pass].entry_points[static_cast<size_t>(s.stage)];
-      Hash128 key = Hasher()
-                        .add(fingerprint)
-                        .add(options.optimize ? 1 : 0)
-                        .add(target_names)
-                        .add(stage_name(s.stage))
-                        .add(entry_point)
-                        .add(s.text)
-                        .finish();
+      const Hash128 key = *s.key;
       auto [it, inserted] = by_key.emplace(key, binaries.size());
       if (inserted) binaries.push_back(Binary{key, s.stage, entry_point, i, {}, nullptr});
       binaries[it->second].sources.push_back(i);
@@ -493,11 +565,10 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   // an alias to it with the front end's warnings.
   {
     std::optional<StageTimer> timer(std::in_place, report, "compile");
-    std::optional<Cache> cache;
-    if (options.cache_dir) cache.emplace(*options.cache_dir, options.cache_max_mb << 20);
     std::vector<CompileJob> jobs;
     std::vector<size_t> job_subject;  // FrontEnd job -> binary, BackEnd job -> module
     std::vector<std::optional<Hash128>> module_of(binaries.size());  // for the funnel
+    std::vector<size_t> misses;
     for (size_t b = 0; b < binaries.size(); ++b) {
       bool rejected = false;
       if (cache) {
@@ -509,7 +580,23 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
           continue;
         }
       }
+      misses.push_back(b);
+    }
+    // Misses known only through a memo are preprocessed now: the workers need their text.
+    std::vector<size_t> unpreprocessed;
+    for (size_t b : misses)
+      if (!stage_sources[binaries[b].source].preprocessed) unpreprocessed.push_back(binaries[b].source);
+    preprocess_all(unpreprocessed);
+    for (size_t b : misses) {
       const StageSource& s = stage_sources[binaries[b].source];
+      if (!s.ok) {  // the memo said it preprocessed; it does not now (it cannot, with the same files)
+        for (const FrontendMessage& m : s.messages)
+          if (m.severity == Severity::Error)
+            collect(DiagId::PreprocessorError, located(m, display_path(plan->declarations[s.pass].entry)), m.text,
+                    variant_description(*plan, s), binaries[b].source);
+        continue;
+      }
+      binaries[b].key = *s.key;  // the text's own key, whatever a memo said
       CompileJob job;
       job.id = b;
       job.kind = JobKind::FrontEnd;
@@ -707,6 +794,14 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       parallel_for(binaries.size(), threads, [&](size_t b) {
         if (front_end_ran[b] && binaries[b].output) cache->store_alias(binaries[b].key, *module_of[b], front_messages[b]);
       });
+      if (memos)
+        parallel_for(stage_sources.size(), threads, [&](size_t i) {
+          const StageSource& s = stage_sources[i];
+          if (!s.preprocessed || !s.ok) return;
+          PreprocessMemo memo{*s.key, {}};
+          for (const std::string& name : s.files_read) memo.files.emplace_back(name, file_hashes.at(name));
+          cache->store_memo(s.memo, memo);
+        });
       if (std::string error = cache->commit(); !error.empty())
         sink.report(DiagId::CacheUnwritable, SourceLocation{cache->directory().string(), 0, 0}, error,
                     {"the outputs are unaffected; the next build compiles these variants again"});

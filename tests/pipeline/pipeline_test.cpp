@@ -84,6 +84,77 @@ TEST_F(SmallLibrary, IncludeEditRecompilesExactlyTheVariantsThatReadIt) {
   EXPECT_EQ(second.cache_hits, 4u);
 }
 
+TEST_F(SmallLibrary, SourcesWhoseFilesAreUnchangedAreNotPreprocessedAgain) {
+  DiagnosticSink sink;
+  BuildReport first = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
+  ASSERT_TRUE(first.ok) << errors_of(sink);
+  EXPECT_EQ(first.preprocess_memo_hits, 0u);
+  dir.write("lib/Fog.hlsl", "#pragma once\nfloat FogTerm(float x) { return exp2(-2.0 * x); }\n");
+  BuildReport second = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
+  ASSERT_TRUE(second.ok) << errors_of(sink);
+  EXPECT_EQ(second.preprocess_memo_hits, 4u);  // all but the two FOG fragment sources, which read Fog.hlsl
+  EXPECT_EQ(second.compiled, 2u);
+  BuildReport third = build(dir / "p.pack.json", dir / "fresh", dir / "cache", 2, sink);
+  ASSERT_TRUE(third.ok) << errors_of(sink);
+  EXPECT_EQ(third.preprocess_memo_hits, 6u);
+  EXPECT_EQ(third.compiled, 0u);
+  ASSERT_TRUE(build(dir / "p.pack.json", dir / "reference", std::nullopt, 2, sink).ok) << errors_of(sink);
+  EXPECT_EQ(testing::read_file(dir / "fresh/p.kpack"), testing::read_file(dir / "reference/p.kpack"));
+  // Back to the first Fog.hlsl: the memos of both versions are kept, so nothing is preprocessed.
+  dir.write("lib/Fog.hlsl", "#pragma once\nfloat FogTerm(float x) { return exp2(-x); }\n");
+  BuildReport fourth = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
+  ASSERT_TRUE(fourth.ok) << errors_of(sink);
+  EXPECT_EQ(fourth.preprocess_memo_hits, 6u);
+  EXPECT_EQ(fourth.cache_hits, 6u);
+}
+
+TEST_F(SmallLibrary, ANewFileAnIncludeWouldNowFindIsNotHiddenByAMemo) {
+  dir.write("over/Unrelated.hlsl", "float Unrelated() { return 0.0; }\n");
+  dir.write("p.pack.json", R"({"name": "p", "include_dirs": ["over", "lib"],
+      "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  DiagnosticSink sink;
+  ASSERT_TRUE(build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink).ok) << errors_of(sink);
+  // Fog.hlsl in the first root now shadows lib/Fog.hlsl; no file any source read has changed.
+  dir.write("over/Fog.hlsl", "#pragma once\nfloat FogTerm(float x) { return 0.25 * x; }\n");
+  BuildReport second = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
+  ASSERT_TRUE(second.ok) << errors_of(sink);
+  EXPECT_EQ(second.preprocess_memo_hits, 0u);
+  EXPECT_EQ(second.compiled, 2u);  // the FOG fragment sources, now reading over/Fog.hlsl
+  ASSERT_TRUE(build(dir / "p.pack.json", dir / "reference", std::nullopt, 2, sink).ok) << errors_of(sink);
+  EXPECT_EQ(testing::read_file(dir / "out/p.kpack"), testing::read_file(dir / "reference/p.kpack"));
+}
+
+// A memo gives a source's key without its text; when the cache then lacks the result (here: the largest
+// record, a back end's result, corrupted), the source is preprocessed for the worker after all.
+TEST_F(SmallLibrary, AMissKnownOnlyThroughAMemoIsPreprocessedForTheWorkers) {
+  DiagnosticSink sink;
+  ASSERT_TRUE(build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink).ok) << errors_of(sink);
+  const std::string archive = testing::read_file(dir / "out/p.kpack");
+  auto segments = testing::files_below(dir / "cache");
+  ASSERT_EQ(segments.size(), 1u);
+  std::string bytes = testing::read_file(segments[0]);
+  auto get = [&](size_t at, int width) {
+    uint64_t v = 0;
+    for (int i = 0; i < width; ++i) v |= static_cast<uint64_t>(static_cast<unsigned char>(bytes[at + i])) << (8 * i);
+    return v;
+  };
+  const uint64_t count = get(12, 4), index = get(16, 8);
+  uint64_t largest_offset = 0, largest_size = 0;
+  for (uint64_t i = 0; i < count; ++i)
+    if (get(index + i * 32 + 24, 8) > largest_size) {
+      largest_offset = get(index + i * 32 + 16, 8);
+      largest_size = get(index + i * 32 + 24, 8);
+    }
+  bytes[largest_offset + largest_size / 2] ^= 1;
+  dir.write(segments[0].lexically_relative(dir.path()).string(), bytes);
+  BuildReport second = build(dir / "p.pack.json", dir / "fresh", dir / "cache", 2, sink);
+  ASSERT_TRUE(second.ok) << errors_of(sink);
+  EXPECT_EQ(second.preprocess_memo_hits, 6u);
+  EXPECT_GE(second.compiled, 1u);
+  EXPECT_GE(second.cache_rejected, 1u);
+  EXPECT_EQ(testing::read_file(dir / "fresh/p.kpack"), archive);
+}
+
 TEST_F(SmallLibrary, EditThatChangesNoReachableCodeRunsOnlyFrontEnds) {
   DiagnosticSink sink;
   ASSERT_TRUE(build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink).ok) << errors_of(sink);
@@ -146,7 +217,8 @@ TEST(TwoHalves, BackEndCrashIsAnInternalErrorForEverySourceSharingItsModule) {
     }
   EXPECT_EQ(modules_written, 2u);
   EXPECT_FALSE(std::filesystem::exists(dir / "out/p.manifest.json"));
-  EXPECT_EQ(Cache(dir / "cache").indexed_keys(), 2u);  // the vertex source's alias and its module
+  // The vertex source's alias and its module, and the three sources' preprocessing memos.
+  EXPECT_EQ(Cache(dir / "cache").indexed_keys(), 5u);
 }
 
 // Legalization runs kiln's core recipe first and SPIRV-Tools' full one only when the core result does not

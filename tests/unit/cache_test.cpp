@@ -156,8 +156,9 @@ TEST(Cache, AliasWhoseTargetIsMissingCorruptOrAnAliasIsAMiss) {
     ASSERT_TRUE(cache.store(module, sample_output()));
     ASSERT_EQ(cache.commit(), "");
     ASSERT_TRUE(cache.load(source, rejected));
-    for (const auto& file : cache.segment_files())
-      if (testing::read_file(file).size() > 200) target_segment = file;  // the result, not the alias
+    for (const auto& file : cache.segment_files())  // the result's segment is the larger one
+      if (target_segment.empty() || std::filesystem::file_size(file) > std::filesystem::file_size(target_segment))
+        target_segment = file;
   }
   ASSERT_FALSE(target_segment.empty());
   std::string corrupt = testing::read_file(target_segment);
@@ -279,6 +280,29 @@ TEST(Cache, PastItsSizeLimitTheLeastRecentlyUsedSegmentsGoFirst) {
   ASSERT_EQ(tiny.commit(), "");
   EXPECT_EQ(tiny.segment_files().size(), 1u);
   EXPECT_TRUE(tiny.load(hash128("k4"), rejected));
+}
+
+TEST(Cache, AMemoKeyCanHoldSeveralMemosAndTheAcceptedOneIsReturned) {
+  testing::TempDir dir;
+  const Hash128 key = hash128("memo");
+  for (uint64_t version : {1u, 2u}) {
+    Cache cache(dir.path());
+    cache.store_memo(key, PreprocessMemo{hash128("source v" + std::to_string(version)), {{"S.hlsl", version}, {"lib/F.hlsl", 7}}});
+    ASSERT_EQ(cache.commit(), "");
+  }
+  Cache cache(dir.path());
+  EXPECT_EQ(cache.segment_files().size(), 2u);
+  for (uint64_t version : {1u, 2u}) {
+    auto memo = cache.load_memo(key, [&](const PreprocessMemo& m) { return m.files[0].second == version; });
+    ASSERT_TRUE(memo) << version;
+    EXPECT_EQ(memo->source_key, hash128("source v" + std::to_string(version)));
+    ASSERT_EQ(memo->files.size(), 2u);
+    EXPECT_EQ(memo->files[1], (std::pair<std::string, uint64_t>{"lib/F.hlsl", 7}));
+  }
+  EXPECT_FALSE(cache.load_memo(key, [](const PreprocessMemo&) { return false; }));
+  // A memo is not a compile result: its key loads nothing, and is not counted as a rejected entry.
+  bool rejected = false;
+  EXPECT_FALSE(cache.load(key, rejected));
 }
 
 TEST(Cache, ACommitRemovesTemporarySegmentsAbandonedAnHourAgo) {

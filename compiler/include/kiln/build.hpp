@@ -78,6 +78,7 @@ struct BuildReport {
   size_t back_end_hits = 0;         // front-end modules whose back end was in the cache
   size_t full_legalizations = 0;    // back ends run whose module needed SPIRV-Tools' full legalization recipe
   size_t cache_hits = 0;            // stage sources found whole in the cache (nothing run)
+  size_t preprocess_memo_hits = 0;  // stage sources not preprocessed: what they read is unchanged
   size_t cache_rejected = 0;
   unsigned workers_started = 0;
   std::filesystem::path manifest;

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <functional>
 #include <set>
 #include <tuple>
 
@@ -22,7 +23,7 @@ constexpr char kRecordMagic[8] = {'K', 'I', 'L', 'N', 'C', 'A', 'C', 'H'};
 // 3: entries live in segment files.
 constexpr uint32_t kCacheFormat = 3;
 constexpr size_t kRecordHeaderSize = 8 + 4 + 4 + 16 + 8 + 8;
-enum EntryKind : uint32_t { kResult = 0, kAlias = 1 };
+enum EntryKind : uint32_t { kResult = 0, kAlias = 1, kMemo = 2 };
 
 // A segment: magic, format, entry count, index offset, index checksum; the records; the index (key, offset,
 // size per record, ordered by key). The file ends where the index does: a truncated segment is refused.
@@ -64,7 +65,7 @@ bool read_exactly(int fd, uint64_t offset, std::string& out, uint64_t size) {
 std::optional<uint32_t> check_record(std::string_view record, const Hash128& key, std::string_view* payload) {
   if (record.size() < kRecordHeaderSize || std::memcmp(record.data(), kRecordMagic, 8) != 0) return std::nullopt;
   const uint32_t format = get32(record, 8), kind = get32(record, 12);
-  if (format != kCacheFormat || (kind != kResult && kind != kAlias)) return std::nullopt;
+  if (format != kCacheFormat || kind > kMemo) return std::nullopt;
   if (get64(record, 16) != key.low || get64(record, 24) != key.high) return std::nullopt;
   if (get64(record, 32) != record.size() - kRecordHeaderSize) return std::nullopt;
   std::string_view body = record.substr(kRecordHeaderSize);
@@ -153,22 +154,24 @@ std::optional<Cache::Entry> Cache::read(const Hash128& key, bool& rejected) {
     std::optional<std::string> record = read_record(at);
     std::string_view payload;
     std::optional<uint32_t> kind = record ? check_record(*record, key, &payload) : std::nullopt;
+    if (kind && *kind == kMemo) kind.reset();  // a memo's key is never a result's or an alias's
     Entry entry;
-    if (kind && *kind == kAlias) {
-      if (payload.size() < 16) kind.reset();
-      else {
-        entry.alias = Hash128{get64(payload, 0), get64(payload, 8)};
-        payload.remove_prefix(16);
-      }
-    }
     if (kind) {
+      if (*kind == kAlias) {
+        if (payload.size() < 16) kind.reset();
+        else {
+          entry.alias = Hash128{get64(payload, 0), get64(payload, 8)};
+          payload.remove_prefix(16);
+        }
+      }
       try {
-        entry.output = decode_output(std::vector<uint8_t>(payload.begin(), payload.end()));
+        if (kind) entry.output = decode_output(std::vector<uint8_t>(payload.begin(), payload.end()));
       } catch (const std::exception&) {
         kind.reset();
       }
+      if (kind && !entry.output.ok) kind.reset();
     }
-    if (kind && entry.output.ok) {
+    if (kind) {
       segments_[at.segment].used = true;
       return entry;
     }
@@ -176,6 +179,65 @@ std::optional<Cache::Entry> Cache::read(const Hash128& key, bool& rejected) {
     segments_[at.segment].damaged = true;  // the next commit copies its good entries out and removes it
   }
   return std::nullopt;
+}
+
+namespace {
+
+std::optional<PreprocessMemo> decode_memo(std::string_view p) {
+  PreprocessMemo memo;
+  if (p.size() < 20) return std::nullopt;
+  memo.source_key = Hash128{get64(p, 0), get64(p, 8)};
+  const uint32_t count = get32(p, 16);
+  size_t at = 20;
+  for (uint32_t i = 0; i < count; ++i) {
+    if (p.size() - at < 4) return std::nullopt;
+    const uint32_t length = get32(p, at);
+    if (p.size() - at - 4 < uint64_t{length} + 8) return std::nullopt;
+    memo.files.emplace_back(std::string(p.substr(at + 4, length)), get64(p, at + 4 + length));
+    at += 4 + length + 8;
+  }
+  if (at != p.size()) return std::nullopt;
+  return memo;
+}
+
+}  // namespace
+
+// Unlike results, one memo key can hold different memos (the same source before and after an edit), in
+// different segments: each copy is offered until one is accepted.
+std::optional<PreprocessMemo> Cache::load_memo(const Hash128& key, const std::function<bool(const PreprocessMemo&)>& accept) {
+  std::lock_guard lock(mutex_);
+  if (!scanned_) scan();
+  auto found = index_.find(key);
+  if (found == index_.end()) return std::nullopt;
+  for (const Location& at : found->second) {
+    std::optional<std::string> record = read_record(at);
+    std::string_view payload;
+    std::optional<uint32_t> kind = record ? check_record(*record, key, &payload) : std::nullopt;
+    std::optional<PreprocessMemo> memo = kind && *kind == kMemo ? decode_memo(payload) : std::nullopt;
+    if (!memo) {
+      segments_[at.segment].damaged = true;
+      continue;
+    }
+    if (accept(*memo)) {
+      segments_[at.segment].used = true;
+      return memo;
+    }
+  }
+  return std::nullopt;
+}
+
+bool Cache::store_memo(const Hash128& key, const PreprocessMemo& memo) {
+  std::string payload;
+  put64(payload, memo.source_key.low);
+  put64(payload, memo.source_key.high);
+  put32(payload, static_cast<uint32_t>(memo.files.size()));
+  for (const auto& [name, hash] : memo.files) {
+    put32(payload, static_cast<uint32_t>(name.size()));
+    payload += name;
+    put64(payload, hash);
+  }
+  stage_record(key, kMemo, payload);
+  return true;
 }
 
 std::optional<JobOutput> Cache::load(const Hash128& key, bool& rejected, std::optional<Hash128>* target_key) {
@@ -195,10 +257,7 @@ std::optional<JobOutput> Cache::load(const Hash128& key, bool& rejected, std::op
   return output;
 }
 
-bool Cache::stage(const Hash128& key, uint32_t kind, std::string_view prefix, const JobOutput& output) {
-  std::vector<uint8_t> encoded = encode_output(output);
-  std::string payload(prefix);
-  payload.append(reinterpret_cast<const char*>(encoded.data()), encoded.size());
+void Cache::stage_record(const Hash128& key, uint32_t kind, std::string_view payload) {
   std::string record(kRecordMagic, 8);
   put32(record, kCacheFormat);
   put32(record, kind);
@@ -209,6 +268,13 @@ bool Cache::stage(const Hash128& key, uint32_t kind, std::string_view prefix, co
   record += payload;
   std::lock_guard lock(mutex_);
   staged_[key] = std::move(record);
+}
+
+bool Cache::stage(const Hash128& key, uint32_t kind, std::string_view prefix, const JobOutput& output) {
+  std::vector<uint8_t> encoded = encode_output(output);
+  std::string payload(prefix);
+  payload.append(reinterpret_cast<const char*>(encoded.data()), encoded.size());
+  stage_record(key, kind, payload);
   return true;
 }
 
@@ -323,8 +389,10 @@ std::string Cache::commit() {
   put64(header, hash64(index));
   parts.front() = header;
   parts.push_back(index);
-  // Each key's record is the same bytes in any build, so the index names the content.
-  const std::string name = "seg-" + hash128(header + index).hex() + kSegmentExtension;
+  // The header, the index and each record's checksum name the content.
+  std::string checksums;
+  for (const auto& [key, record] : records) checksums.append(record, 40, 8);
+  const std::string name = "seg-" + hash128(header + index + checksums).hex() + kSegmentExtension;
   std::string error = write_file_atomic(directory_ / name, parts);
   if (error.empty()) {
     for (size_t s : merged)

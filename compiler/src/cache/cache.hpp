@@ -14,7 +14,8 @@
 // opened, so a concurrent build reading a removed segment still reads it. Entries carry their own key
 // and checksum; a corrupt, truncated or foreign entry (or an alias whose target is any of those) is a
 // miss, rewritten by the next commit; a segment whose header or index fails its checks is skipped whole.
-// Two builds writing the same entries write the same segment bytes under the same name. A temporary
+// Two builds writing the same entries write the same segment bytes under the same name (the name hashes
+// the index and every record's checksum). A temporary
 // segment an hour old (its build was killed while writing it) is removed by the next commit.
 // Size limit: a commit marks the segments the build read from as used (their modification time), and when
 // the segments take more than the limit, removes the least recently used ones (never the one it wrote)
@@ -22,6 +23,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -32,6 +34,14 @@
 #include "workers/compile_job.hpp"
 
 namespace kiln {
+
+// What preprocessing one stage source gave, without its text: the source's cache key (the hash of the
+// text with the versions, options, stage and entry point), and every file it read (display name, XXH3 of
+// the text). Valid while each of those files has the same hash.
+struct PreprocessMemo {
+  Hash128 source_key;
+  std::vector<std::pair<std::string, uint64_t>> files;
+};
 
 class Cache {
  public:
@@ -52,6 +62,10 @@ class Cache {
   // stored: a failure (or a crash) is never cached.
   bool store(const Hash128& key, const JobOutput& output);
   bool store_alias(const Hash128& key, const Hash128& target, const std::vector<FrontendMessage>& messages);
+  // A third kind of entry, under keys of their own: preprocessing memos (staged like the others).
+  // The first memo under `key` that `accept` takes (one key can hold several: see load_memo).
+  std::optional<PreprocessMemo> load_memo(const Hash128& key, const std::function<bool(const PreprocessMemo&)>& accept);
+  bool store_memo(const Hash128& key, const PreprocessMemo& memo);
   // Marks the segments loads were served from as used; writes the staged entries as one segment (nothing
   // when none are staged); then keeps the cache within its size limit. Empty, or what failed.
   std::string commit();
@@ -88,6 +102,7 @@ class Cache {
   std::optional<std::string> read_record(const Location& at);
   std::optional<Entry> read(const Hash128& key, bool& rejected);
   bool stage(const Hash128& key, uint32_t kind, std::string_view prefix, const JobOutput& output);
+  void stage_record(const Hash128& key, uint32_t kind, std::string_view payload);
 
   std::filesystem::path directory_;
   uint64_t max_bytes_;
