@@ -303,6 +303,7 @@ TEST(Cache, AMemoKeyCanHoldSeveralMemosAndTheAcceptedOneIsReturned) {
   // A memo is not a compile result: its key loads nothing, and is not counted as a rejected entry.
   bool rejected = false;
   EXPECT_FALSE(cache.load(key, rejected));
+  EXPECT_FALSE(rejected);
 }
 
 TEST(Cache, ACommitRemovesTemporarySegmentsAbandonedAnHourAgo) {

@@ -144,40 +144,48 @@ std::optional<std::string> Cache::read_record(const Location& at) {
   return record;
 }
 
-std::optional<Cache::Entry> Cache::read(const Hash128& key, bool& rejected) {
+Cache::Copy Cache::visit_copies(const Hash128& key, const std::function<Copy(uint32_t, std::string_view)>& visit,
+                               bool& rejected) {
   rejected = false;
   if (!scanned_) scan();
   auto found = index_.find(key);
-  if (found == index_.end()) return std::nullopt;
-  // Every good copy of an entry has the same bytes (same key, deterministic compile); the first good one wins.
+  if (found == index_.end()) return Copy::Skip;
   for (const Location& at : found->second) {
     std::optional<std::string> record = read_record(at);
     std::string_view payload;
     std::optional<uint32_t> kind = record ? check_record(*record, key, &payload) : std::nullopt;
-    if (kind && *kind == kMemo) kind.reset();  // a memo's key is never a result's or an alias's
-    Entry entry;
-    if (kind) {
-      if (*kind == kAlias) {
-        if (payload.size() < 16) kind.reset();
-        else {
-          entry.alias = Hash128{get64(payload, 0), get64(payload, 8)};
-          payload.remove_prefix(16);
-        }
-      }
-      try {
-        if (kind) entry.output = decode_output(std::vector<uint8_t>(payload.begin(), payload.end()));
-      } catch (const std::exception&) {
-        kind.reset();
-      }
-      if (kind && !entry.output.ok) kind.reset();
-    }
-    if (kind) {
+    const Copy verdict = kind ? visit(*kind, payload) : Copy::Bad;
+    if (verdict == Copy::Take) {
       segments_[at.segment].used = true;
-      return entry;
+      return verdict;
     }
-    rejected = true;
-    segments_[at.segment].damaged = true;  // the next commit copies its good entries out and removes it
+    if (verdict == Copy::Bad) {
+      rejected = true;
+      segments_[at.segment].damaged = true;  // the next commit copies its good entries out and removes it
+    }
   }
+  return Copy::Skip;
+}
+
+std::optional<Cache::Entry> Cache::read(const Hash128& key, bool& rejected) {
+  // Every good copy of an entry has the same bytes (same key, deterministic compile); the first good one wins.
+  Entry entry;
+  auto decode = [&](uint32_t kind, std::string_view payload) {
+    if (kind == kMemo) return Copy::Skip;  // a memo's key is never a result's or an alias's
+    entry = Entry{};
+    if (kind == kAlias) {
+      if (payload.size() < 16) return Copy::Bad;
+      entry.alias = Hash128{get64(payload, 0), get64(payload, 8)};
+      payload.remove_prefix(16);
+    }
+    try {
+      entry.output = decode_output(std::vector<uint8_t>(payload.begin(), payload.end()));
+    } catch (const std::exception&) {
+      return Copy::Bad;
+    }
+    return entry.output.ok ? Copy::Take : Copy::Bad;
+  };
+  if (visit_copies(key, decode, rejected) == Copy::Take) return entry;
   return std::nullopt;
 }
 
@@ -206,23 +214,14 @@ std::optional<PreprocessMemo> decode_memo(std::string_view p) {
 // different segments: each copy is offered until one is accepted.
 std::optional<PreprocessMemo> Cache::load_memo(const Hash128& key, const std::function<bool(const PreprocessMemo&)>& accept) {
   std::lock_guard lock(mutex_);
-  if (!scanned_) scan();
-  auto found = index_.find(key);
-  if (found == index_.end()) return std::nullopt;
-  for (const Location& at : found->second) {
-    std::optional<std::string> record = read_record(at);
-    std::string_view payload;
-    std::optional<uint32_t> kind = record ? check_record(*record, key, &payload) : std::nullopt;
-    std::optional<PreprocessMemo> memo = kind && *kind == kMemo ? decode_memo(payload) : std::nullopt;
-    if (!memo) {
-      segments_[at.segment].damaged = true;
-      continue;
-    }
-    if (accept(*memo)) {
-      segments_[at.segment].used = true;
-      return memo;
-    }
-  }
+  std::optional<PreprocessMemo> memo;
+  bool rejected = false;
+  auto offer = [&](uint32_t kind, std::string_view payload) {
+    memo = kind == kMemo ? decode_memo(payload) : std::nullopt;
+    if (!memo) return Copy::Bad;
+    return accept(*memo) ? Copy::Take : Copy::Skip;
+  };
+  if (visit_copies(key, offer, rejected) == Copy::Take) return memo;
   return std::nullopt;
 }
 

@@ -100,6 +100,11 @@ class Cache {
   void evict_least_recently_used(const std::filesystem::path& keep);
   void close_segments();
   std::optional<std::string> read_record(const Location& at);
+  // Each copy of a key's record that passes its checks goes to `visit` (kind, payload), in segment order,
+  // until one is taken; copies that fail their checks, or that `visit` finds bad, are marked damaged and
+  // set `rejected`.
+  enum class Copy { Take, Skip, Bad };
+  Copy visit_copies(const Hash128& key, const std::function<Copy(uint32_t, std::string_view)>& visit, bool& rejected);
   std::optional<Entry> read(const Hash128& key, bool& rejected);
   bool stage(const Hash128& key, uint32_t kind, std::string_view prefix, const JobOutput& output);
   void stage_record(const Hash128& key, uint32_t kind, std::string_view payload);
