@@ -799,7 +799,11 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
           const StageSource& s = stage_sources[i];
           if (!s.preprocessed || !s.ok) return;
           PreprocessMemo memo{*s.key, {}};
-          for (const std::string& name : s.files_read) memo.files.emplace_back(name, file_hashes.at(name));
+          for (const std::string& name : s.files_read) {
+            auto hash = file_hashes.find(name);
+            if (hash == file_hashes.end()) return;  // not a file of the snapshot: no memo
+            memo.files.emplace_back(name, hash->second);
+          }
           cache->store_memo(s.memo, memo);
         });
       if (std::string error = cache->commit(); !error.empty())
