@@ -9,7 +9,6 @@
 #include <cstring>
 #include <functional>
 #include <set>
-#include <tuple>
 
 #include "common/files.hpp"
 
@@ -74,6 +73,29 @@ std::optional<uint32_t> check_record(std::string_view record, const Hash128& key
   return kind;
 }
 
+// The regular files directly in `directory` with their size and modification time (none when it cannot
+// be read; a file removed meanwhile is left out).
+struct DirectoryFile {
+  std::filesystem::path path;
+  uint64_t size;
+  std::filesystem::file_time_type written;
+};
+std::vector<DirectoryFile> files_in(const std::filesystem::path& directory) {
+  std::vector<DirectoryFile> files;
+  std::error_code ec;
+  for (auto it = std::filesystem::directory_iterator(directory, ec); !ec && it != std::filesystem::directory_iterator();
+       it.increment(ec)) {
+    std::error_code file_ec;
+    if (!it->is_regular_file(file_ec)) continue;
+    DirectoryFile file{it->path(), it->file_size(file_ec), it->last_write_time(file_ec)};
+    if (!file_ec) files.push_back(std::move(file));
+  }
+  std::sort(files.begin(), files.end(), [](const DirectoryFile& a, const DirectoryFile& b) { return a.path < b.path; });
+  return files;
+}
+
+bool is_segment(const std::filesystem::path& path) { return path.extension() == kSegmentExtension; }
+
 }  // namespace
 
 Cache::Cache(std::filesystem::path directory, uint64_t max_bytes)
@@ -97,13 +119,9 @@ void Cache::scan() {
   }
   close_segments();
   scanned_ = true;
-  std::vector<std::filesystem::path> files;
-  std::error_code ec;
-  for (auto it = std::filesystem::directory_iterator(directory_, ec); !ec && it != std::filesystem::directory_iterator();
-       it.increment(ec))
-    if (it->path().extension() == kSegmentExtension && it->is_regular_file(ec)) files.push_back(it->path());
-  std::sort(files.begin(), files.end());
-  for (const std::filesystem::path& path : files) {
+  for (const DirectoryFile& file : files_in(directory_)) {
+    if (!is_segment(file.path)) continue;
+    const std::filesystem::path& path = file.path;
     // Opened once and kept: a merge in another build may remove the file, not what this build reads.
     int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd < 0) continue;  // removed by a merge since the listing
@@ -295,15 +313,12 @@ bool Cache::store_alias(const Hash128& key, const Hash128& target, const std::ve
 // A build killed while writing its segment leaves the temporary file behind; one an hour old is abandoned
 // (a live build writes its segment in well under a second).
 void Cache::remove_abandoned_temporaries() {
-  std::error_code ec;
   const auto now = std::filesystem::file_time_type::clock::now();
-  for (auto it = std::filesystem::directory_iterator(directory_, ec); !ec && it != std::filesystem::directory_iterator();
-       it.increment(ec)) {
-    if (it->path().filename().string().find(std::string(kSegmentExtension) + ".tmp.") == std::string::npos) continue;
-    std::error_code file_ec;
-    const auto written = it->last_write_time(file_ec);
-    if (!file_ec && now - written > std::chrono::hours(1)) std::filesystem::remove(it->path(), file_ec);
-  }
+  std::error_code ec;
+  for (const DirectoryFile& file : files_in(directory_))
+    if (file.path.filename().string().find(std::string(kSegmentExtension) + ".tmp.") != std::string::npos &&
+        now - file.written > std::chrono::hours(1))
+      std::filesystem::remove(file.path, ec);
 }
 
 // Used segments get the current time as their modification time: the order of eviction.
@@ -313,27 +328,17 @@ void Cache::mark_used_segments() {
 }
 
 void Cache::evict_least_recently_used(const std::filesystem::path& keep) {
-  struct Candidate {
-    std::filesystem::file_time_type time;
-    std::filesystem::path path;
-    uint64_t size;
-  };
-  std::vector<Candidate> candidates;
+  std::vector<DirectoryFile> candidates;
   uint64_t total = 0;
-  std::error_code ec;
-  for (auto it = std::filesystem::directory_iterator(directory_, ec); !ec && it != std::filesystem::directory_iterator();
-       it.increment(ec)) {
-    std::error_code file_ec;
-    if (it->path().extension() != kSegmentExtension || !it->is_regular_file(file_ec)) continue;
-    const uint64_t size = it->file_size(file_ec);
-    const auto time = it->last_write_time(file_ec);
-    if (file_ec) continue;
-    total += size;
-    if (it->path() != keep) candidates.push_back({time, it->path(), size});
+  for (DirectoryFile& file : files_in(directory_)) {
+    if (!is_segment(file.path)) continue;
+    total += file.size;
+    if (file.path != keep) candidates.push_back(std::move(file));
   }
-  std::sort(candidates.begin(), candidates.end(),
-            [](const Candidate& a, const Candidate& b) { return std::tie(a.time, a.path) < std::tie(b.time, b.path); });
-  for (const Candidate& c : candidates) {
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const DirectoryFile& a, const DirectoryFile& b) { return a.written < b.written; });
+  std::error_code ec;
+  for (const DirectoryFile& c : candidates) {
     if (total <= max_bytes_) break;
     if (std::filesystem::remove(c.path, ec)) total -= c.size;
   }
