@@ -866,13 +866,17 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
           auto known = binary_order.find(b);
           if (known == binary_order.end()) {
             const JobOutput& out = *binaries[b].output;
-            std::string spirv(reinterpret_cast<const char*>(out.spirv.data()), out.spirv.size() * 4);
-            Hash128 output_key = Hasher().add(stage_name(binaries[b].stage)).add(binaries[b].entry_point).add(spirv).finish();
+            const Hash128 spirv = out.blobs.at(Target::Spirv).key;
+            Hash128 output_key = Hasher()
+                                     .add(stage_name(binaries[b].stage))
+                                     .add(binaries[b].entry_point)
+                                     .add(spirv.low)
+                                     .add(spirv.high)
+                                     .finish();
             auto [by_output, fresh] = binary_by_output.emplace(output_key, binaries_json.size());
             if (fresh) {
               json blobs = json::object();
-              blobs["spirv"] = archive.add(spirv);
-              for (const auto& [target, text] : out.sources) blobs[std::string(target_name(target))] = archive.add(text);
+              for (const auto& [target, blob] : out.blobs) blobs[std::string(target_name(target))] = archive.add(blob);
               std::string reflection_text = out.reflection.dump();
               auto [reflection, new_reflection] = reflection_by_hash.emplace(hash128(reflection_text), reflections_json.size());
               if (new_reflection) reflections_json.push_back(out.reflection);
@@ -920,7 +924,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
                   {"passes", passes_json},
                   {"binaries", binaries_json},
                   {"reflections", reflections_json}};
-    if (std::string error = write_pack(options.output_dir, plan->pack.name, archive, manifest, parallelism(options)); !error.empty()) {
+    if (std::string error = write_pack(options.output_dir, plan->pack.name, archive, manifest); !error.empty()) {
       sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, error);
       return finish();
     }
@@ -949,12 +953,13 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       std::filesystem::path base = root / plan->pack.passes[s.pass].name / std::string(stage_name(s.stage)) / slug(s.defines);
       const JobOutput& out = *binaries[static_cast<size_t>(s.binary)].output;
       if (options.emit.count("preprocessed")) put(base.string() + ".hlsl", s.text);
-      if (options.emit.count("spvasm")) put(base.string() + ".spvasm", disassemble_spirv(out.spirv));
-      if (options.emit.count("glsl")) {
-        if (out.sources.count(Target::Glsl)) put(base.string() + ".glsl", out.sources.at(Target::Glsl));
-        if (out.sources.count(Target::Gles)) put(base.string() + ".es.glsl", out.sources.at(Target::Gles));
-      }
-      if (options.emit.count("msl") && out.sources.count(Target::Msl)) put(base.string() + ".metal", out.sources.at(Target::Msl));
+      auto put_blob = [&](const char* stage, Target target, const char* extension) {
+        if (options.emit.count(stage) && out.blobs.count(target)) put(base.string() + extension, unpack_blob(out.blobs.at(target)));
+      };
+      if (options.emit.count("spvasm")) put(base.string() + ".spvasm", disassemble_spirv(unpack_spirv(out.blobs.at(Target::Spirv))));
+      put_blob("glsl", Target::Glsl, ".glsl");
+      put_blob("glsl", Target::Gles, ".es.glsl");
+      put_blob("msl", Target::Msl, ".metal");
       if (options.emit.count("reflection")) put(base.string() + ".reflection.json", out.reflection.dump(2) + "\n");
     }
   }

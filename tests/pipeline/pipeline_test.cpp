@@ -286,6 +286,15 @@ TEST_F(SmallLibrary, EmitDumpsEveryStage) {
                            "P/fragment/FOG+SHADOWS.glsl", "P/fragment/FOG+SHADOWS.es.glsl", "P/fragment/FOG+SHADOWS.metal",
                            "P/vertex/_.reflection.json"})
     EXPECT_TRUE(std::filesystem::exists(dir / "out/emit" / file)) << file;
+  // The dumps are the pack's outputs (stored compressed, decompressed for --emit).
+  PackReader pack = PackReader::open(dir / "out");
+  const StageView* fragment = pack.select("P", {"FOG", "SHADOWS"}).stage("fragment");
+  ASSERT_NE(fragment, nullptr);
+  const std::filesystem::path emitted = dir / "out/emit/P/fragment";
+  EXPECT_EQ(testing::read_file(emitted / "FOG+SHADOWS.glsl"), fragment->glsl);
+  EXPECT_EQ(testing::read_file(emitted / "FOG+SHADOWS.es.glsl"), fragment->gles);
+  EXPECT_EQ(testing::read_file(emitted / "FOG+SHADOWS.metal"), fragment->msl);
+  EXPECT_NE(testing::read_file(emitted / "FOG+SHADOWS.spvasm").find("OpEntryPoint Fragment"), std::string::npos);
 }
 
 TEST_F(SmallLibrary, LayoutThatDiffersBetweenVariantsIsAnError) {

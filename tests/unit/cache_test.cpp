@@ -12,8 +12,8 @@ namespace {
 JobOutput sample_output(const std::string& text = "void main() {}") {
   JobOutput out;
   out.ok = true;
-  out.spirv = {0x07230203, 1, 2, 3};
-  out.sources[Target::Glsl] = "#version 450\n" + text + "\n";
+  out.blobs[Target::Spirv] = pack_spirv({0x07230203, 1, 2, 3});
+  out.blobs[Target::Glsl] = pack_blob("#version 450\n" + text + "\n");
   out.reflection = {{"resources", nlohmann::json::array()}};
   return out;
 }
@@ -49,8 +49,8 @@ TEST(Cache, StoredEntryLoadsBackIdenticallyAfterCommit) {
   auto loaded = cache.load(key, rejected);
   ASSERT_TRUE(loaded);
   EXPECT_FALSE(rejected);
-  EXPECT_EQ(loaded->spirv, sample_output().spirv);
-  EXPECT_EQ(loaded->sources.at(Target::Glsl), sample_output().sources.at(Target::Glsl));
+  EXPECT_EQ(loaded->blobs, sample_output().blobs);
+  EXPECT_EQ(unpack_blob(loaded->blobs.at(Target::Glsl)), "#version 450\nvoid main() {}\n");
   // Another process sees it too.
   Cache other(dir.path());
   EXPECT_TRUE(other.load(key, rejected));
@@ -132,7 +132,7 @@ TEST(Cache, AliasServesItsTargetWithItsOwnMessagesFirst) {
   ASSERT_TRUE(loaded);
   EXPECT_FALSE(rejected);
   EXPECT_EQ(target, module);
-  EXPECT_EQ(loaded->spirv, result.spirv);
+  EXPECT_EQ(loaded->blobs, result.blobs);
   ASSERT_EQ(loaded->messages.size(), 2u);
   EXPECT_EQ(loaded->messages[0].text, "from the front end");
   EXPECT_EQ(loaded->messages[0].line, 3);
@@ -247,7 +247,9 @@ TEST(Cache, ABuildKeepsReadingTheSegmentsItOpenedWhenAnotherBuildMergesThemAway)
 
 TEST(Cache, PastItsSizeLimitTheLeastRecentlyUsedSegmentsGoFirst) {
   testing::TempDir dir;
-  const std::string big(20000, 'x');  // segments of ~20 KB each
+  std::string big(20000, ' ');  // incompressible: segments of ~20 KB each (outputs are stored compressed)
+  uint32_t state = 1;
+  for (char& c : big) c = static_cast<char>('!' + (state = state * 1664525u + 1013904223u) % 90);
   std::vector<std::filesystem::path> segments;
   for (int i = 0; i < 3; ++i) {
     Cache cache(dir.path());

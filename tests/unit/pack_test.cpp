@@ -131,5 +131,47 @@ TEST(Pack, ArchiveIsDeterministic) {
   EXPECT_EQ(a.size(), 2u);
 }
 
+// Workers pack their outputs; the cache keeps them packed; the writer copies them as they are.
+TEST(Pack, PackedBlobsRoundTripAndOnlyShrinkingFramesAreKept) {
+  std::string text;
+  for (int i = 0; i < 200; ++i) text += "vec3 light" + std::to_string(i) + " = normalize(L - P);\n";
+  PackedBlob packed = pack_blob(text);
+  EXPECT_TRUE(packed.compressed());
+  EXPECT_LT(packed.stored.size(), text.size() / 3);
+  EXPECT_EQ(packed.raw_size, text.size());
+  EXPECT_EQ(packed.key, hash128(text));
+  EXPECT_EQ(unpack_blob(packed), text);
+  EXPECT_EQ(pack_blob(text), packed) << "deterministic";
+
+  PackedBlob tiny = pack_blob("ab");  // a frame would be longer than the bytes: stored as they are
+  EXPECT_FALSE(tiny.compressed());
+  EXPECT_EQ(tiny.stored, "ab");
+  EXPECT_EQ(unpack_blob(tiny), "ab");
+
+  const std::vector<uint32_t> words{0x07230203u, 0x00010300u, 7u, 42u, 0u};
+  PackedBlob spirv = pack_spirv(words);
+  EXPECT_EQ(spirv.raw_size, 20u);
+  EXPECT_EQ(static_cast<uint8_t>(unpack_blob(spirv)[0]), 0x03) << "little-endian, as the pack stores SPIR-V";
+  EXPECT_EQ(unpack_spirv(spirv), words);
+
+  PackedBlob damaged = packed;
+  damaged.stored[damaged.stored.size() / 2] ^= 0x55;
+  EXPECT_THROW(unpack_blob(damaged), std::runtime_error);
+  PackedBlob wrong_sum = tiny;
+  wrong_sum.checksum ^= 1;
+  EXPECT_THROW(unpack_blob(wrong_sum), std::runtime_error);
+  EXPECT_THROW(unpack_spirv(pack_blob("abc")), std::runtime_error);
+}
+
+// A packed blob and the same bytes added raw are one blob, stored once, read back the same.
+TEST(Pack, PackedAndRawAddsOfTheSameBytesAreOneBlob) {
+  const std::string text(4096, 'k');
+  ArchiveBuilder archive;
+  uint32_t a = archive.add(pack_blob(text));
+  uint32_t b = archive.add(text);
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(archive.size(), 1u);
+}
+
 }  // namespace
 }  // namespace kiln

@@ -33,10 +33,13 @@ TEST(Workers, CompileProducesEveryTarget) {
   auto outcomes = run_jobs({job(kValid)});
   ASSERT_EQ(outcomes[0].kind, WorkerOutcome::Kind::Done);
   ASSERT_TRUE(outcomes[0].output.ok) << outcomes[0].output.failed_step;
-  EXPECT_EQ(outcomes[0].output.spirv.at(0), 0x07230203u);
-  EXPECT_NE(outcomes[0].output.sources.at(Target::Glsl).find("#version 450"), std::string::npos);
-  EXPECT_NE(outcomes[0].output.sources.at(Target::Gles).find("#version 310 es"), std::string::npos);
-  EXPECT_NE(outcomes[0].output.sources.at(Target::Msl).find("#include <metal_stdlib>"), std::string::npos);
+  const auto& blobs = outcomes[0].output.blobs;
+  EXPECT_EQ(unpack_spirv(blobs.at(Target::Spirv)).at(0), 0x07230203u);
+  EXPECT_NE(unpack_blob(blobs.at(Target::Glsl)).find("#version 450"), std::string::npos);
+  EXPECT_NE(unpack_blob(blobs.at(Target::Gles)).find("#version 310 es"), std::string::npos);
+  EXPECT_NE(unpack_blob(blobs.at(Target::Msl)).find("#include <metal_stdlib>"), std::string::npos);
+  // Packed where they were compiled: the text targets as zstd frames.
+  EXPECT_TRUE(blobs.at(Target::Msl).compressed());
 }
 
 // The build's two halves: a FrontEnd job returns the glslang module; a BackEnd job appended from on_done
@@ -59,12 +62,11 @@ TEST(Workers, BackEndAppendedByOnDoneFinishesWhatTheFrontEndStarted) {
   });
   ASSERT_EQ(jobs.size(), 3u);
   ASSERT_TRUE(outcomes[0].output.ok);
-  EXPECT_TRUE(outcomes[0].output.sources.empty());  // a front end stops at the module
+  EXPECT_TRUE(outcomes[0].output.blobs.empty());  // a front end stops at the module
   ASSERT_TRUE(outcomes[2].output.ok) << outcomes[2].output.failed_step;
   ASSERT_TRUE(outcomes[1].output.ok);
   // Front end + back end gives what one Full job gives.
-  EXPECT_EQ(outcomes[2].output.spirv, outcomes[1].output.spirv);
-  EXPECT_EQ(outcomes[2].output.sources, outcomes[1].output.sources);
+  EXPECT_EQ(outcomes[2].output.blobs, outcomes[1].output.blobs);
 }
 
 TEST(Workers, GlslangCrashCostsOneJobAndTheOthersStillBuild) {

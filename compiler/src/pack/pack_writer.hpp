@@ -11,25 +11,28 @@
 #include <nlohmann/json.hpp>
 
 #include "common/hash.hpp"
+#include "pack/blob.hpp"
 
 namespace kiln {
 
 class ArchiveBuilder {
  public:
-  // Returns the blob id; identical bytes get the same id.
+  // Returns the blob id; identical bytes get the same id. Blobs come packed (compressed where they were
+  // compiled); add(bytes) packs them here.
+  uint32_t add(PackedBlob blob);
   uint32_t add(std::string_view bytes);
   size_t size() const { return blobs_.size(); }
-  std::string finish(unsigned threads = 1) const;  // same bytes for any thread count
+  std::string finish() const;  // blobs in the order added
 
  private:
-  std::vector<std::string> blobs_;
+  std::vector<PackedBlob> blobs_;
   std::map<Hash128, uint32_t> by_hash_;
 };
 
 // Writes `<dir>/<name>.kpack` and `<dir>/<name>.manifest.json`; fills manifest["archive"].
 // Returns an error message, or an empty string.
 std::string write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
-                       nlohmann::json manifest, unsigned threads = 1);
+                       nlohmann::json manifest);
 
 std::filesystem::path manifest_path(const std::filesystem::path& directory, const std::string& name);
 

@@ -34,22 +34,22 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
     for (std::string& message : spirv.messages) out.messages.push_back({Severity::Error, "", 0, std::move(message)});
     return out;
   }
-  out.spirv = std::move(spirv.spirv);
   out.full_legalization = spirv.full_legalization;
-  out.reflection = reflect_spirv(out.spirv);
-  CrossCompiler cross_compiler(out.spirv);
+  out.reflection = reflect_spirv(spirv.spirv);
+  CrossCompiler cross_compiler(spirv.spirv);
   for (Target target : job.targets) {
     if (target == Target::Spirv) continue;
     CrossResult cross = cross_compiler.compile(target);
     if (!cross.ok) {
       out.failed_step = "cross-" + std::string(target_name(target));
       out.messages.push_back({Severity::Error, "", 0, cross.error});
-      out.spirv.clear();
+      out.blobs.clear();
       return out;
     }
-    out.sources[target] = std::move(cross.source);
+    out.blobs[target] = pack_blob(cross.source);
     out.reflection[std::string(target_name(target))] = std::move(cross.bindings);
   }
+  out.blobs[Target::Spirv] = pack_spirv(spirv.spirv);  // always: the pack's reflection and Vulkan use it
   out.ok = true;
   return out;
 }
@@ -124,9 +124,11 @@ std::vector<uint8_t> encode_output(const JobOutput& output) {
     messages.push_back({{"severity", static_cast<int>(m.severity)}, {"path", m.path}, {"line", m.line}, {"text", m.text}});
   j["messages"] = messages;
   j["spirv"] = json::binary(words_to_binary(output.spirv));
-  json sources = json::object();
-  for (const auto& [target, text] : output.sources) sources[std::string(target_name(target))] = text;
-  j["sources"] = sources;
+  json blobs = json::object();
+  for (const auto& [target, blob] : output.blobs)
+    blobs[std::string(target_name(target))] = {json::binary(std::vector<uint8_t>(blob.stored.begin(), blob.stored.end())),
+                                               blob.raw_size, blob.checksum, blob.key.low, blob.key.high};
+  j["blobs"] = blobs;
   j["reflection"] = output.reflection;
   j["full_legalization"] = output.full_legalization;
   return json::to_cbor(j);
@@ -141,8 +143,18 @@ JobOutput decode_output(const std::vector<uint8_t>& bytes) {
     out.messages.push_back({static_cast<Severity>(m.at("severity").get<int>()), m.at("path").get<std::string>(),
                             m.at("line").get<int>(), m.at("text").get<std::string>()});
   out.spirv = binary_to_words(j.at("spirv").get_binary());
-  for (auto& [name, text] : j.at("sources").items())
-    if (auto target = parse_target(name)) out.sources[*target] = text.get<std::string>();
+  for (auto& [name, fields] : j.at("blobs").items()) {
+    auto target = parse_target(name);
+    if (!target || fields.size() != 5) throw std::runtime_error("malformed output blob");
+    PackedBlob blob;
+    const auto& stored = fields.at(0).get_binary();
+    blob.stored.assign(stored.begin(), stored.end());
+    blob.raw_size = fields.at(1).get<uint64_t>();
+    blob.checksum = fields.at(2).get<uint64_t>();
+    blob.key = {fields.at(3).get<uint64_t>(), fields.at(4).get<uint64_t>()};
+    if (blob.stored.size() > blob.raw_size) throw std::runtime_error("malformed output blob");
+    out.blobs[*target] = std::move(blob);
+  }
   out.reflection = j.at("reflection");
   out.full_legalization = j.at("full_legalization").get<bool>();
   return out;

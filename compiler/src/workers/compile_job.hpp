@@ -11,6 +11,7 @@
 
 #include "frontend/frontend.hpp"
 #include "kiln/model.hpp"
+#include "pack/blob.hpp"
 
 namespace kiln {
 
@@ -18,8 +19,9 @@ namespace kiln {
 // versions (kiln's own version does not change between commits). 2: GL targets widen 16-bit floats, name
 // blocks by their interface name, and pair texel fetches with a dummy sampler. 3: MSL records name resources
 // as declared (not as SPIRV-Cross renamed a colliding variable). 4: legalization by the core recipe first
-// (the same code, other ID numbers), outputs record which recipe legalized them.
-inline constexpr int kCompileJobRevision = 4;
+// (the same code, other ID numbers), outputs record which recipe legalized them. 5: outputs are packed blobs
+// (zstd frames made by the worker).
+inline constexpr int kCompileJobRevision = 5;
 
 // A compile runs in two halves so that stage sources which differ only in code the entry point never
 // reaches (a fragment-only keyword's branch in a file the vertex stage also includes) are legalized,
@@ -45,13 +47,14 @@ struct JobOutput {
   // "validate-optimized", "cross-glsl", "cross-gles", "cross-msl", "out-of-memory".
   std::string failed_step;
   std::vector<FrontendMessage> messages;
-  std::vector<uint32_t> spirv;
-  std::map<Target, std::string> sources;  // cross-compiled text per target
+  std::vector<uint32_t> spirv;            // FrontEnd: the front end's module (not legal SPIR-V yet)
+  std::map<Target, PackedBlob> blobs;     // BackEnd, Full: every output, the optimized SPIR-V included
   nlohmann::json reflection;               // reflect_spirv + "gl" / "msl" bindings
   bool full_legalization = false;          // legalized by SPIRV-Tools' full recipe (the core one was not enough)
 };
 
-// FrontEnd: `spirv` is the front end's (not yet legal) module. BackEnd and Full: the finished output.
+// FrontEnd: `spirv` is the front end's module. BackEnd and Full: the finished outputs in `blobs`, packed in the
+// worker so that each is compressed once, on the core that compiled it.
 JobOutput run_compile_job(Frontend& frontend, const CompileJob& job);
 
 std::vector<uint8_t> encode_job(const CompileJob& job);
