@@ -78,6 +78,30 @@ TEST(Workers, GlslangCrashCostsOneJobAndTheOthersStillBuild) {
   EXPECT_TRUE(outcomes[3].output.ok);
 }
 
+// Many jobs, several crashes among them, two workers respawned as they die: every job gets exactly its own
+// outcome, whatever the order of completion.
+TEST(Workers, AmongCrashesEveryJobGetsItsOwnOutcome) {
+  std::vector<CompileJob> jobs;
+  for (int i = 0; i < 24; ++i) {
+    if (i % 5 == 3) {
+      jobs.push_back(job(kCrash));
+    } else {
+      jobs.push_back(job("float4 main() : SV_Target { return float4(" + std::to_string(100 + i) + ".0, 0.0, 0.0, 1.0); }\n"));
+    }
+  }
+  auto outcomes = run_jobs(jobs, {}, 2);
+  for (int i = 0; i < 24; ++i) {
+    if (i % 5 == 3) {
+      EXPECT_EQ(outcomes[i].kind, WorkerOutcome::Kind::Crashed) << i;
+      continue;
+    }
+    ASSERT_EQ(outcomes[i].kind, WorkerOutcome::Kind::Done) << i << ": " << outcomes[i].detail;
+    ASSERT_TRUE(outcomes[i].output.ok) << i;
+    EXPECT_NE(unpack_blob(outcomes[i].output.blobs.at(Target::Glsl)).find(std::to_string(100 + i) + ".0"), std::string::npos)
+        << "job " << i << " got another job's result";
+  }
+}
+
 TEST(Workers, MissingEntryPointIsAnErrorNotAWarning) {
   auto outcomes = run_jobs({job(kValid, "Mian")});
   ASSERT_EQ(outcomes[0].kind, WorkerOutcome::Kind::Done);
@@ -89,20 +113,24 @@ TEST(Workers, HungWorkerIsKilledAtTheTimeout) {
   ::setenv("KILN_WORKER_FAULT_INJECTION", "1", 1);
   WorkerLimits limits;
   limits.job_timeout = std::chrono::milliseconds(1500);
-  auto outcomes = run_jobs({job(std::string("// kiln-fault: hang\n") + kValid), job(kValid)}, limits);
+  // One worker: the jobs after the hung one run in the worker started to replace it.
+  auto outcomes = run_jobs({job(kValid), job(std::string("// kiln-fault: hang\n") + kValid), job(kValid), job(kValid)}, limits, 1);
   ::unsetenv("KILN_WORKER_FAULT_INJECTION");
-  EXPECT_EQ(outcomes[0].kind, WorkerOutcome::Kind::TimedOut);
-  EXPECT_EQ(outcomes[1].kind, WorkerOutcome::Kind::Done);
+  EXPECT_EQ(outcomes[0].kind, WorkerOutcome::Kind::Done);
+  EXPECT_EQ(outcomes[1].kind, WorkerOutcome::Kind::TimedOut);
+  EXPECT_EQ(outcomes[2].kind, WorkerOutcome::Kind::Done);
+  EXPECT_TRUE(outcomes[3].output.ok);
 }
 
 TEST(Workers, WorkerOverItsMemoryLimitIsAnInternalError) {
   ::setenv("KILN_WORKER_FAULT_INJECTION", "1", 1);
   WorkerLimits limits;
   limits.memory_limit_mb = 512;
-  auto outcomes = run_jobs({job(std::string("// kiln-fault: oom\n") + kValid), job(kValid)}, limits);
+  auto outcomes = run_jobs({job(std::string("// kiln-fault: oom\n") + kValid), job(kValid), job(kValid)}, limits, 1);
   ::unsetenv("KILN_WORKER_FAULT_INJECTION");
   EXPECT_EQ(outcomes[0].kind, WorkerOutcome::Kind::OutOfMemory);
   EXPECT_EQ(outcomes[1].kind, WorkerOutcome::Kind::Done);
+  EXPECT_TRUE(outcomes[2].output.ok);
 }
 
 // The compile workers are where the allocator matters (bench/REPORT.md section 1): they must be running on
