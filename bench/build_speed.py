@@ -9,8 +9,9 @@ them alike; the report gives medians, min-max spread and ratios against the naiv
 
 With --floor-tool (build/ci/bench/kiln-compile-steps), one more configuration: the library floor, i.e. the
 glslang, SPIRV-Tools and SPIRV-Cross calls of a cold build (every stage source's front end, every distinct
-module's back end) run one after the other in one process, without anything of kiln's own. Divided by the
-number of cores it is the wall time of an ideal parallel build with kiln's recipe and dedupe.
+module's back end) run one after the other in one process, without anything of kiln's own; and the same
+run as one process per core at once. The latter's wall time divided by the number of cores is the wall time
+of an ideal parallel build with kiln's recipe and dedupe.
 
 Usage: bench/build_speed.py --kiln build/ci/compiler/kiln [--pack variants/lit.pack.json] [--reps 3]
                             [--kiln-glibc build/glibc/compiler/kiln] [--floor-tool build/ci/bench/kiln-compile-steps]
@@ -170,14 +171,29 @@ def main():
 
         floor_runs = []
 
-        def library_floor():
+        def floor_sources():
             emit = os.path.join(work, "floor-emit")
             if not os.path.isdir(emit):  # the stage sources a build compiles, preprocessed (served by the warm cache)
                 run([kiln, "build", args.pack, "-o", emit, "--cache", warm_cache, "-q", "--emit", "preprocessed"])
+            return os.path.join(emit, "emit")
+
+        def library_floor():
             out = os.path.join(work, "floor.json")
-            timed([os.path.abspath(args.floor_tool), "--floor", os.path.join(emit, "emit"), args.pack, "--json", out])
+            timed([os.path.abspath(args.floor_tool), "--floor", floor_sources(), args.pack, "--json", out])
             floor_runs.append(json.load(open(out)))
             return floor_runs[-1]["total_s"]
+
+        def library_floor_side_by_side():
+            # One copy per core at once: the wall time of twice (for 2 cores) the floor's work on all cores,
+            # with whatever the cores share (caches, memory bandwidth, the host) counted. Halved, the ideal build.
+            cmd = [os.path.abspath(args.floor_tool), "--floor", floor_sources(), args.pack]
+            start = time.perf_counter()
+            procs = [subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE) for _ in range(args.jobs)]
+            for proc in procs:
+                _, err = proc.communicate()
+                if proc.returncode != 0:
+                    sys.exit(f"command failed ({proc.returncode}): {cmd}\n{err.decode()[-2000:]}")
+            return time.perf_counter() - start
 
         configs = {f"kiln cold -j{args.jobs}": lambda: cold(args.jobs)}
         if args.kiln_glibc:
@@ -194,6 +210,7 @@ def main():
         })
         if args.floor_tool:
             configs["library floor, one process"] = library_floor
+            configs[f"library floor, {args.jobs} processes side by side"] = library_floor_side_by_side
         samples = {name: [] for name in configs}
         for rep in range(args.reps):
             for name, fn in configs.items():
