@@ -49,7 +49,7 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
     out.blobs[target] = pack_blob(cross.source);
     out.reflection[std::string(target_name(target))] = std::move(cross.bindings);
   }
-  out.blobs[Target::Spirv] = pack_spirv(spirv.spirv);  // always: the pack's reflection and Vulkan use it
+  out.blobs[Target::Spirv] = pack_spirv(spirv.spirv);  // whatever the targets: every binary keeps its SPIR-V
   out.ok = true;
   return out;
 }
