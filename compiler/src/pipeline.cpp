@@ -423,13 +423,14 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   // Stage 4: preprocess each (pass, stage, keywords the stage sees) once, then dedupe by content.
   std::vector<StageSource> stage_sources;
   SourceSetIncludes includes(plan->sources, *plan->roots);
+  // Every cache key starts with what a compile's output depends on besides its input: the tools, the
+  // options, the stage and the entry point.
+  auto add_compile_options = [&](Hasher& hasher, Stage stage, const std::string& entry_point) -> Hasher& {
+    return hasher.add(fingerprint).add(options.optimize ? 1 : 0).add(target_names).add(stage_name(stage)).add(entry_point);
+  };
   auto source_key = [&](const StageSource& s) {
-    return Hasher()
-        .add(fingerprint)
-        .add(options.optimize ? 1 : 0)
-        .add(target_names)
-        .add(stage_name(s.stage))
-        .add(plan->pack.passes[s.pass].entry_points[static_cast<size_t>(s.stage)])
+    Hasher key;
+    return add_compile_options(key, s.stage, plan->pack.passes[s.pass].entry_points[static_cast<size_t>(s.stage)])
         .add(s.text)
         .finish();
   };
@@ -486,9 +487,9 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       const std::string files_listed = listing.finish().hex();
       for (StageSource& s : stage_sources) {
         Hasher memo;
-        memo.add("preprocess").add(fingerprint).add(options.optimize ? 1 : 0).add(target_names).add(stage_name(s.stage))
-            .add(plan->pack.passes[s.pass].entry_points[static_cast<size_t>(s.stage)])
-            .add(display_path(plan->declarations[s.pass].entry)).add(files_listed);
+        add_compile_options(memo.add("preprocess"), s.stage, plan->pack.passes[s.pass].entry_points[static_cast<size_t>(s.stage)])
+            .add(display_path(plan->declarations[s.pass].entry))
+            .add(files_listed);
         for (const std::string& define : s.defines) memo.add(define);
         s.memo = memo.finish();
         std::optional<PreprocessMemo> known = cache->load_memo(s.memo, [&](const PreprocessMemo& candidate) {
@@ -727,12 +728,8 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
             collect(DiagId::HlslWarning, located(m, ""), m.text, variant_description(*plan, s), stage_sources.size() + b);
         front_messages[b] = std::move(outcome.output.messages);
         const std::vector<uint32_t>& spirv = outcome.output.spirv;
-        Hash128 key = Hasher()
-                          .add(fingerprint)
-                          .add(options.optimize ? 1 : 0)
-                          .add(target_names)
-                          .add(stage_name(binaries[b].stage))
-                          .add(binaries[b].entry_point)
+        Hasher module_key;
+        Hash128 key = add_compile_options(module_key, binaries[b].stage, binaries[b].entry_point)
                           .add(std::string_view(reinterpret_cast<const char*>(spirv.data()), spirv.size() * 4))
                           .finish();
         auto [it, inserted] = module_by_key.emplace(key, modules.size());

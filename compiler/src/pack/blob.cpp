@@ -29,11 +29,24 @@ PackedBlob pack_blob(std::string_view bytes) {
   return blob;
 }
 
-PackedBlob pack_spirv(const std::vector<uint32_t>& words) {
-  std::string bytes(words.size() * 4, '\0');
+std::vector<uint8_t> spirv_to_bytes(const std::vector<uint32_t>& words) {
+  std::vector<uint8_t> bytes(words.size() * 4);
   for (size_t i = 0; i < words.size(); ++i)
-    for (int b = 0; b < 4; ++b) bytes[i * 4 + b] = static_cast<char>(words[i] >> (8 * b));
-  return pack_blob(bytes);
+    for (int b = 0; b < 4; ++b) bytes[i * 4 + b] = static_cast<uint8_t>(words[i] >> (8 * b));
+  return bytes;
+}
+
+std::vector<uint32_t> spirv_from_bytes(std::string_view bytes) {
+  if (bytes.size() % 4 != 0) throw std::runtime_error("SPIR-V size is not a multiple of 4");
+  std::vector<uint32_t> words(bytes.size() / 4);
+  for (size_t i = 0; i < words.size(); ++i)
+    for (int b = 0; b < 4; ++b) words[i] |= static_cast<uint32_t>(static_cast<uint8_t>(bytes[i * 4 + b])) << (8 * b);
+  return words;
+}
+
+PackedBlob pack_spirv(const std::vector<uint32_t>& words) {
+  const std::vector<uint8_t> bytes = spirv_to_bytes(words);
+  return pack_blob(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 std::string unpack_blob(const PackedBlob& blob) {
@@ -50,13 +63,6 @@ std::string unpack_blob(const PackedBlob& blob) {
   return bytes;
 }
 
-std::vector<uint32_t> unpack_spirv(const PackedBlob& blob) {
-  const std::string bytes = unpack_blob(blob);
-  if (bytes.size() % 4 != 0) throw std::runtime_error("SPIR-V size is not a multiple of 4");
-  std::vector<uint32_t> words(bytes.size() / 4);
-  for (size_t i = 0; i < words.size(); ++i)
-    for (int b = 0; b < 4; ++b) words[i] |= static_cast<uint32_t>(static_cast<uint8_t>(bytes[i * 4 + b])) << (8 * b);
-  return words;
-}
+std::vector<uint32_t> unpack_spirv(const PackedBlob& blob) { return spirv_from_bytes(unpack_blob(blob)); }
 
 }  // namespace kiln

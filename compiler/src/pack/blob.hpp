@@ -26,6 +26,11 @@ struct PackedBlob {
 PackedBlob pack_blob(std::string_view bytes);
 PackedBlob pack_spirv(const std::vector<uint32_t>& words);  // little-endian bytes, as the pack stores SPIR-V
 
+// SPIR-V words as little-endian bytes (how the pack and the worker messages carry them) and back; the latter
+// throws std::runtime_error when the size is not a multiple of 4.
+std::vector<uint8_t> spirv_to_bytes(const std::vector<uint32_t>& words);
+std::vector<uint32_t> spirv_from_bytes(std::string_view bytes);
+
 // The bytes back. Throws std::runtime_error when the frame does not decompress to `raw_size` bytes with
 // the recorded checksum.
 std::string unpack_blob(const PackedBlob& blob);

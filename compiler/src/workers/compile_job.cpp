@@ -67,19 +67,8 @@ JobOutput run_compile_job(Frontend& frontend, const CompileJob& job) {
 
 namespace {
 
-std::vector<uint8_t> words_to_binary(const std::vector<uint32_t>& words) {
-  std::vector<uint8_t> bytes(words.size() * 4);
-  for (size_t i = 0; i < words.size(); ++i)
-    for (int b = 0; b < 4; ++b) bytes[i * 4 + b] = static_cast<uint8_t>(words[i] >> (8 * b));
-  return bytes;
-}
-
 std::vector<uint32_t> binary_to_words(const std::vector<uint8_t>& bytes) {
-  if (bytes.size() % 4 != 0) throw std::runtime_error("SPIR-V size is not a multiple of 4");
-  std::vector<uint32_t> words(bytes.size() / 4);
-  for (size_t i = 0; i < words.size(); ++i)
-    for (int b = 0; b < 4; ++b) words[i] |= static_cast<uint32_t>(bytes[i * 4 + b]) << (8 * b);
-  return words;
+  return spirv_from_bytes(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 }  // namespace
@@ -95,7 +84,7 @@ std::vector<uint8_t> encode_job(const CompileJob& job) {
   json targets = json::array();
   for (Target t : job.targets) targets.push_back(target_name(t));
   j["targets"] = targets;
-  if (!job.spirv.empty()) j["spirv"] = json::binary(words_to_binary(job.spirv));
+  if (!job.spirv.empty()) j["spirv"] = json::binary(spirv_to_bytes(job.spirv));
   return json::to_cbor(j);
 }
 
@@ -123,7 +112,7 @@ std::vector<uint8_t> encode_output(const JobOutput& output) {
   for (const FrontendMessage& m : output.messages)
     messages.push_back({{"severity", static_cast<int>(m.severity)}, {"path", m.path}, {"line", m.line}, {"text", m.text}});
   j["messages"] = messages;
-  j["spirv"] = json::binary(words_to_binary(output.spirv));
+  j["spirv"] = json::binary(spirv_to_bytes(output.spirv));
   json blobs = json::object();
   for (const auto& [target, blob] : output.blobs)
     blobs[std::string(target_name(target))] = {json::binary(std::vector<uint8_t>(blob.stored.begin(), blob.stored.end())),
