@@ -699,6 +699,12 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       const unsigned workers = parallelism(options);
       std::filesystem::path exe = options.worker_executable.empty() ? default_worker_executable() : options.worker_executable;
       WorkerPool pool(exe, workers, WorkerLimits{options.worker_timeout, options.worker_memory_limit_mb});
+      // A finished job's input (its source text or its module) is not read again: free it now, not when the
+      // build ends (`= {}` would keep the capacity).
+      auto release_input = [&jobs](size_t j) {
+        std::string().swap(jobs[j].source);
+        std::vector<uint32_t>().swap(jobs[j].spirv);
+      };
       pool.run(jobs, [&](size_t j, WorkerOutcome outcome) {
         if (jobs[j].kind == JobKind::BackEnd) {
           Module& module = modules[job_subject[j]];
@@ -712,9 +718,10 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
           }
           for (size_t b : module.waiting) settle(b, module, jobs[j].spirv);
           module.waiting = {};
-          jobs[j].spirv = {};  // the module is settled: its input is no longer needed
+          release_input(j);
           return;
         }
+        release_input(j);
         const size_t b = job_subject[j];
         front_end_ran[b] = true;
         if (outcome.kind != WorkerOutcome::Kind::Done || !outcome.output.ok) {

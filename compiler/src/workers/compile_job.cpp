@@ -144,7 +144,7 @@ JobOutput decode_output(const std::vector<uint8_t>& bytes) {
     if (blob.stored.size() > blob.raw_size) throw std::runtime_error("malformed output blob");
     out.blobs[*target] = std::move(blob);
   }
-  out.reflection = j.at("reflection");
+  out.reflection = std::move(j.at("reflection"));
   out.full_legalization = j.at("full_legalization").get<bool>();
   return out;
 }
