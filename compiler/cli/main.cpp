@@ -5,9 +5,11 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "allocator.hpp"
+#include "progress_line.hpp"
 #include "common/files.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
@@ -127,18 +129,19 @@ int run_test(const std::string& pack_dir, const std::string& scene_file, const s
 
 int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cache_dir, bool quiet) {
   kiln::DiagnosticSink sink;
-  print_diagnostics_as_they_come(sink);
   if (!no_cache) options.cache_dir = cache_dir.empty() ? std::filesystem::path(".kiln-cache") : std::filesystem::path(cache_dir);
-  const bool tty = ::isatty(2);
-  auto start = std::chrono::steady_clock::now();
-  if (tty && !quiet) {
-    options.progress = [start](size_t done, size_t total, size_t hits) {
-      double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      std::fprintf(stderr, "\r[%zu/%zu] %.1f/s, cache hits %zu   ", done, total, seconds > 0 ? done / seconds : 0.0, hits);
-      if (done == total) std::fprintf(stderr, "\r\033[K");
-    };
+  std::optional<kiln::cli::ProgressLine> progress;
+  if (!quiet && kiln::cli::is_interactive_terminal(2)) progress.emplace(stderr, kiln::cli::terminal_columns(2));
+  if (progress) {
+    sink.set_listener([&progress](const kiln::Diagnostic& d) {
+      progress->print_above([&] { std::cerr << kiln::format_diagnostic(d) << std::flush; });
+    });
+    options.progress = [&progress](size_t done, size_t total, size_t hits) { progress->update(done, total, hits); };
+  } else {
+    print_diagnostics_as_they_come(sink);
   }
   kiln::BuildReport report = kiln::build_pack(options, sink);
+  if (progress) progress->finish();
   if (report.ok && !quiet) print_summary(report, std::cout);
   int code = kiln::exit_code(sink, report.internal_errors);
   if (code != 0)

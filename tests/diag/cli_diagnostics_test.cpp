@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 
 #include <future>
+#include <regex>
 
 #include <nlohmann/json.hpp>
 
@@ -259,6 +260,90 @@ TEST_F(Cli, FailedRebuildLeavesThePreviousPackIntact) {
   EXPECT_EQ(build().exit_code, 1);
   EXPECT_EQ(testing::read_file(dir / "out/p.manifest.json"), manifest);
   EXPECT_EQ(testing::read_file(dir / "out/p.kpack"), archive);
+}
+
+// Two fragment keywords: 1 vertex and 4 fragment stage sources.
+const char* kTwoKeywords =
+    "#pragma multi_compile_fragment _ A\n#pragma multi_compile_fragment _ B\n"
+    "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+    "float4 F() : SV_Target {\n  float4 c = 0.25;\n#ifdef A\n  c.r = 1.0;\n#endif\n#ifdef B\n  c.g = 1.0;\n#endif\n"
+    "  return c;\n}\n";
+
+TEST_F(Cli, WithoutATerminalABuildPrintsTheFunnelAndStageTimesOnceAndNoProgressLine) {
+  dir.write("S.hlsl", kTwoKeywords);
+  auto r = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "cache", "-j", "2"}, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "");  // no progress in a CI log, not even erased
+  const std::string head = "kiln: wrote out/p.manifest.json\n"
+                           "  variants: 4 declared -> 4 valid -> 4 after stripping -> 8 stage variants -> "
+                           "5 unique per stage -> 5 compiles -> 5 modules -> 5 unique binaries\n"
+                           "  compiled 5 (back ends 5, full legalizations 0, cached back ends 0), cache hits 0 "
+                           "(not preprocessed 0), workers 2\n"
+                           "  time: load ";
+  EXPECT_EQ(r.out.substr(0, head.size()), head) << r.out;
+  // Every stage with its time, in pipeline order.
+  const std::string times = r.out.substr(r.out.find("  time: "));
+  std::string stages;
+  const std::regex stage_time("[:,] ([a-z+ ]+) [0-9]+[.][0-9]+ m?s");
+  for (std::sregex_iterator m(times.begin(), times.end(), stage_time), end; m != end; ++m) stages += (*m)[1].str() + ";";
+  EXPECT_EQ(stages, "load;declarations;expand+strip;preprocess;dedupe;compile;cache store;reflect;pack;total;") << r.out;
+  EXPECT_EQ(r.out.back(), '\n');
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 4) << r.out;
+}
+
+TEST_F(Cli, OnATerminalABuildShowsOneProgressLineAndErasesItBeforeTheSummary) {
+  dir.write("S.hlsl", kTwoKeywords);
+  const std::vector<std::string> cold{KILN_CLI_PATH, "build", "p.pack.json", "-o", "out", "--cache", "cache"};
+  auto r = testing::run_on_terminal(cold, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  // Drawn at the start and at the end, each time over the previous one; never a new line of its own.
+  const std::string first = "\rkiln: 0/5 stage sources (0%)\033[K";
+  EXPECT_EQ(r.out.substr(0, first.size()), first) << r.out;
+  const size_t last = r.out.find("\rkiln: 5/5 stage sources (100%), ");
+  ASSERT_NE(last, std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find('\n'), r.out.find("kiln: wrote") + 31) << r.out;
+  // Erased before the summary, which then starts at the beginning of the line.
+  const size_t summary = r.out.find("\r\033[Kkiln: wrote out/p.manifest.json\n  variants: 4 declared");
+  EXPECT_GT(summary, last) << r.out;
+  EXPECT_EQ(r.out.find("\r", summary + 1), std::string::npos) << "drawn after the summary: " << r.out;
+
+  // Into another directory: every stage source comes from the cache.
+  auto warm = cold;
+  warm[4] = "out2";
+  r = testing::run_on_terminal(warm, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("\rkiln: 5/5 stage sources (100%), cache hits 5\033[K\r\033[Kkiln: wrote out2/p.manifest.json\n"),
+            std::string::npos) << r.out;
+
+  // -q prints nothing at all; a terminal that cannot erase a line (TERM=dumb, or none) gets no progress line.
+  auto quiet = cold;
+  quiet[4] = "out3";
+  quiet.push_back("-q");
+  EXPECT_EQ(testing::run_on_terminal(quiet, dir.path()).out, "");
+  for (const char* term : {"dumb", ""}) {
+    auto plain = cold;
+    plain[4] = std::string("out-") + (*term ? term : "none");
+    r = testing::run_on_terminal(plain, dir.path(), term);
+    ASSERT_EQ(r.exit_code, 0) << r.out;
+    EXPECT_EQ(r.out.find_first_of("\r\033"), std::string::npos) << term << ": " << r.out;
+    EXPECT_EQ(r.out.substr(0, 11), "kiln: wrote") << r.out;
+  }
+}
+
+TEST_F(Cli, OnATerminalADiagnosticDuringTheBuildStartsOnAClearedLine) {
+  dir.write("S.hlsl",
+            "#pragma multi_compile_fragment _ CRASH\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "#ifdef CRASH\nfloat4 F(float4) : SV_Target { return 0; }\n"
+            "#else\nfloat4 F() : SV_Target { return 1.0; }\n#endif\n");
+  auto r = testing::run_on_terminal({KILN_CLI_PATH, "build", "p.pack.json", "-o", "out", "--cache", "cache"}, dir.path());
+  EXPECT_EQ(r.exit_code, 2);
+  const size_t error = r.out.find("S.hlsl: error[K1501]: internal compiler error: the compiler worker killed by signal 11");
+  ASSERT_NE(error, std::string::npos) << r.out;
+  EXPECT_EQ(r.out.substr(0, error), "\rkiln: 0/3 stage sources (0%)\033[K\r\033[K") << r.out;
+  // The line comes back after the diagnostic and its notes, and is gone before the error count.
+  EXPECT_NE(r.out.find("\rkiln: 3/3 stage sources (100%)", error), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("\r\033[Kkiln: 1 error(s), including internal compiler errors\n"), std::string::npos) << r.out;
 }
 
 TEST_F(Cli, EveryVerbHasHelp) {

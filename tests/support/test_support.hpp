@@ -2,15 +2,19 @@
 #pragma once
 
 #include <fcntl.h>
+#include <pty.h>
 #include <spawn.h>
 #include <sys/wait.h>
+#include <termios.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 extern char** environ;
@@ -84,6 +88,52 @@ inline RunResult run(const std::vector<std::string>& argv, const std::filesystem
 inline RunResult run_kiln(std::vector<std::string> args, const std::filesystem::path& cwd) {
   args.insert(args.begin(), KILN_CLI_PATH);
   return run(args, cwd);
+}
+
+// Runs `program args...` in `cwd` with stdin, stdout and stderr on a pseudo-terminal of `columns` columns,
+// as a user at a terminal runs it, with TERM set to `term` (unset when empty). Output processing is off, so
+// the bytes read are the bytes the program wrote; stdout and stderr arrive interleaved in `out`.
+inline RunResult run_on_terminal(const std::vector<std::string>& argv, const std::filesystem::path& cwd,
+                                 const std::string& term = "xterm", unsigned short columns = 80) {
+  RunResult result;
+  termios mode{};
+  ::cfmakeraw(&mode);
+  winsize size{};
+  size.ws_col = columns;
+  size.ws_row = 24;
+  // Everything the child needs is made before the fork: after it, only async-signal-safe calls.
+  std::vector<char*> args;
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  std::vector<std::string> variables;
+  for (char** v = environ; *v; ++v)
+    if (std::string_view(*v).substr(0, 5) != "TERM=") variables.emplace_back(*v);
+  if (!term.empty()) variables.push_back("TERM=" + term);
+  std::vector<char*> env;
+  for (std::string& v : variables) env.push_back(v.data());
+  env.push_back(nullptr);
+  int master = -1;
+  auto start = std::chrono::steady_clock::now();
+  pid_t pid = ::forkpty(&master, nullptr, &mode, &size);
+  if (pid < 0) return result;
+  if (pid == 0) {
+    if (::chdir(cwd.c_str()) != 0) ::_exit(126);
+    ::execve(args[0], args.data(), env.data());
+    ::_exit(127);
+  }
+  char buffer[4096];
+  for (;;) {
+    ssize_t n = ::read(master, buffer, sizeof buffer);
+    if (n > 0) result.out.append(buffer, static_cast<size_t>(n));
+    else if (n < 0 && errno == EINTR) continue;
+    else break;  // EIO: the child closed the terminal's last descriptor
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ::close(master);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
 }
 
 // Files anywhere below `dir` (empty if it does not exist).
