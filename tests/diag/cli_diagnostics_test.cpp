@@ -159,6 +159,37 @@ TEST_F(Cli, UnknownKeywordSuggestsTheClosestDeclaredOne) {
   expect_nothing_written();
 }
 
+TEST_F(Cli, UnknownFieldInAPackOrSceneIsAnErrorSuggestingTheClosestKnownOne) {
+  dir.write("S.hlsl", kEntries);
+  dir.write("p.pack.json", R"({"name": "p", "budjet": 64,
+  "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}, "colour": 1}]})");
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err,
+            "p.pack.json:1:16: error[K1011]: unknown field \"budjet\" in the pack definition\n"
+            "    {\"name\": \"p\", \"budjet\": 64,\n"
+            "                   ^\n"
+            "  note: did you mean \"budget\"?\n"
+            "p.pack.json:2:93: error[K1011]: unknown field \"colour\" in a pass\n"
+            "      \"passes\": [{\"name\": \"P\", \"source\": \"S.hlsl\", \"stages\": {\"vertex\": \"V\", \"fragment\": \"F\"}, \"colour\": 1}]}\n"
+            "                                                                                                ^\n"
+            "  note: known fields: name, description, source, stages\n"
+            "kiln: 2 error(s)\n");
+  expect_nothing_written();
+
+  dir.write("p.pack.json", kPack);
+  dir.write("scene.json", R"({"name": "s", "keywords": ["A"], "material": ["standard"]})");
+  r = build({"--scene", "scene.json"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err,
+            "scene.json:1:35: error[K1012]: unknown field \"material\" in the scene profile\n"
+            "    {\"name\": \"s\", \"keywords\": [\"A\"], \"material\": [\"standard\"]}\n"
+            "                                      ^\n"
+            "  note: did you mean \"materials\"?\n"
+            "kiln: 1 error(s)\n");
+  expect_nothing_written();
+}
+
 TEST_F(Cli, KeywordDeclaredInTwoGroupsIsAnError) {
   dir.write("S.hlsl", std::string("#pragma multi_compile _ A B\n#pragma multi_compile_fragment _ B C\n") + kEntries);
   auto r = build();

@@ -51,6 +51,23 @@ struct FieldReader {
     }
     return it->get<std::string>();
   }
+  // Every field of `object` that is not in `known` is an error, with the closest known one suggested.
+  void only(const json& object, const std::vector<std::string_view>& known, const std::string& what) {
+    std::vector<std::string> names(known.begin(), known.end());
+    for (auto& [key, value] : object.items()) {
+      if (std::find(known.begin(), known.end(), key) != known.end()) continue;
+      std::vector<std::string> notes;
+      if (auto suggestion = closest_match(key, names)) notes.push_back("did you mean \"" + *suggestion + "\"?");
+      else notes.push_back("known fields: " + join(names));
+      ok = false;
+      sink.report(id, at(key), "unknown field \"" + key + "\" in " + what, std::move(notes));
+    }
+  }
+  static std::string join(const std::vector<std::string>& names) {
+    std::string out;
+    for (const std::string& name : names) out += (out.empty() ? "" : ", ") + name;
+    return out;
+  }
   std::vector<std::string> strings(const json& object, const char* key) {
     std::vector<std::string> out;
     auto it = object.find(key);
@@ -72,6 +89,18 @@ struct FieldReader {
 
 }  // namespace
 
+const DefinitionFields& definition_fields() {
+  static const DefinitionFields fields{
+      {"$schema", "name", "description", "shader", "include_dirs", "targets", "budget", "passes", "constraints",
+       "materials", "scene_features"},
+      {"name", "description", "source", "stages"},
+      {"keyword", "requires", "requires_any", "excludes", "reason"},
+      {"name", "description", "keywords"},
+      {"$schema", "name", "description", "uses", "materials", "keywords"},
+  };
+  return fields;
+}
+
 std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& file, const ReadLimits& limits,
                                                    DiagnosticSink& sink) {
   auto text = read_text_file(file, limits, sink, SourceLocation{file.string(), 0, 0});
@@ -83,6 +112,7 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
     fields.fail("", "a pack definition must be a JSON object");
     return std::nullopt;
   }
+  fields.only(*root, definition_fields().pack, "the pack definition");
   PackDefinition pack;
   pack.file = file;
   pack.text = *text;
@@ -124,6 +154,7 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
         fields.fail("passes", "each pass must be an object");
         continue;
       }
+      fields.only(item, definition_fields().pass, "a pass");
       PassDefinition pass;
       pass.name = fields.string(item, "name", true).value_or("");
       pass.defined_at = fields.at(pass.name);
@@ -160,6 +191,7 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
           fields.fail("constraints", "each constraint must be an object");
           continue;
         }
+        fields.only(item, definition_fields().constraint, "a constraint");
         Constraint constraint;
         constraint.keyword = fields.string(item, "keyword", true).value_or("");
         constraint.defined_at = fields.at(constraint.keyword);
@@ -183,6 +215,7 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
           fields.fail("materials", "each material must be an object");
           continue;
         }
+        fields.only(item, definition_fields().material, "a material preset");
         MaterialPreset material;
         material.name = fields.string(item, "name", true).value_or("");
         material.defined_at = fields.at(material.name);
@@ -210,6 +243,7 @@ std::optional<SceneProfile> load_scene_profile(const std::filesystem::path& file
     fields.fail("", "a scene profile must be a JSON object");
     return std::nullopt;
   }
+  fields.only(*root, definition_fields().scene, "the scene profile");
   SceneProfile scene;
   scene.file = file;
   scene.text = *text;

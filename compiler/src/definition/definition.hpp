@@ -2,11 +2,21 @@
 #pragma once
 
 #include <optional>
+#include <string_view>
+#include <vector>
 
 #include "common/files.hpp"
 #include "kiln/model.hpp"
 
 namespace kiln {
+
+// The fields each object of a pack definition and of a scene profile may have; any other is an error (a
+// misspelled "budjet" must not silently mean the default budget). variants/schema/ lists the same fields
+// (checked by unit.Definition tests).
+struct DefinitionFields {
+  std::vector<std::string_view> pack, pass, constraint, material, scene;
+};
+const DefinitionFields& definition_fields();
 
 std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& file, const ReadLimits& limits,
                                                    DiagnosticSink& sink);
