@@ -11,6 +11,7 @@
 #include "allocator.hpp"
 #include "progress_line.hpp"
 #include "common/files.hpp"
+#include "frontend/frontend.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
 #include "lint/lint.hpp"
@@ -306,6 +307,8 @@ int main(int argc, char** argv) {
   build->add_option("--targets", target_names, "Override the pack's targets: spirv, glsl, gles, msl (comma-separated)")
       ->check(CLI::IsMember({"spirv", "glsl", "gles", "msl"}))
       ->delimiter(',');
+  build->add_option("--frontend", options.frontend, "HLSL front end (default: glslang)")
+      ->check(CLI::IsMember(kiln::frontend_names()));
   build->add_option("--worker-timeout", timeout_s, "Seconds one compile job may take before it is an internal error");
   build->add_flag("-q,--quiet", quiet, "Print only diagnostics");
 
@@ -365,7 +368,23 @@ int main(int argc, char** argv) {
   test->add_option("--against", against, "Compare with this API's image of each variant instead of the reference image")
       ->check(CLI::IsMember({"vulkan", "gl", "gles"}));
 
-  CLI11_PARSE(app, argc, argv);
+  app.failure_message([](const CLI::App*, const CLI::Error& error) {
+    return std::string("kiln: error: ") + error.what() + "\nRun with --help for more information.\n";
+  });
+  std::vector<std::string> verbs;
+  for (const CLI::App* verb : app.get_subcommands({})) verbs.push_back(verb->get_name());
+  if (argc > 1 && argv[1][0] != '-' && std::find(verbs.begin(), verbs.end(), argv[1]) == verbs.end()) {
+    auto suggestion = kiln::closest_match(argv[1], verbs);
+    std::cerr << "kiln: error: unknown command '" << argv[1] << "'"
+              << (suggestion ? "; did you mean '" + *suggestion + "'?" : std::string()) << "\nRun with --help for more information.\n";
+    return 1;
+  }
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    // --help and --version end here with 0; any other argument error is the user's: exit code 1, not CLI11's 100+.
+    return app.exit(error) == 0 ? 0 : 1;
+  }
   if (*render) return run_render(pack_dir, variant_keywords, scene_file, png_out, exr_out, size_text, api);
   if (*test) return run_test(pack_dir, scene_file, golden_dir, tolerances, report_dir, filter, shard, api, against);
   if (*check) return run_check_scene(pack_dir, scene_file, as_json);

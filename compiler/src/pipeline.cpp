@@ -393,7 +393,14 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       sink.report(DiagId::OutputUnwritable, SourceLocation{options.depfile->string(), 0, 0}, error);
   };
 
-  auto frontend = make_glslang_frontend();
+  auto frontend = make_frontend(options.frontend);
+  if (!frontend) {
+    std::string known;
+    for (const std::string& name : frontend_names()) known += (known.empty() ? "" : ", ") + name;
+    sink.report(DiagId::UnknownFrontend, SourceLocation{options.pack_file.string(), 0, 0},
+                "no front end named '" + options.frontend + "' (kiln has: " + known + ")");
+    return finish();
+  }
   const std::string fingerprint = tools_fingerprint(*frontend);
   std::vector<Target> targets = options.targets.empty() ? plan->pack.targets : options.targets;
   if (std::find(targets.begin(), targets.end(), Target::Spirv) == targets.end()) targets.insert(targets.begin(), Target::Spirv);
@@ -698,7 +705,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     if (!jobs.empty()) {
       const unsigned workers = parallelism(options);
       std::filesystem::path exe = options.worker_executable.empty() ? default_worker_executable() : options.worker_executable;
-      WorkerPool pool(exe, workers, WorkerLimits{options.worker_timeout, options.worker_memory_limit_mb});
+      WorkerPool pool(exe, workers, WorkerLimits{options.worker_timeout, options.worker_memory_limit_mb, options.frontend});
       // A finished job's input (its source text or its module) is not read again: free it now, not when the
       // build ends (`= {}` would keep the capacity).
       auto release_input = [&jobs](size_t j) {

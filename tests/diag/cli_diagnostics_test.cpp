@@ -378,11 +378,48 @@ TEST_F(Cli, OnATerminalADiagnosticDuringTheBuildStartsOnAClearedLine) {
 }
 
 TEST_F(Cli, EveryVerbHasHelp) {
-  for (std::string verb : {"build", "list", "inspect", "lint"}) {
+  // The verbs as `kiln --help` lists them.
+  auto top = testing::run_kiln({"--help"}, dir.path());
+  EXPECT_EQ(top.exit_code, 0);
+  std::vector<std::string> verbs;
+  std::istringstream lines(top.out.substr(top.out.find("Subcommands:")));
+  for (std::string line; std::getline(lines, line);)
+    if (line.starts_with("  ") && line[2] != ' ') verbs.push_back(line.substr(2, line.find(' ', 2) - 2));
+  EXPECT_EQ(verbs, (std::vector<std::string>{"build", "list", "inspect", "lint", "check-scene", "diff-packs", "render", "test"}));
+  for (const std::string& verb : verbs) {
     auto r = testing::run_kiln({verb, "--help"}, dir.path());
     EXPECT_EQ(r.exit_code, 0) << verb;
     EXPECT_NE(r.out.find("Usage:"), std::string::npos) << verb;
+    EXPECT_EQ(r.err, "") << verb;
   }
+}
+
+TEST_F(Cli, BadArgumentsAreUserErrorsWithExitCode1) {
+  dir.write("S.hlsl", kEntries);
+  const std::string hint = "Run with --help for more information.\n";
+  struct Case {
+    std::vector<std::string> args;
+    std::string err;
+  };
+  for (const Case& c : std::vector<Case>{
+           {{"biuld", "p.pack.json"}, "kiln: error: unknown command 'biuld'; did you mean 'build'?\n" + hint},
+           {{}, "kiln: error: A subcommand is required\n" + hint},
+           {{"build", "p.pack.json"}, "kiln: error: --output is required\n" + hint},
+           {{"build", "p.pack.json", "-o", "out", "--bogus"},
+            "kiln: error: The following argument was not expected: --bogus\n" + hint},
+           {{"build", "p.pack.json", "-o", "out", "-j", "two"}, "kiln: error: Could not convert: --jobs = two\n" + hint},
+           {{"build", "p.pack.json", "-o", "out", "--frontend", "dxc"},
+            "kiln: error: --frontend: dxc not in {glslang}\n" + hint},
+           {{"build", "missing.pack.json", "-o", "out"},
+            "missing.pack.json: error[K1001]: cannot open 'missing.pack.json': No such file or directory\n"
+            "kiln: 1 error(s)\n"},
+       }) {
+    auto r = testing::run_kiln(c.args, dir.path());
+    EXPECT_EQ(r.exit_code, 1) << c.err;
+    EXPECT_EQ(r.err, c.err);
+    EXPECT_EQ(r.out, "");
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "out"));
 }
 
 }  // namespace

@@ -56,6 +56,20 @@ TEST_F(SmallLibrary, SameBytesWithOneWorkerAndWithTwo) {
   EXPECT_EQ(testing::read_file(dir / "j1/p.manifest.json"), testing::read_file(dir / "j2/p.manifest.json"));
 }
 
+TEST_F(SmallLibrary, AFrontEndKilnDoesNotHaveIsAnErrorBeforeAnythingIsWritten) {
+  BuildOptions options;
+  options.pack_file = dir / "p.pack.json";
+  options.output_dir = dir / "out";
+  options.cache_dir = dir / "cache";
+  options.worker_executable = KILN_WORKER_PATH;
+  options.frontend = "dxc";
+  DiagnosticSink sink;
+  EXPECT_FALSE(build_pack(options, sink).ok);
+  EXPECT_EQ(errors_of(sink), (dir / "p.pack.json").string() + ": error[K1013]: no front end named 'dxc' (kiln has: glslang)\n");
+  EXPECT_TRUE(testing::files_below(dir / "out").empty());
+  EXPECT_TRUE(testing::files_below(dir / "cache").empty());
+}
+
 TEST_F(SmallLibrary, NoChangeRebuildDoesNoWork) {
   DiagnosticSink sink;
   ASSERT_TRUE(build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink).ok) << errors_of(sink);

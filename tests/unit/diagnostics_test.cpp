@@ -40,6 +40,12 @@ TEST(Diagnostics, ClosestMatchSuggestsOnlyPlausibleTypos) {
   EXPECT_EQ(closest_match("_MAIN_LIGHT_SHADOW", known), "_MAIN_LIGHT_SHADOWS");
   EXPECT_EQ(closest_match("_SHADOW_SOFT", known), "_SHADOWS_SOFT");
   EXPECT_FALSE(closest_match("COMPLETELY_DIFFERENT", known).has_value());
+  // Two swapped letters are one typo.
+  EXPECT_EQ(closest_match("_FROWARD_PLUS", known), "_FORWARD_PLUS");
+  std::vector<std::string> verbs{"build", "list", "inspect", "lint"};
+  EXPECT_EQ(closest_match("biuld", verbs), "build");
+  EXPECT_EQ(closest_match("lsit", verbs), "list");
+  EXPECT_FALSE(closest_match("xyzzy", verbs).has_value());
 }
 
 }  // namespace

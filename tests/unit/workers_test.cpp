@@ -2,6 +2,7 @@
 
 #include <cstdlib>
 
+#include "frontend/frontend.hpp"
 #include "workers/worker_pool.hpp"
 #include "test_support.hpp"
 
@@ -27,6 +28,54 @@ std::vector<WorkerOutcome> run_jobs(std::vector<CompileJob> jobs, WorkerLimits l
   std::vector<WorkerOutcome> outcomes(jobs.size());
   pool.run(jobs, [&](size_t i, WorkerOutcome o) { outcomes[i] = std::move(o); });
   return outcomes;
+}
+
+// Everything after the front end sees only the Frontend interface. A front end that is not glslang (a stand-in
+// that hands over a module glslang made earlier, under its own name and with its own warning) drives the same
+// back end to the same outputs.
+class StandInFrontend final : public Frontend {
+ public:
+  explicit StandInFrontend(std::vector<uint32_t> module) : module_(std::move(module)) {}
+  std::string name() const override { return "stand-in"; }
+  std::string version() const override { return "1"; }
+  PreprocessResult preprocess(const PreprocessRequest& request) override {
+    return {true, std::string(request.entry_text), {}};
+  }
+  CompileResult compile(const CompileRequest& request) override {
+    CompileResult result;
+    result.ok = true;
+    result.spirv = module_;
+    result.messages.push_back({Severity::Warning, request.source_name, 1, "stand-in front end"});
+    return result;
+  }
+
+ private:
+  std::vector<uint32_t> module_;
+};
+
+TEST(Workers, AnotherFrontEndDrivesTheSameBackEnd) {
+  EXPECT_EQ(frontend_names(), std::vector<std::string>{"glslang"});
+  EXPECT_EQ(make_frontend("dxc"), nullptr);
+  auto glslang = make_frontend("glslang");
+  ASSERT_NE(glslang, nullptr);
+  EXPECT_EQ(glslang->name(), "glslang");
+
+  CompileJob front = job(kValid);
+  front.kind = JobKind::FrontEnd;
+  JobOutput module = run_compile_job(*glslang, front);
+  ASSERT_TRUE(module.ok) << module.failed_step;
+  StandInFrontend stand_in(module.spirv);
+
+  const CompileJob full = job(kValid);
+  JobOutput expected = run_compile_job(*glslang, full);
+  JobOutput got = run_compile_job(stand_in, full);
+  ASSERT_TRUE(expected.ok && got.ok) << got.failed_step;
+  ASSERT_EQ(got.blobs.size(), 4u);
+  for (const auto& [target, blob] : expected.blobs)
+    EXPECT_EQ(got.blobs.at(target), blob) << target_name(target);
+  EXPECT_EQ(got.reflection, expected.reflection);
+  ASSERT_EQ(got.messages.size(), 1u);
+  EXPECT_EQ(got.messages[0].text, "stand-in front end");
 }
 
 TEST(Workers, CompileProducesEveryTarget) {

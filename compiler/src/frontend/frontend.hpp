@@ -71,6 +71,12 @@ class Frontend {
   virtual CompileResult compile(const CompileRequest& request) = 0;
 };
 
+// The front ends by name: the build, its compiler workers and the cache key name the front end, so that
+// adding one touches only frontend/ (its implementation and a line in registry.cpp).
+inline constexpr std::string_view kDefaultFrontend = "glslang";
+std::vector<std::string> frontend_names();
+std::unique_ptr<Frontend> make_frontend(std::string_view name);  // nullptr: no front end of that name
+
 std::unique_ptr<Frontend> make_glslang_frontend();
 
 // Parses glslang-style info logs ("ERROR: path:line: message") into messages.

@@ -120,7 +120,8 @@ bool WorkerPool::spawn(Worker& worker, std::string& error) {
   posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
   std::string memory = std::to_string(limits_.memory_limit_mb);
   std::string exe = executable_.string();
-  char* argv[] = {exe.data(), const_cast<char*>("--memory-limit-mb"), memory.data(), nullptr};
+  char* argv[] = {exe.data(), const_cast<char*>("--memory-limit-mb"), memory.data(),
+                  const_cast<char*>("--frontend"), limits_.frontend.data(), nullptr};
   pid_t pid = -1;
   int rc = posix_spawn(&pid, exe.c_str(), &actions, nullptr, argv, environ);
   posix_spawn_file_actions_destroy(&actions);
@@ -286,14 +287,18 @@ void inject_fault(const CompileJob& job) {
 }  // namespace
 
 int worker_main(int argc, char** argv) {
+  std::string frontend_name{kDefaultFrontend};
   for (int i = 1; i + 1 < argc; ++i) {
     if (std::string(argv[i]) == "--memory-limit-mb") {
       rlim_t bytes = static_cast<rlim_t>(std::stoull(argv[i + 1])) << 20;
       rlimit limit{bytes, bytes};
       ::setrlimit(RLIMIT_AS, &limit);
+    } else if (std::string(argv[i]) == "--frontend") {
+      frontend_name = argv[i + 1];
     }
   }
-  auto frontend = make_glslang_frontend();
+  auto frontend = make_frontend(frontend_name);
+  if (!frontend) return 3;  // the build checks the name first; a worker of another kiln version could differ
   for (;;) {
     uint8_t header[4];
     if (!read_all(0, header, 4)) return 0;  // the parent closed our stdin: done

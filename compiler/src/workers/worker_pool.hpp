@@ -18,6 +18,7 @@ namespace kiln {
 struct WorkerLimits {
   std::chrono::milliseconds job_timeout{120'000};
   uint64_t memory_limit_mb = 4096;  // RLIMIT_AS of each worker
+  std::string frontend{kDefaultFrontend};  // the front end the workers compile with (frontend_names())
 };
 
 struct WorkerOutcome {
