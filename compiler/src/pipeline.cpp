@@ -542,17 +542,24 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     grouped[it->second].variants.emplace_back(order, variant);
   };
 
+  // A stage source that did not preprocess: its first error only (after one, glslang's preprocessor stops,
+  // and what it reports next, like "missing #endif" after an #error, cascades from it).
+  auto preprocess_failed = [&](const StageSource& s, size_t order) {
+    auto first = std::find_if(s.messages.begin(), s.messages.end(),
+                              [](const FrontendMessage& m) { return m.severity == Severity::Error; });
+    if (first == s.messages.end()) return;
+    collect(DiagId::PreprocessorError, located(*first, display_path(plan->declarations[s.pass].entry)), first->text,
+            variant_description(*plan, s), order);
+  };
+
   std::vector<Binary> binaries;
   {
     StageTimer timer(report, "dedupe");
     std::map<Hash128, size_t> by_key;
     for (size_t i = 0; i < stage_sources.size(); ++i) {
       StageSource& s = stage_sources[i];
-      const std::string entry_name = display_path(plan->declarations[s.pass].entry);
       if (!s.ok) {
-        for (const FrontendMessage& m : s.messages)
-          if (m.severity == Severity::Error)
-            collect(DiagId::PreprocessorError, located(m, entry_name), m.text, variant_description(*plan, s), i);
+        preprocess_failed(s, i);
         continue;
       }
       const std::string& entry_point = plan->pack.passes[s.pass].entry_points[static_cast<size_t>(s.stage)];
@@ -598,10 +605,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     for (size_t b : misses) {
       const StageSource& s = stage_sources[binaries[b].source];
       if (!s.ok) {  // the memo said it preprocessed; it does not now (it cannot, with the same files)
-        for (const FrontendMessage& m : s.messages)
-          if (m.severity == Severity::Error)
-            collect(DiagId::PreprocessorError, located(m, display_path(plan->declarations[s.pass].entry)), m.text,
-                    variant_description(*plan, s), binaries[b].source);
+        preprocess_failed(s, binaries[b].source);
         continue;
       }
       binaries[b].key = *s.key;  // the text's own key, whatever a memo said

@@ -190,6 +190,83 @@ TEST_F(Cli, UnknownFieldInAPackOrSceneIsAnErrorSuggestingTheClosestKnownOne) {
   expect_nothing_written();
 }
 
+TEST_F(Cli, InvalidJsonIsReportedAtItsLineAndColumn) {
+  dir.write("S.hlsl", kEntries);
+  dir.write("p.pack.json", "{\"name\": \"p\",\n  \"passes\": [{\"name\": \"P\", \"source\": \"S.hlsl\",}]}\n");
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err,
+            "p.pack.json:2:47: error[K1010]: invalid JSON: syntax error while parsing object key - unexpected '}'; "
+            "expected string literal\n"
+            "      \"passes\": [{\"name\": \"P\", \"source\": \"S.hlsl\",}]}\n"
+            "                                                  ^\n"
+            "kiln: 1 error(s)\n");
+  expect_nothing_written();
+}
+
+TEST_F(Cli, MalformedAndTooDeepIncludesAreErrors) {
+  dir.write("S.hlsl", std::string("#include Missing.hlsl\n") + kEntries);
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err,
+            "S.hlsl:1:1: error[K1205]: expected #include \"file\" or #include <file>\n"
+            "    #include Missing.hlsl\n"
+            "    ^\n"
+            "kiln: 1 error(s)\n");
+  expect_nothing_written();
+  // A chain of 70 files, each including the next: refused at the 64th level, not a stack overflow.
+  for (int i = 0; i < 70; ++i)
+    dir.write("lib/D" + std::to_string(i) + ".hlsl", "#include \"D" + std::to_string(i + 1) + ".hlsl\"\n");
+  dir.write("lib/D70.hlsl", "// the end\n");
+  dir.write("S.hlsl", std::string("#include \"D0.hlsl\"\n") + kEntries);
+  r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err,
+            "lib/D62.hlsl:1:10: error[K1204]: #include nesting is deeper than 64\n"
+            "    #include \"D63.hlsl\"\n"
+            "             ^\n"
+            "kiln: 1 error(s)\n");
+  expect_nothing_written();
+}
+
+TEST_F(Cli, PreprocessorErrorsReportTheFirstErrorOfEachSourceOnly) {
+  // After #error glslang's preprocessor stops; the "missing #endif" it reports next is not the user's.
+  dir.write("S.hlsl", std::string("#pragma multi_compile _ A\n#ifdef A\n#error A is not supported here\n#endif\n") + kEntries);
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err,
+            "S.hlsl:3:1: error[K1408]: '#error' : A is not supported here\n"
+            "    #error A is not supported here\n"
+            "    ^\n"
+            "  note: in pass 'P' vertex stage, keywords [A]\n"
+            "  note: and in 1 more variant(s)\n"
+            "kiln: 1 error(s)\n");
+  expect_nothing_written();
+  dir.write("S.hlsl", std::string("#if 1\n") + kEntries);
+  r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err,
+            "S.hlsl:4: error[K1408]: missing #endif\n"
+            "  note: in pass 'P' vertex stage, keywords [<none>]\n"
+            "  note: and in 1 more variant(s)\n"
+            "kiln: 1 error(s)\n");
+  expect_nothing_written();
+}
+
+TEST_F(Cli, ConstraintsThatLeaveAPassNoVariantAreAnError) {
+  dir.write("S.hlsl", std::string("#pragma multi_compile A\n#pragma multi_compile _ B\n") + kEntries);
+  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}],
+  "constraints": [{"keyword": "A", "requires": ["B"]}, {"keyword": "B", "excludes": ["A"]}]})");
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err,
+            "p.pack.json:1:36: error[K1305]: constraints and scene profiles leave pass 'P' with no variant\n"
+            "    {\"name\": \"p\", \"passes\": [{\"name\": \"P\", \"source\": \"S.hlsl\", \"stages\": {\"vertex\": \"V\", \"fragment\": \"F\"}}],\n"
+            "                                       ^\n"
+            "kiln: 1 error(s)\n");
+  expect_nothing_written();
+}
+
 TEST_F(Cli, KeywordDeclaredInTwoGroupsIsAnError) {
   dir.write("S.hlsl", std::string("#pragma multi_compile _ A B\n#pragma multi_compile_fragment _ B C\n") + kEntries);
   auto r = build();

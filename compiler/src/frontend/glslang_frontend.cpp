@@ -148,7 +148,10 @@ std::vector<FrontendMessage> parse_frontend_log(std::string_view log, std::strin
     std::smatch m;
     if (std::regex_match(line, m, located)) {
       Severity severity = m[1] == "WARNING" ? Severity::Warning : Severity::Error;
-      messages.push_back({severity, m[2], std::stoi(m[3]), m[4]});
+      std::string text = m[4];
+      // glslang quotes the offending token first; with no token ("'' : missing #endif") that says nothing.
+      if (text.starts_with("'' : ")) text.erase(0, 5);
+      messages.push_back({severity, m[2], std::stoi(m[3]), std::move(text)});
     } else if (std::regex_match(line, m, plain)) {
       std::string text = m[2];
       if (std::regex_search(text, summary)) continue;
