@@ -499,12 +499,14 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
             .add(files_listed);
         for (const std::string& define : s.defines) memo.add(define);
         s.memo = memo.finish();
+        bool rejected = false;
         std::optional<PreprocessMemo> known = cache->load_memo(s.memo, [&](const PreprocessMemo& candidate) {
           return !candidate.files.empty() && std::all_of(candidate.files.begin(), candidate.files.end(), [&](const auto& file) {
                    auto it = file_hashes.find(file.first);
                    return it != file_hashes.end() && it->second == file.second;
                  });
-        });
+        }, rejected);
+        if (rejected) ++report.cache_rejected;
         if (!known) continue;
         s.ok = true;
         s.key = known->source_key;
@@ -798,6 +800,11 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     });
     timer.reset();
     if (cache) report.cache_rejected += cache->unreadable_segments();
+    if (cache && report.cache_rejected)
+      sink.report(DiagId::CacheEntryRejected, SourceLocation{cache->directory().string(), 0, 0},
+                  std::to_string(report.cache_rejected) + " cache entr" + (report.cache_rejected == 1 ? "y was" : "ies were") +
+                      " corrupt, truncated or foreign: compiled again and rewritten",
+                  {"nothing of them reached the outputs; if this repeats, check the disk or what else writes to the cache"});
     if (cache && !user_errors) {
       // Entries are encoded on every core (the workers are done by now), then written as one segment file.
       StageTimer store_timer(report, "cache store");

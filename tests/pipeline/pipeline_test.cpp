@@ -70,6 +70,33 @@ TEST_F(SmallLibrary, AFrontEndKilnDoesNotHaveIsAnErrorBeforeAnythingIsWritten) {
   EXPECT_TRUE(testing::files_below(dir / "cache").empty());
 }
 
+// kiln's includer implements #pragma once (glslang would only warn "not implemented" and include the file
+// again): a file included twice is read once, with no warning, and the directive is not in the output.
+TEST_F(SmallLibrary, PragmaOnceIsHonouredWithoutAWarning) {
+  dir.write("lib/Both.hlsl", "#pragma once  // twice is harmless\n#include \"Shadows.hlsl\"\n");
+  dir.write("S.hlsl", "#include \"Shadows.hlsl\"\n#include \"Both.hlsl\"\n"
+                      "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "float4 F(float4 p : SV_Position) : SV_Target {\n  return ShadowTerm(p.x).xxxx;\n}\n");
+  BuildOptions options;
+  options.pack_file = dir / "p.pack.json";
+  options.output_dir = dir / "out";
+  options.worker_executable = KILN_WORKER_PATH;
+  options.emit = {"preprocessed"};
+  DiagnosticSink sink;
+  ASSERT_TRUE(build_pack(options, sink).ok) << errors_of(sink);
+  EXPECT_TRUE(sink.diagnostics().empty()) << errors_of(sink);
+  auto emitted = testing::files_below(dir / "out/emit");
+  ASSERT_EQ(emitted.size(), 2u);
+  for (const auto& file : emitted) {
+    const std::string text = testing::read_file(file);
+    EXPECT_EQ(text.find("pragma once"), std::string::npos) << file;
+    size_t definitions = 0;
+    for (size_t at = text.find("ShadowTerm(float x)"); at != std::string::npos; at = text.find("ShadowTerm(float x)", at + 1))
+      ++definitions;
+    EXPECT_EQ(definitions, 1u) << file;
+  }
+}
+
 TEST_F(SmallLibrary, NoChangeRebuildDoesNoWork) {
   DiagnosticSink sink;
   ASSERT_TRUE(build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink).ok) << errors_of(sink);
@@ -167,6 +194,14 @@ TEST_F(SmallLibrary, AMissKnownOnlyThroughAMemoIsPreprocessedForTheWorkers) {
   EXPECT_GE(second.compiled, 1u);
   EXPECT_GE(second.cache_rejected, 1u);
   EXPECT_EQ(testing::read_file(dir / "fresh/p.kpack"), archive);
+  // Said once, as a note, not an error.
+  const auto notes = sink.diagnostics();
+  ASSERT_EQ(notes.size(), 1u) << errors_of(sink);
+  EXPECT_EQ(notes[0].id, DiagId::CacheEntryRejected);
+  EXPECT_EQ(notes[0].severity, Severity::Note);
+  EXPECT_EQ(notes[0].message, std::to_string(second.cache_rejected) +
+                                  (second.cache_rejected == 1 ? " cache entry was" : " cache entries were") +
+                                  " corrupt, truncated or foreign: compiled again and rewritten");
 }
 
 TEST_F(SmallLibrary, EditThatChangesNoReachableCodeRunsOnlyFrontEnds) {

@@ -295,15 +295,18 @@ TEST(Cache, AMemoKeyCanHoldSeveralMemosAndTheAcceptedOneIsReturned) {
   Cache cache(dir.path());
   EXPECT_EQ(cache.segment_files().size(), 2u);
   for (uint64_t version : {1u, 2u}) {
-    auto memo = cache.load_memo(key, [&](const PreprocessMemo& m) { return m.files[0].second == version; });
+    bool rejected = false;
+    auto memo = cache.load_memo(key, [&](const PreprocessMemo& m) { return m.files[0].second == version; }, rejected);
+    EXPECT_FALSE(rejected);
     ASSERT_TRUE(memo) << version;
     EXPECT_EQ(memo->source_key, hash128("source v" + std::to_string(version)));
     ASSERT_EQ(memo->files.size(), 2u);
     EXPECT_EQ(memo->files[1], (std::pair<std::string, uint64_t>{"lib/F.hlsl", 7}));
   }
-  EXPECT_FALSE(cache.load_memo(key, [](const PreprocessMemo&) { return false; }));
-  // A memo is not a compile result: its key loads nothing, and is not counted as a rejected entry.
   bool rejected = false;
+  EXPECT_FALSE(cache.load_memo(key, [](const PreprocessMemo&) { return false; }, rejected));
+  EXPECT_FALSE(rejected);
+  // A memo is not a compile result: its key loads nothing, and is not counted as a rejected entry.
   EXPECT_FALSE(cache.load(key, rejected));
   EXPECT_FALSE(rejected);
 }

@@ -230,10 +230,10 @@ std::optional<PreprocessMemo> decode_memo(std::string_view p) {
 
 // Unlike results, one memo key can hold different memos (the same source before and after an edit), in
 // different segments: each copy is offered until one is accepted.
-std::optional<PreprocessMemo> Cache::load_memo(const Hash128& key, const std::function<bool(const PreprocessMemo&)>& accept) {
+std::optional<PreprocessMemo> Cache::load_memo(const Hash128& key, const std::function<bool(const PreprocessMemo&)>& accept,
+                                               bool& rejected) {
   std::lock_guard lock(mutex_);
   std::optional<PreprocessMemo> memo;
-  bool rejected = false;
   auto offer = [&](uint32_t kind, std::string_view payload) {
     memo = kind == kMemo ? decode_memo(payload) : std::nullopt;
     if (!memo) return Copy::Bad;

@@ -64,7 +64,9 @@ class Cache {
   bool store_alias(const Hash128& key, const Hash128& target, const std::vector<FrontendMessage>& messages);
   // A third kind of entry, under keys of their own: preprocessing memos (staged like the others).
   // The first memo under `key` that `accept` takes (one key can hold several: see load_memo).
-  std::optional<PreprocessMemo> load_memo(const Hash128& key, const std::function<bool(const PreprocessMemo&)>& accept);
+  // `rejected` as for load().
+  std::optional<PreprocessMemo> load_memo(const Hash128& key, const std::function<bool(const PreprocessMemo&)>& accept,
+                                          bool& rejected);
   bool store_memo(const Hash128& key, const PreprocessMemo& memo);
   // Marks the segments loads were served from as used; writes the staged entries as one segment (nothing
   // when none are staged); then keeps the cache within its size limit. Empty, or what failed.

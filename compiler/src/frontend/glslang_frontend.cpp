@@ -31,6 +31,27 @@ void configure(glslang::TShader& shader, Stage stage) {
   shader.setEnvTarget(glslang::EShTargetSpv, glslang::EShTargetSpv_1_3);
 }
 
+// kiln's includer implements `#pragma once`; glslang does not, and warns "'#pragma once' : not implemented"
+// for every variant. The directive's lines are blanked (line numbers unchanged) before glslang sees the text.
+std::optional<std::string> without_pragma_once(std::string_view text) {
+  if (text.find("once") == std::string_view::npos) return std::nullopt;
+  static const std::regex directive(R"(^[ \t]*#[ \t]*pragma[ \t]+once[ \t]*(//.*)?\r?$)");
+  std::string out;
+  out.reserve(text.size());
+  bool changed = false;
+  for (size_t start = 0; start < text.size();) {
+    size_t end = text.find('\n', start);
+    if (end == std::string_view::npos) end = text.size();
+    const std::string line(text.substr(start, end - start));
+    if (std::regex_match(line, directive)) changed = true;
+    else out += line;
+    if (end < text.size()) out += '\n';
+    start = end + 1;
+  }
+  if (!changed) return std::nullopt;
+  return out;
+}
+
 class Includer final : public glslang::TShader::Includer {
  public:
   Includer(const IncludeSource* source, std::string entry_name) : source_(source), entry_name_(std::move(entry_name)) {}
@@ -45,6 +66,12 @@ class Includer final : public glslang::TShader::Includer {
     if (!source_->resolve(requested, from_name, found, error)) return failure(error);
     if (found.once && !once_seen_.insert(found.name).second)
       return new IncludeResult(found.name, "", 0, nullptr);  // #pragma once: second inclusion is empty
+    if (found.once) {
+      if (auto blanked = without_pragma_once(found.text)) {
+        auto* text = new std::string(std::move(*blanked));
+        return new IncludeResult(found.name, text->data(), text->size(), text);
+      }
+    }
     return new IncludeResult(found.name, found.text.data(), found.text.size(), nullptr);
   }
   IncludeResult* includeSystem(const char* requested, const char* from, size_t depth) override {
@@ -78,8 +105,10 @@ class GlslangFrontend final : public Frontend {
   PreprocessResult preprocess(const PreprocessRequest& request) override {
     PreprocessResult result;
     glslang::TShader shader(to_glslang(request.stage));
-    const char* text = request.entry_text.data();
-    const int length = static_cast<int>(request.entry_text.size());
+    const std::optional<std::string> entry_blanked = without_pragma_once(request.entry_text);
+    const std::string_view entry = entry_blanked ? std::string_view(*entry_blanked) : request.entry_text;
+    const char* text = entry.data();
+    const int length = static_cast<int>(entry.size());
     const char* name = request.entry_name.c_str();
     shader.setStringsWithLengthsAndNames(&text, &length, &name, 1);
     std::string preamble;
