@@ -547,11 +547,13 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   // A stage source that did not preprocess: its first error only (after one, glslang's preprocessor stops,
   // and what it reports next, like "missing #endif" after an #error, cascades from it).
   auto preprocess_failed = [&](const StageSource& s, size_t order) {
+    const std::string entry_name = display_path(plan->declarations[s.pass].entry);
     auto first = std::find_if(s.messages.begin(), s.messages.end(),
                               [](const FrontendMessage& m) { return m.severity == Severity::Error; });
-    if (first == s.messages.end()) return;
-    collect(DiagId::PreprocessorError, located(*first, display_path(plan->declarations[s.pass].entry)), first->text,
-            variant_description(*plan, s), order);
+    if (first == s.messages.end())  // failed without saying why: still an error, never a silently missing variant
+      collect(DiagId::PreprocessorError, SourceLocation{entry_name, 0, 0}, "preprocessing failed", variant_description(*plan, s), order);
+    else
+      collect(DiagId::PreprocessorError, located(*first, entry_name), first->text, variant_description(*plan, s), order);
   };
 
   std::vector<Binary> binaries;

@@ -229,7 +229,7 @@ TEST_F(Cli, MalformedAndTooDeepIncludesAreErrors) {
   expect_nothing_written();
 }
 
-TEST_F(Cli, PreprocessorErrorsReportTheFirstErrorOfEachSourceOnly) {
+TEST_F(Cli, PreprocessorErrorsAreReportedOnceAtTheirOwnLine) {
   // After #error glslang's preprocessor stops; the "missing #endif" it reports next is not the user's.
   dir.write("S.hlsl", std::string("#pragma multi_compile _ A\n#ifdef A\n#error A is not supported here\n#endif\n") + kEntries);
   auto r = build();
@@ -242,14 +242,20 @@ TEST_F(Cli, PreprocessorErrorsReportTheFirstErrorOfEachSourceOnly) {
             "  note: and in 1 more variant(s)\n"
             "kiln: 1 error(s)\n");
   expect_nothing_written();
-  dir.write("S.hlsl", std::string("#if 1\n") + kEntries);
+  // Unbalanced conditionals are found once per file, at their own line, before any variant is preprocessed.
+  dir.write("lib/Open.hlsl", "#ifndef OPEN_INCLUDED\n#define OPEN_INCLUDED\n#if 0\n#endif\n");
+  dir.write("S.hlsl", std::string("#include \"Open.hlsl\"\n#else\n") + kEntries);
   r = build();
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(r.err,
-            "S.hlsl:4: error[K1408]: missing #endif\n"
-            "  note: in pass 'P' vertex stage, keywords [<none>]\n"
-            "  note: and in 1 more variant(s)\n"
-            "kiln: 1 error(s)\n");
+            "lib/Open.hlsl:1:1: error[K1408]: #if without #endif in this file (a conditional closes in the file that "
+            "opens it)\n"
+            "    #ifndef OPEN_INCLUDED\n"
+            "    ^\n"
+            "S.hlsl:2:1: error[K1408]: #else without #if\n"
+            "    #else\n"
+            "    ^\n"
+            "kiln: 2 error(s)\n");
   expect_nothing_written();
 }
 

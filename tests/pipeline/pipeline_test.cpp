@@ -73,7 +73,7 @@ TEST_F(SmallLibrary, AFrontEndKilnDoesNotHaveIsAnErrorBeforeAnythingIsWritten) {
 // kiln's includer implements #pragma once (glslang would only warn "not implemented" and include the file
 // again): a file included twice is read once, with no warning, and the directive is not in the output.
 TEST_F(SmallLibrary, PragmaOnceIsHonouredWithoutAWarning) {
-  dir.write("lib/Both.hlsl", "#pragma once  // twice is harmless\n#include \"Shadows.hlsl\"\n");
+  dir.write("lib/Both.hlsl", "  #  pragma\tonce  // twice is harmless\n// evaluated once per pixel\n#include \"Shadows.hlsl\"\n");
   dir.write("S.hlsl", "#include \"Shadows.hlsl\"\n#include \"Both.hlsl\"\n"
                       "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
                       "float4 F(float4 p : SV_Position) : SV_Target {\n  return ShadowTerm(p.x).xxxx;\n}\n");
@@ -89,7 +89,7 @@ TEST_F(SmallLibrary, PragmaOnceIsHonouredWithoutAWarning) {
   ASSERT_EQ(emitted.size(), 2u);
   for (const auto& file : emitted) {
     const std::string text = testing::read_file(file);
-    EXPECT_EQ(text.find("pragma once"), std::string::npos) << file;
+    EXPECT_EQ(text.find("pragma"), std::string::npos) << file;
     size_t definitions = 0;
     for (size_t at = text.find("ShadowTerm(float x)"); at != std::string::npos; at = text.find("ShadowTerm(float x)", at + 1))
       ++definitions;

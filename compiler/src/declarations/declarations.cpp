@@ -180,11 +180,20 @@ struct Scanner {
     result.files.push_back(file.path);
     const std::string shown = display_path(file.path);
     std::vector<std::string> lines = code_lines(file.text);
+    // Conditionals must close in the file that opens them (as in C). Checked here, once per file, so that
+    // an unclosed #if is reported at its own line, not at the end of every variant's text.
+    std::vector<SourceLocation> open_conditionals;
     for (size_t i = 0; i < lines.size(); ++i) {
       auto directive = directive_of(lines[i], static_cast<int>(i + 1));
       if (!directive) continue;
       SourceLocation at{shown, directive->line, directive->column};
-      if (directive->name == "pragma") {
+      const std::string_view name = directive->name;
+      if (name == "if" || name == "ifdef" || name == "ifndef") {
+        open_conditionals.push_back(at);
+      } else if (name == "elif" || name == "else" || name == "endif") {
+        if (open_conditionals.empty()) error(DiagId::PreprocessorError, at, "#" + std::string(name) + " without #if");
+        else if (name == "endif") open_conditionals.pop_back();
+      } else if (name == "pragma") {
         bool malformed = false;
         auto group = parse_keyword_pragma(directive->rest, at, directive->rest_column, sink, malformed);
         if (malformed) ok = false;
@@ -193,6 +202,8 @@ struct Scanner {
         include(*directive, at, file);
       }
     }
+    for (const SourceLocation& at : open_conditionals)
+      error(DiagId::PreprocessorError, at, "#if without #endif in this file (a conditional closes in the file that opens it)");
     chain.pop_back();
   }
 

@@ -3,8 +3,10 @@
 #include <glslang/SPIRV/GlslangToSpv.h>
 #include <glslang/build_info.h>
 
+#include <algorithm>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <regex>
 #include <set>
 #include <sstream>
@@ -31,24 +33,38 @@ void configure(glslang::TShader& shader, Stage stage) {
   shader.setEnvTarget(glslang::EShTargetSpv, glslang::EShTargetSpv_1_3);
 }
 
+// Whether `line` is exactly a `#pragma once` directive (spaces, tabs and a trailing // comment allowed).
+bool is_pragma_once(std::string_view line) {
+  auto skip_blanks = [&] {
+    while (!line.empty() && (line.front() == ' ' || line.front() == '\t')) line.remove_prefix(1);
+  };
+  auto take = [&](std::string_view word) {
+    if (!line.starts_with(word)) return false;
+    line.remove_prefix(word.size());
+    return true;
+  };
+  skip_blanks();
+  if (!take("#")) return false;
+  skip_blanks();
+  if (!take("pragma") || line.empty() || (line.front() != ' ' && line.front() != '\t')) return false;
+  skip_blanks();
+  if (!take("once")) return false;
+  skip_blanks();
+  return line.empty() || line == "\r" || line.starts_with("//");
+}
+
 // kiln's includer implements `#pragma once`; glslang does not, and warns "'#pragma once' : not implemented"
 // for every variant. The directive's lines are blanked (line numbers unchanged) before glslang sees the text.
+// Only lines holding "once" are looked at: this runs on every stage source's entry file.
 std::optional<std::string> without_pragma_once(std::string_view text) {
-  if (text.find("once") == std::string_view::npos) return std::nullopt;
-  static const std::regex directive(R"(^[ \t]*#[ \t]*pragma[ \t]+once[ \t]*(//.*)?\r?$)");
-  std::string out;
-  out.reserve(text.size());
-  bool changed = false;
-  for (size_t start = 0; start < text.size();) {
-    size_t end = text.find('\n', start);
-    if (end == std::string_view::npos) end = text.size();
-    const std::string line(text.substr(start, end - start));
-    if (std::regex_match(line, directive)) changed = true;
-    else out += line;
-    if (end < text.size()) out += '\n';
-    start = end + 1;
+  std::optional<std::string> out;
+  for (size_t at = text.find("once"); at != std::string_view::npos; at = text.find("once", at + 4)) {
+    const size_t begin = text.rfind('\n', at) == std::string_view::npos ? 0 : text.rfind('\n', at) + 1;
+    const size_t end = std::min(text.find('\n', at), text.size());
+    if (!is_pragma_once(text.substr(begin, end - begin))) continue;
+    if (!out) out.emplace(text);
+    std::fill(out->begin() + begin, out->begin() + end, ' ');
   }
-  if (!changed) return std::nullopt;
   return out;
 }
 
