@@ -14,6 +14,8 @@ spvtools::MessageConsumer collect_into(std::vector<std::string>& messages) {
     if (level > SPV_MSG_WARNING) return;
     std::string message = text ? text : "";
     if (position.index) message = "instruction " + std::to_string(position.index) + ": " + message;
+    // spirv-val ends a message with the disassembled instruction and a newline: keep the instruction only.
+    while (!message.empty() && (message.back() == '\n' || message.back() == ' ')) message.pop_back();
     messages.push_back(std::move(message));
   };
 }

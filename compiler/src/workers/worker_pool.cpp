@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <csignal>
 #include <cstring>
@@ -267,8 +268,10 @@ namespace {
 
 // Test-only fault injection, enabled by KILN_WORKER_FAULT_INJECTION=1: a source containing
 // "kiln-fault: hang" or "kiln-fault: oom" makes this worker hang or exhaust its memory; a back end whose
-// module names a function KilnFaultCrashBackEnd crashes it (SIGSEGV), as a SPIRV-Tools bug would.
-void inject_fault(const CompileJob& job) {
+// module names a function KilnFaultCrashBackEnd crashes it (SIGSEGV), as a SPIRV-Tools bug would; one whose
+// module names KilnFaultInvalidModule loses its Location decorations, as a front-end bug would, so that
+// spirv-val rejects it.
+void inject_fault(CompileJob& job) {
   static const bool enabled = [] {
     const char* env = std::getenv("KILN_WORKER_FAULT_INJECTION");
     return env && std::string(env) == "1";
@@ -282,6 +285,17 @@ void inject_fault(const CompileJob& job) {
   }
   std::string_view module(reinterpret_cast<const char*>(job.spirv.data()), job.spirv.size() * 4);
   if (job.kind == JobKind::BackEnd && module.find("KilnFaultCrashBackEnd") != std::string_view::npos) std::raise(SIGSEGV);
+  if (job.kind == JobKind::BackEnd && module.find("KilnFaultInvalidModule") != std::string_view::npos) {
+    constexpr uint32_t kOpDecorate = 71, kDecorationLocation = 30;
+    std::vector<uint32_t> kept(job.spirv.begin(), job.spirv.begin() + 5);
+    for (size_t i = 5; i < job.spirv.size();) {
+      const uint32_t words = std::max<uint32_t>(job.spirv[i] >> 16, 1);
+      const bool location = (job.spirv[i] & 0xffffu) == kOpDecorate && words >= 3 && job.spirv[i + 2] == kDecorationLocation;
+      if (!location) kept.insert(kept.end(), job.spirv.begin() + i, job.spirv.begin() + std::min(i + words, job.spirv.size()));
+      i += words;
+    }
+    job.spirv = std::move(kept);
+  }
 }
 
 }  // namespace
