@@ -227,36 +227,44 @@ TEST_F(SmallLibrary, EditThatChangesNoReachableCodeRunsOnlyFrontEnds) {
   EXPECT_EQ(testing::read_file(dir / "fresh/p.kpack"), first_archive);
 }
 
-// A back end that rejects its module (here spirv-val, given a module whose Location decorations a front-end
-// bug lost) is an error of every source sharing the module, named by stage and keywords; nothing is cached.
-TEST(TwoHalves, ModuleSpirvValRejectsIsAnErrorForEverySourceSharingItAndNothingIsCached) {
-  testing::TempDir dir;
-  dir.write("S.hlsl",
-            "#pragma multi_compile_fragment _ UNUSED_BRANCH\n"
-            "float KilnFaultInvalidModule(float x) { return x * 0.5; }\n"
-            "#ifdef UNUSED_BRANCH\nfloat NeverCalled() { return 2.0; }\n#endif\n"
-            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
-            "float4 F(float4 c : COLOR0) : SV_Target { return KilnFaultInvalidModule(c.x).xxxx; }\n");
-  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
-  DiagnosticSink sink;
-  ::setenv("KILN_WORKER_FAULT_INJECTION", "1", 1);
-  BuildReport report = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
-  ::unsetenv("KILN_WORKER_FAULT_INJECTION");
-  EXPECT_FALSE(report.ok);
-  EXPECT_FALSE(report.internal_errors);
-  EXPECT_EQ(report.back_ends, 2u);  // 1 vertex + 1 fragment module
-  const auto diagnostics = sink.diagnostics();
-  ASSERT_EQ(diagnostics.size(), 1u) << errors_of(sink);
-  EXPECT_EQ(diagnostics[0].id, DiagId::SpirvInvalid);
-  EXPECT_EQ(diagnostics[0].location.path, (dir / "S.hlsl").string());
-  EXPECT_TRUE(diagnostics[0].message.starts_with("validate: ")) << diagnostics[0].message;
-  EXPECT_NE(diagnostics[0].message.find("Variable must be decorated with a location\n  %c = OpVariable"), std::string::npos)
-      << diagnostics[0].message;
-  EXPECT_NE(diagnostics[0].message.back(), '\n');
-  EXPECT_EQ(diagnostics[0].notes, (std::vector<std::string>{"in pass 'P' fragment stage, keywords [<none>]",
-                                                             "and in 1 more variant(s)"}));
-  EXPECT_FALSE(std::filesystem::exists(dir / "out/p.manifest.json"));
-  EXPECT_EQ(Cache(dir / "cache").indexed_keys(), 0u);
+// A back end that rejects its module (spirv-val, given a module whose Location decorations a front-end bug
+// lost; the optimizer, given a truncated one) is an error of every source sharing the module, named by stage
+// and keywords; nothing is cached.
+TEST(TwoHalves, ModuleTheBackEndRejectsIsAnErrorForEverySourceSharingItAndNothingIsCached) {
+  struct Case {
+    const char* fault;
+    DiagId id;
+    const char* message;
+  };
+  for (const Case& c : {Case{"KilnFaultInvalidModule", DiagId::SpirvInvalid,
+                             "validate: instruction 21: [VUID-StandaloneSpirv-Location-04916] Variable must be decorated "
+                             "with a location\n  %c = OpVariable %_ptr_Input_v4float Input"},
+                        Case{"KilnFaultTruncatedModule", DiagId::OptimizerFailed, "legalize: "}}) {
+    testing::TempDir dir;
+    dir.write("S.hlsl", std::string("#pragma multi_compile_fragment _ UNUSED_BRANCH\n") + "float " + c.fault +
+                            "(float x) { return x * 0.5; }\n"
+                            "#ifdef UNUSED_BRANCH\nfloat NeverCalled() { return 2.0; }\n#endif\n"
+                            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                            "float4 F(float4 c : COLOR0) : SV_Target { return " + c.fault + "(c.x).xxxx; }\n");
+    dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+    DiagnosticSink sink;
+    ::setenv("KILN_WORKER_FAULT_INJECTION", "1", 1);
+    BuildReport report = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
+    ::unsetenv("KILN_WORKER_FAULT_INJECTION");
+    EXPECT_FALSE(report.ok);
+    EXPECT_FALSE(report.internal_errors);
+    EXPECT_EQ(report.back_ends, 2u);  // 1 vertex + 1 fragment module
+    const auto diagnostics = sink.diagnostics();
+    ASSERT_EQ(diagnostics.size(), 1u) << errors_of(sink);
+    EXPECT_EQ(diagnostics[0].id, c.id) << c.fault;
+    EXPECT_EQ(diagnostics[0].location.path, (dir / "S.hlsl").string());
+    EXPECT_TRUE(diagnostics[0].message.starts_with(c.message)) << diagnostics[0].message;
+    EXPECT_NE(diagnostics[0].message.back(), '\n');
+    EXPECT_EQ(diagnostics[0].notes, (std::vector<std::string>{"in pass 'P' fragment stage, keywords [<none>]",
+                                                               "and in 1 more variant(s)"}));
+    EXPECT_FALSE(std::filesystem::exists(dir / "out/p.manifest.json"));
+    EXPECT_EQ(Cache(dir / "cache").indexed_keys(), 0u);
+  }
 }
 
 // Two fragment sources that differ only in a function F never calls share one module, so one back end: when

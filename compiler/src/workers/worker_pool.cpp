@@ -270,7 +270,8 @@ namespace {
 // "kiln-fault: hang" or "kiln-fault: oom" makes this worker hang or exhaust its memory; a back end whose
 // module names a function KilnFaultCrashBackEnd crashes it (SIGSEGV), as a SPIRV-Tools bug would; one whose
 // module names KilnFaultInvalidModule loses its Location decorations, as a front-end bug would, so that
-// spirv-val rejects it.
+// spirv-val rejects it; one whose module names KilnFaultTruncatedModule ends in the middle of an
+// instruction, so that the optimizer cannot parse it.
 void inject_fault(CompileJob& job) {
   static const bool enabled = [] {
     const char* env = std::getenv("KILN_WORKER_FAULT_INJECTION");
@@ -296,6 +297,8 @@ void inject_fault(CompileJob& job) {
     }
     job.spirv = std::move(kept);
   }
+  if (job.kind == JobKind::BackEnd && module.find("KilnFaultTruncatedModule") != std::string_view::npos)
+    job.spirv.back() += 4u << 16;  // the last instruction (OpFunctionEnd) now claims words past the end
 }
 
 }  // namespace
