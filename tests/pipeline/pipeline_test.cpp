@@ -227,6 +227,20 @@ TEST_F(SmallLibrary, EditThatChangesNoReachableCodeRunsOnlyFrontEnds) {
   EXPECT_EQ(testing::read_file(dir / "fresh/p.kpack"), first_archive);
 }
 
+// Two fragment sources that differ only in a function F never calls (so they share one module), F calling
+// `fault` (a function name the worker's test-only fault injection acts on), built with the injection on.
+BuildReport build_with_fault_injection(const testing::TempDir& dir, const std::string& fault, DiagnosticSink& sink) {
+  dir.write("S.hlsl", "#pragma multi_compile_fragment _ UNUSED_BRANCH\nfloat " + fault + "(float x) { return x * 0.5; }\n"
+                      "#ifdef UNUSED_BRANCH\nfloat NeverCalled() { return 2.0; }\n#endif\n"
+                      "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "float4 F(float4 c : COLOR0) : SV_Target { return " + fault + "(c.x).xxxx; }\n");
+  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  ::setenv("KILN_WORKER_FAULT_INJECTION", "1", 1);
+  BuildReport report = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
+  ::unsetenv("KILN_WORKER_FAULT_INJECTION");
+  return report;
+}
+
 // A back end that rejects its module (spirv-val, given a module whose Location decorations a front-end bug
 // lost; the optimizer, given a truncated one) is an error of every source sharing the module, named by stage
 // and keywords; nothing is cached.
@@ -241,16 +255,8 @@ TEST(TwoHalves, ModuleTheBackEndRejectsIsAnErrorForEverySourceSharingItAndNothin
                              "with a location\n  %c = OpVariable %_ptr_Input_v4float Input"},
                         Case{"KilnFaultTruncatedModule", DiagId::OptimizerFailed, "legalize: "}}) {
     testing::TempDir dir;
-    dir.write("S.hlsl", std::string("#pragma multi_compile_fragment _ UNUSED_BRANCH\n") + "float " + c.fault +
-                            "(float x) { return x * 0.5; }\n"
-                            "#ifdef UNUSED_BRANCH\nfloat NeverCalled() { return 2.0; }\n#endif\n"
-                            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
-                            "float4 F(float4 c : COLOR0) : SV_Target { return " + c.fault + "(c.x).xxxx; }\n");
-    dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
     DiagnosticSink sink;
-    ::setenv("KILN_WORKER_FAULT_INJECTION", "1", 1);
-    BuildReport report = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
-    ::unsetenv("KILN_WORKER_FAULT_INJECTION");
+    BuildReport report = build_with_fault_injection(dir, c.fault, sink);
     EXPECT_FALSE(report.ok);
     EXPECT_FALSE(report.internal_errors);
     EXPECT_EQ(report.back_ends, 2u);  // 1 vertex + 1 fragment module
@@ -267,21 +273,12 @@ TEST(TwoHalves, ModuleTheBackEndRejectsIsAnErrorForEverySourceSharingItAndNothin
   }
 }
 
-// Two fragment sources that differ only in a function F never calls share one module, so one back end: when
-// it crashes, both are internal compiler errors (each with its keywords), and only the vertex stage is cached.
+// One back end serves both fragment sources: when it crashes, both are internal compiler errors (each with its
+// keywords), and only the vertex stage is cached.
 TEST(TwoHalves, BackEndCrashIsAnInternalErrorForEverySourceSharingItsModule) {
   testing::TempDir dir;
-  dir.write("S.hlsl",
-            "#pragma multi_compile_fragment _ UNUSED_BRANCH\n"
-            "float KilnFaultCrashBackEnd(float x) { return x * 0.5; }\n"
-            "#ifdef UNUSED_BRANCH\nfloat NeverCalled() { return 2.0; }\n#endif\n"
-            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
-            "float4 F() : SV_Target { return KilnFaultCrashBackEnd(1.0).xxxx; }\n");
-  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
   DiagnosticSink sink;
-  ::setenv("KILN_WORKER_FAULT_INJECTION", "1", 1);
-  BuildReport report = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
-  ::unsetenv("KILN_WORKER_FAULT_INJECTION");
+  BuildReport report = build_with_fault_injection(dir, "KilnFaultCrashBackEnd", sink);
   EXPECT_FALSE(report.ok);
   EXPECT_TRUE(report.internal_errors);
   EXPECT_EQ(report.compiled, 3u);   // 1 vertex + 2 fragment sources
