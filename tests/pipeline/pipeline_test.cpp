@@ -73,7 +73,7 @@ TEST_F(SmallLibrary, AFrontEndKilnDoesNotHaveIsAnErrorBeforeAnythingIsWritten) {
 // kiln's includer implements #pragma once (glslang would only warn "not implemented" and include the file
 // again): a file included twice is read once, with no warning, and the directive is not in the output.
 TEST_F(SmallLibrary, PragmaOnceIsHonouredWithoutAWarning) {
-  dir.write("lib/Both.hlsl", "  #  pragma\tonce  // twice is harmless\n// evaluated once per pixel\n#include \"Shadows.hlsl\"\n");
+  dir.write("lib/Both.hlsl", "  #  pragma\tonce  /* twice is harmless */\n// evaluated once per pixel\n#include \"Shadows.hlsl\"\n");
   dir.write("S.hlsl", "#include \"Shadows.hlsl\"\n#include \"Both.hlsl\"\n"
                       "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
                       "float4 F(float4 p : SV_Position) : SV_Target {\n  return ShadowTerm(p.x).xxxx;\n}\n");

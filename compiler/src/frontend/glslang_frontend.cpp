@@ -33,7 +33,7 @@ void configure(glslang::TShader& shader, Stage stage) {
   shader.setEnvTarget(glslang::EShTargetSpv, glslang::EShTargetSpv_1_3);
 }
 
-// Whether `line` is exactly a `#pragma once` directive (spaces, tabs and a trailing // comment allowed).
+// Whether `line` is exactly a `#pragma once` directive (spaces, tabs and a trailing comment allowed).
 bool is_pragma_once(std::string_view line) {
   auto skip_blanks = [&] {
     while (!line.empty() && (line.front() == ' ' || line.front() == '\t')) line.remove_prefix(1);
@@ -50,7 +50,7 @@ bool is_pragma_once(std::string_view line) {
   skip_blanks();
   if (!take("once")) return false;
   skip_blanks();
-  return line.empty() || line == "\r" || line.starts_with("//");
+  return line.empty() || line == "\r" || line.starts_with("//") || line.starts_with("/*");
 }
 
 // kiln's includer implements `#pragma once`; glslang does not, and warns "'#pragma once' : not implemented"
