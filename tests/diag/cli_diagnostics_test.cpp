@@ -273,6 +273,26 @@ TEST_F(Cli, ConstraintsThatLeaveAPassNoVariantAreAnError) {
   expect_nothing_written();
 }
 
+TEST_F(Cli, CodeATargetCannotExpressIsAnErrorNamingTheTarget) {
+  // ddx_fine is SPIR-V's DPdxFine: fine for Vulkan, desktop GL and Metal; OpenGL ES has no derivative control.
+  dir.write("S.hlsl", "#pragma multi_compile_fragment _ FINE\n"
+                      "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "float4 F(float4 c : COLOR0) : SV_Target {\n"
+                      "#ifdef FINE\n  return float4(ddx_fine(c.x), 0.0, 0.0, 1.0);\n#else\n  return c;\n#endif\n}\n");
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err,
+            "S.hlsl: error[K1405]: cross-gles: GL_ARB_derivative_control is unavailable in OpenGL ES.\n"
+            "  note: in pass 'P' fragment stage, keywords [FINE]\n"
+            "  note: SPIRV-Cross cannot write this for the 'gles' target; if the pack does not ship it, remove \"gles\" "
+            "from the pack's \"targets\" (or build with --targets)\n"
+            "kiln: 1 error(s)\n");
+  expect_nothing_written();
+  // Without GLSL ES, the same shader builds.
+  r = build({"--targets", "spirv,glsl,msl"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+}
+
 TEST_F(Cli, KeywordDeclaredInTwoGroupsIsAnError) {
   dir.write("S.hlsl", std::string("#pragma multi_compile _ A B\n#pragma multi_compile_fragment _ B C\n") + kEntries);
   auto r = build();
