@@ -841,7 +841,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     std::vector<std::string> notes{"in " + g.variants.front().second};
     if (g.variants.size() > 1) notes.push_back("and in " + std::to_string(g.variants.size() - 1) + " more variant(s)");
     if (g.id == DiagId::CrossCompileFailed && g.text.starts_with("cross-")) {  // "cross-gles: ..."
-      const std::string target = g.text.substr(6, g.text.find(':') - 6);
+      const std::string target = g.text.substr(6, g.text.find_first_of(": ") - 6);
       notes.push_back("SPIRV-Cross cannot write this for the '" + target + "' target; if the pack does not ship it, remove \"" +
                       target + "\" from the pack's \"targets\" (or build with --targets)");
     }
