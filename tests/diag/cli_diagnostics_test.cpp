@@ -31,6 +31,13 @@ struct Cli : ::testing::Test {
     args.insert(args.end(), extra.begin(), extra.end());
     return testing::run_kiln(args, dir.path());
   }
+  // Builds with `extra` arguments and expects exit code 1, exactly `err` on stderr, and nothing written.
+  void expect_build_error(const std::string& err, std::vector<std::string> extra = {}) {
+    auto r = build(std::move(extra));
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_EQ(r.err, err);
+    expect_nothing_written();
+  }
   void expect_nothing_written() {
     for (const auto& f : testing::files_below(dir / "out"))
       EXPECT_EQ(f.string().find("kiln-ice"), f.string().size() - f.filename().string().size() - 9) << "left behind: " << f;
@@ -41,32 +48,24 @@ struct Cli : ::testing::Test {
 TEST_F(Cli, SyntaxErrorIsReportedAtItsLineDespiteThePreamble) {
   dir.write("S.hlsl", "#pragma multi_compile _ A\n\nfloat4 V(float4 p : POSITION) : SV_Position { return p; }\n"
                       "float4 F() : SV_Target {\n  float4 c = undefinedThing;\n  return c;\n}\n");
-  auto r = build();
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err,
-            "S.hlsl:5:14: error[K1401]: 'undefinedThing' : unknown variable\n"
-            "      float4 c = undefinedThing;\n"
-            "                 ^\n"
-            "  note: in pass 'P' vertex stage, keywords [<none>]\n"
-            "  note: and in 1 more variant(s)\n"
-            "kiln: 1 error(s)\n");
-  expect_nothing_written();
+  expect_build_error("S.hlsl:5:14: error[K1401]: 'undefinedThing' : unknown variable\n"
+                     "      float4 c = undefinedThing;\n"
+                     "                 ^\n"
+                     "  note: in pass 'P' vertex stage, keywords [<none>]\n"
+                     "  note: and in 1 more variant(s)\n"
+                     "kiln: 1 error(s)\n");
 }
 
 TEST_F(Cli, MissingIncludeListsTheRootsSearched) {
   dir.write("S.hlsl", std::string("#include \"Missing.hlsl\"\n") + kEntries);
   std::filesystem::create_directories(dir / "lib");
-  auto r = build();
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err,
-            "S.hlsl:1:10: error[K1201]: cannot find include file 'Missing.hlsl'\n"
-            "    #include \"Missing.hlsl\"\n"
-            "             ^\n"
-            "  note: searched: .\n"
-            "  note: searched: lib\n"
-            "  note: searched: .\n"
-            "kiln: 1 error(s)\n");
-  expect_nothing_written();
+  expect_build_error("S.hlsl:1:10: error[K1201]: cannot find include file 'Missing.hlsl'\n"
+                     "    #include \"Missing.hlsl\"\n"
+                     "             ^\n"
+                     "  note: searched: .\n"
+                     "  note: searched: lib\n"
+                     "  note: searched: .\n"
+                     "kiln: 1 error(s)\n");
 }
 
 TEST_F(Cli, IncludeCyclePrintsTheChainInUnderASecond) {
@@ -148,129 +147,93 @@ TEST_F(Cli, UnknownKeywordSuggestsTheClosestDeclaredOne) {
   dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl",
   "stages": {"vertex": "V", "fragment": "F"}}],
   "constraints": [{"keyword": "_MAIN_LIGHT_SHADOW", "requires": ["_MAIN_LIGHT_SHADOWS"]}]})");
-  auto r = build();
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err,
-            "p.pack.json:3:32: error[K1303]: unknown keyword '_MAIN_LIGHT_SHADOW' in constraint: no pass declares it\n"
-            "      \"constraints\": [{\"keyword\": \"_MAIN_LIGHT_SHADOW\", \"requires\": [\"_MAIN_LIGHT_SHADOWS\"]}]}\n"
-            "                                   ^\n"
-            "  note: did you mean '_MAIN_LIGHT_SHADOWS'?\n"
-            "kiln: 1 error(s)\n");
-  expect_nothing_written();
+  expect_build_error("p.pack.json:3:32: error[K1303]: unknown keyword '_MAIN_LIGHT_SHADOW' in constraint: no pass declares it\n"
+                     "      \"constraints\": [{\"keyword\": \"_MAIN_LIGHT_SHADOW\", \"requires\": [\"_MAIN_LIGHT_SHADOWS\"]}]}\n"
+                     "                                   ^\n"
+                     "  note: did you mean '_MAIN_LIGHT_SHADOWS'?\n"
+                     "kiln: 1 error(s)\n");
 }
 
 TEST_F(Cli, UnknownFieldInAPackOrSceneIsAnErrorSuggestingTheClosestKnownOne) {
   dir.write("S.hlsl", kEntries);
   dir.write("p.pack.json", R"({"name": "p", "budjet": 64,
   "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}, "colour": 1}]})");
-  auto r = build();
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err,
-            "p.pack.json:1:16: error[K1011]: unknown field \"budjet\" in the pack definition\n"
-            "    {\"name\": \"p\", \"budjet\": 64,\n"
-            "                   ^\n"
-            "  note: did you mean \"budget\"?\n"
-            "p.pack.json:2:93: error[K1011]: unknown field \"colour\" in a pass\n"
-            "      \"passes\": [{\"name\": \"P\", \"source\": \"S.hlsl\", \"stages\": {\"vertex\": \"V\", \"fragment\": \"F\"}, \"colour\": 1}]}\n"
-            "                                                                                                ^\n"
-            "  note: known fields: name, description, source, stages\n"
-            "kiln: 2 error(s)\n");
-  expect_nothing_written();
+  expect_build_error("p.pack.json:1:16: error[K1011]: unknown field \"budjet\" in the pack definition\n"
+                     "    {\"name\": \"p\", \"budjet\": 64,\n"
+                     "                   ^\n"
+                     "  note: did you mean \"budget\"?\n"
+                     "p.pack.json:2:93: error[K1011]: unknown field \"colour\" in a pass\n"
+                     "      \"passes\": [{\"name\": \"P\", \"source\": \"S.hlsl\", \"stages\": {\"vertex\": \"V\", \"fragment\": \"F\"}, \"colour\": 1}]}\n"
+                     "                                                                                                ^\n"
+                     "  note: known fields: name, description, source, stages\n"
+                     "kiln: 2 error(s)\n");
 
   dir.write("p.pack.json", kPack);
   dir.write("scene.json", R"({"name": "s", "keywords": ["A"], "material": ["standard"]})");
-  r = build({"--scene", "scene.json"});
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err,
-            "scene.json:1:35: error[K1012]: unknown field \"material\" in the scene profile\n"
-            "    {\"name\": \"s\", \"keywords\": [\"A\"], \"material\": [\"standard\"]}\n"
-            "                                      ^\n"
-            "  note: did you mean \"materials\"?\n"
-            "kiln: 1 error(s)\n");
-  expect_nothing_written();
+  expect_build_error("scene.json:1:35: error[K1012]: unknown field \"material\" in the scene profile\n"
+                     "    {\"name\": \"s\", \"keywords\": [\"A\"], \"material\": [\"standard\"]}\n"
+                     "                                      ^\n"
+                     "  note: did you mean \"materials\"?\n"
+                     "kiln: 1 error(s)\n", {"--scene", "scene.json"});
 }
 
 TEST_F(Cli, InvalidJsonIsReportedAtItsLineAndColumn) {
   dir.write("S.hlsl", kEntries);
   dir.write("p.pack.json", "{\"name\": \"p\",\n  \"passes\": [{\"name\": \"P\", \"source\": \"S.hlsl\",}]}\n");
-  auto r = build();
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err,
-            "p.pack.json:2:47: error[K1010]: invalid JSON: syntax error while parsing object key - unexpected '}'; "
-            "expected string literal\n"
-            "      \"passes\": [{\"name\": \"P\", \"source\": \"S.hlsl\",}]}\n"
-            "                                                  ^\n"
-            "kiln: 1 error(s)\n");
-  expect_nothing_written();
+  expect_build_error("p.pack.json:2:47: error[K1010]: invalid JSON: syntax error while parsing object key - unexpected '}'; "
+                     "expected string literal\n"
+                     "      \"passes\": [{\"name\": \"P\", \"source\": \"S.hlsl\",}]}\n"
+                     "                                                  ^\n"
+                     "kiln: 1 error(s)\n");
 }
 
 TEST_F(Cli, MalformedAndTooDeepIncludesAreErrors) {
   dir.write("S.hlsl", std::string("#include Missing.hlsl\n") + kEntries);
-  auto r = build();
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err,
-            "S.hlsl:1:1: error[K1205]: expected #include \"file\" or #include <file>\n"
-            "    #include Missing.hlsl\n"
-            "    ^\n"
-            "kiln: 1 error(s)\n");
-  expect_nothing_written();
+  expect_build_error("S.hlsl:1:1: error[K1205]: expected #include \"file\" or #include <file>\n"
+                     "    #include Missing.hlsl\n"
+                     "    ^\n"
+                     "kiln: 1 error(s)\n");
   // A chain of 70 files, each including the next: refused at the 64th level, not a stack overflow.
   for (int i = 0; i < 70; ++i)
     dir.write("lib/D" + std::to_string(i) + ".hlsl", "#include \"D" + std::to_string(i + 1) + ".hlsl\"\n");
   dir.write("lib/D70.hlsl", "// the end\n");
   dir.write("S.hlsl", std::string("#include \"D0.hlsl\"\n") + kEntries);
-  r = build();
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err,
-            "lib/D62.hlsl:1:10: error[K1204]: #include nesting is deeper than 64\n"
-            "    #include \"D63.hlsl\"\n"
-            "             ^\n"
-            "kiln: 1 error(s)\n");
-  expect_nothing_written();
+  expect_build_error("lib/D62.hlsl:1:10: error[K1204]: #include nesting is deeper than 64\n"
+                     "    #include \"D63.hlsl\"\n"
+                     "             ^\n"
+                     "kiln: 1 error(s)\n");
 }
 
 TEST_F(Cli, PreprocessorErrorsAreReportedOnceAtTheirOwnLine) {
   // After #error glslang's preprocessor stops; the "missing #endif" it reports next is not the user's.
   dir.write("S.hlsl", std::string("#pragma multi_compile _ A\n#ifdef A\n#error A is not supported here\n#endif\n") + kEntries);
-  auto r = build();
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err,
-            "S.hlsl:3:1: error[K1408]: '#error' : A is not supported here\n"
-            "    #error A is not supported here\n"
-            "    ^\n"
-            "  note: in pass 'P' vertex stage, keywords [A]\n"
-            "  note: and in 1 more variant(s)\n"
-            "kiln: 1 error(s)\n");
-  expect_nothing_written();
+  expect_build_error("S.hlsl:3:1: error[K1408]: '#error' : A is not supported here\n"
+                     "    #error A is not supported here\n"
+                     "    ^\n"
+                     "  note: in pass 'P' vertex stage, keywords [A]\n"
+                     "  note: and in 1 more variant(s)\n"
+                     "kiln: 1 error(s)\n");
   // Unbalanced conditionals are found once per file, at their own line, before any variant is preprocessed.
   dir.write("lib/Open.hlsl", "#ifndef OPEN_INCLUDED\n#define OPEN_INCLUDED\n#if 0\n#endif\n");
   dir.write("S.hlsl", std::string("#include \"Open.hlsl\"\n#else\n") + kEntries);
-  r = build();
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err,
-            "lib/Open.hlsl:1:1: error[K1408]: #if without #endif in this file (a conditional closes in the file that "
-            "opens it)\n"
-            "    #ifndef OPEN_INCLUDED\n"
-            "    ^\n"
-            "S.hlsl:2:1: error[K1408]: #else without #if\n"
-            "    #else\n"
-            "    ^\n"
-            "kiln: 2 error(s)\n");
-  expect_nothing_written();
+  expect_build_error("lib/Open.hlsl:1:1: error[K1408]: #if without #endif in this file (a conditional closes in the file that "
+                     "opens it)\n"
+                     "    #ifndef OPEN_INCLUDED\n"
+                     "    ^\n"
+                     "S.hlsl:2:1: error[K1408]: #else without #if\n"
+                     "    #else\n"
+                     "    ^\n"
+                     "kiln: 2 error(s)\n");
 }
 
 TEST_F(Cli, ConstraintsThatLeaveAPassNoVariantAreAnError) {
   dir.write("S.hlsl", std::string("#pragma multi_compile A\n#pragma multi_compile _ B\n") + kEntries);
   dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}],
   "constraints": [{"keyword": "A", "requires": ["B"]}, {"keyword": "B", "excludes": ["A"]}]})");
-  auto r = build();
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err,
-            "p.pack.json:1:36: error[K1305]: constraints and scene profiles leave pass 'P' with no variant\n"
-            "    {\"name\": \"p\", \"passes\": [{\"name\": \"P\", \"source\": \"S.hlsl\", \"stages\": {\"vertex\": \"V\", \"fragment\": \"F\"}}],\n"
-            "                                       ^\n"
-            "kiln: 1 error(s)\n");
-  expect_nothing_written();
+  expect_build_error("p.pack.json:1:36: error[K1305]: constraints and scene profiles leave pass 'P' with no variant\n"
+                     "    {\"name\": \"p\", \"passes\": [{\"name\": \"P\", \"source\": \"S.hlsl\", \"stages\": {\"vertex\": \"V\", \"fragment\": \"F\"}}],\n"
+                     "                                       ^\n"
+                     "kiln: 1 error(s)\n");
 }
 
 TEST_F(Cli, CodeATargetCannotExpressIsAnErrorNamingTheTarget) {
@@ -279,31 +242,23 @@ TEST_F(Cli, CodeATargetCannotExpressIsAnErrorNamingTheTarget) {
                       "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
                       "float4 F(float4 c : COLOR0) : SV_Target {\n"
                       "#ifdef FINE\n  return float4(ddx_fine(c.x), 0.0, 0.0, 1.0);\n#else\n  return c;\n#endif\n}\n");
-  auto r = build();
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err,
-            "S.hlsl: error[K1405]: cross-gles: GL_ARB_derivative_control is unavailable in OpenGL ES.\n"
-            "  note: in pass 'P' fragment stage, keywords [FINE]\n"
-            "  note: SPIRV-Cross cannot write this for the 'gles' target; if the pack does not ship it, remove \"gles\" "
-            "from the pack's \"targets\" (or build with --targets)\n"
-            "kiln: 1 error(s)\n");
-  expect_nothing_written();
+  expect_build_error("S.hlsl: error[K1405]: cross-gles: GL_ARB_derivative_control is unavailable in OpenGL ES.\n"
+                     "  note: in pass 'P' fragment stage, keywords [FINE]\n"
+                     "  note: SPIRV-Cross cannot write this for the 'gles' target; if the pack does not ship it, remove \"gles\" "
+                     "from the pack's \"targets\" (or build with --targets)\n"
+                     "kiln: 1 error(s)\n");
   // Without GLSL ES, the same shader builds.
-  r = build({"--targets", "spirv,glsl,msl"});
+  auto r = build({"--targets", "spirv,glsl,msl"});
   EXPECT_EQ(r.exit_code, 0) << r.err;
 }
 
 TEST_F(Cli, KeywordDeclaredInTwoGroupsIsAnError) {
   dir.write("S.hlsl", std::string("#pragma multi_compile _ A B\n#pragma multi_compile_fragment _ B C\n") + kEntries);
-  auto r = build();
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err,
-            "S.hlsl:2:1: error[K1302]: keyword 'B' is already declared in another keyword group\n"
-            "    #pragma multi_compile_fragment _ B C\n"
-            "    ^\n"
-            "  note: first declared at S.hlsl:1\n"
-            "kiln: 1 error(s)\n");
-  expect_nothing_written();
+  expect_build_error("S.hlsl:2:1: error[K1302]: keyword 'B' is already declared in another keyword group\n"
+                     "    #pragma multi_compile_fragment _ B C\n"
+                     "    ^\n"
+                     "  note: first declared at S.hlsl:1\n"
+                     "kiln: 1 error(s)\n");
 }
 
 TEST_F(Cli, TwoToTheFortyVariantsFailAgainstTheBudgetBeforeCompiling) {
@@ -322,15 +277,11 @@ TEST_F(Cli, TwoToTheFortyVariantsFailAgainstTheBudgetBeforeCompiling) {
 
 TEST_F(Cli, MissingEntryPointIsAnError) {
   dir.write("S.hlsl", "float4 V(float4 p : POSITION) : SV_Position { return p; }\nfloat4 Frag() : SV_Target { return 1.0; }\n");
-  auto r = build();
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err,
-            "p.pack.json:2:87: error[K1402]: entry point 'F' of the fragment stage is not defined in 'S.hlsl'\n"
-            "      \"passes\": [{\"name\": \"P\", \"source\": \"S.hlsl\", \"stages\": {\"vertex\": \"V\", \"fragment\": \"F\"}}]}\n"
-            "                                                                                          ^\n"
-            "  note: in pass 'P' fragment stage, keywords [<none>]\n"
-            "kiln: 1 error(s)\n");
-  expect_nothing_written();
+  expect_build_error("p.pack.json:2:87: error[K1402]: entry point 'F' of the fragment stage is not defined in 'S.hlsl'\n"
+                     "      \"passes\": [{\"name\": \"P\", \"source\": \"S.hlsl\", \"stages\": {\"vertex\": \"V\", \"fragment\": \"F\"}}]}\n"
+                     "                                                                                          ^\n"
+                     "  note: in pass 'P' fragment stage, keywords [<none>]\n"
+                     "kiln: 1 error(s)\n");
 }
 
 TEST_F(Cli, GlslangCrashIsAnInternalErrorWithAReproducerAndTheRestIsStillBuilt) {
