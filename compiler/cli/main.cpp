@@ -215,7 +215,7 @@ int run_inspect(const std::string& pack_dir, bool as_json, const std::string& ex
     }
     return 0;
   } catch (const kiln::PackError& error) {
-    std::cerr << pack_dir << ": error: " << error.what() << "\n";
+    std::cerr << (error.file().empty() ? pack_dir : error.file()) << ": error: " << error.what() << "\n";
     return 1;
   }
 }
@@ -240,7 +240,7 @@ int run_check_scene(const std::string& pack_dir, const std::string& scene, bool 
     }
     return result->missing.empty() ? 0 : 1;
   } catch (const kiln::PackError& error) {
-    std::cerr << pack_dir << ": error: " << error.what() << "\n";
+    std::cerr << (error.file().empty() ? pack_dir : error.file()) << ": error: " << error.what() << "\n";
     return 1;
   }
 }
@@ -266,7 +266,7 @@ int run_diff_packs(const std::string& a, const std::string& b, bool as_json) {
     }
     return 0;
   } catch (const kiln::PackError& error) {
-    std::cerr << "kiln diff-packs: error: " << error.what() << "\n";
+    std::cerr << (error.file().empty() ? "kiln diff-packs" : error.file()) << ": error: " << error.what() << "\n";
     return 1;
   }
 }

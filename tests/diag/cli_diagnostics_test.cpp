@@ -516,7 +516,58 @@ TEST_F(Cli, InspectOfACorruptPackIsAClearError) {
   dir.write("out/p.kpack", archive);
   auto r = testing::run_kiln({"inspect", "out"}, dir.path());
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err, "out: error: archive of pack 'p' fails its checksum\n");
+  EXPECT_EQ(r.err, "out/p.kpack: error: archive of pack 'p' fails its checksum\n");
+}
+
+// Each error names the file it is in, and the line and column of a JSON syntax error.
+TEST_F(Cli, InspectNamesTheFileOfEachPackError) {
+  dir.write("S.hlsl", kEntries);
+  ASSERT_EQ(build().exit_code, 0);
+  const std::string manifest = testing::read_file(dir / "out/p.manifest.json");
+  auto inspect = [&](const std::string& manifest_text, const char* path = "out") {
+    dir.write("out/p.manifest.json", manifest_text);
+    return testing::run_kiln({"inspect", path}, dir.path());
+  };
+  auto replaced = [&](const std::string& from, const std::string& to) {
+    std::string text = manifest;
+    size_t at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    return at == std::string::npos ? text : text.replace(at, from.size(), to);
+  };
+  struct Case {
+    std::string manifest;
+    std::string err;
+  };
+  const Case cases[] = {
+      {"{\n  \"format\": \"kiln-pack-manifest\",\n}\n",
+       "out/p.manifest.json:3:1: error: not a kiln manifest: invalid JSON: syntax error while parsing object key - "
+       "unexpected '}'; expected string literal\n"},
+      {"[]", "out/p.manifest.json: error: not a kiln pack manifest (no \"format\": \"kiln-pack-manifest\")\n"},
+      {replaced("\"format_version\": 1", "\"format_version\": 7"),
+       "out/p.manifest.json: error: pack format version 7 is not supported (this reader reads version 1)\n"},
+      {replaced("\"format_version\": 1", "\"format_revision\": 1"),
+       "out/p.manifest.json: error: the manifest has no format_version (this reader reads version 1)\n"},
+      {replaced("\"name\": \"p\"", "\"title\": \"p\""),
+       "out/p.manifest.json: error: malformed manifest: key 'name' not found\n"},
+      {replaced("\"file\": \"p.kpack\"", "\"file\": \"q.kpack\""), "out/q.kpack: error: no such file or directory\n"},
+  };
+  for (const Case& c : cases) {
+    auto r = inspect(c.manifest);
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_EQ(r.err, c.err);
+  }
+  auto missing = testing::run_kiln({"inspect", "no-such-pack"}, dir.path());
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_EQ(missing.err, "no-such-pack: error: no such file or directory\n");
+  std::filesystem::create_directory(dir / "empty");
+  auto empty = testing::run_kiln({"inspect", "empty"}, dir.path());
+  EXPECT_EQ(empty.exit_code, 1);
+  EXPECT_EQ(empty.err, "empty: error: the directory holds 0 pack manifests (*.manifest.json); name the manifest file\n");
+  // diff-packs names the file too.
+  dir.write("out/p.manifest.json", "{");
+  auto diff = testing::run_kiln({"diff-packs", "out", "out"}, dir.path());
+  EXPECT_EQ(diff.exit_code, 1);
+  EXPECT_EQ(diff.err.rfind("out/p.manifest.json:1:2: error: not a kiln manifest: invalid JSON: ", 0), 0u) << diff.err;
 }
 
 TEST_F(Cli, UnwritableCacheIsAWarningAndThePackIsStillWritten) {

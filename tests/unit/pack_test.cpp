@@ -95,6 +95,7 @@ TEST(Pack, CorruptedArchiveFailsItsChecksum) {
     FAIL();
   } catch (const PackError& e) {
     EXPECT_EQ(e.code(), PackError::Code::Checksum);
+    EXPECT_EQ(e.file(), (dir / "sample.kpack").string());  // the file at fault, for `file: error:`
   }
 }
 
@@ -117,6 +118,7 @@ TEST(Pack, NewerFormatVersionIsRefused) {
     FAIL();
   } catch (const PackError& e) {
     EXPECT_EQ(e.code(), PackError::Code::Version);
+    EXPECT_EQ(e.file(), manifest.string());
   }
 }
 

@@ -29,11 +29,16 @@ namespace kiln {
 class PackError : public std::runtime_error {
  public:
   enum class Code { Io, Format, Version, Checksum, UnknownPass, UnknownKeyword, ConflictingKeywords, MissingKeyword, Stripped };
-  PackError(Code code, const std::string& message) : std::runtime_error(message), code_(code) {}
+  PackError(Code code, const std::string& message, std::string file = {})
+      : std::runtime_error(message), code_(code), file_(std::move(file)) {}
   Code code() const { return code_; }
+  // The file the error is in ("dir/p.manifest.json:12:5" when the line and column are known, "dir/p.kpack"),
+  // for `file: error: message`; empty when it is about the request, not a file (UnknownPass, Stripped...).
+  const std::string& file() const { return file_; }
 
  private:
   Code code_;
+  std::string file_;
 };
 
 struct StageView {
@@ -87,6 +92,7 @@ class PackReader {
   std::string name_;
   nlohmann::json manifest_;
   std::string archive_;
+  std::string archive_file_;  // its path, for errors found when a blob is first decompressed
   std::vector<Blob> blobs_;
   // Compressed blobs are decompressed on first use and kept; the reader may be shared between threads.
   std::unique_ptr<std::mutex> decompress_mutex_ = std::make_unique<std::mutex>();

@@ -18,7 +18,11 @@ using nlohmann::json;
 
 std::string read_whole(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw PackError(PackError::Code::Io, "cannot open '" + path.string() + "'");
+  if (!in) {
+    std::error_code ec;
+    throw PackError(PackError::Code::Io, std::filesystem::exists(path, ec) ? "cannot open the file" : "no such file or directory",
+                    path.string());
+  }
   std::ostringstream buffer;
   buffer << in.rdbuf();
   return std::move(buffer).str();
@@ -34,6 +38,30 @@ std::string hex64(uint64_t value) {
   char text[17];
   std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(value));
   return text;
+}
+
+// "file:line:col" of a byte offset in `text` (both 1-based).
+std::string location_of(const std::filesystem::path& file, const std::string& text, size_t offset) {
+  offset = std::min(offset, text.size());
+  size_t line = 1 + static_cast<size_t>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(offset), '\n'));
+  size_t line_start = text.rfind('\n', offset == 0 ? std::string::npos : offset - 1);
+  size_t column = offset - (line_start == std::string::npos ? 0 : line_start + 1) + 1;
+  return file.string() + ":" + std::to_string(line) + ":" + std::to_string(column);
+}
+
+// nlohmann's message without its "[json.exception.parse_error.101] parse error at line 2, column 1: " prefix:
+// the location is given separately.
+std::string reason_of(const nlohmann::json::exception& error) {
+  std::string message = error.what();
+  if (message.starts_with("[json.exception.")) {
+    size_t end = message.find("] ");
+    if (end != std::string::npos) message = message.substr(end + 2);
+  }
+  if (message.starts_with("parse error")) {
+    size_t colon = message.find(": ");
+    if (colon != std::string::npos) message = message.substr(colon + 2);
+  }
+  return message;
 }
 
 std::string join(const std::vector<std::string>& words) {
@@ -58,50 +86,62 @@ PackReader PackReader::open(const std::filesystem::path& path) {
     for (const auto& entry : std::filesystem::directory_iterator(path, ec))
       if (entry.path().string().ends_with(".manifest.json")) found.push_back(entry.path());
     if (found.size() != 1)
-      throw PackError(PackError::Code::Io, "'" + path.string() + "' holds " + std::to_string(found.size()) +
-                                               " pack manifests; name the manifest file");
+      throw PackError(PackError::Code::Io, "the directory holds " + std::to_string(found.size()) +
+                                               " pack manifests (*.manifest.json); name the manifest file",
+                      path.string());
     manifest_file = found[0];
   }
   PackReader reader;
-  try {
-    reader.manifest_ = json::parse(read_whole(manifest_file));
-  } catch (const json::exception& error) {
-    throw PackError(PackError::Code::Format, "'" + manifest_file.string() + "' is not a kiln manifest: " + error.what());
+  const std::string manifest_name = manifest_file.string();
+  {
+    const std::string text = read_whole(manifest_file);
+    try {
+      reader.manifest_ = json::parse(text);
+    } catch (const json::parse_error& error) {
+      throw PackError(PackError::Code::Format, "not a kiln manifest: invalid JSON: " + reason_of(error),
+                      location_of(manifest_file, text, error.byte > 0 ? error.byte - 1 : 0));
+    }
   }
   const json& m = reader.manifest_;
   if (!m.is_object() || m.value("format", "") != kManifestFormat)
-    throw PackError(PackError::Code::Format, "'" + manifest_file.string() + "' is not a kiln pack manifest");
-  if (m.value("format_version", 0u) != kPackFormatVersion)
-    throw PackError(PackError::Code::Version, "pack format version " + std::to_string(m.value("format_version", 0u)) +
-                                                  " is not supported (this reader reads version " +
-                                                  std::to_string(kPackFormatVersion) + ")");
+    throw PackError(PackError::Code::Format, "not a kiln pack manifest (no \"format\": \"" + std::string(kManifestFormat) + "\")",
+                    manifest_name);
+  const json format_version = m.value("format_version", json());
+  if (!format_version.is_number_unsigned() || format_version.get<uint64_t>() != kPackFormatVersion)
+    throw PackError(PackError::Code::Version,
+                    (format_version.is_null() ? std::string("the manifest has no format_version")
+                                              : "pack format version " + format_version.dump() + " is not supported") +
+                        " (this reader reads version " + std::to_string(kPackFormatVersion) + ")",
+                    manifest_name);
   try {
     reader.name_ = m.at("name").get<std::string>();
     const json& archive = m.at("archive");
-    reader.archive_ = read_whole(manifest_file.parent_path() / archive.at("file").get<std::string>());
+    reader.archive_file_ = (manifest_file.parent_path() / archive.at("file").get<std::string>()).string();
+    reader.archive_ = read_whole(reader.archive_file_);
     const std::string& bytes = reader.archive_;
+    auto fail = [&](PackError::Code code, const std::string& message) { throw PackError(code, message, reader.archive_file_); };
     if (bytes.size() < kPackHeaderSize || std::memcmp(bytes.data(), kPackMagic, 8) != 0)
-      throw PackError(PackError::Code::Format, "archive of pack '" + reader.name_ + "' has no KILNPACK header");
+      fail(PackError::Code::Format, "archive of pack '" + reader.name_ + "' has no KILNPACK header");
     uint32_t version = 0, count = 0;
     std::memcpy(&version, bytes.data() + 8, 4);
     std::memcpy(&count, bytes.data() + 12, 4);
     if (version != kPackFormatVersion)
-      throw PackError(PackError::Code::Version, "archive format version " + std::to_string(version) + " is not supported");
+      fail(PackError::Code::Version, "archive format version " + std::to_string(version) + " is not supported");
     if (get64(bytes, 24) != bytes.size() || archive.at("size").get<uint64_t>() != bytes.size())
-      throw PackError(PackError::Code::Checksum, "archive of pack '" + reader.name_ + "' is truncated or has the wrong size");
+      fail(PackError::Code::Checksum, "archive of pack '" + reader.name_ + "' is truncated or has the wrong size");
     if (XXH3_64bits(bytes.data() + kPackHeaderSize, bytes.size() - kPackHeaderSize) != get64(bytes, 16) ||
         hex64(XXH3_64bits(bytes.data(), bytes.size())) != archive.at("xxh3_64").get<std::string>())
-      throw PackError(PackError::Code::Checksum, "archive of pack '" + reader.name_ + "' fails its checksum");
+      fail(PackError::Code::Checksum, "archive of pack '" + reader.name_ + "' fails its checksum");
     if (kPackHeaderSize + kPackBlobEntrySize * uint64_t{count} > bytes.size())
-      throw PackError(PackError::Code::Format, "archive blob table is out of bounds");
+      fail(PackError::Code::Format, "archive blob table is out of bounds");
     for (uint32_t i = 0; i < count; ++i) {
       size_t at = kPackHeaderSize + kPackBlobEntrySize * i;
       Blob blob{get64(bytes, at), get64(bytes, at + 8), get64(bytes, at + 16), get64(bytes, at + 24)};
       if (blob.offset > bytes.size() || blob.stored_size > bytes.size() - blob.offset)
-        throw PackError(PackError::Code::Format, "blob " + std::to_string(i) + " is out of bounds");
+        fail(PackError::Code::Format, "blob " + std::to_string(i) + " is out of bounds");
       // Stored blobs are checked now; compressed ones when they are first decompressed.
       if (blob.stored_size == blob.raw_size && XXH3_64bits(bytes.data() + blob.offset, blob.stored_size) != blob.hash)
-        throw PackError(PackError::Code::Checksum, "blob " + std::to_string(i) + " fails its checksum");
+        fail(PackError::Code::Checksum, "blob " + std::to_string(i) + " fails its checksum");
       reader.blobs_.push_back(blob);
     }
     for (const json& pass : m.at("passes")) {
@@ -118,7 +158,7 @@ PackReader PackReader::open(const std::filesystem::path& path) {
       reader.passes_[pass.at("name").get<std::string>()] = std::move(entry);
     }
   } catch (const json::exception& error) {
-    throw PackError(PackError::Code::Format, "malformed manifest '" + manifest_file.string() + "': " + error.what());
+    throw PackError(PackError::Code::Format, "malformed manifest: " + reason_of(error), manifest_name);
   }
   return reader;
 }
@@ -153,9 +193,9 @@ std::string_view PackReader::blob(uint32_t id) const {
     auto raw = std::make_unique<std::string>(b.raw_size, '\0');
     size_t got = ZSTD_decompress(raw->data(), raw->size(), stored.data(), stored.size());
     if (ZSTD_isError(got) || got != b.raw_size)
-      throw PackError(PackError::Code::Format, "blob " + std::to_string(id) + " does not decompress");
+      throw PackError(PackError::Code::Format, "blob " + std::to_string(id) + " does not decompress", archive_file_);
     if (XXH3_64bits(raw->data(), raw->size()) != b.hash)
-      throw PackError(PackError::Code::Checksum, "blob " + std::to_string(id) + " fails its checksum");
+      throw PackError(PackError::Code::Checksum, "blob " + std::to_string(id) + " fails its checksum", archive_file_);
     slot = std::move(raw);
   }
   return *slot;
