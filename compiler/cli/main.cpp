@@ -293,7 +293,7 @@ int main(int argc, char** argv) {
   build->add_option("pack", pack_file, "Pack definition (variants/*.pack.json)")->required();
   build->add_option("-o,--output", output, "Output directory for <name>.kpack and <name>.manifest.json")->required();
   add_scene(build);
-  build->add_option("-j,--jobs", jobs, "Compiler worker processes (default: one per core)");
+  build->add_option("-j,--jobs", jobs, "Compiler worker processes (default, or 0: one per core)");
   auto* cache_opt = build->add_option("--cache", cache_dir, "Cache directory (default: ./.kiln-cache)");
   build->add_flag("--no-cache", no_cache, "Do not read or write the cache")->excludes(cache_opt);
   uint64_t cache_max_mb = kiln::BuildOptions{}.cache_max_mb;
