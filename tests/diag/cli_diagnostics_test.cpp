@@ -524,10 +524,6 @@ TEST_F(Cli, InspectNamesTheFileOfEachPackError) {
   dir.write("S.hlsl", kEntries);
   ASSERT_EQ(build().exit_code, 0);
   const std::string manifest = testing::read_file(dir / "out/p.manifest.json");
-  auto inspect = [&](const std::string& manifest_text, const char* path = "out") {
-    dir.write("out/p.manifest.json", manifest_text);
-    return testing::run_kiln({"inspect", path}, dir.path());
-  };
   auto replaced = [&](const std::string& from, const std::string& to) {
     std::string text = manifest;
     size_t at = text.find(from);
@@ -543,16 +539,26 @@ TEST_F(Cli, InspectNamesTheFileOfEachPackError) {
        "out/p.manifest.json:3:1: error: not a kiln manifest: invalid JSON: syntax error while parsing object key - "
        "unexpected '}'; expected string literal\n"},
       {"[]", "out/p.manifest.json: error: not a kiln pack manifest (no \"format\": \"kiln-pack-manifest\")\n"},
-      {replaced("\"format_version\": 1", "\"format_version\": 7"),
-       "out/p.manifest.json: error: pack format version 7 is not supported (this reader reads version 1)\n"},
-      {replaced("\"format_version\": 1", "\"format_revision\": 1"),
-       "out/p.manifest.json: error: the manifest has no format_version (this reader reads version 1)\n"},
-      {replaced("\"name\": \"p\"", "\"title\": \"p\""),
+      {replaced("\"format_version\": 2", "\"format_version\": 7"),
+       "out/p.manifest.json: error: pack format version 7 is not supported (this reader reads version 2)\n"},
+      {replaced("\"format_version\": 2", "\"format_revision\": 2"),
+       "out/p.manifest.json: error: the manifest has no format_version (this reader reads version 2)\n"},
+      // Valid JSON, edited: the manifest's own checksum refuses it.
+      {replaced("\"reflection\": 0", "\"reflection\": 1"),
+       "out/p.manifest.json: error: the manifest fails its checksum (changed since kiln wrote it)\n"},
+      {replaced("\"manifest_xxh3_64\"", "\"manifest_checksum\""),
+       "out/p.manifest.json: error: the manifest has no checksum (\"manifest_xxh3_64\")\n"},
+      // Edited and resealed: the checks behind the checksum.
+      {testing::resealed_manifest(replaced("\"name\": \"p\"", "\"title\": \"p\"")),
        "out/p.manifest.json: error: malformed manifest: key 'name' not found\n"},
-      {replaced("\"file\": \"p.kpack\"", "\"file\": \"q.kpack\""), "out/q.kpack: error: no such file or directory\n"},
+      {testing::resealed_manifest(replaced("\"file\": \"p.kpack\"", "\"file\": \"q.kpack\"")),
+       "out/q.kpack: error: no such file or directory\n"},
+      {testing::resealed_manifest(replaced("\"reflection\": 0", "\"reflection\": 9")),
+       "out/p.manifest.json: error: malformed manifest: /binaries/0/reflection: index 9 is out of range (2 reflections)\n"},
   };
   for (const Case& c : cases) {
-    auto r = inspect(c.manifest);
+    dir.write("out/p.manifest.json", c.manifest);
+    auto r = testing::run_kiln({"inspect", "out"}, dir.path());
     EXPECT_EQ(r.exit_code, 1);
     EXPECT_EQ(r.err, c.err);
   }

@@ -7,8 +7,10 @@
 #include <sys/wait.h>
 #include <termios.h>
 #include <unistd.h>
+#include <xxhash.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -144,6 +146,18 @@ inline std::vector<std::filesystem::path> files_below(const std::filesystem::pat
   for (const auto& entry : std::filesystem::recursive_directory_iterator(dir, ec))
     if (entry.is_regular_file()) files.push_back(entry.path());
   return files;
+}
+
+// A pack manifest that a test edited, with its own checksum made right again, so that the edit reaches the
+// reader's checks behind the checksum. Written from the rule in kiln/pack_format.hpp, not with kiln's code:
+// "manifest_xxh3_64" holds the XXH3-64 of the file with those 16 hex digits zeroed.
+inline std::string resealed_manifest(std::string text) {
+  const std::string key = "\"manifest_xxh3_64\": \"";
+  const size_t digits = text.find(key) + key.size();
+  text.replace(digits, 16, 16, '0');
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(XXH3_64bits(text.data(), text.size())));
+  return text.replace(digits, 16, hex);
 }
 
 }  // namespace kiln::testing

@@ -2,6 +2,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <random>
+
 #include "kiln/pack_format.hpp"
 #include "kiln/pack_reader.hpp"
 #include "pack/pack_writer.hpp"
@@ -120,6 +122,83 @@ TEST(Pack, NewerFormatVersionIsRefused) {
     EXPECT_EQ(e.code(), PackError::Code::Version);
     EXPECT_EQ(e.file(), manifest.string());
   }
+}
+
+// Every byte of the manifest counts: a flipped bit anywhere, even where the JSON stays valid (a blob id, a
+// keyword), makes open() fail with a PackError.
+TEST(Pack, AnyChangedByteOfTheManifestIsRefused) {
+  testing::TempDir dir;
+  auto manifest = write_sample_pack(dir);
+  const std::string text = testing::read_file(manifest);
+  std::mt19937 random(2026);
+  for (int trial = 0; trial < 400; ++trial) {
+    std::string damaged = text;
+    const size_t at = random() % damaged.size();
+    damaged[at] = static_cast<char>(damaged[at] ^ (1 << (random() % 8)));
+    dir.write("sample.manifest.json", damaged);
+    EXPECT_THROW(PackReader::open(manifest), PackError) << "byte " << at << " of\n" << damaged;
+  }
+}
+
+void every_value_below(const json& value, const json::json_pointer& at, std::vector<json::json_pointer>& out) {
+  out.push_back(at);
+  if (value.is_object())
+    for (const auto& [key, child] : value.items()) every_value_below(child, at / key, out);
+  if (value.is_array())
+    for (size_t i = 0; i < value.size(); ++i) every_value_below(value[i], at / i, out);
+}
+
+// A manifest whose checksum is right but whose content is not what kiln writes (a foreign tool, a bug):
+// open(), variant() and select() fail with PackError only, never with a JSON exception or a wild index.
+TEST(Pack, WrongManifestContentFailsWithPackErrorOnly) {
+  testing::TempDir dir;
+  auto manifest = write_sample_pack(dir);
+  const json original = json::parse(testing::read_file(manifest));
+  std::vector<json::json_pointer> places;
+  every_value_below(original, json::json_pointer(), places);
+  const json replacements[] = {nullptr, -1, 0, 1, 7, 4294967296.0, "A", "_", json::array(), json::object(), true};
+  std::mt19937 random(7);
+  size_t opened = 0, refused = 0;
+  for (int trial = 0; trial < 600; ++trial) {
+    const json::json_pointer& at = places[random() % places.size()];
+    if (at.empty() || at.to_string().starts_with("/manifest_xxh3_64")) continue;
+    json changed = original;
+    const size_t how = random() % (std::size(replacements) + 1);
+    if (how == std::size(replacements)) {  // remove it
+      json& parent = changed[at.parent_pointer()];
+      if (parent.is_object()) parent.erase(at.back());
+      else parent.erase(std::stoul(at.back()));
+    } else {
+      changed[at] = replacements[how];
+    }
+    dir.write("sample.manifest.json", testing::resealed_manifest(changed.dump(1) + "\n"));
+    const std::string what = at.to_string() + " <- " + (how < std::size(replacements) ? replacements[how].dump() : "(removed)");
+    try {
+      PackReader pack = PackReader::open(manifest);
+      ++opened;
+      for (const std::string& pass : pack.passes()) {
+        for (size_t i = 0; i < pack.variant_count(pass); ++i) {
+          try {
+            SelectedVariant v = pack.variant(pass, i);
+            for (const StageView& stage : v.stages) EXPECT_NE(stage.reflection, nullptr);
+            pack.select(pass, v.keywords);
+          } catch (const PackError&) {
+          }
+        }
+        try {
+          pack.select(pass, {"A", "C"});
+        } catch (const PackError&) {
+        }
+      }
+    } catch (const PackError&) {
+      ++refused;
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << what << ": " << e.what();
+    }
+  }
+  // Both kinds happened: harmless changes (a funnel count, a tool name) open, the others are refused.
+  EXPECT_GT(opened, 0u);
+  EXPECT_GT(refused, 0u);
 }
 
 TEST(Pack, ArchiveIsDeterministic) {

@@ -3,6 +3,8 @@
 #include "common/files.hpp"
 #include "kiln/pack_format.hpp"
 
+#include <cstring>
+
 namespace kiln {
 namespace {
 
@@ -63,9 +65,15 @@ std::string write_pack(const std::filesystem::path& directory, const std::string
   const std::string archive_name = name + ".kpack";
   manifest["archive"] = {{"file", archive_name}, {"size", bytes.size()}, {"xxh3_64", hex64(hash64(bytes))},
                          {"blobs", archive.size()}};
+  manifest["manifest_xxh3_64"] = std::string(kManifestChecksumDigits, '0');
   if (std::string error = write_file_atomic(directory / archive_name, bytes); !error.empty()) return error;
   // Indented one level per nesting would make the manifest ~3x larger; one line per binary is still diffable.
-  return write_file_atomic(manifest_path(directory, name), manifest.dump(1) + "\n");
+  std::string text = manifest.dump(1) + "\n";
+  // The checksum covers the text with its own digits zeroed (pack_format.hpp). Only a top-level key can be
+  // followed by `": "` outside a string, and kiln writes this key nowhere else.
+  const size_t field = text.find(kManifestChecksumField);
+  text.replace(field + std::strlen(kManifestChecksumField), kManifestChecksumDigits, hex64(hash64(text)));
+  return write_file_atomic(manifest_path(directory, name), text);
 }
 
 }  // namespace kiln

@@ -78,6 +78,84 @@ const StageView* SelectedVariant::stage(std::string_view name) const {
   return nullptr;
 }
 
+namespace {
+
+// The manifest's own checksum (pack_format.hpp): found in the text, checked against the text with its
+// digits zeroed.
+void check_manifest_checksum(std::string text, const std::string& manifest_name) {
+  const size_t field = text.find(kManifestChecksumField);
+  const size_t digits = field + std::strlen(kManifestChecksumField);
+  if (field == std::string::npos || text.find(kManifestChecksumField, digits) != std::string::npos ||
+      text.size() < digits + kManifestChecksumDigits)
+    throw PackError(PackError::Code::Format, "the manifest has no checksum (\"manifest_xxh3_64\")", manifest_name);
+  const std::string stored = text.substr(digits, kManifestChecksumDigits);
+  text.replace(digits, kManifestChecksumDigits, kManifestChecksumDigits, '0');
+  if (stored != hex64(XXH3_64bits(text.data(), text.size())))
+    throw PackError(PackError::Code::Checksum, "the manifest fails its checksum (changed since kiln wrote it)",
+                    manifest_name);
+}
+
+// Checks the parts of the manifest that selection reads, so that select() and variant() fail only with
+// PackError, never with a JSON exception or an out-of-range index. `where` is a JSON pointer.
+struct ManifestShape {
+  const std::string& manifest_name;
+  size_t blob_count;
+
+  [[noreturn]] void fail(const std::string& where, const std::string& what) const {
+    throw PackError(PackError::Code::Format, "malformed manifest: " + where + ": " + what, manifest_name);
+  }
+  const json& field(const json& object, const std::string& where, const char* key, json::value_t type) const {
+    if (!object.is_object()) fail(where, "is not an object");
+    auto it = object.find(key);
+    if (it == object.end()) fail(where, std::string("has no \"") + key + "\"");
+    if (it->type() != type) fail(where + "/" + key, std::string("is not ") + json(type).type_name());
+    return *it;
+  }
+  uint64_t index(const json& value, const std::string& where, uint64_t count, const char* of) const {
+    if (!value.is_number_unsigned()) fail(where, "is not an index");
+    if (value.get<uint64_t>() >= count)
+      fail(where, "index " + value.dump() + " is out of range (" + std::to_string(count) + " " + of + ")");
+    return value.get<uint64_t>();
+  }
+  void strings(const json& list, const std::string& where) const {
+    for (size_t i = 0; i < list.size(); ++i)
+      if (!list[i].is_string()) fail(where + "/" + std::to_string(i), "is not a string");
+  }
+
+  void check(const json& m) const {
+    const json& binaries = field(m, "", "binaries", json::value_t::array);
+    const json& reflections = field(m, "", "reflections", json::value_t::array);
+    for (size_t b = 0; b < binaries.size(); ++b) {
+      const std::string at = "/binaries/" + std::to_string(b);
+      field(binaries[b], at, "stage", json::value_t::string);
+      field(binaries[b], at, "entry", json::value_t::string);
+      for (const auto& [target, id] : field(binaries[b], at, "blobs", json::value_t::object).items())
+        index(id, at + "/blobs/" + target, blob_count, "blobs");
+      if (!binaries[b].contains("reflection")) fail(at, "has no \"reflection\"");
+      index(binaries[b]["reflection"], at + "/reflection", reflections.size(), "reflections");
+    }
+    const json& passes = field(m, "", "passes", json::value_t::array);
+    for (size_t p = 0; p < passes.size(); ++p) {
+      const std::string at = "/passes/" + std::to_string(p);
+      field(passes[p], at, "name", json::value_t::string);
+      const json& groups = field(passes[p], at, "keyword_groups", json::value_t::array);
+      for (size_t g = 0; g < groups.size(); ++g) {
+        const std::string group_at = at + "/keyword_groups/" + std::to_string(g);
+        strings(field(groups[g], group_at, "values", json::value_t::array), group_at + "/values");
+      }
+      const json& variants = field(passes[p], at, "variants", json::value_t::array);
+      for (size_t v = 0; v < variants.size(); ++v) {
+        const std::string variant_at = at + "/variants/" + std::to_string(v);
+        strings(field(variants[v], variant_at, "keywords", json::value_t::array), variant_at + "/keywords");
+        for (const auto& [stage, id] : field(variants[v], variant_at, "binaries", json::value_t::object).items())
+          index(id, variant_at + "/binaries/" + stage, binaries.size(), "binaries");
+      }
+    }
+  }
+};
+
+}  // namespace
+
 PackReader PackReader::open(const std::filesystem::path& path) {
   std::filesystem::path manifest_file = path;
   std::error_code ec;
@@ -93,26 +171,31 @@ PackReader PackReader::open(const std::filesystem::path& path) {
   }
   PackReader reader;
   const std::string manifest_name = manifest_file.string();
-  {
-    const std::string text = read_whole(manifest_file);
-    try {
-      reader.manifest_ = json::parse(text);
-    } catch (const json::parse_error& error) {
-      throw PackError(PackError::Code::Format, "not a kiln manifest: invalid JSON: " + reason_of(error),
-                      location_of(manifest_file, text, error.byte > 0 ? error.byte - 1 : 0));
-    }
+  std::string text = read_whole(manifest_file);
+  try {
+    reader.manifest_ = json::parse(text);
+  } catch (const json::parse_error& error) {
+    throw PackError(PackError::Code::Format, "not a kiln manifest: invalid JSON: " + reason_of(error),
+                    location_of(manifest_file, text, error.byte > 0 ? error.byte - 1 : 0));
   }
   const json& m = reader.manifest_;
-  if (!m.is_object() || m.value("format", "") != kManifestFormat)
+  const json no_value;
+  auto top = [&](const char* key) -> const json& {
+    if (!m.is_object()) return no_value;
+    auto it = m.find(key);
+    return it == m.end() ? no_value : *it;
+  };
+  if (top("format") != kManifestFormat)
     throw PackError(PackError::Code::Format, "not a kiln pack manifest (no \"format\": \"" + std::string(kManifestFormat) + "\")",
                     manifest_name);
-  const json format_version = m.value("format_version", json());
+  const json& format_version = top("format_version");
   if (!format_version.is_number_unsigned() || format_version.get<uint64_t>() != kPackFormatVersion)
     throw PackError(PackError::Code::Version,
                     (format_version.is_null() ? std::string("the manifest has no format_version")
                                               : "pack format version " + format_version.dump() + " is not supported") +
                         " (this reader reads version " + std::to_string(kPackFormatVersion) + ")",
                     manifest_name);
+  check_manifest_checksum(std::move(text), manifest_name);
   try {
     reader.name_ = m.at("name").get<std::string>();
     const json& archive = m.at("archive");
@@ -144,6 +227,7 @@ PackReader PackReader::open(const std::filesystem::path& path) {
         fail(PackError::Code::Checksum, "blob " + std::to_string(i) + " fails its checksum");
       reader.blobs_.push_back(blob);
     }
+    ManifestShape{manifest_name, reader.blobs_.size()}.check(m);
     for (const json& pass : m.at("passes")) {
       Pass entry;
       entry.json = &pass;
