@@ -406,8 +406,10 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   if (std::find(targets.begin(), targets.end(), Target::Spirv) == targets.end()) targets.insert(targets.begin(), Target::Spirv);
   std::sort(targets.begin(), targets.end());
 
-  // Up to date? The inputs hash covers tools, options and the bytes of every file read.
+  // Up to date? The inputs hash covers tools, options, the pack format (a pack another format version wrote
+  // is rebuilt) and the bytes of every file read.
   Hasher inputs;
+  inputs.add(uint64_t{kPackFormatVersion});
   std::string target_names;
   for (Target t : targets) target_names += std::string(target_name(t)) + ",";
   inputs.add(fingerprint).add(options.optimize ? 1 : 0).add(target_names).add(plan->pack.text);
