@@ -555,6 +555,8 @@ TEST_F(Cli, InspectNamesTheFileOfEachPackError) {
        "out/q.kpack: error: no such file or directory\n"},
       {testing::resealed_manifest(replaced("\"reflection\": 0", "\"reflection\": 9")),
        "out/p.manifest.json: error: malformed manifest: /binaries/0/reflection: index 9 is out of range (2 reflections)\n"},
+      {testing::resealed_manifest(replaced("\"reflections\":", "\"reflexions\":")),
+       "out/p.manifest.json: error: malformed manifest: top level: has no \"reflections\"\n"},
   };
   for (const Case& c : cases) {
     dir.write("out/p.manifest.json", c.manifest);

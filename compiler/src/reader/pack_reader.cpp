@@ -102,7 +102,8 @@ struct ManifestShape {
   size_t blob_count;
 
   [[noreturn]] void fail(const std::string& where, const std::string& what) const {
-    throw PackError(PackError::Code::Format, "malformed manifest: " + where + ": " + what, manifest_name);
+    throw PackError(PackError::Code::Format, "malformed manifest: " + (where.empty() ? "top level" : where) + ": " + what,
+                    manifest_name);
   }
   const json& field(const json& object, const std::string& where, const char* key, json::value_t type) const {
     if (!object.is_object()) fail(where, "is not an object");
@@ -111,11 +112,10 @@ struct ManifestShape {
     if (it->type() != type) fail(where + "/" + key, std::string("is not ") + json(type).type_name());
     return *it;
   }
-  uint64_t index(const json& value, const std::string& where, uint64_t count, const char* of) const {
+  void index(const json& value, const std::string& where, uint64_t count, const char* of) const {
     if (!value.is_number_unsigned()) fail(where, "is not an index");
     if (value.get<uint64_t>() >= count)
       fail(where, "index " + value.dump() + " is out of range (" + std::to_string(count) + " " + of + ")");
-    return value.get<uint64_t>();
   }
   void strings(const json& list, const std::string& where) const {
     for (size_t i = 0; i < list.size(); ++i)
