@@ -15,14 +15,41 @@ TEST(Diagnostics, IdsInTheTableAreUniqueAndStable) {
   EXPECT_EQ(diagnostic_code(DiagId::InternalCompilerError), "K1501");
 }
 
+// The diagnostics a sink received, as the CLI prints them.
+std::string printed(const DiagnosticSink& sink) {
+  std::string out;
+  for (const Diagnostic& d : sink.diagnostics()) out += format_diagnostic(d);
+  return out;
+}
+
 TEST(Diagnostics, FormatPrintsPathLineColumnSourceLineAndCaret) {
+  DiagnosticSink sink;
+  sink.add_source("a.hlsl", std::make_shared<const std::string>("float x;\n  float4 y = oops;\n"));
+  sink.report(DiagId::HlslError, SourceLocation{"a.hlsl", 2, 14}, "'oops' : undeclared identifier", {"in pass 'P'"});
+  EXPECT_EQ(printed(sink), "a.hlsl:2:14: error[K1401]: 'oops' : undeclared identifier\n"
+                           "      float4 y = oops;\n"
+                           "                 ^\n"
+                           "  note: in pass 'P'\n");
+}
+
+TEST(Diagnostics, OnlyFilesGivenToTheSinkAreQuotedNeverFilesOnDisk) {
   testing::TempDir dir;
-  auto file = dir.write("a.hlsl", "float x;\n  float4 y = oops;\n");
-  Diagnostic d{DiagId::HlslError, Severity::Error, SourceLocation{file.string(), 2, 14}, "'oops' : undeclared identifier", {"in pass 'P'"}};
-  EXPECT_EQ(format_diagnostic(d), file.string() + ":2:14: error[K1401]: 'oops' : undeclared identifier\n"
-                                   "      float4 y = oops;\n"
-                                   "                 ^\n"
-                                   "  note: in pass 'P'\n");
+  auto file = dir.write("secret.txt", "line one\nSECRET_MARKER\n");
+  DiagnosticSink sink;
+  sink.report(DiagId::HlslError, SourceLocation{file.string(), 2, 1}, "'x' : unknown variable");
+  EXPECT_EQ(printed(sink), file.string() + ":2:1: error[K1401]: 'x' : unknown variable\n");
+  // Lines past the end quote nothing.
+  sink.add_source("a.hlsl", std::make_shared<const std::string>("one line\n"));
+  sink.report(DiagId::HlslError, SourceLocation{"a.hlsl", 2, 1}, "past the end");
+  EXPECT_EQ(sink.diagnostics().back().source_line, std::nullopt);
+}
+
+TEST(Diagnostics, AQuotedLineIsCutToABoundWithoutSplittingACharacter) {
+  DiagnosticSink sink;
+  std::string huge = std::string(kMaxQuotedLineBytes - 1, 'a') + "\xC3\xA9" + std::string(1 << 20, 'b');
+  sink.add_source("min.hlsl", std::make_shared<const std::string>(huge));
+  sink.report(DiagId::HlslError, SourceLocation{"min.hlsl", 1, 0}, "e");
+  EXPECT_EQ(sink.diagnostics().back().source_line, std::string(kMaxQuotedLineBytes - 1, 'a') + " ...");
 }
 
 TEST(Diagnostics, SinkCollectsEveryMessageAndCountsErrors) {

@@ -1,7 +1,6 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
-#include <chrono>
 
 #include "declarations/declarations.hpp"
 #include "preprocess/include_resolver.hpp"
@@ -63,13 +62,13 @@ TEST_F(ScanFixture, SymlinkOutOfTheRootIsRefused) {
   EXPECT_NE(first().message.find("symlink"), std::string::npos);
 }
 
-TEST_F(ScanFixture, CycleIsReportedWithTheChainQuickly) {
+TEST_F(ScanFixture, CycleIsReportedWithTheChain) {
   dir.write("root/A.hlsl", "#include \"B.hlsl\"\n");
   dir.write("root/B.hlsl", "#include \"A.hlsl\"\n");
   auto entry = dir.write("root/Main.hlsl", "#include \"A.hlsl\"\n");
-  auto start = std::chrono::steady_clock::now();
+  // No wall-clock bound (the suite runs on loaded machines): a followed cycle would not end, and
+  // ctest's timeout fails that.
   EXPECT_FALSE(scan(entry));
-  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(1));
   EXPECT_EQ(first().id, DiagId::IncludeCycle);
   ASSERT_GE(first().notes.size(), 2u);
   EXPECT_NE(first().notes[0].find("A.hlsl includes"), std::string::npos);

@@ -1,6 +1,5 @@
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <random>
 
 #include "kiln/build.hpp"
@@ -102,9 +101,9 @@ TEST_F(Fixture, TwoToTheFortyVariantsAreRefusedBeforeAnythingIsExpanded) {
   std::vector<KeywordGroup> groups;
   for (int i = 0; i < 40; ++i) groups.push_back(group({"", "K" + std::to_string(i)}));
   groups[3] = group({"", "BIG1", "BIG2", "BIG3"});
-  auto start = std::chrono::steady_clock::now();
+  // No wall-clock bound (the suite runs on loaded machines): an expansion would
+  // not finish at all, and ctest's timeout fails that.
   auto e = expand(groups, 4096);
-  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(1));
   EXPECT_FALSE(e);
   ASSERT_TRUE(sink.contains(DiagId::BudgetExceeded));
   const Diagnostic d = sink.diagnostics()[0];

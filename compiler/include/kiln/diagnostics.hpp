@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -48,6 +49,10 @@ struct Diagnostic {
   SourceLocation location;
   std::string message;
   std::vector<std::string> notes;  // printed as indented "note:" lines
+  // The text of the line at `location`, quoted under the message. Filled by the sink from a file kiln
+  // itself read (DiagnosticSink::add_source), never read again from disk: a `#line` directive can name
+  // any path, and printing it would leak files outside the include roots (/proc/self/environ...).
+  std::optional<std::string> source_line;
 };
 
 // Collects diagnostics from any thread; a run reports everything it found, not just the first.
@@ -59,6 +64,9 @@ class DiagnosticSink {
   void report(DiagId id, SourceLocation location, std::string message, std::vector<std::string> notes = {});
   // Called for each diagnostic as it arrives (the CLI prints here).
   void set_listener(Listener listener);
+  // A file kiln read under its safety rules (read_text_file): diagnostics located in it quote its lines.
+  // Diagnostics naming any other path are shown by name only.
+  void add_source(const std::string& path, std::shared_ptr<const std::string> text);
 
   bool has_errors() const;
   int error_count() const;
@@ -70,9 +78,13 @@ class DiagnosticSink {
   mutable std::mutex mutex_;
   std::vector<Diagnostic> diagnostics_;
   Listener listener_;
+  std::map<std::string, std::shared_ptr<const std::string>, std::less<>> sources_;
 };
 
-// Renders a diagnostic with its source line and a caret under the column (when the file is readable).
+// A quoted source line is cut to this many bytes: a minified or hostile file can hold one huge line.
+inline constexpr size_t kMaxQuotedLineBytes = 400;
+
+// Renders a diagnostic with its quoted source line (if any) and a caret under the column. Reads no file.
 std::string format_diagnostic(const Diagnostic& diagnostic);
 
 // Edit distance, used to suggest the closest known name.

@@ -70,7 +70,12 @@ std::optional<std::string> read_text_file(const std::filesystem::path& path, con
     return std::nullopt;
   }
   if (!S_ISREG(info.st_mode)) {
-    const char* kind = S_ISDIR(info.st_mode) ? "a directory" : S_ISFIFO(info.st_mode) ? "a FIFO" : "not a regular file";
+    const char* kind = S_ISDIR(info.st_mode)    ? "a directory"
+                       : S_ISFIFO(info.st_mode) ? "a FIFO"
+                       : S_ISCHR(info.st_mode)  ? "a character device"
+                       : S_ISBLK(info.st_mode)  ? "a block device"
+                       : S_ISSOCK(info.st_mode) ? "a socket"
+                                                : "a special file";
     sink.report(DiagId::FileNotRegular, referenced_from, "'" + shown + "' is " + kind + ", not a regular file");
     return std::nullopt;
   }
@@ -123,6 +128,10 @@ std::optional<std::string> read_text_file(const std::filesystem::path& path, con
                     ")");
     return std::nullopt;
   }
+  // Only files read here may be quoted by diagnostics: they passed the confinement and size rules.
+  auto quotable = std::make_shared<const std::string>(text);
+  sink.add_source(path.string(), quotable);
+  if (shown != path.string()) sink.add_source(shown, quotable);
   return text;
 }
 

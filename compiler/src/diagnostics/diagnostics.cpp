@@ -1,7 +1,6 @@
 #include "kiln/diagnostics.hpp"
 
 #include <algorithm>
-#include <fstream>
 #include <sstream>
 
 namespace kiln {
@@ -25,10 +24,46 @@ const DiagInfo& diagnostic_info(DiagId id) {
 
 std::string diagnostic_code(DiagId id) { return "K" + std::to_string(static_cast<unsigned>(id)); }
 
+namespace {
+
+// Line `line` (1-based) of `text`, cut to kMaxQuotedLineBytes; nothing past the end.
+std::optional<std::string> line_of_text(std::string_view text, int line) {
+  if (line <= 0) return std::nullopt;
+  size_t start = 0;
+  for (int i = 1; i < line; ++i) {
+    start = text.find('\n', start);
+    if (start == std::string_view::npos) return std::nullopt;
+    ++start;
+  }
+  if (start >= text.size()) return std::nullopt;
+  std::string_view found = text.substr(start, text.find('\n', start) - start);
+  if (!found.empty() && found.back() == '\r') found.remove_suffix(1);
+  if (found.size() > kMaxQuotedLineBytes) {
+    found = found.substr(0, kMaxQuotedLineBytes);
+    // Do not end inside a UTF-8 sequence.
+    while (!found.empty() && (static_cast<unsigned char>(found.back()) & 0xC0) == 0x80) found.remove_suffix(1);
+    if (!found.empty() && (static_cast<unsigned char>(found.back()) & 0xC0) == 0xC0) found.remove_suffix(1);
+    return std::string(found) + " ...";
+  }
+  return std::string(found);
+}
+
+}  // namespace
+
+void DiagnosticSink::add_source(const std::string& path, std::shared_ptr<const std::string> text) {
+  if (path.empty() || !text) return;
+  std::lock_guard lock(mutex_);
+  sources_[path] = std::move(text);
+}
+
 void DiagnosticSink::report(Diagnostic diagnostic) {
   Listener listener;
   {
     std::lock_guard lock(mutex_);
+    if (!diagnostic.source_line) {
+      if (auto it = sources_.find(diagnostic.location.path); it != sources_.end())
+        diagnostic.source_line = line_of_text(*it->second, diagnostic.location.line);
+    }
     diagnostics_.push_back(diagnostic);
     listener = listener_;
   }
@@ -79,24 +114,6 @@ const char* severity_word(Severity severity) {
   return "error";
 }
 
-// The text of one line of a file, or nothing. A UTF-8 BOM is dropped so columns match what kiln parsed.
-std::optional<std::string> read_source_line(const std::string& path, int line) {
-  if (path.empty() || line <= 0) return std::nullopt;
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) return std::nullopt;
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return std::nullopt;
-  std::string text;
-  for (int i = 1; std::getline(in, text); ++i) {
-    if (i == 1 && text.rfind("\xEF\xBB\xBF", 0) == 0) text.erase(0, 3);
-    if (i == line) {
-      if (!text.empty() && text.back() == '\r') text.pop_back();
-      return text;
-    }
-  }
-  return std::nullopt;
-}
-
 }  // namespace
 
 std::string format_diagnostic(const Diagnostic& d) {
@@ -110,7 +127,7 @@ std::string format_diagnostic(const Diagnostic& d) {
     out << "kiln: ";
   }
   out << severity_word(d.severity) << '[' << diagnostic_code(d.id) << "]: " << d.message << '\n';
-  if (auto line = read_source_line(d.location.path, d.location.line)) {
+  if (const std::optional<std::string>& line = d.source_line) {
     out << "    " << *line << '\n';
     if (d.location.column > 0) {
       std::string pad;
