@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "frontend/frontend.hpp"
+#include "frontend/glslang_literals.hpp"
 
 namespace kiln {
 namespace {
@@ -82,11 +83,12 @@ class Includer final : public glslang::TShader::Includer {
     if (!source_->resolve(requested, from_name, found, error)) return failure(error);
     if (found.once && !once_seen_.insert(found.name).second)
       return new IncludeResult(found.name, "", 0, nullptr);  // #pragma once: second inclusion is empty
-    if (found.once) {
-      if (auto blanked = without_pragma_once(found.text)) {
-        auto* text = new std::string(std::move(*blanked));
-        return new IncludeResult(found.name, text->data(), text->size(), text);
-      }
+    std::optional<std::string> served = found.once ? without_pragma_once(found.text) : std::nullopt;
+    if (auto is_protected = protect_literals(served ? std::string_view(*served) : std::string_view(found.text)))
+      served = std::move(is_protected);
+    if (served) {
+      auto* text = new std::string(std::move(*served));
+      return new IncludeResult(found.name, text->data(), text->size(), text);
     }
     return new IncludeResult(found.name, found.text.data(), found.text.size(), nullptr);
   }
@@ -121,8 +123,10 @@ class GlslangFrontend final : public Frontend {
   PreprocessResult preprocess(const PreprocessRequest& request) override {
     PreprocessResult result;
     glslang::TShader shader(to_glslang(request.stage));
-    const std::optional<std::string> entry_blanked = without_pragma_once(request.entry_text);
-    const std::string_view entry = entry_blanked ? std::string_view(*entry_blanked) : request.entry_text;
+    std::optional<std::string> entry_served = without_pragma_once(request.entry_text);
+    if (auto is_protected = protect_literals(entry_served ? std::string_view(*entry_served) : request.entry_text))
+      entry_served = std::move(is_protected);
+    const std::string_view entry = entry_served ? std::string_view(*entry_served) : request.entry_text;
     const char* text = entry.data();
     const int length = static_cast<int>(entry.size());
     const char* name = request.entry_name.c_str();
@@ -133,6 +137,7 @@ class GlslangFrontend final : public Frontend {
     configure(shader, request.stage);
     Includer includer(request.includes, request.entry_name);
     result.ok = shader.preprocess(GetDefaultResources(), 100, ENoProfile, false, false, kMessages, &result.text, includer);
+    if (auto restored = restore_literals(result.text)) result.text = std::move(*restored);
     result.messages = parse_frontend_log(shader.getInfoLog(), request.entry_name);
     if (!result.ok && result.messages.empty())
       result.messages.push_back({Severity::Error, request.entry_name, 0, "preprocessing failed"});
