@@ -254,6 +254,34 @@ std::string line_of(const SourceSet& sources, const std::map<std::string, std::f
   return file->text.substr(start, end == std::string::npos ? std::string::npos : end - start);
 }
 
+// The first name quoted in a message ("buffer block 'C' is ...").
+std::string quoted_name(const std::string& message) {
+  const size_t open = message.find('\'');
+  const size_t close = open == std::string::npos ? open : message.find('\'', open + 1);
+  return close == std::string::npos ? std::string() : message.substr(open + 1, close - open - 1);
+}
+
+// Where a pass's sources first name `name` as a whole word outside comments: the declaration of a
+// resource a back-end step reports on (SPIR-V keeps no source lines); the entry file when not found.
+SourceLocation locate_declaration(const Plan& plan, uint32_t pass, const std::string& name, const std::string& entry_name) {
+  if (name.empty()) return SourceLocation{entry_name, 0, 0};
+  for (const std::filesystem::path& path : plan.declarations[pass].files) {
+    const SourceFile* file = plan.sources.find(path);
+    if (!file) continue;
+    auto word_char = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; };
+    std::vector<std::string> lines = code_lines(file->text);
+    for (size_t l = 0; l < lines.size(); ++l) {
+      for (size_t at = lines[l].find(name); at != std::string::npos; at = lines[l].find(name, at + 1)) {
+        const bool starts = at == 0 || !word_char(lines[l][at - 1]);
+        const size_t end = at + name.size();
+        const bool ends = end == lines[l].size() || !word_char(lines[l][end]);
+        if (starts && ends) return SourceLocation{display_path(path), static_cast<int>(l + 1), static_cast<int>(at + 1)};
+      }
+    }
+  }
+  return SourceLocation{entry_name, 0, 0};
+}
+
 std::string tools_fingerprint(Frontend& frontend) {
   return std::string("kiln ") + kKilnVersion + " (compile job revision " + std::to_string(kCompileJobRevision) + "); " +
          frontend.name() + " " + frontend.version() + "; " +
@@ -650,7 +678,12 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       const StageSource& s = stage_sources[binary.source];
       std::string variant = variant_description(*plan, s);
       const size_t order = stage_sources.size() + b;
-      if (outcome.kind != WorkerOutcome::Kind::Done) {
+      // An exception inside the worker is kiln's bug like a crash is: exit 2, never a user error.
+      const bool threw = outcome.kind == WorkerOutcome::Kind::Done && outcome.output.failed_step == "internal";
+      if (outcome.kind != WorkerOutcome::Kind::Done || threw) {
+        const std::string detail =
+            threw ? "threw an exception (" + (outcome.output.messages.empty() ? std::string("no message") : outcome.output.messages[0].text) + ")"
+                  : outcome.detail;
         report.internal_errors = true;
         // A reproducer next to the outputs: the exact preprocessed source the worker was given, and for a
         // back-end death the module it was given too, with the SPIRV-Tools commands that replay the back end.
@@ -658,7 +691,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
         std::filesystem::create_directories(dir, ec);
         const std::string base = plan->pack.passes[s.pass].name + "." + std::string(stage_name(s.stage)) + "." + slug(s.defines);
         std::filesystem::path repro = dir / (base + ".hlsl");
-        std::string header = "// kiln internal compiler error: the compiler worker " + outcome.detail + "\n// " +
+        std::string header = "// kiln internal compiler error: the compiler worker " + detail + "\n// " +
                              variant + ", entry point " + binary.entry_point + "\n// reproduce: glslangValidator -D -V -S " +
                              (s.stage == Stage::Vertex ? "vert" : "frag") + " -e " + binary.entry_point + " " +
                              repro.filename().string() + "\n";
@@ -674,7 +707,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
         notes.push_back("this is a bug in the compiler, not in your shader");
         write_file_atomic(repro, header + s.text);
         sink.report(DiagId::InternalCompilerError, SourceLocation{display_path(plan->declarations[s.pass].entry), 0, 0},
-                    "internal compiler error: the compiler worker " + outcome.detail + " while compiling " + variant, notes);
+                    "internal compiler error: the compiler worker " + detail + " while compiling " + variant, notes);
         return;
       }
       const std::string entry_name = display_path(plan->declarations[s.pass].entry);
@@ -688,13 +721,16 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
         return;
       }
       DiagId id = step == "frontend" ? DiagId::HlslError
+                  : step == "reflect" ? DiagId::BlockTooLarge
                   : step.rfind("validate", 0) == 0 ? DiagId::SpirvInvalid
                   : step.rfind("cross", 0) == 0 ? DiagId::CrossCompileFailed
                   : DiagId::OptimizerFailed;
       // Only the first error: glslang's later ones cascade from it ("'declaration' : Expected").
       auto first = std::find_if(outcome.output.messages.begin(), outcome.output.messages.end(),
                                 [](const FrontendMessage& m) { return m.severity == Severity::Error; });
-      if (first != outcome.output.messages.end()) {
+      if (first != outcome.output.messages.end() && id == DiagId::BlockTooLarge) {
+        collect(id, locate_declaration(*plan, s.pass, quoted_name(first->text), entry_name), first->text, variant, order);
+      } else if (first != outcome.output.messages.end()) {
         std::string prefix = id == DiagId::HlslError ? "" : step + ": ";
         collect(id, located(*first, entry_name), prefix + first->text, variant, order);
       } else {

@@ -89,6 +89,26 @@ TEST_F(Cli, LineDirectivesNamingFilesTheBuildDidNotReadAreShownByNameOnly) {
                          "kiln: 1 error(s)\n");
 }
 
+// SPIRV-Cross sizes blocks in 32 bits: a 4 GiB cbuffer was reflected as 0 bytes and the build passed.
+TEST_F(Cli, ABufferBlockOf4GiBIsAnErrorAtItsDeclaration) {
+  dir.write("S.hlsl", "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "cbuffer Huge {\n  float4 table[268435456];\n};\n"
+                      "float4 F() : SV_Target { return table[7]; }\n");
+  expect_build_error("S.hlsl:2:9: error[K1409]: buffer block 'Huge' is 4294967296 bytes; a block must be under 4 GiB "
+                     "(SPIR-V offsets are 32-bit)\n"
+                     "    cbuffer Huge {\n"
+                     "            ^\n"
+                     "  note: in pass 'P' fragment stage, keywords [<none>]\n"
+                     "kiln: 1 error(s)\n");
+  // Just under the limit is a valid layout, reflected in full.
+  dir.write("S.hlsl", "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "cbuffer Large {\n  float4 table[268435455];\n};\n"
+                      "float4 F() : SV_Target { return table[7]; }\n");
+  ASSERT_EQ(build().exit_code, 0);
+  const auto manifest = nlohmann::json::parse(testing::read_file(dir / "out/p.manifest.json"));
+  EXPECT_NE(manifest.dump().find("\"size\":4294967280"), std::string::npos);
+}
+
 TEST_F(Cli, MissingIncludeListsTheRootsSearched) {
   dir.write("S.hlsl", std::string("#include \"Missing.hlsl\"\n") + kEntries);
   std::filesystem::create_directories(dir / "lib");

@@ -241,6 +241,24 @@ BuildReport build_with_fault_injection(const testing::TempDir& dir, const std::s
   return report;
 }
 
+// An exception inside a worker (a library throwing where it should not) is an internal compiler error with
+// exit code 2 and a reproducer, not a user error: it used to land on K1404 "optimizer failed" with exit 1.
+TEST(TwoHalves, AnExceptionInAWorkerIsAnInternalCompilerError) {
+  testing::TempDir dir;
+  DiagnosticSink sink;
+  BuildReport report = build_with_fault_injection(dir, "kiln_fault_throw", sink);
+  EXPECT_FALSE(report.ok);
+  EXPECT_TRUE(report.internal_errors);
+  EXPECT_EQ(exit_code(sink, report.internal_errors), 2);
+  ASSERT_FALSE(sink.diagnostics().empty());
+  for (const Diagnostic& d : sink.diagnostics()) {
+    EXPECT_EQ(d.id, DiagId::InternalCompilerError) << format_diagnostic(d);
+    EXPECT_NE(d.message.find("the compiler worker threw an exception (injected worker exception) while compiling pass 'P'"),
+              std::string::npos) << d.message;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "out/p.manifest.json"));
+}
+
 // A back end that rejects its module (spirv-val, given a module whose Location decorations a front-end bug
 // lost; the optimizer, given a truncated one) is an error of every source sharing the module, named by stage
 // and keywords; nothing is cached.

@@ -44,13 +44,45 @@ std::string image_dimension(const spirv_cross::SPIRType& type) {
   }
 }
 
+uint64_t declared_struct_size(const spirv_cross::Compiler& compiler, const spirv_cross::SPIRType& type);
+
+// SPIRV-Cross multiplies array sizes by strides in 32 bits: `float4 a[268435456]` (4 GiB) came out as 0.
+// Sizes are computed here in 64 bits instead, the way SPIRV-Cross defines them.
+uint64_t declared_member_size(const spirv_cross::Compiler& compiler, const spirv_cross::SPIRType& type, uint32_t index) {
+  const auto& member_type = compiler.get_type(type.member_types[index]);
+  if (!member_type.array.empty()) {
+    if (!member_type.array_size_literal.back()) return compiler.get_declared_struct_member_size(type, index);
+    return uint64_t{member_type.array.back()} * compiler.type_struct_member_array_stride(type, index);
+  }
+  if (member_type.basetype == spirv_cross::SPIRType::Struct) return declared_struct_size(compiler, member_type);
+  return compiler.get_declared_struct_member_size(type, index);
+}
+
+// The end of the last member (a runtime array counts 0, as in SPIRV-Cross).
+uint64_t declared_struct_size(const spirv_cross::Compiler& compiler, const spirv_cross::SPIRType& type) {
+  uint64_t size = 0;
+  for (uint32_t i = 0; i < type.member_types.size(); ++i)
+    size = std::max(size, uint64_t{compiler.type_struct_member_offset(type, i)} + declared_member_size(compiler, type, i));
+  return size;
+}
+
+// SPIR-V member offsets are 32-bit: past 4 GiB a block's layout cannot be expressed, so the module's
+// offsets have wrapped and no reflection of it would be true.
+uint64_t checked_block_size(const spirv_cross::Compiler& compiler, const spirv_cross::SPIRType& type, const std::string& name) {
+  const uint64_t size = declared_struct_size(compiler, type);
+  if (size > UINT32_MAX)
+    throw ReflectionError("buffer block '" + name + "' is " + std::to_string(size) +
+                          " bytes; a block must be under 4 GiB (SPIR-V offsets are 32-bit)");
+  return size;
+}
+
 json block_members(const spirv_cross::Compiler& compiler, const spirv_cross::SPIRType& type) {
   json members = json::array();
   for (uint32_t i = 0; i < type.member_types.size(); ++i) {
     const auto& member_type = compiler.get_type(type.member_types[i]);
     json member{{"name", compiler.get_member_name(type.self, i)},
                 {"offset", compiler.type_struct_member_offset(type, i)},
-                {"size", compiler.get_declared_struct_member_size(type, i)},
+                {"size", declared_member_size(compiler, type, i)},
                 {"type", type_name(member_type)}};
     if (!member_type.array.empty()) member["array_stride"] = compiler.type_struct_member_array_stride(type, i);
     members.push_back(member);
@@ -77,7 +109,7 @@ json reflect_spirv(const std::vector<uint32_t>& spirv) {
                  {"binding", compiler.get_decoration(resource.id, spv::DecorationBinding)},
                  {"count", type.array.empty() ? 1u : type.array[0]}};
       if (block) {
-        entry["size"] = compiler.get_declared_struct_size(base_type);
+        entry["size"] = checked_block_size(compiler, base_type, name);
         entry["members"] = block_members(compiler, base_type);
       } else if (base_type.basetype == spirv_cross::SPIRType::Image ||
                  base_type.basetype == spirv_cross::SPIRType::SampledImage) {
@@ -102,7 +134,7 @@ json reflect_spirv(const std::vector<uint32_t>& spirv) {
   for (const auto& resource : resources.push_constant_buffers) {
     const auto& type = compiler.get_type(resource.base_type_id);
     push.push_back({{"name", compiler.get_name(resource.id)},
-                    {"size", compiler.get_declared_struct_size(type)},
+                    {"size", checked_block_size(compiler, type, compiler.get_name(resource.id))},
                     {"members", block_members(compiler, type)}});
   }
   out["push_constants"] = push;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -12,7 +13,13 @@
 
 namespace kiln {
 
+// A module whose layout cannot be reflected truthfully (a block of 4 GiB or more).
+struct ReflectionError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 // {"resources": [...], "push_constants": [...], "inputs": [...], "outputs": [...]}, sorted, deterministic.
+// Throws ReflectionError.
 nlohmann::json reflect_spirv(const std::vector<uint32_t>& spirv);
 
 // One reflected binary of a pass, with a description of where it came from for messages.

@@ -35,7 +35,13 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
     return out;
   }
   out.full_legalization = spirv.full_legalization;
-  out.reflection = reflect_spirv(spirv.spirv);
+  try {
+    out.reflection = reflect_spirv(spirv.spirv);
+  } catch (const ReflectionError& error) {
+    out.failed_step = "reflect";
+    out.messages.push_back({Severity::Error, "", 0, error.what()});
+    return out;
+  }
   CrossCompiler cross_compiler(spirv.spirv);
   for (Target target : job.targets) {
     if (target == Target::Spirv) continue;

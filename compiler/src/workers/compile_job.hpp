@@ -20,8 +20,9 @@ namespace kiln {
 // blocks by their interface name, and pair texel fetches with a dummy sampler. 3: MSL records name resources
 // as declared (not as SPIRV-Cross renamed a colliding variable). 4: legalization by the core recipe first
 // (the same code, other ID numbers), outputs record which recipe legalized them. 5: outputs are packed blobs
-// (zstd frames made by the worker).
-inline constexpr int kCompileJobRevision = 5;
+// (zstd frames made by the worker). 6: preprocessed text keeps character literals, 1.#INF and string escapes
+// (memoized source keys of older builds name the wrong text); block sizes are reflected in 64 bits.
+inline constexpr int kCompileJobRevision = 6;
 
 // A compile runs in two halves so that stage sources which differ only in code the entry point never
 // reaches (a fragment-only keyword's branch in a file the vertex stage also includes) are legalized,

@@ -267,7 +267,9 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
 namespace {
 
 // Test-only fault injection, enabled by KILN_WORKER_FAULT_INJECTION=1: a source containing
-// "kiln-fault: hang" or "kiln-fault: oom" makes this worker hang or exhaust its memory; a back end whose
+// "kiln-fault: hang" or "kiln-fault: oom" makes this worker hang or exhaust its memory; one naming
+// kiln_fault_throw (an identifier, so it survives preprocessing) makes it throw, as a library bug would; a
+// back end whose
 // module names a function KilnFaultCrashBackEnd crashes it (SIGSEGV), as a SPIRV-Tools bug would; one whose
 // module names KilnFaultInvalidModule loses its Location decorations, as a front-end bug would, so that
 // spirv-val rejects it; one whose module names KilnFaultTruncatedModule ends in the middle of an
@@ -280,6 +282,7 @@ void inject_fault(CompileJob& job) {
   if (!enabled) return;
   if (job.source.find("kiln-fault: hang") != std::string::npos)
     for (;;) std::this_thread::sleep_for(std::chrono::seconds(1));
+  if (job.source.find("kiln_fault_throw") != std::string::npos) throw std::runtime_error("injected worker exception");
   if (job.source.find("kiln-fault: oom") != std::string::npos) {
     std::vector<std::vector<char>> hog;
     for (;;) hog.emplace_back(64 << 20, 'x');
