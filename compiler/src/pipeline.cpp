@@ -349,6 +349,10 @@ bool pack_is_current(const std::filesystem::path& directory, const std::string& 
   return stamp && *stamp == stamp_text(directory, name, inputs_hash);
 }
 
+// One stage source's preprocessed text: kiln's largest is under 200 KiB; the compile workers' memory limit
+// would be reached long before a front end got through this much.
+constexpr size_t kMaxPreprocessedBytes = size_t{64} << 20;
+
 // -j: worker processes, and the threads of the stages that run in kiln itself (preprocess, cache, pack).
 unsigned parallelism(const BuildOptions& options) {
   return options.jobs ? options.jobs : std::max(1u, std::thread::hardware_concurrency());
@@ -477,7 +481,23 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       const SourceFile* entry = plan->sources.find(plan->declarations[s.pass].entry);
       RecordingIncludes recording(includes);
       PreprocessRequest request{s.stage, display_path(entry->path), entry->text, s.defines, &recording};
-      PreprocessResult result = frontend->preprocess(request);
+      PreprocessResult result;
+      try {
+        result = frontend->preprocess(request);
+      } catch (const std::bad_alloc&) {
+        // Preprocessing runs in kiln itself (not in a worker): a failed allocation is this source's error,
+        // never an abort of the build.
+        result = PreprocessResult{};
+        result.messages.push_back({Severity::Error, request.entry_name, 0,
+                                   "out of memory while preprocessing (a macro that expands exponentially?)"});
+      }
+      if (result.ok && result.text.size() > kMaxPreprocessedBytes) {
+        result.ok = false;
+        result.messages.push_back({Severity::Error, request.entry_name, 0,
+                                   "the preprocessed stage source is " + std::to_string(result.text.size() >> 20) +
+                                       " MiB, over the limit of " + std::to_string(kMaxPreprocessedBytes >> 20) + " MiB"});
+        result.text = {};
+      }
       s.ok = result.ok;
       s.preprocessed = true;
       s.text = std::move(result.text);

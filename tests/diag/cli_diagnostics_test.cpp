@@ -256,6 +256,23 @@ TEST_F(Cli, MalformedAndTooDeepIncludesAreErrors) {
                      "kiln: 1 error(s)\n");
 }
 
+// 24 files, each including the next twice without a guard, are 2^24 inclusions: the includer stops at
+// its bound with an error naming the include line, instead of preprocessing for minutes at gigabytes.
+TEST_F(Cli, AnIncludeBombIsAnErrorNotAnEndlessPreprocess) {
+  for (int i = 0; i < 24; ++i)
+    dir.write("lib/B" + std::to_string(i) + ".hlsl",
+              i == 23 ? std::string("float bomb_leaf() { return 1.0; }\n")
+                      : "#include \"B" + std::to_string(i + 1) + ".hlsl\"\n#include \"B" + std::to_string(i + 1) + ".hlsl\"\n");
+  dir.write("S.hlsl", std::string("#include \"B0.hlsl\"\n") + kEntries);
+  expect_build_error("lib/B20.hlsl:1:1: error[K1408]: '#include' : more than 20000 #include expansions in one stage "
+                     "source (files included again and again without an include guard?) for header name: B21.hlsl\n"
+                     "    #include \"B21.hlsl\"\n"
+                     "    ^\n"
+                     "  note: in pass 'P' vertex stage, keywords [<none>]\n"
+                     "  note: and in 1 more variant(s)\n"
+                     "kiln: 1 error(s)\n");
+}
+
 TEST_F(Cli, PreprocessorErrorsAreReportedOnceAtTheirOwnLine) {
   // After #error glslang's preprocessor stops; the "missing #endif" it reports next is not the user's.
   dir.write("S.hlsl", std::string("#pragma multi_compile _ A\n#ifdef A\n#error A is not supported here\n#endif\n") + kEntries);
