@@ -229,10 +229,13 @@ std::string slug(const std::vector<std::string>& keywords) {
 }
 
 // Best-effort column: glslang gives only lines, but most messages quote the offending token.
+// "';' : Expected" quotes the token glslang wanted, not the one it found: the caret would land on some other
+// ';' of the line, so such a message gets no column (printed `path:line:`, never a made-up one).
 int guess_column(const std::string& line_text, const std::string& message) {
   if (message.size() < 3 || message[0] != '\'') return 0;
   size_t close = message.find('\'', 1);
   if (close == std::string::npos || close == 1) return 0;
+  if (message.compare(close, std::string::npos, "' : Expected") == 0) return 0;
   std::string token = message.substr(1, close - 1);
   size_t at = line_text.find(token);
   return at == std::string::npos ? 0 : static_cast<int>(at) + 1;

@@ -109,6 +109,18 @@ TEST_F(Cli, ABufferBlockOf4GiBIsAnErrorAtItsDeclaration) {
   EXPECT_NE(manifest.dump().find("\"size\":4294967280"), std::string::npos);
 }
 
+// glslang reports lines only; kiln finds the column from the token a message quotes. "';' : Expected" quotes
+// the token glslang wanted, so the caret went to another ';' of the line (column 48 here): no column instead.
+TEST_F(Cli, AMissingTokenGetsNoColumnRatherThanAWrongOne) {
+  dir.write("S.hlsl", "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "float4 F() : SV_Target { float x = 1.0 return x; }\n");
+  expect_build_error("S.hlsl:2: error[K1401]: ';' : Expected\n"
+                     "    float4 F() : SV_Target { float x = 1.0 return x; }\n"
+                     "  note: in pass 'P' vertex stage, keywords [<none>]\n"
+                     "  note: and in 1 more variant(s)\n"
+                     "kiln: 1 error(s)\n");
+}
+
 TEST_F(Cli, MissingIncludeListsTheRootsSearched) {
   dir.write("S.hlsl", std::string("#include \"Missing.hlsl\"\n") + kEntries);
   std::filesystem::create_directories(dir / "lib");
