@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <regex>
@@ -12,6 +13,7 @@
 #include <sstream>
 
 #include "frontend/frontend.hpp"
+#include "common/hash.hpp"
 #include "frontend/glslang_literals.hpp"
 
 namespace kiln {
@@ -69,9 +71,35 @@ std::optional<std::string> without_pragma_once(std::string_view text) {
   return out;
 }
 
+// protect_literals is a pure function of a file's text, and a build preprocesses the same few files for
+// every stage source: each distinct text is rewritten once. Shared by the preprocessing threads.
+class ProtectedTexts {
+ public:
+  // The text glslang is given: `text` itself (nullptr) or its rewritten form.
+  std::shared_ptr<const std::string> get(std::string_view text) {
+    const Hash128 key = hash128(text);
+    {
+      std::lock_guard lock(mutex_);
+      if (auto it = texts_.find(key); it != texts_.end()) return it->second;
+    }
+    std::optional<std::string> rewritten = protect_literals(text);
+    auto shared = rewritten ? std::make_shared<const std::string>(std::move(*rewritten)) : nullptr;
+    std::lock_guard lock(mutex_);
+    if (texts_.size() >= kMaxTexts) texts_.clear();  // a bound for long-lived front ends; a build needs far fewer
+    texts_.emplace(key, shared);
+    return shared;
+  }
+
+ private:
+  static constexpr size_t kMaxTexts = 4096;
+  std::mutex mutex_;
+  std::map<Hash128, std::shared_ptr<const std::string>> texts_;
+};
+
 class Includer final : public glslang::TShader::Includer {
  public:
-  Includer(const IncludeSource* source, std::string entry_name) : source_(source), entry_name_(std::move(entry_name)) {}
+  Includer(const IncludeSource* source, std::string entry_name, ProtectedTexts& protected_texts)
+      : source_(source), entry_name_(std::move(entry_name)), protected_texts_(protected_texts) {}
 
   IncludeResult* includeLocal(const char* requested, const char* from, size_t depth) override {
     if (!source_) return failure("#include is not available here");
@@ -90,27 +118,28 @@ class Includer final : public glslang::TShader::Includer {
       return failure("more than " + std::to_string(kMaxIncludedBytes >> 20) + " MiB of #include text in one stage source");
     if (found.once && !once_seen_.insert(found.name).second)
       return new IncludeResult(found.name, "", 0, nullptr);  // #pragma once: second inclusion is empty
-    std::optional<std::string> served = found.once ? without_pragma_once(found.text) : std::nullopt;
-    if (auto is_protected = protect_literals(served ? std::string_view(*served) : std::string_view(found.text)))
-      served = std::move(is_protected);
-    if (served) {
-      auto* text = new std::string(std::move(*served));
-      return new IncludeResult(found.name, text->data(), text->size(), text);
+    std::shared_ptr<const std::string> served;
+    if (found.once) {
+      if (auto blanked = without_pragma_once(found.text)) served = std::make_shared<const std::string>(std::move(*blanked));
     }
+    if (auto rewritten = protected_texts_.get(served ? std::string_view(*served) : std::string_view(found.text)))
+      served = std::move(rewritten);
+    if (served) return new IncludeResult(found.name, served->data(), served->size(), new Text(std::move(served)));
     return new IncludeResult(found.name, found.text.data(), found.text.size(), nullptr);
   }
   IncludeResult* includeSystem(const char* requested, const char* from, size_t depth) override {
     return includeLocal(requested, from, depth);
   }
   void releaseInclude(IncludeResult* result) override {
-    if (result && result->userData) delete static_cast<std::string*>(result->userData);
+    if (result && result->userData) delete static_cast<Text*>(result->userData);
     delete result;
   }
 
  private:
+  using Text = std::shared_ptr<const std::string>;  // what an IncludeResult's userData owns
   IncludeResult* failure(const std::string& message) {
-    auto* text = new std::string(message);
-    return new IncludeResult("", text->data(), text->size(), text);
+    auto* text = new Text(std::make_shared<const std::string>(message));
+    return new IncludeResult("", (*text)->data(), (*text)->size(), text);
   }
   // Far above real libraries (kiln's own stage sources make under 100 inclusions of under 1 MiB) and far
   // below what exhausts memory or time.
@@ -118,6 +147,7 @@ class Includer final : public glslang::TShader::Includer {
   static constexpr size_t kMaxIncludedBytes = size_t{256} << 20;
   const IncludeSource* source_;
   std::string entry_name_;
+  ProtectedTexts& protected_texts_;
   std::set<std::string> once_seen_;
   size_t inclusions_ = 0;
   size_t included_bytes_ = 0;
@@ -136,9 +166,10 @@ class GlslangFrontend final : public Frontend {
   PreprocessResult preprocess(const PreprocessRequest& request) override {
     PreprocessResult result;
     glslang::TShader shader(to_glslang(request.stage));
-    std::optional<std::string> entry_served = without_pragma_once(request.entry_text);
-    if (auto is_protected = protect_literals(entry_served ? std::string_view(*entry_served) : request.entry_text))
-      entry_served = std::move(is_protected);
+    std::shared_ptr<const std::string> entry_served;
+    if (auto blanked = without_pragma_once(request.entry_text)) entry_served = std::make_shared<const std::string>(std::move(*blanked));
+    if (auto rewritten = protected_texts_.get(entry_served ? std::string_view(*entry_served) : request.entry_text))
+      entry_served = std::move(rewritten);
     const std::string_view entry = entry_served ? std::string_view(*entry_served) : request.entry_text;
     const char* text = entry.data();
     const int length = static_cast<int>(entry.size());
@@ -148,7 +179,7 @@ class GlslangFrontend final : public Frontend {
     for (const std::string& define : request.defines) preamble += "#define " + define + " 1\n";
     shader.setPreamble(preamble.c_str());
     configure(shader, request.stage);
-    Includer includer(request.includes, request.entry_name);
+    Includer includer(request.includes, request.entry_name, protected_texts_);
     result.ok = shader.preprocess(GetDefaultResources(), 100, ENoProfile, false, false, kMessages, &result.text, includer);
     if (auto restored = restore_literals(result.text)) result.text = std::move(*restored);
     result.messages = parse_frontend_log(shader.getInfoLog(), request.entry_name);
@@ -194,6 +225,9 @@ class GlslangFrontend final : public Frontend {
     result.ok = !result.spirv.empty();
     return result;
   }
+
+ private:
+  ProtectedTexts protected_texts_;
 };
 
 }  // namespace
