@@ -2,7 +2,11 @@
 
 #include <cstdlib>
 
+#include <regex>
+
+#include "cross/cross_compile.hpp"
 #include "frontend/frontend.hpp"
+#include "optimize/spirv_tools.hpp"
 #include "workers/worker_pool.hpp"
 #include "test_support.hpp"
 
@@ -52,6 +56,16 @@ class StandInFrontend final : public Frontend {
  private:
   std::vector<uint32_t> module_;
 };
+
+// Cache keys name the exact tools: each version comes from the library kiln links (SPIRV-Cross, which has
+// no run-time version, from its C API header and a hash of its library files), never from a package manager.
+TEST(Workers, EveryToolVersionInTheCacheKeysComesFromTheLinkedLibraries) {
+  EXPECT_TRUE(std::regex_match(spirv_cross_version(), std::regex(R"(C API \d+\.\d+\.\d+, libraries sha256 [0-9a-f]{16})")))
+      << spirv_cross_version();
+  EXPECT_EQ(spirv_cross_version(), spirv_cross_version());
+  EXPECT_TRUE(std::regex_search(spirv_tools_version(), std::regex(R"(^v\d{4}\.\d+)"))) << spirv_tools_version();  // spvSoftwareVersionString
+  EXPECT_EQ(make_frontend("glslang")->version().rfind("12.", 0), 0u) << make_frontend("glslang")->version();
+}
 
 TEST(Workers, AnotherFrontEndDrivesTheSameBackEnd) {
   EXPECT_EQ(frontend_names(), std::vector<std::string>{"glslang"});

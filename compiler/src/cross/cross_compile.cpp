@@ -8,9 +8,9 @@
 
 #include <map>
 
-#ifndef KILN_SPIRV_CROSS_VERSION
-#define KILN_SPIRV_CROSS_VERSION "unknown"
-#endif
+#include <spirv_cross/spirv_cross_c.h>
+
+#include "spirv_cross_fingerprint.hpp"  // generated: KILN_SPIRV_CROSS_LIBRARIES_SHA256
 
 namespace kiln {
 namespace {
@@ -134,6 +134,10 @@ CrossResult CrossCompiler::compile(Target target) {
   }
 }
 
-std::string spirv_cross_version() { return KILN_SPIRV_CROSS_VERSION; }
+std::string spirv_cross_version() {
+  return "C API " + std::to_string(SPVC_C_API_VERSION_MAJOR) + "." + std::to_string(SPVC_C_API_VERSION_MINOR) + "." +
+         std::to_string(SPVC_C_API_VERSION_PATCH) + ", libraries sha256 " +
+         std::string(KILN_SPIRV_CROSS_LIBRARIES_SHA256).substr(0, 16);
+}
 
 }  // namespace kiln

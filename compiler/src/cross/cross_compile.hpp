@@ -34,6 +34,8 @@ class CrossCompiler {
   std::string gl_error_;  // why the GL module could not be made
 };
 
+// "C API 0.54.0, libraries sha256 <16 hex digits>": the header's API version and a hash of the linked
+// libraries (SPIRV-Cross has no run-time version); part of every cache key and of the manifest.
 std::string spirv_cross_version();
 
 }  // namespace kiln
