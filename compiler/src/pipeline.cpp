@@ -141,40 +141,6 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sin
   return plan;
 }
 
-// Serves #include during preprocessing from the scanned source set, with the same confinement rules.
-class SourceSetIncludes final : public IncludeSource {
- public:
-  SourceSetIncludes(const SourceSet& sources, const IncludeRoots& roots) : sources_(sources), roots_(roots) {
-    for (const auto& [path, file] : sources.files) by_name_[display_path(path)] = path;
-  }
-  bool resolve(std::string_view requested, std::string_view from, Found& found, std::string& error) const override {
-    auto it = by_name_.find(std::string(from));
-    if (it == by_name_.end()) {
-      error = "unknown including file '" + std::string(from) + "'";
-      return false;
-    }
-    ResolvedInclude resolved = resolve_include(requested, it->second, roots_);
-    if (!resolved.ok) {
-      error = resolved.message;
-      return false;
-    }
-    const SourceFile* file = sources_.find(resolved.path);
-    if (!file) {
-      error = "'" + std::string(requested) + "' was not seen by the declaration scan (is the #include name a macro?)";
-      return false;
-    }
-    found.name = display_path(resolved.path);
-    found.text = file->text;
-    found.once = file->pragma_once;
-    return true;
-  }
-
- private:
-  const SourceSet& sources_;
-  const IncludeRoots& roots_;
-  std::map<std::string, std::filesystem::path> by_name_;
-};
-
 // One (pass, stage, keywords the stage sees): preprocessed once, however many variants share it.
 struct StageSource {
   uint32_t pass = 0;
@@ -189,22 +155,7 @@ struct StageSource {
   std::optional<Hash128> key;            // the source's cache key: from the text, or from a memo
   Hash128 memo;                          // where its preprocessing memo is cached
   std::vector<std::string> files_read;   // display names, when preprocessed in this build
-};
-
-// Records every file an include source serves: what one preprocessing read.
-class RecordingIncludes final : public IncludeSource {
- public:
-  explicit RecordingIncludes(const IncludeSource& inner) : inner_(inner) {}
-  bool resolve(std::string_view requested, std::string_view from, Found& found, std::string& error) const override {
-    if (!inner_.resolve(requested, from, found, error)) return false;
-    read_.insert(found.name);
-    return true;
-  }
-  const std::set<std::string>& read() const { return read_; }
-
- private:
-  const IncludeSource& inner_;
-  mutable std::set<std::string> read_;
+  std::string internal_error;            // the worker preprocessing it crashed: how
 };
 
 struct Binary {
@@ -352,10 +303,6 @@ bool pack_is_current(const std::filesystem::path& directory, const std::string& 
   return stamp && *stamp == stamp_text(directory, name, inputs_hash);
 }
 
-// One stage source's preprocessed text: kiln's largest is under 200 KiB; the compile workers' memory limit
-// would be reached long before a front end got through this much.
-constexpr size_t kMaxPreprocessedBytes = size_t{64} << 20;
-
 // -j: worker processes, and the threads of the stages that run in kiln itself (preprocess, cache, pack).
 unsigned parallelism(const BuildOptions& options) {
   return options.jobs ? options.jobs : std::max(1u, std::thread::hardware_concurrency());
@@ -466,7 +413,6 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
 
   // Stage 4: preprocess each (pass, stage, keywords the stage sees) once, then dedupe by content.
   std::vector<StageSource> stage_sources;
-  SourceSetIncludes includes(plan->sources, *plan->roots);
   // Every cache key starts with what a compile's output depends on besides its input: the tools, the
   // options, the stage and the entry point.
   auto add_compile_options = [&](Hasher& hasher, Stage stage, const std::string& entry_point) -> Hasher& {
@@ -478,37 +424,69 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
         .add(s.text)
         .finish();
   };
+  // The compiler workers: preprocessing runs in them too, under their memory and time limits (a macro that
+  // expands exponentially costs a worker, not kiln), and the compile stage reuses them.
+  std::optional<WorkerPool> pool;
+  auto worker_pool = [&]() -> WorkerPool& {
+    if (!pool) {
+      std::filesystem::path exe = options.worker_executable.empty() ? default_worker_executable() : options.worker_executable;
+      pool.emplace(exe, parallelism(options), WorkerLimits{options.worker_timeout, options.worker_memory_limit_mb, options.frontend});
+    }
+    return *pool;
+  };
+  // Each pass's files as a Preprocess job carries them (the entry first), made once and shared by its jobs.
+  std::vector<std::shared_ptr<const std::vector<IncludableFile>>> pass_files(plan->passes.size());
+  auto files_of = [&](uint32_t pass) {
+    if (!pass_files[pass]) {
+      auto files = std::make_shared<std::vector<IncludableFile>>();
+      for (const std::filesystem::path& path : plan->declarations[pass].files) {
+        const SourceFile* file = plan->sources.find(path);
+        if (!file) continue;
+        IncludableFile served{display_path(path), file->text, file->pragma_once, {}};
+        for (const auto& [name, target] : file->includes) served.includes.emplace(name, display_path(target));
+        files->push_back(std::move(served));
+      }
+      pass_files[pass] = std::move(files);
+    }
+    return pass_files[pass];
+  };
   auto preprocess_all = [&](const std::vector<size_t>& which) {
-    parallel_for(which.size(), parallelism(options), [&](size_t w) {
-      StageSource& s = stage_sources[which[w]];
-      const SourceFile* entry = plan->sources.find(plan->declarations[s.pass].entry);
-      RecordingIncludes recording(includes);
-      PreprocessRequest request{s.stage, display_path(entry->path), entry->text, s.defines, &recording};
-      PreprocessResult result;
-      try {
-        result = frontend->preprocess(request);
-      } catch (const std::bad_alloc&) {
-        // Preprocessing runs in kiln itself (not in a worker): a failed allocation is this source's error,
-        // never an abort of the build.
-        result = PreprocessResult{};
-        result.messages.push_back({Severity::Error, request.entry_name, 0,
-                                   "out of memory while preprocessing (a macro that expands exponentially?)"});
-      }
-      if (result.ok && result.text.size() > kMaxPreprocessedBytes) {
-        result.ok = false;
-        result.messages.push_back({Severity::Error, request.entry_name, 0,
-                                   "the preprocessed stage source is " + std::to_string(result.text.size() >> 20) +
-                                       " MiB, over the limit of " + std::to_string(kMaxPreprocessedBytes >> 20) + " MiB"});
-        result.text = {};
-      }
-      s.ok = result.ok;
+    if (which.empty()) return;
+    std::vector<CompileJob> jobs(which.size());
+    for (size_t w = 0; w < which.size(); ++w) {
+      const StageSource& s = stage_sources[which[w]];
+      jobs[w].id = which[w];
+      jobs[w].kind = JobKind::Preprocess;
+      jobs[w].stage = s.stage;
+      jobs[w].files = files_of(s.pass);
+      jobs[w].defines = s.defines;
+    }
+    worker_pool().run(jobs, [&](size_t j, WorkerOutcome outcome) {
+      StageSource& s = stage_sources[which[j]];
+      const std::string entry_name = display_path(plan->declarations[s.pass].entry);
       s.preprocessed = true;
-      s.text = std::move(result.text);
-      s.messages = std::move(result.messages);
-      if (!s.ok) return;
-      s.key = source_key(s);
-      s.files_read.assign(recording.read().begin(), recording.read().end());
-      s.files_read.push_back(request.entry_name);
+      s.ok = false;
+      if (outcome.kind == WorkerOutcome::Kind::Done && outcome.output.failed_step == "internal") {
+        s.internal_error = "threw an exception (" +
+                           (outcome.output.messages.empty() ? std::string("no message") : outcome.output.messages[0].text) + ")";
+      } else if (outcome.kind == WorkerOutcome::Kind::Done) {
+        s.ok = outcome.output.ok;
+        s.text = std::move(outcome.output.preprocessed);
+        s.messages = std::move(outcome.output.messages);
+        s.files_read = std::move(outcome.output.files_read);
+        if (s.ok) s.key = source_key(s);
+      } else if (outcome.kind == WorkerOutcome::Kind::OutOfMemory) {
+        s.messages = {{Severity::Error, entry_name, 0,
+                       "preprocessing needed more than the compiler worker's " + std::to_string(options.worker_memory_limit_mb) +
+                           " MiB (a macro that expands exponentially?)"}};
+      } else if (outcome.kind == WorkerOutcome::Kind::TimedOut) {
+        s.messages = {{Severity::Error, entry_name, 0,
+                       "preprocessing took longer than the compiler worker's " +
+                           std::to_string(options.worker_timeout.count() / 1000) + " s (a macro that expands exponentially?)"}};
+      } else {
+        s.internal_error = outcome.detail;  // the preprocessor crashed: a bug in it, not in the shader
+      }
+      std::vector<std::string>().swap(jobs[j].defines);
     });
   };
   // variant_binary_source[p][v][stage] -> index into stage_sources, or -1
@@ -601,6 +579,14 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   // and what it reports next, like "missing #endif" after an #error, cascades from it).
   auto preprocess_failed = [&](const StageSource& s, size_t order) {
     const std::string entry_name = display_path(plan->declarations[s.pass].entry);
+    if (!s.internal_error.empty()) {
+      report.internal_errors = true;
+      sink.report(DiagId::InternalCompilerError, SourceLocation{entry_name, 0, 0},
+                  "internal compiler error: the compiler worker " + s.internal_error + " while preprocessing " +
+                      variant_description(*plan, s),
+                  {"this is a bug in the compiler, not in your shader"});
+      return;
+    }
     auto first = std::find_if(s.messages.begin(), s.messages.end(),
                               [](const FrontendMessage& m) { return m.severity == Severity::Error; });
     if (first == s.messages.end())  // failed without saying why: still an error, never a silently missing variant
@@ -772,16 +758,14 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     };
 
     if (!jobs.empty()) {
-      const unsigned workers = parallelism(options);
-      std::filesystem::path exe = options.worker_executable.empty() ? default_worker_executable() : options.worker_executable;
-      WorkerPool pool(exe, workers, WorkerLimits{options.worker_timeout, options.worker_memory_limit_mb, options.frontend});
+      WorkerPool& workers = worker_pool();
       // A finished job's input (its source text or its module) is not read again: free it now, not when the
       // build ends (`= {}` would keep the capacity).
       auto release_input = [&jobs](size_t j) {
         std::string().swap(jobs[j].source);
         std::vector<uint32_t>().swap(jobs[j].spirv);
       };
-      pool.run(jobs, [&](size_t j, WorkerOutcome outcome) {
+      workers.run(jobs, [&](size_t j, WorkerOutcome outcome) {
         if (jobs[j].kind == JobKind::BackEnd) {
           Module& module = modules[job_subject[j]];
           module.settled = true;
@@ -849,7 +833,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
         if (module.settled) settle(b, module, spirv);
         else module.waiting.push_back(b);
       });
-      report.workers_started = pool.spawned();
+      report.workers_started = workers.spawned();
     }
     // Distinct modules among the built binaries, whether compiled now or found through cache aliases.
     std::set<Hash128> distinct_modules;

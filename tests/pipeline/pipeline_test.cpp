@@ -6,6 +6,7 @@
 #include <set>
 
 #include "cache/cache.hpp"
+#include "common/files.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
 #include "tools/pack_tools.hpp"
@@ -239,6 +240,41 @@ BuildReport build_with_fault_injection(const testing::TempDir& dir, const std::s
   BuildReport report = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
   ::unsetenv("KILN_WORKER_FAULT_INJECTION");
   return report;
+}
+
+// Thirty lines of macros expand to 2^31 tokens. Preprocessing runs in the compiler workers, so the bomb costs
+// one worker its memory limit and is reported as the source's error (exit 1), where it used to grow kiln itself
+// until it aborted with an uncaught std::bad_alloc after minutes. The other passes are still built.
+TEST(Limits, AMacroBombIsAPreprocessingErrorAndTheRestIsStillBuilt) {
+  testing::TempDir dir;
+  std::string bomb = "#define A0 x x\n";
+  for (int i = 1; i <= 30; ++i)
+    bomb += "#define A" + std::to_string(i) + " A" + std::to_string(i - 1) + " A" + std::to_string(i - 1) + "\n";
+  dir.write("Bomb.hlsl", bomb + "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                                "float4 F() : SV_Target { A30; return 1.0; }\n");
+  dir.write("Good.hlsl", "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                         "float4 F() : SV_Target { return 1.0; }\n");
+  dir.write("p.pack.json", R"({"name": "p", "passes": [
+    {"name": "Bomb", "source": "Bomb.hlsl", "stages": {"vertex": "V", "fragment": "F"}},
+    {"name": "Good", "source": "Good.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  BuildOptions options;
+  options.pack_file = dir / "p.pack.json";
+  options.output_dir = dir / "out";
+  options.worker_executable = KILN_WORKER_PATH;
+  options.worker_memory_limit_mb = 128;  // enough for two tiny shaders, low enough that the bomb meets it in seconds
+  DiagnosticSink sink;
+  BuildReport report = build_pack(options, sink);
+  EXPECT_FALSE(report.ok);
+  EXPECT_FALSE(report.internal_errors) << errors_of(sink);
+  EXPECT_EQ(exit_code(sink, report.internal_errors), 1);
+  std::vector<Diagnostic> errors = sink.diagnostics();
+  ASSERT_EQ(errors.size(), 1u) << errors_of(sink);
+  EXPECT_EQ(errors[0].id, DiagId::PreprocessorError);
+  EXPECT_EQ(errors[0].location.path, display_path(dir / "Bomb.hlsl"));
+  // Out of memory or out of time, whichever limit the bomb meets first: both say what it likely is.
+  EXPECT_NE(errors[0].message.find("(a macro that expands exponentially?)"), std::string::npos) << errors[0].message;
+  // Both stages of the good pass preprocessed and compiled; only the bomb's fragment stage failed.
+  EXPECT_EQ(report.funnel.unique_preprocessed, 4u);
 }
 
 // An exception inside a worker (a library throwing where it should not) is an internal compiler error with

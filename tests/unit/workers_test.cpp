@@ -172,6 +172,35 @@ TEST(Workers, MissingEntryPointIsAnErrorNotAWarning) {
   EXPECT_EQ(outcomes[0].output.failed_step, "entry-point");
 }
 
+// A worker preprocesses from the files a job carries, by the includes the declaration scan resolved in each:
+// never from the file system, and a name the scan did not resolve is refused.
+TEST(Workers, PreprocessingServesIncludesOnlyFromTheJobsFiles) {
+  testing::TempDir dir;
+  dir.write("Outside.hlsl", "float outside_of_the_job() { return 1.0; }\n");
+  auto files = std::make_shared<std::vector<IncludableFile>>(std::vector<IncludableFile>{
+      {"Main.hlsl", "#include \"Lib.hlsl\"\nfloat4 main() : SV_Target { return LIB_VALUE; }\n", false, {{"Lib.hlsl", "lib/Lib.hlsl"}}},
+      {"lib/Lib.hlsl", "#pragma once\n#define LIB_VALUE float4(KEYWORD, 0, 0, 1)\n", true, {}},
+  });
+  CompileJob good;
+  good.kind = JobKind::Preprocess;
+  good.files = files;
+  good.defines = {"KEYWORD"};
+  CompileJob outside = good;
+  outside.files = std::make_shared<std::vector<IncludableFile>>(std::vector<IncludableFile>{
+      {"Main.hlsl", "#include \"" + (dir / "Outside.hlsl").string() + "\"\nfloat4 main() : SV_Target { return 1; }\n", false, {}}});
+  auto outcomes = run_jobs({good, outside});
+  ASSERT_EQ(outcomes[0].kind, WorkerOutcome::Kind::Done);
+  EXPECT_TRUE(outcomes[0].output.ok);
+  EXPECT_NE(outcomes[0].output.preprocessed.find("return float4(1, 0, 0, 1);"), std::string::npos) << outcomes[0].output.preprocessed;
+  EXPECT_EQ(outcomes[0].output.files_read, (std::vector<std::string>{"lib/Lib.hlsl", "Main.hlsl"}));
+  ASSERT_EQ(outcomes[1].kind, WorkerOutcome::Kind::Done);
+  EXPECT_FALSE(outcomes[1].output.ok);
+  EXPECT_EQ(outcomes[1].output.failed_step, "preprocess");
+  ASSERT_FALSE(outcomes[1].output.messages.empty());
+  EXPECT_NE(outcomes[1].output.messages[0].text.find("was not seen by the declaration scan"), std::string::npos)
+      << outcomes[1].output.messages[0].text;
+}
+
 TEST(Workers, HungWorkerIsKilledAtTheTimeout) {
   ::setenv("KILN_WORKER_FAULT_INJECTION", "1", 1);
   WorkerLimits limits;

@@ -223,6 +223,7 @@ struct Scanner {
       error(resolved.error, at, resolved.message, resolved.notes);
       return;
     }
+    sources.files.at(from.path).includes.emplace(std::string(name), resolved.path);
     if (std::find(chain.begin(), chain.end(), resolved.path) != chain.end()) {
       const SourceFile* target = sources.find(resolved.path);
       if (target && target->guarded) return;  // the guard ends the recursion at preprocessing time

@@ -16,6 +16,9 @@ struct SourceFile {
   std::string text;            // BOM removed
   bool guarded = false;        // #pragma once or a classic #ifndef/#define guard
   bool pragma_once = false;    // the includer must serve it only once per preprocess
+  // Every #include the scan resolved in this file (any branch of any #if): the name as written -> the
+  // file (canonical). Preprocessing serves includes from this table, never from the file system.
+  std::map<std::string, std::filesystem::path> includes;
 };
 
 // Every file read by any pass of a build, by canonical path. Preprocessing serves includes from here,

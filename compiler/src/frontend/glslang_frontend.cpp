@@ -124,7 +124,10 @@ class Includer final : public glslang::TShader::Includer {
     }
     if (auto rewritten = protected_texts_.get(served ? std::string_view(*served) : std::string_view(found.text)))
       served = std::move(rewritten);
-    if (served) return new IncludeResult(found.name, served->data(), served->size(), new Text(std::move(served)));
+    if (served) {
+      auto* owner = new Text(std::move(served));  // before the result reads its data: argument order is unspecified
+      return new IncludeResult(found.name, (*owner)->data(), (*owner)->size(), owner);
+    }
     return new IncludeResult(found.name, found.text.data(), found.text.size(), nullptr);
   }
   IncludeResult* includeSystem(const char* requested, const char* from, size_t depth) override {

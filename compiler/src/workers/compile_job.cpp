@@ -4,6 +4,9 @@
 #include "optimize/spirv_tools.hpp"
 #include "reflect/reflect.hpp"
 
+#include <set>
+#include <stdexcept>
+
 namespace kiln {
 
 using nlohmann::json;
@@ -60,9 +63,66 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
   return out;
 }
 
+// Serves #include from a Preprocess job's files, by the includes the declaration scan resolved; records
+// what was read (the preprocessing memo lists it).
+class JobIncludes final : public IncludeSource {
+ public:
+  explicit JobIncludes(const std::vector<IncludableFile>& files) {
+    for (const IncludableFile& file : files) by_name_.emplace(file.name, &file);
+  }
+  bool resolve(std::string_view requested, std::string_view from, Found& found, std::string& error) const override {
+    auto including = by_name_.find(std::string(from));
+    if (including == by_name_.end()) {
+      error = "unknown including file '" + std::string(from) + "'";
+      return false;
+    }
+    auto edge = including->second->includes.find(std::string(requested));
+    auto target = edge == including->second->includes.end() ? by_name_.end() : by_name_.find(edge->second);
+    if (target == by_name_.end()) {
+      error = "'" + std::string(requested) + "' was not seen by the declaration scan (is the #include name a macro?)";
+      return false;
+    }
+    found.name = target->second->name;
+    found.text = target->second->text;
+    found.once = target->second->once;
+    read_.insert(found.name);
+    return true;
+  }
+  std::vector<std::string> read() const { return {read_.begin(), read_.end()}; }
+
+ private:
+  std::map<std::string, const IncludableFile*> by_name_;
+  mutable std::set<std::string> read_;
+};
+
+JobOutput run_preprocess(Frontend& frontend, const CompileJob& job) {
+  JobOutput out;
+  if (!job.files || job.files->empty()) throw std::runtime_error("a preprocess job without its entry file");
+  const IncludableFile& entry = job.files->front();
+  JobIncludes includes(*job.files);
+  PreprocessResult result = frontend.preprocess({job.stage, entry.name, entry.text, job.defines, &includes});
+  out.messages = std::move(result.messages);
+  if (result.ok && result.text.size() > kMaxPreprocessedBytes) {
+    result.ok = false;
+    out.messages.push_back({Severity::Error, entry.name, 0,
+                            "the preprocessed stage source is " + std::to_string(result.text.size() >> 20) +
+                                " MiB, over the limit of " + std::to_string(kMaxPreprocessedBytes >> 20) + " MiB"});
+  }
+  if (!result.ok) {
+    out.failed_step = "preprocess";
+    return out;
+  }
+  out.ok = true;
+  out.preprocessed = std::move(result.text);
+  out.files_read = includes.read();
+  out.files_read.push_back(entry.name);
+  return out;
+}
+
 }  // namespace
 
 JobOutput run_compile_job(Frontend& frontend, const CompileJob& job) {
+  if (job.kind == JobKind::Preprocess) return run_preprocess(frontend, job);
   if (job.kind == JobKind::BackEnd) return run_back_end(job.spirv, job);
   JobOutput front = run_front_end(frontend, job);
   if (job.kind == JobKind::FrontEnd || !front.ok) return front;
@@ -91,6 +151,13 @@ std::vector<uint8_t> encode_job(const CompileJob& job) {
   for (Target t : job.targets) targets.push_back(target_name(t));
   j["targets"] = targets;
   if (!job.spirv.empty()) j["spirv"] = json::binary(spirv_to_bytes(job.spirv));
+  if (job.kind == JobKind::Preprocess) {
+    j["defines"] = job.defines;
+    json files = json::array();
+    if (job.files)
+      for (const IncludableFile& f : *job.files) files.push_back({f.name, f.text, f.once, f.includes});
+    j["files"] = std::move(files);
+  }
   return json::to_cbor(j);
 }
 
@@ -99,7 +166,7 @@ CompileJob decode_job(const std::vector<uint8_t>& bytes) {
   CompileJob job;
   job.id = j.at("id").get<uint64_t>();
   int kind = j.at("kind").get<int>();
-  if (kind < 0 || kind > static_cast<int>(JobKind::BackEnd)) throw std::runtime_error("unknown job kind");
+  if (kind < 0 || kind > static_cast<int>(JobKind::Preprocess)) throw std::runtime_error("unknown job kind");
   job.kind = static_cast<JobKind>(kind);
   if (j.contains("spirv")) job.spirv = binary_to_words(j.at("spirv").get_binary());
   job.stage = parse_stage(j.at("stage").get<std::string>()).value_or(Stage::Fragment);
@@ -109,6 +176,14 @@ CompileJob decode_job(const std::vector<uint8_t>& bytes) {
   job.optimize = j.at("optimize").get<bool>();
   for (const json& t : j.at("targets"))
     if (auto target = parse_target(t.get<std::string>())) job.targets.push_back(*target);
+  if (job.kind == JobKind::Preprocess) {
+    job.defines = j.at("defines").get<std::vector<std::string>>();
+    auto files = std::make_shared<std::vector<IncludableFile>>();
+    for (const json& f : j.at("files"))
+      files->push_back({f.at(0).get<std::string>(), f.at(1).get<std::string>(), f.at(2).get<bool>(),
+                        f.at(3).get<std::map<std::string, std::string>>()});
+    job.files = std::move(files);
+  }
   return job;
 }
 
@@ -126,6 +201,10 @@ std::vector<uint8_t> encode_output(const JobOutput& output) {
   j["blobs"] = blobs;
   j["reflection"] = output.reflection;
   j["full_legalization"] = output.full_legalization;
+  if (!output.preprocessed.empty() || !output.files_read.empty()) {
+    j["preprocessed"] = output.preprocessed;
+    j["files_read"] = output.files_read;
+  }
   return json::to_cbor(j);
 }
 
@@ -152,6 +231,10 @@ JobOutput decode_output(const std::vector<uint8_t>& bytes) {
   }
   out.reflection = std::move(j.at("reflection"));
   out.full_legalization = j.at("full_legalization").get<bool>();
+  if (j.contains("preprocessed")) {
+    out.preprocessed = j.at("preprocessed").get<std::string>();
+    out.files_read = j.at("files_read").get<std::vector<std::string>>();
+  }
   return out;
 }
 

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -28,7 +29,18 @@ inline constexpr int kCompileJobRevision = 6;
 // reaches (a fragment-only keyword's branch in a file the vertex stage also includes) are legalized,
 // optimized and cross-compiled once: the build hashes each front end's SPIR-V and sends one back end per
 // distinct module. Full does both halves in one job.
-enum class JobKind { Full, FrontEnd, BackEnd };
+// Preprocess runs the front end's preprocessor in a worker too: a macro that expands exponentially, or files
+// that include each other again and again, then cost that worker its memory or time limit, never kiln itself.
+enum class JobKind { Full, FrontEnd, BackEnd, Preprocess };
+
+// A file a Preprocess job may include, with the includes the declaration scan resolved in it. The worker
+// serves #include from these only: the build's one snapshot of each file, confined to the include roots.
+struct IncludableFile {
+  std::string name;  // as shown in #line directives and diagnostics
+  std::string text;
+  bool once = false;  // #pragma once: served once per stage source
+  std::map<std::string, std::string> includes;  // #include name as written -> name of the file it resolved to
+};
 
 struct CompileJob {
   uint64_t id = 0;
@@ -40,11 +52,17 @@ struct CompileJob {
   std::vector<uint32_t> spirv;  // the front end's module (BackEnd)
   std::vector<Target> targets;
   bool optimize = true;
+  // Preprocess: the pass's files, the entry first (shared by every job of the pass), and the keywords.
+  std::shared_ptr<const std::vector<IncludableFile>> files;
+  std::vector<std::string> defines;
 };
+
+// One stage source's preprocessed text: kiln's largest is under 200 KiB; past this a worker stops with an error.
+inline constexpr size_t kMaxPreprocessedBytes = size_t{64} << 20;
 
 struct JobOutput {
   bool ok = false;
-  // Where it failed: "frontend", "entry-point", "legalize", "validate", "optimize",
+  // Where it failed: "preprocess", "frontend", "entry-point", "legalize", "validate", "optimize",
   // "validate-optimized", "cross-glsl", "cross-gles", "cross-msl", "out-of-memory".
   std::string failed_step;
   std::vector<FrontendMessage> messages;
@@ -52,6 +70,8 @@ struct JobOutput {
   std::map<Target, PackedBlob> blobs;     // BackEnd, Full: every output, the optimized SPIR-V included
   nlohmann::json reflection;               // reflect_spirv + "gl" / "msl" bindings
   bool full_legalization = false;          // legalized by SPIRV-Tools' full recipe (the core one was not enough)
+  std::string preprocessed;                // Preprocess: the text
+  std::vector<std::string> files_read;     // Preprocess: the names of the files it read, the entry included
 };
 
 // FrontEnd: `spirv` is the front end's module. BackEnd and Full: the finished outputs in `blobs`, packed in the
