@@ -8,9 +8,11 @@
 # Target properties set on <target> for consumers:
 #   KILN_PACK_DIR       directory holding the pack
 #   KILN_PACK_MANIFEST  <dir>/<name>.manifest.json
-#   KILN_PACK_ARCHIVE   <dir>/<name>.kpack
-# Install the pack with: install(DIRECTORY $<TARGET_PROPERTY:<target>,KILN_PACK_DIR>/ DESTINATION ...)
-# or kiln_install_shader_pack(<target> DESTINATION <dir>).
+# The archive beside the manifest is named by its content (<name>.<XXH3-64>.kpack, see kiln/pack_format.hpp),
+# so its name is known only once the pack is built: the manifest names it, and the custom command lists only
+# the manifest as its output. Install the pack with kiln_install_shader_pack(<target> DESTINATION <dir>),
+# which installs the manifest and the archive it names (installing the directory would also copy kiln's stamp
+# and depfile, and an archive a killed build orphaned).
 include_guard(GLOBAL)
 
 function(kiln_add_shader_pack target)
@@ -54,27 +56,48 @@ function(kiln_add_shader_pack target)
   endif()
 
   set(manifest "${output_dir}/${pack_name}.manifest.json")
-  set(archive "${output_dir}/${pack_name}.kpack")
   set(depfile "${output_dir}/${pack_name}.d")
   add_custom_command(
-    OUTPUT "${manifest}" "${archive}"
+    OUTPUT "${manifest}"
     COMMAND kiln::kiln build "${pack}" -o "${output_dir}" --cache "${cache_dir}" --depfile "${depfile}"
             ${scene_args} ${target_args} -q
     DEPENDS "${pack}" ${scene_files} kiln::kiln
     DEPFILE "${depfile}"
     COMMENT "kiln: building shader pack '${pack_name}'"
     VERBATIM)
-  add_custom_target(${target} ALL DEPENDS "${manifest}" "${archive}")
+  add_custom_target(${target} ALL DEPENDS "${manifest}")
   set_target_properties(${target} PROPERTIES
     KILN_PACK_DIR "${output_dir}"
-    KILN_PACK_MANIFEST "${manifest}"
-    KILN_PACK_ARCHIVE "${archive}")
+    KILN_PACK_NAME "${pack_name}"
+    KILN_PACK_MANIFEST "${manifest}")
 endfunction()
 
-# kiln_install_shader_pack(<target> DESTINATION <dir>): installs the pack's manifest and archive.
+# kiln_install_shader_pack(<target> DESTINATION <dir>): installs the pack's manifest and the archive it names.
 function(kiln_install_shader_pack target)
   cmake_parse_arguments(PARSE_ARGV 1 ARG "" "DESTINATION" "")
+  if(NOT ARG_DESTINATION)
+    message(FATAL_ERROR "kiln_install_shader_pack(${target}): DESTINATION <dir> is required")
+  endif()
   get_target_property(manifest ${target} KILN_PACK_MANIFEST)
-  get_target_property(archive ${target} KILN_PACK_ARCHIVE)
-  install(FILES "${manifest}" "${archive}" DESTINATION "${ARG_DESTINATION}")
+  get_target_property(pack_name ${target} KILN_PACK_NAME)
+  # Which archive the manifest names is known at install time, not now: the install script reads it then.
+  install(CODE "include(\"${CMAKE_CURRENT_FUNCTION_LIST_FILE}\")
+_kiln_install_pack_files(\"${manifest}\" \"${pack_name}\" \"${ARG_DESTINATION}\")")
+endfunction()
+
+# Runs in the install script: the archive first, then the manifest that names it.
+function(_kiln_install_pack_files manifest pack_name destination)
+  file(READ "${manifest}" text)
+  string(JSON archive ERROR_VARIABLE json_error GET "${text}" archive file)
+  string(REPEAT "[0-9a-f]" 16 hex_digits)
+  string(REPLACE "." "\\." name_pattern "${pack_name}")
+  if(json_error OR NOT archive MATCHES "^${name_pattern}\\.${hex_digits}\\.kpack$")
+    message(FATAL_ERROR "kiln_install_shader_pack: ${manifest} does not name an archive of pack '${pack_name}'")
+  endif()
+  if(NOT IS_ABSOLUTE "${destination}")
+    set(destination "${CMAKE_INSTALL_PREFIX}/${destination}")
+  endif()
+  get_filename_component(directory "${manifest}" DIRECTORY)
+  file(INSTALL "${directory}/${archive}" DESTINATION "${destination}")
+  file(INSTALL "${manifest}" DESTINATION "${destination}")
 endfunction()

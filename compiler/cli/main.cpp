@@ -196,7 +196,8 @@ int run_inspect(const std::string& pack_dir, bool as_json, const std::string& ex
       }
     }
     if (as_json) {
-      json out{{"name", pack.name()}, {"tools", pack.manifest().at("tools")}, {"passes", json::array()}};
+      json out{{"name", pack.name()}, {"archive", pack.manifest().at("archive").at("file")},
+               {"tools", pack.manifest().at("tools")}, {"passes", json::array()}};
       for (const std::string& pass : pack.passes()) {
         json variants = json::array();
         for (size_t i = 0; i < pack.variant_count(pass); ++i) variants.push_back(pack.variant(pass, i).keywords);
@@ -206,7 +207,8 @@ int run_inspect(const std::string& pack_dir, bool as_json, const std::string& ex
     } else {
       std::cout << "pack '" << pack.name() << "', format " << pack.manifest().at("format_version") << ", "
                 << pack.manifest().at("binaries").size() << " binaries, " << pack.manifest().at("archive").at("blobs")
-                << " blobs, " << pack.manifest().at("archive").at("size") << " bytes\n";
+                << " blobs, " << pack.manifest().at("archive").at("size") << " bytes in "
+                << pack.manifest().at("archive").at("file").get<std::string>() << "\n";
       for (const std::string& pass : pack.passes()) {
         std::cout << "  pass " << pass << ": " << pack.variant_count(pass) << " variants\n";
         for (size_t i = 0; i < pack.variant_count(pass); ++i)
@@ -291,7 +293,7 @@ int main(int argc, char** argv) {
 
   CLI::App* build = app.add_subcommand("build", "Build a variant pack from a pack definition");
   build->add_option("pack", pack_file, "Pack definition (variants/*.pack.json)")->required();
-  build->add_option("-o,--output", output, "Output directory for <name>.kpack and <name>.manifest.json")->required();
+  build->add_option("-o,--output", output, "Output directory for <name>.manifest.json and its archive")->required();
   add_scene(build);
   build->add_option("-j,--jobs", jobs, "Compiler worker processes (default, or 0: one per core)");
   auto* cache_opt = build->add_option("--cache", cache_dir, "Cache directory (default: ./.kiln-cache)");

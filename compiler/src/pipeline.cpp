@@ -281,8 +281,9 @@ std::string depfile_escape(const std::string& path) {
   return out;
 }
 
-// The stamp (<name>.stamp) records the inputs hash and the size and mtime of the manifest and archive it
-// was written with: a no-change rebuild compares a few numbers instead of re-reading a large pack.
+// The stamp (<name>.stamp) records the inputs hash, the size and mtime of the manifest, and the name, size
+// and mtime of the archive it was written with: a no-change rebuild compares a few numbers instead of
+// re-reading a large pack.
 std::string file_signature(const std::filesystem::path& path) {
   struct stat info {};
   if (::stat(path.c_str(), &info) != 0) return "missing";
@@ -293,14 +294,25 @@ std::filesystem::path stamp_path(const std::filesystem::path& directory, const s
   return directory / (name + ".stamp");
 }
 
-std::string stamp_text(const std::filesystem::path& directory, const std::string& name, const std::string& inputs_hash) {
-  return inputs_hash + "\n" + file_signature(manifest_path(directory, name)) + "\n" +
-         file_signature(directory / (name + ".kpack")) + "\n";
+std::string stamp_text(const std::filesystem::path& directory, const std::string& name, const std::string& archive_file,
+                       const std::string& inputs_hash) {
+  return inputs_hash + "\n" + file_signature(manifest_path(directory, name)) + "\n" + archive_file + "\n" +
+         file_signature(directory / archive_file) + "\n";
 }
 
-bool pack_is_current(const std::filesystem::path& directory, const std::string& name, const std::string& inputs_hash) {
+// The pack's archive file name when the pack in `directory` is the one the stamp was written with, for these
+// inputs; nothing when it must be built.
+std::optional<std::string> current_archive(const std::filesystem::path& directory, const std::string& name,
+                                           const std::string& inputs_hash) {
   auto stamp = read_binary_file(stamp_path(directory, name));
-  return stamp && *stamp == stamp_text(directory, name, inputs_hash);
+  if (!stamp) return std::nullopt;
+  const size_t first = stamp->find('\n'), second = first == std::string::npos ? first : stamp->find('\n', first + 1),
+               third = second == std::string::npos ? second : stamp->find('\n', second + 1);
+  if (third == std::string::npos) return std::nullopt;
+  std::string archive_file = stamp->substr(second + 1, third - second - 1);
+  if (!is_archive_file_name(archive_file, name) || *stamp != stamp_text(directory, name, archive_file, inputs_hash))
+    return std::nullopt;
+  return archive_file;
 }
 
 // -j: worker processes, and the threads of the stages that run in kiln itself (preprocess, cache, pack).
@@ -399,7 +411,10 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   for (const auto& [path, file] : plan->sources.files) inputs.add(path.string()).add(file.text);
   const std::string inputs_hash = inputs.finish().hex();
   report.manifest = manifest_path(options.output_dir, plan->pack.name);
-  if (options.emit.empty() && pack_is_current(options.output_dir, plan->pack.name, inputs_hash)) {
+  if (auto archive_file = options.emit.empty() ? current_archive(options.output_dir, plan->pack.name, inputs_hash)
+                                               : std::nullopt) {
+    // A build killed after writing its archive, before or after its manifest's rename, left an orphan.
+    remove_orphaned_archives(options.output_dir, plan->pack.name, *archive_file);
     report.up_to_date = true;
     report.ok = true;
     write_depfile();
@@ -998,13 +1013,14 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
                   {"passes", passes_json},
                   {"binaries", binaries_json},
                   {"reflections", reflections_json}};
-    if (std::string error = write_pack(options.output_dir, plan->pack.name, archive, manifest); !error.empty()) {
-      sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, error);
+    WrittenPack written = write_pack(options.output_dir, plan->pack.name, archive, manifest);
+    if (!written.error.empty()) {
+      sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, written.error);
       return finish();
     }
     // Last: the stamp that lets the next build with the same inputs skip everything.
     write_file_atomic(stamp_path(options.output_dir, plan->pack.name),
-                      stamp_text(options.output_dir, plan->pack.name, inputs_hash));
+                      stamp_text(options.output_dir, plan->pack.name, written.archive_file, inputs_hash));
   }
 
   // Dumps for debugging (--emit), named <pass>/<stage>/<keywords>.<ext> under <output>/emit.

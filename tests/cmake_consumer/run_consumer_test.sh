@@ -26,6 +26,13 @@ cmake --build "$work/build" -j 2 > "$work/build1.log"
 manifest=$(find "$work/build" -name lit.manifest.json -path '*lit_pack*')
 test -f "$manifest"
 
+echo "== install: the manifest and the archive it names, nothing else"
+cmake --install "$work/build" --prefix "$work/installed" > /dev/null
+installed=$(ls "$work/installed/share/kiln_consumer")
+named=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["archive"]["file"])' "$manifest")
+[ "$installed" = "$(printf '%s\n' "$named" lit.manifest.json | sort)" ] || { echo "FAIL: installed: $installed"; exit 1; }
+cmp "$work/installed/share/kiln_consumer/$named" "$(dirname "$manifest")/$named"
+
 stamp() { stat -c %Y.%y "$manifest"; }
 rebuilds() { cmake --build "$work/build" -j 2 2>&1 | tee "$work/last.log" | grep -c "kiln: building shader pack" || true; }
 

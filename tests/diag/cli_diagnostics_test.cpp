@@ -420,11 +420,11 @@ TEST_F(Cli, FailedRebuildLeavesThePreviousPackIntact) {
   dir.write("S.hlsl", kEntries);
   ASSERT_EQ(build().exit_code, 0);
   std::string manifest = testing::read_file(dir / "out/p.manifest.json");
-  std::string archive = testing::read_file(dir / "out/p.kpack");
+  std::string archive = testing::read_archive(dir / "out/p.manifest.json");
   dir.write("S.hlsl", std::string("float4 V(float4 p : POSITION) : SV_Position { return p }\n") + "float4 F() : SV_Target { return 1.0; }\n");
   EXPECT_EQ(build().exit_code, 1);
   EXPECT_EQ(testing::read_file(dir / "out/p.manifest.json"), manifest);
-  EXPECT_EQ(testing::read_file(dir / "out/p.kpack"), archive);
+  EXPECT_EQ(testing::read_archive(dir / "out/p.manifest.json"), archive);
 }
 
 // Two fragment keywords: 1 vertex and 4 fragment stage sources.
@@ -586,6 +586,8 @@ TEST_F(Cli, InspectExtractWritesEveryBlobWithItsTargetExtension) {
   auto r = testing::run_kiln({"inspect", "out", "--extract", "blobs"}, dir.path());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("pass P: 1 variants"), std::string::npos) << r.out;
+  const std::string archive = testing::archive_named_by(dir / "out/p.manifest.json").filename().string();
+  EXPECT_NE(r.out.find(" bytes in " + archive + "\n"), std::string::npos) << r.out;
   for (const char* name : {"binary0.vertex.spv", "binary0.vertex.glsl", "binary0.vertex.es.glsl", "binary0.vertex.metal",
                            "binary1.fragment.spv"})
     EXPECT_TRUE(std::filesystem::exists(dir / "blobs" / name)) << name;
@@ -598,12 +600,13 @@ TEST_F(Cli, InspectExtractWritesEveryBlobWithItsTargetExtension) {
 TEST_F(Cli, InspectOfACorruptPackIsAClearError) {
   dir.write("S.hlsl", kEntries);
   ASSERT_EQ(build().exit_code, 0);
-  std::string archive = testing::read_file(dir / "out/p.kpack");
+  const std::string archive_file = testing::archive_named_by(dir / "out/p.manifest.json").filename().string();
+  std::string archive = testing::read_file(dir / "out" / archive_file);
   archive[archive.size() / 2] ^= 0x10;
-  dir.write("out/p.kpack", archive);
+  dir.write("out/" + archive_file, archive);
   auto r = testing::run_kiln({"inspect", "out"}, dir.path());
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err, "out/p.kpack: error: archive of pack 'p' fails its checksum\n");
+  EXPECT_EQ(r.err, "out/" + archive_file + ": error: archive of pack 'p' fails its checksum\n");
 }
 
 // Each error names the file it is in, and the line and column of a JSON syntax error.
@@ -611,11 +614,17 @@ TEST_F(Cli, InspectNamesTheFileOfEachPackError) {
   dir.write("S.hlsl", kEntries);
   ASSERT_EQ(build().exit_code, 0);
   const std::string manifest = testing::read_file(dir / "out/p.manifest.json");
+  const std::string archive_hash = nlohmann::json::parse(manifest).at("archive").at("xxh3_64").get<std::string>();
   auto replaced = [&](const std::string& from, const std::string& to) {
     std::string text = manifest;
     size_t at = text.find(from);
     EXPECT_NE(at, std::string::npos) << from;
     return at == std::string::npos ? text : text.replace(at, from.size(), to);
+  };
+  auto replaced_all = [&](const std::string& from, const std::string& to) {
+    std::string text = manifest;
+    for (size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size())) text.replace(at, from.size(), to);
+    return text;
   };
   struct Case {
     std::string manifest;
@@ -626,10 +635,10 @@ TEST_F(Cli, InspectNamesTheFileOfEachPackError) {
        "out/p.manifest.json:3:1: error: not a kiln manifest: invalid JSON: syntax error while parsing object key - "
        "unexpected '}'; expected string literal\n"},
       {"[]", "out/p.manifest.json: error: not a kiln pack manifest (no \"format\": \"kiln-pack-manifest\")\n"},
-      {replaced("\"format_version\": 2", "\"format_version\": 7"),
-       "out/p.manifest.json: error: pack format version 7 is not supported (this reader reads version 2)\n"},
-      {replaced("\"format_version\": 2", "\"format_revision\": 2"),
-       "out/p.manifest.json: error: the manifest has no format_version (this reader reads version 2)\n"},
+      {replaced("\"format_version\": 3", "\"format_version\": 7"),
+       "out/p.manifest.json: error: pack format version 7 is not supported (this reader reads version 3)\n"},
+      {replaced("\"format_version\": 3", "\"format_revision\": 3"),
+       "out/p.manifest.json: error: the manifest has no format_version (this reader reads version 3)\n"},
       // Valid JSON, edited: the manifest's own checksum refuses it.
       {replaced("\"reflection\": 0", "\"reflection\": 1"),
        "out/p.manifest.json: error: the manifest fails its checksum (changed since kiln wrote it)\n"},
@@ -638,8 +647,18 @@ TEST_F(Cli, InspectNamesTheFileOfEachPackError) {
       // Edited and resealed: the checks behind the checksum.
       {testing::resealed_manifest(replaced("\"name\": \"p\"", "\"title\": \"p\"")),
        "out/p.manifest.json: error: malformed manifest: key 'name' not found\n"},
-      {testing::resealed_manifest(replaced("\"file\": \"p.kpack\"", "\"file\": \"q.kpack\"")),
-       "out/q.kpack: error: no such file or directory\n"},
+      // A hostile manifest names a file outside the pack: refused before any file is opened.
+      {testing::resealed_manifest(replaced("\"file\": \"p.", "\"file\": \"../p.")),
+       "out/p.manifest.json: error: malformed manifest: /archive/file: \"../p." + archive_hash +
+           ".kpack\" is not the archive's name, <name>.<xxh3_64>.kpack\n"},
+      {testing::resealed_manifest(replaced("\"file\": \"p." + archive_hash + ".kpack\"", "\"file\": \"/etc/passwd\"")),
+       "out/p.manifest.json: error: malformed manifest: /archive/file: \"/etc/passwd\" is not the archive's name, "
+       "<name>.<xxh3_64>.kpack\n"},
+      {testing::resealed_manifest(replaced("\"name\": \"p\"", "\"name\": \"../p\"")),
+       "out/p.manifest.json: error: malformed manifest: /name: \"../p\" is not a pack name (letters, digits, '_', '-' and '.')\n"},
+      // A well-formed name whose archive is missing.
+      {testing::resealed_manifest(replaced_all(archive_hash, "0123456789abcdef")),
+       "out/p.0123456789abcdef.kpack: error: no such file or directory\n"},
       {testing::resealed_manifest(replaced("\"reflection\": 0", "\"reflection\": 9")),
        "out/p.manifest.json: error: malformed manifest: /binaries/0/reflection: index 9 is out of range (2 reflections)\n"},
       {testing::resealed_manifest(replaced("\"reflections\":", "\"reflexions\":")),
@@ -693,7 +712,7 @@ TEST_F(Cli, ConcurrentBuildsSharingOneCacheAgreeByteForByte) {
   auto ra = a.get(), rb = b.get();
   ASSERT_EQ(ra.exit_code, 0) << ra.err;
   ASSERT_EQ(rb.exit_code, 0) << rb.err;
-  EXPECT_EQ(testing::read_file(dir / "outA/p.kpack"), testing::read_file(dir / "outB/p.kpack"));
+  EXPECT_EQ(testing::read_archive(dir / "outA/p.manifest.json"), testing::read_archive(dir / "outB/p.manifest.json"));
   EXPECT_EQ(testing::read_file(dir / "outA/p.manifest.json"), testing::read_file(dir / "outB/p.manifest.json"));
   // No temporary files are left in the shared cache.
   for (const auto& file : testing::files_below(dir / "shared"))

@@ -2,11 +2,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <csignal>
 #include <map>
 #include <set>
 
 #include "cache/cache.hpp"
 #include "common/files.hpp"
+#include "common/hash.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
 #include "tools/pack_tools.hpp"
@@ -53,7 +55,7 @@ TEST_F(SmallLibrary, SameBytesWithOneWorkerAndWithTwo) {
   DiagnosticSink sink;
   ASSERT_TRUE(build(dir / "p.pack.json", dir / "j1", std::nullopt, 1, sink).ok) << errors_of(sink);
   ASSERT_TRUE(build(dir / "p.pack.json", dir / "j2", std::nullopt, 2, sink).ok) << errors_of(sink);
-  EXPECT_EQ(testing::read_file(dir / "j1/p.kpack"), testing::read_file(dir / "j2/p.kpack"));
+  EXPECT_EQ(testing::read_archive(dir / "j1/p.manifest.json"), testing::read_archive(dir / "j2/p.manifest.json"));
   EXPECT_EQ(testing::read_file(dir / "j1/p.manifest.json"), testing::read_file(dir / "j2/p.manifest.json"));
 }
 
@@ -141,7 +143,7 @@ TEST_F(SmallLibrary, SourcesWhoseFilesAreUnchangedAreNotPreprocessedAgain) {
   EXPECT_EQ(third.preprocess_memo_hits, 6u);
   EXPECT_EQ(third.compiled, 0u);
   ASSERT_TRUE(build(dir / "p.pack.json", dir / "reference", std::nullopt, 2, sink).ok) << errors_of(sink);
-  EXPECT_EQ(testing::read_file(dir / "fresh/p.kpack"), testing::read_file(dir / "reference/p.kpack"));
+  EXPECT_EQ(testing::read_archive(dir / "fresh/p.manifest.json"), testing::read_archive(dir / "reference/p.manifest.json"));
   // Back to the first Fog.hlsl: the memos of both versions are kept, so nothing is preprocessed.
   dir.write("lib/Fog.hlsl", "#pragma once\nfloat FogTerm(float x) { return exp2(-x); }\n");
   BuildReport fourth = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
@@ -163,7 +165,7 @@ TEST_F(SmallLibrary, ANewFileAnIncludeWouldNowFindIsNotHiddenByAMemo) {
   EXPECT_EQ(second.preprocess_memo_hits, 0u);
   EXPECT_EQ(second.compiled, 2u);  // the FOG fragment sources, now reading over/Fog.hlsl
   ASSERT_TRUE(build(dir / "p.pack.json", dir / "reference", std::nullopt, 2, sink).ok) << errors_of(sink);
-  EXPECT_EQ(testing::read_file(dir / "out/p.kpack"), testing::read_file(dir / "reference/p.kpack"));
+  EXPECT_EQ(testing::read_archive(dir / "out/p.manifest.json"), testing::read_archive(dir / "reference/p.manifest.json"));
 }
 
 // A memo gives a source's key without its text; when the cache then lacks the result (here: the largest
@@ -171,7 +173,7 @@ TEST_F(SmallLibrary, ANewFileAnIncludeWouldNowFindIsNotHiddenByAMemo) {
 TEST_F(SmallLibrary, AMissKnownOnlyThroughAMemoIsPreprocessedForTheWorkers) {
   DiagnosticSink sink;
   ASSERT_TRUE(build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink).ok) << errors_of(sink);
-  const std::string archive = testing::read_file(dir / "out/p.kpack");
+  const std::string archive = testing::read_archive(dir / "out/p.manifest.json");
   auto segments = testing::files_below(dir / "cache");
   ASSERT_EQ(segments.size(), 1u);
   std::string bytes = testing::read_file(segments[0]);
@@ -194,7 +196,7 @@ TEST_F(SmallLibrary, AMissKnownOnlyThroughAMemoIsPreprocessedForTheWorkers) {
   EXPECT_EQ(second.preprocess_memo_hits, 6u);
   EXPECT_GE(second.compiled, 1u);
   EXPECT_GE(second.cache_rejected, 1u);
-  EXPECT_EQ(testing::read_file(dir / "fresh/p.kpack"), archive);
+  EXPECT_EQ(testing::read_archive(dir / "fresh/p.manifest.json"), archive);
   // Said once, as a note, not an error.
   const auto notes = sink.diagnostics();
   ASSERT_EQ(notes.size(), 1u) << errors_of(sink);
@@ -208,7 +210,7 @@ TEST_F(SmallLibrary, AMissKnownOnlyThroughAMemoIsPreprocessedForTheWorkers) {
 TEST_F(SmallLibrary, EditThatChangesNoReachableCodeRunsOnlyFrontEnds) {
   DiagnosticSink sink;
   ASSERT_TRUE(build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink).ok) << errors_of(sink);
-  const std::string first_archive = testing::read_file(dir / "out/p.kpack");
+  const std::string first_archive = testing::read_archive(dir / "out/p.manifest.json");
   // A comment and a helper nobody calls: every stage source's text changes, no entry point's code does.
   dir.write("lib/Shadows.hlsl", "#pragma once\n// soft shadows: later\nfloat Unused(float x) { return x * x; }\n"
                                 "float ShadowTerm(float x) { return saturate(x * 0.5); }\n");
@@ -218,14 +220,14 @@ TEST_F(SmallLibrary, EditThatChangesNoReachableCodeRunsOnlyFrontEnds) {
   EXPECT_EQ(second.compiled, 6u);
   EXPECT_EQ(second.back_ends, 0u);
   EXPECT_EQ(second.back_end_hits, 5u);
-  EXPECT_EQ(testing::read_file(dir / "out/p.kpack"), first_archive);
+  EXPECT_EQ(testing::read_archive(dir / "out/p.manifest.json"), first_archive);
   // The sources' new keys now name those modules: a fresh output directory is served whole from the cache.
   BuildReport third = build(dir / "p.pack.json", dir / "fresh", dir / "cache", 2, sink);
   ASSERT_TRUE(third.ok) << errors_of(sink);
   EXPECT_EQ(third.cache_hits, 6u);
   EXPECT_EQ(third.compiled, 0u);
   EXPECT_EQ(third.funnel.unique_modules, 5u);  // known through the aliases, without compiling
-  EXPECT_EQ(testing::read_file(dir / "fresh/p.kpack"), first_archive);
+  EXPECT_EQ(testing::read_archive(dir / "fresh/p.manifest.json"), first_archive);
 }
 
 // Two fragment sources that differ only in a function F never calls (so they share one module), F calling
@@ -733,6 +735,74 @@ TEST_F(SemanticScenes, UnknownFeatureSuggestsTheClosestAndUnmappedValueListsTheM
   d = sink2.diagnostics().at(0);
   EXPECT_EQ(d.message, "scene 's': feature 'shadows' has no mapping for \"sometimes\"");
   EXPECT_EQ(d.notes.at(0), "the pack maps: false, true");
+}
+
+// A pack is switched by one rename, the manifest's. Killed right after its new archive is in place, a build
+// leaves the previous pack whole; killed right after the manifest's rename, the new one; and the next build
+// removes the archive no manifest names, also when it finds the pack up to date.
+TEST(PackSwitch, ABuildKilledBetweenItsRenamesLeavesAWholePackAndTheNextBuildRemovesTheOrphan) {
+  testing::TempDir dir;
+  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  auto write_shader = [&](const std::string& value) {
+    dir.write("S.hlsl", "#pragma multi_compile_fragment _ A\nfloat4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                        "float4 F() : SV_Target { return " + value + "; }\n");
+  };
+  auto kiln_build = [&](const char* fault) {
+    if (fault) ::setenv("KILN_PACK_FAULT_INJECTION", fault, 1);
+    testing::RunResult r = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "cache", "-q"}, dir.path());
+    ::unsetenv("KILN_PACK_FAULT_INJECTION");
+    return r;
+  };
+  // What a game would load: the fragment SPIR-V of variant [A] (its hash, for readable failures), or the error.
+  auto loaded = [&] {
+    try {
+      PackReader pack = PackReader::open(dir / "out");
+      return "spirv " + hash128(pack.select("P", {"A"}).stage("fragment")->spirv).hex();
+    } catch (const PackError& e) {
+      return std::string("PackError: ") + e.what();
+    }
+  };
+  auto archives = [&] {
+    std::set<std::string> names;
+    for (const auto& file : testing::files_below(dir / "out"))
+      if (file.extension() == ".kpack") names.insert(file.filename().string());
+    return names;
+  };
+  const int killed = 128 + SIGKILL;
+
+  write_shader("0.25");
+  ASSERT_EQ(kiln_build(nullptr).exit_code, 0);
+  const std::string old_spirv = loaded(), old_manifest = testing::read_file(dir / "out/p.manifest.json");
+  const std::set<std::string> old_archives = archives();
+  ASSERT_EQ(old_archives.size(), 1u);
+
+  write_shader("0.75");
+  ASSERT_EQ(kiln_build("kill-after-archive").exit_code, killed);
+  EXPECT_EQ(testing::read_file(dir / "out/p.manifest.json"), old_manifest);
+  EXPECT_EQ(loaded(), old_spirv);
+  EXPECT_EQ(archives().size(), 2u);
+
+  ASSERT_EQ(kiln_build("kill-after-manifest").exit_code, killed);
+  const std::string new_spirv = loaded();
+  EXPECT_NE(new_spirv, old_spirv);
+  EXPECT_EQ(new_spirv.rfind("PackError", 0), std::string::npos) << new_spirv;
+  EXPECT_EQ(archives().size(), 2u);  // the previous archive, not yet removed
+
+  ASSERT_EQ(kiln_build(nullptr).exit_code, 0);
+  EXPECT_EQ(loaded(), new_spirv);
+  const std::set<std::string> new_archives = archives();
+  EXPECT_EQ(new_archives, std::set<std::string>{testing::archive_named_by(dir / "out/p.manifest.json").filename().string()});
+
+  // An orphan left while the inputs went back to what the pack was built from: the up-to-date build removes it.
+  write_shader("0.5");
+  ASSERT_EQ(kiln_build("kill-after-archive").exit_code, killed);
+  EXPECT_EQ(archives().size(), 2u);
+  write_shader("0.75");
+  const std::string manifest = testing::read_file(dir / "out/p.manifest.json");
+  ASSERT_EQ(kiln_build(nullptr).exit_code, 0);
+  EXPECT_EQ(testing::read_file(dir / "out/p.manifest.json"), manifest);
+  EXPECT_EQ(archives(), new_archives);
+  EXPECT_EQ(loaded(), new_spirv);
 }
 
 TEST(BundledScenes, StripTheDefaultPackToWhatTheyNeedAndCheckSceneFindsEveryVariant) {

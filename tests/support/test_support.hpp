@@ -9,6 +9,8 @@
 #include <unistd.h>
 #include <xxhash.h>
 
+#include <nlohmann/json.hpp>
+
 #include <cerrno>
 #include <cstdio>
 #include <chrono>
@@ -159,5 +161,11 @@ inline std::string resealed_manifest(std::string text) {
   std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(XXH3_64bits(text.data(), text.size())));
   return text.replace(digits, 16, hex);
 }
+
+// The archive a pack manifest names (its "archive"/"file", next to the manifest).
+inline std::filesystem::path archive_named_by(const std::filesystem::path& manifest) {
+  return manifest.parent_path() / nlohmann::json::parse(read_file(manifest)).at("archive").at("file").get<std::string>();
+}
+inline std::string read_archive(const std::filesystem::path& manifest) { return read_file(archive_named_by(manifest)); }
 
 }  // namespace kiln::testing

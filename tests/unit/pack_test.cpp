@@ -34,7 +34,7 @@ std::filesystem::path write_sample_pack(const testing::TempDir& dir) {
                                          {"variants", variants}}})},
                 {"binaries", binaries},
                 {"reflections", json::array({json::object()})}};
-  EXPECT_EQ(write_pack(dir.path(), "sample", archive, manifest), "");
+  EXPECT_EQ(write_pack(dir.path(), "sample", archive, manifest).error, "");
   return dir / "sample.manifest.json";
 }
 
@@ -89,23 +89,25 @@ TEST(Pack, StrippedCombinationIsAnErrorNamingTheNearestVariants) {
 TEST(Pack, CorruptedArchiveFailsItsChecksum) {
   testing::TempDir dir;
   auto manifest = write_sample_pack(dir);
-  std::string bytes = testing::read_file(dir / "sample.kpack");
+  const std::filesystem::path archive = testing::archive_named_by(manifest);
+  std::string bytes = testing::read_file(archive);
   bytes[bytes.size() - 3] ^= 0x40;
-  dir.write("sample.kpack", bytes);
+  std::ofstream(archive, std::ios::binary) << bytes;
   try {
     PackReader::open(manifest);
     FAIL();
   } catch (const PackError& e) {
     EXPECT_EQ(e.code(), PackError::Code::Checksum);
-    EXPECT_EQ(e.file(), (dir / "sample.kpack").string());  // the file at fault, for `file: error:`
+    EXPECT_EQ(e.file(), archive.string());  // the file at fault, for `file: error:`
   }
 }
 
 TEST(Pack, TruncatedArchiveIsRejected) {
   testing::TempDir dir;
   auto manifest = write_sample_pack(dir);
-  std::string bytes = testing::read_file(dir / "sample.kpack");
-  dir.write("sample.kpack", bytes.substr(0, bytes.size() / 2));
+  const std::filesystem::path archive = testing::archive_named_by(manifest);
+  std::string bytes = testing::read_file(archive);
+  std::ofstream(archive, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
   EXPECT_THROW(PackReader::open(manifest), PackError);
 }
 

@@ -1,5 +1,7 @@
-// The binary archive of a variant pack (`<name>.kpack`), shared by the writer and the reader.
+// The files of a variant pack, shared by the writer and the reader: `<name>.manifest.json` and the binary
+// archive it names, `<name>.<XXH3-64 of the archive, 16 lower-case hex digits>.kpack`.
 //
+// Archive layout:
 //   offset  size  field
 //   0       8     magic "KILNPACK"
 //   8       4     format version (kPackFormatVersion), little-endian
@@ -13,25 +15,53 @@
 // size differs from its raw size is one zstd frame; otherwise it is stored as is (kiln compresses a
 // blob only when that makes it smaller).
 //
-// The manifest (`<name>.manifest.json`) names the archive with its size and XXH3-64, and carries its own
+// The manifest names the archive ("archive": file, size, XXH3-64, blob count) and carries its own
 // checksum: the top-level field "manifest_xxh3_64" holds the XXH3-64 (16 lower-case hex digits) of the
 // manifest file's bytes with those 16 digits replaced by '0'. So a manifest edited or damaged after kiln
 // wrote it is refused, even where it is still valid JSON (a changed blob id would select another shader).
 //
+// The manifest's rename is the one step that switches a directory from one pack to the next: the new
+// archive is written first under its own name, beside the previous one that the old manifest still names,
+// and archives no manifest names are removed only after the rename. A build killed at any point leaves a
+// whole pack, the previous or the new one, and at worst an orphaned archive that the next build removes.
+//
+// Version 3: the archive is named by its content (version 2 called it `<name>.kpack`, and renamed it into
+// place before the manifest, so a build killed between the two renames broke the previous pack).
 // Version 2: the manifest checksum. Version 1 had none.
 #pragma once
 
 #include <cstdint>
+#include <string>
+#include <string_view>
 
 namespace kiln {
 
 inline constexpr char kPackMagic[8] = {'K', 'I', 'L', 'N', 'P', 'A', 'C', 'K'};
-inline constexpr uint32_t kPackFormatVersion = 2;
+inline constexpr uint32_t kPackFormatVersion = 3;
 inline constexpr uint64_t kPackHeaderSize = 32;
 inline constexpr uint64_t kPackBlobEntrySize = 32;
 inline constexpr const char* kManifestFormat = "kiln-pack-manifest";
 // The manifest checksum's field as it appears in the file: the key, then the 16 hex digits in quotes.
 inline constexpr const char* kManifestChecksumField = "\"manifest_xxh3_64\": \"";
 inline constexpr unsigned kManifestChecksumDigits = 16;
+
+// Pack names use only these characters, so a pack's file names are plain names in its directory.
+inline constexpr std::string_view kPackNameCharacters =
+    "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-.";
+inline constexpr std::string_view kArchiveExtension = ".kpack";
+
+// `<pack_name>.<archive_xxh3_64>.kpack`, the hash as 16 lower-case hex digits.
+inline std::string archive_file_name(std::string_view pack_name, std::string_view archive_xxh3_64) {
+  return std::string(pack_name) + "." + std::string(archive_xxh3_64) + std::string(kArchiveExtension);
+}
+
+// Whether `file` has the shape of an archive name of pack `pack_name`, whatever its content hash.
+inline bool is_archive_file_name(std::string_view file, std::string_view pack_name) {
+  constexpr size_t kDigits = 16;
+  if (file.size() != pack_name.size() + 1 + kDigits + kArchiveExtension.size() || !file.starts_with(pack_name) ||
+      file[pack_name.size()] != '.' || !file.ends_with(kArchiveExtension))
+    return false;
+  return file.substr(pack_name.size() + 1, kDigits).find_first_not_of("0123456789abcdef") == std::string_view::npos;
+}
 
 }  // namespace kiln

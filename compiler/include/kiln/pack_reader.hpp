@@ -1,5 +1,6 @@
-// Runtime reader for kiln variant packs: loads `<name>.manifest.json` and `<name>.kpack`, checks the
-// format version and every checksum, and selects the variant for a keyword set.
+// Runtime reader for kiln variant packs: loads `<name>.manifest.json` and the archive it names
+// (`<name>.<XXH3-64>.kpack`), checks the format version and every checksum, and selects the variant for a
+// keyword set.
 //
 // Selection rule (no silent "closest match"):
 //   * Keywords that the pass does not declare are ignored (they are global keywords meant for other
@@ -32,7 +33,7 @@ class PackError : public std::runtime_error {
   PackError(Code code, const std::string& message, std::string file = {})
       : std::runtime_error(message), code_(code), file_(std::move(file)) {}
   Code code() const { return code_; }
-  // The file the error is in ("dir/p.manifest.json:12:5" when the line and column are known, "dir/p.kpack"),
+  // The file the error is in ("dir/p.manifest.json:12:5" when the line and column are known, "dir/p.<xxh3>.kpack"),
   // for `file: error: message`; empty when it is about the request, not a file (UnknownPass, Stripped...).
   const std::string& file() const { return file_; }
 

@@ -1,5 +1,7 @@
 #include "definition/definition.hpp"
 
+#include "kiln/pack_format.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -118,8 +120,7 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
   pack.text = *text;
   const std::filesystem::path base = file.parent_path().empty() ? "." : file.parent_path();
   pack.name = fields.string(*root, "name", true).value_or("");
-  if (!pack.name.empty() && pack.name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-.") !=
-                                std::string::npos)
+  if (!pack.name.empty() && pack.name.find_first_not_of(kPackNameCharacters) != std::string::npos)
     fields.fail("name", "pack name '" + pack.name + "' may only use letters, digits, '_', '-' and '.'");
   auto default_source = fields.string(*root, "shader", false);
   for (const std::string& dir : fields.strings(*root, "include_dirs")) pack.include_dirs.push_back(base / dir);

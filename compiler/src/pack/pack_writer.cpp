@@ -3,10 +3,21 @@
 #include "common/files.hpp"
 #include "kiln/pack_format.hpp"
 
+#include <csignal>
+#include <cstdlib>
 #include <cstring>
 
 namespace kiln {
 namespace {
+
+// Test-only fault injection, enabled by KILN_PACK_FAULT_INJECTION=<point>: at that point of write_pack the
+// process is killed (SIGKILL: nothing is cleaned up), as a crash or a `kill -9` at the worst moment would.
+// Points: "kill-after-archive" (the new archive is in place, the manifest not yet renamed) and
+// "kill-after-manifest" (the manifest renamed, the archives it no longer names not yet removed).
+void inject_fault(const char* point) {
+  const char* env = std::getenv("KILN_PACK_FAULT_INJECTION");
+  if (env && std::strcmp(env, point) == 0) std::raise(SIGKILL);
+}
 
 void put32(std::string& out, uint32_t v) {
   for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>(v >> (8 * i)));
@@ -59,21 +70,49 @@ std::filesystem::path manifest_path(const std::filesystem::path& directory, cons
   return directory / (name + ".manifest.json");
 }
 
-std::string write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
+WrittenPack write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
                        nlohmann::json manifest) {
+  WrittenPack written;
   std::string bytes = archive.finish();
-  const std::string archive_name = name + ".kpack";
-  manifest["archive"] = {{"file", archive_name}, {"size", bytes.size()}, {"xxh3_64", hex64(hash64(bytes))},
+  const std::string archive_hash = hex64(hash64(bytes));
+  written.archive_file = archive_file_name(name, archive_hash);
+  manifest["archive"] = {{"file", written.archive_file}, {"size", bytes.size()}, {"xxh3_64", archive_hash},
                          {"blobs", archive.size()}};
   manifest["manifest_xxh3_64"] = std::string(kManifestChecksumDigits, '0');
-  if (std::string error = write_file_atomic(directory / archive_name, bytes); !error.empty()) return error;
   // Indented one level per nesting would make the manifest ~3x larger; one line per binary is still diffable.
   std::string text = manifest.dump(1) + "\n";
   // The checksum covers the text with its own digits zeroed (pack_format.hpp). Only a top-level key can be
   // followed by `": "` outside a string, and kiln writes this key nowhere else.
   const size_t field = text.find(kManifestChecksumField);
   text.replace(field + std::strlen(kManifestChecksumField), kManifestChecksumDigits, hex64(hash64(text)));
-  return write_file_atomic(manifest_path(directory, name), text);
+
+  // The previous manifest names another archive (or this one, when the content is the same: then the rename
+  // replaces it with the same bytes), so until the manifest's rename below the previous pack is whole.
+  if (std::string error = write_file_atomic(directory / written.archive_file, bytes); !error.empty()) {
+    written.error = std::move(error);
+    return written;
+  }
+  inject_fault("kill-after-archive");
+  if (std::string error = write_file_atomic(manifest_path(directory, name), text); !error.empty()) {
+    // The new archive is left for the next build to remove: with the same content, it is the previous pack's.
+    written.error = std::move(error);
+    return written;
+  }
+  inject_fault("kill-after-manifest");
+  remove_orphaned_archives(directory, name, written.archive_file);
+  return written;
+}
+
+void remove_orphaned_archives(const std::filesystem::path& directory, const std::string& name, const std::string& keep) {
+  std::error_code ec;
+  std::vector<std::filesystem::path> orphans;
+  for (std::filesystem::directory_iterator it(directory, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string file = it->path().filename().string();
+    if (file != keep && (is_archive_file_name(file, name) || file == name + std::string(kArchiveExtension)))
+      orphans.push_back(it->path());
+  }
+  // Removing one that is already gone, or cannot be removed, costs disk space only: the pack is whole.
+  for (const auto& orphan : orphans) std::filesystem::remove(orphan, ec);
 }
 
 }  // namespace kiln

@@ -1,6 +1,6 @@
 // Stage 8: the binary archive (deduplicated blobs, checksummed) and its JSON manifest.
-// Archive first, manifest last, each through temp + rename: a reader never sees a manifest that
-// points at a missing or older archive, and a failed build leaves the previous pack intact.
+// The archive first, under a name of its own, then the manifest, each through temp + rename: the manifest's
+// rename is the commit point (kiln/pack_format.hpp), so a failed or killed build leaves the previous pack intact.
 #pragma once
 
 #include <filesystem>
@@ -22,6 +22,7 @@ class ArchiveBuilder {
   uint32_t add(PackedBlob blob);
   uint32_t add(std::string_view bytes);
   size_t size() const { return blobs_.size(); }
+  const std::vector<PackedBlob>& blobs() const { return blobs_; }
   std::string finish() const;  // blobs in the order added
 
  private:
@@ -29,10 +30,20 @@ class ArchiveBuilder {
   std::map<Hash128, uint32_t> by_hash_;
 };
 
-// Writes `<dir>/<name>.kpack` and `<dir>/<name>.manifest.json`; fills manifest["archive"].
-// Returns an error message, or an empty string.
-std::string write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
+struct WrittenPack {
+  std::string error;         // empty on success
+  std::string archive_file;  // the archive's file name, `<name>.<XXH3-64>.kpack`
+};
+
+// Writes the archive under its content's name, then `<dir>/<name>.manifest.json` naming it (the rename that
+// switches the pack), then removes the pack's archives the manifest no longer names; fills manifest["archive"].
+// One output directory serves one build at a time: a concurrent build of the same pack could lose its archive.
+WrittenPack write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
                        nlohmann::json manifest);
+
+// Removes the archives of pack `name` in `directory` other than `keep`: those a build killed before its
+// manifest's rename, or before the removal itself, left behind (and `<name>.kpack`, from format version 2).
+void remove_orphaned_archives(const std::filesystem::path& directory, const std::string& name, const std::string& keep);
 
 std::filesystem::path manifest_path(const std::filesystem::path& directory, const std::string& name);
 

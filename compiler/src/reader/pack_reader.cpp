@@ -199,7 +199,21 @@ PackReader PackReader::open(const std::filesystem::path& path) {
   try {
     reader.name_ = m.at("name").get<std::string>();
     const json& archive = m.at("archive");
-    reader.archive_file_ = (manifest_file.parent_path() / archive.at("file").get<std::string>()).string();
+    // The manifest names the archive; a name of any other shape ("../x", "/etc/passwd") is refused before any
+    // file is opened, so a hostile manifest can make the reader read nothing but this pack's own archive.
+    if (reader.name_.empty() || reader.name_.find_first_not_of(kPackNameCharacters) != std::string::npos)
+      throw PackError(PackError::Code::Format,
+                      "malformed manifest: /name: " + json(reader.name_).dump() +
+                          " is not a pack name (letters, digits, '_', '-' and '.')",
+                      manifest_name);
+    const std::string archive_name = archive.at("file").get<std::string>();
+    const std::string expected_name = archive_file_name(reader.name_, archive.at("xxh3_64").get<std::string>());
+    if (archive_name != expected_name || !is_archive_file_name(archive_name, reader.name_))
+      throw PackError(PackError::Code::Format,
+                      "malformed manifest: /archive/file: " + json(archive_name).dump() +
+                          " is not the archive's name, <name>.<xxh3_64>" + std::string(kArchiveExtension),
+                      manifest_name);
+    reader.archive_file_ = (manifest_file.parent_path() / archive_name).string();
     reader.archive_ = read_whole(reader.archive_file_);
     const std::string& bytes = reader.archive_;
     auto fail = [&](PackError::Code code, const std::string& message) { throw PackError(code, message, reader.archive_file_); };
