@@ -180,6 +180,11 @@ std::string slug(const std::vector<std::string>& keywords) {
 }
 
 // Best-effort column: glslang gives only lines, but most messages quote the offending token.
+bool is_directive(const std::string& line_text) {
+  const size_t first = line_text.find_first_not_of(" \t");
+  return first != std::string::npos && line_text[first] == '#';
+}
+
 // "';' : Expected" quotes the token glslang wanted, not the one it found: the caret would land on some other
 // ';' of the line, so such a message gets no column (printed `path:line:`, never a made-up one).
 int guess_column(const std::string& line_text, const std::string& message) {
@@ -187,6 +192,13 @@ int guess_column(const std::string& line_text, const std::string& message) {
   size_t close = message.find('\'', 1);
   if (close == std::string::npos || close == 1) return 0;
   if (message.compare(close, std::string::npos, "' : Expected") == 0) return 0;
+  // A preprocessor error ('#define' : bad argument, 'preprocessor evaluation' : bad expression) is about the
+  // directive of its line: the caret goes under its '#'.
+  const std::string quoted = message.substr(1, close - 1);
+  if (quoted.starts_with('#') || quoted == "preprocessor evaluation") {
+    const size_t hash = line_text.find_first_not_of(" \t");
+    return hash != std::string::npos && line_text[hash] == '#' ? static_cast<int>(hash) + 1 : 0;
+  }
   std::string token = message.substr(1, close - 1);
   size_t at = line_text.find(token);
   return at == std::string::npos ? 0 : static_cast<int>(at) + 1;
@@ -568,8 +580,13 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   std::map<std::string, std::filesystem::path> by_name;
   for (const auto& [path, file] : plan->sources.files) by_name[display_path(path)] = path;
   auto located = [&](const FrontendMessage& m, const std::string& fallback) {
-    SourceLocation at{m.path.empty() ? fallback : m.path, m.line, 0};
-    at.column = guess_column(line_of(plan->sources, by_name, at.path, at.line), m.text);
+    SourceLocation at{m.path.empty() ? fallback : m.path, m.line, m.column};
+    // glslang's preprocessor reads a directive's newline before it reports, so its errors name the next line.
+    const bool about_directive = m.text.starts_with("'#") || m.text.starts_with("'preprocessor evaluation'");
+    if (about_directive && at.line > 1 && !is_directive(line_of(plan->sources, by_name, at.path, at.line)) &&
+        is_directive(line_of(plan->sources, by_name, at.path, at.line - 1)))
+      --at.line;
+    if (at.column == 0) at.column = guess_column(line_of(plan->sources, by_name, at.path, at.line), m.text);
     return at;
   };
 

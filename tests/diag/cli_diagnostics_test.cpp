@@ -121,6 +121,27 @@ TEST_F(Cli, AMissingTokenGetsNoColumnRatherThanAWrongOne) {
                      "kiln: 1 error(s)\n");
 }
 
+// Locations recovered where glslang gives them another way: the HLSL grammar's own "error at column N, HLSL
+// parsing failed" (was "S.hlsl: frontend failed", with no line; its column counts in the preprocessed text, so
+// only the line is kept), and a directive's error, which glslang reports on the line after the directive.
+TEST_F(Cli, ParseFailuresAndDirectiveErrorsAreReportedAtTheirOwnLine) {
+  dir.write("S.hlsl", "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "float4 F() : SV_Target { return 1; } }\n");
+  expect_build_error("S.hlsl:2: error[K1401]: HLSL parsing failed\n"
+                     "    float4 F() : SV_Target { return 1; } }\n"
+                     "  note: in pass 'P' vertex stage, keywords [<none>]\n"
+                     "  note: and in 1 more variant(s)\n"
+                     "kiln: 1 error(s)\n");
+  dir.write("S.hlsl", "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "  #if\nfloat4 F() : SV_Target { return 1; }\n#endif\n");
+  expect_build_error("S.hlsl:2:3: error[K1408]: 'preprocessor evaluation' : bad expression\n"
+                     "      #if\n"
+                     "      ^\n"
+                     "  note: in pass 'P' vertex stage, keywords [<none>]\n"
+                     "  note: and in 1 more variant(s)\n"
+                     "kiln: 1 error(s)\n");
+}
+
 TEST_F(Cli, MissingIncludeListsTheRootsSearched) {
   dir.write("S.hlsl", std::string("#include \"Missing.hlsl\"\n") + kEntries);
   std::filesystem::create_directories(dir / "lib");

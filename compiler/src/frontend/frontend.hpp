@@ -19,6 +19,7 @@ struct FrontendMessage {
   std::string path;
   int line = 0;
   std::string text;
+  int column = 0;  // when the front end says (glslang's HLSL parser does for "HLSL parsing failed")
 };
 
 // Serves #include requests during preprocessing from kiln's confined source set.

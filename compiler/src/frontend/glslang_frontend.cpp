@@ -241,6 +241,8 @@ std::vector<FrontendMessage> parse_frontend_log(std::string_view log, std::strin
   static const std::regex located(R"(^(ERROR|WARNING|INTERNAL ERROR|UNIMPLEMENTED): (.*?):(\d+): (.*)$)");
   static const std::regex plain(R"(^(ERROR|WARNING|INTERNAL ERROR|UNIMPLEMENTED): (.*)$)");
   static const std::regex summary(R"(^\d+ compilation errors\.|^Linking .*stage:$|^$)");
+  // The HLSL grammar's own report when no rule matched: "S.hlsl(2): error at column 38, HLSL parsing failed."
+  static const std::regex grammar(R"(^(.*)\((\d+)\): error at column (\d+), (.*?)\.?$)");
   std::vector<FrontendMessage> messages;
   std::istringstream lines{std::string(log)};
   for (std::string line; std::getline(lines, line);) {
@@ -252,6 +254,9 @@ std::vector<FrontendMessage> parse_frontend_log(std::string_view log, std::strin
       // glslang quotes the offending token first; with no token ("'' : missing #endif") that says nothing.
       if (text.starts_with("'' : ")) text.erase(0, 5);
       messages.push_back({severity, m[2], std::stoi(m[3]), std::move(text)});
+    } else if (std::regex_match(line, m, grammar)) {
+      // Its column counts in the preprocessed text, whose spacing is not the file's: the line only.
+      messages.push_back({Severity::Error, m[1], std::stoi(m[2]), m[4]});
     } else if (std::regex_match(line, m, plain)) {
       std::string text = m[2];
       if (std::regex_search(text, summary)) continue;

@@ -191,7 +191,8 @@ std::vector<uint8_t> encode_output(const JobOutput& output) {
   json j{{"ok", output.ok}, {"failed_step", output.failed_step}};
   json messages = json::array();
   for (const FrontendMessage& m : output.messages)
-    messages.push_back({{"severity", static_cast<int>(m.severity)}, {"path", m.path}, {"line", m.line}, {"text", m.text}});
+    messages.push_back({{"severity", static_cast<int>(m.severity)}, {"path", m.path}, {"line", m.line}, {"text", m.text},
+                        {"column", m.column}});
   j["messages"] = messages;
   j["spirv"] = json::binary(spirv_to_bytes(output.spirv));
   json blobs = json::object();
@@ -215,7 +216,7 @@ JobOutput decode_output(const std::vector<uint8_t>& bytes) {
   out.failed_step = j.at("failed_step").get<std::string>();
   for (const json& m : j.at("messages"))
     out.messages.push_back({static_cast<Severity>(m.at("severity").get<int>()), m.at("path").get<std::string>(),
-                            m.at("line").get<int>(), m.at("text").get<std::string>()});
+                            m.at("line").get<int>(), m.at("text").get<std::string>(), m.at("column").get<int>()});
   out.spirv = binary_to_words(j.at("spirv").get_binary());
   for (auto& [name, fields] : j.at("blobs").items()) {
     auto target = parse_target(name);
