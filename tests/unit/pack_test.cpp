@@ -2,6 +2,15 @@
 
 #include <nlohmann/json.hpp>
 
+#include <fcntl.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <functional>
+#include <future>
 #include <random>
 
 #include "kiln/pack_format.hpp"
@@ -14,6 +23,12 @@ namespace {
 
 using nlohmann::json;
 
+const std::string kCompressedMsl = [] {
+  std::string text;
+  for (int i = 0; i < 64; ++i) text += "float3 light" + std::to_string(i) + " = normalize(L - P);\n";
+  return text;
+}();
+
 // A hand-made pack: pass P with groups {_, A, B} and {_, C}; the variant [B C] is stripped.
 std::filesystem::path write_sample_pack(const testing::TempDir& dir) {
   ArchiveBuilder archive;
@@ -21,8 +36,10 @@ std::filesystem::path write_sample_pack(const testing::TempDir& dir) {
   uint32_t same = archive.add("SPIRV-BYTES");
   EXPECT_EQ(spv, same);  // deduplicated
   uint32_t glsl = archive.add("#version 450\n");
+  uint32_t msl = archive.add(kCompressedMsl);  // stored as a zstd frame
   json binaries = json::array();
-  binaries.push_back({{"stage", "fragment"}, {"entry", "F"}, {"blobs", {{"spirv", spv}, {"glsl", glsl}}}, {"reflection", 0}});
+  binaries.push_back({{"stage", "fragment"}, {"entry", "F"}, {"blobs", {{"spirv", spv}, {"glsl", glsl}, {"msl", msl}}},
+                      {"reflection", 0}});
   json variants = json::array();
   for (auto keywords : std::vector<std::vector<std::string>>{{}, {"A"}, {"B"}, {"C"}, {"A", "C"}})
     variants.push_back({{"keywords", keywords}, {"binaries", {{"fragment", 0}}}});
@@ -47,6 +64,7 @@ TEST(Pack, ReaderLoadsWhatTheWriterWroteAndSelectsByKeywords) {
   ASSERT_NE(v.stage("fragment"), nullptr);
   EXPECT_EQ(v.stage("fragment")->spirv, "SPIRV-BYTES");
   EXPECT_EQ(v.stage("fragment")->glsl, "#version 450\n");
+  EXPECT_EQ(v.stage("fragment")->msl, kCompressedMsl);
 }
 
 TEST(Pack, KeywordsThePassDoesNotDeclareAreIgnoredUnlessStrict) {
@@ -201,6 +219,199 @@ TEST(Pack, WrongManifestContentFailsWithPackErrorOnly) {
   // Both kinds happened: harmless changes (a funnel count, a tool name) open, the others are refused.
   EXPECT_GT(opened, 0u);
   EXPECT_GT(refused, 0u);
+}
+
+// Hostile and damaged packs whose checksums all agree (resealed): the reader refuses each with a PackError
+// before it allocates or reads more than the files hold, and never blocks.
+
+uint64_t get64(const std::string& bytes, size_t at) {
+  uint64_t value = 0;
+  for (int i = 0; i < 8; ++i) value |= static_cast<uint64_t>(static_cast<unsigned char>(bytes[at + i])) << (8 * i);
+  return value;
+}
+void set64(std::string& bytes, size_t at, uint64_t value) {
+  for (int i = 0; i < 8; ++i) bytes[at + i] = static_cast<char>(value >> (8 * i));
+}
+
+// The blob table entry of the sample pack's one zstd frame (the MSL).
+size_t compressed_entry(const std::string& archive) {
+  for (size_t at = kPackHeaderSize; at < kPackHeaderSize + kPackBlobEntrySize * 3; at += kPackBlobEntrySize)
+    if (get64(archive, at + 8) < get64(archive, at + 16)) return at;
+  ADD_FAILURE() << "the sample pack has no compressed blob";
+  return kPackHeaderSize;
+}
+
+// Opens the pack and reads every variant of every pass, as a game would.
+void open_and_read(const std::filesystem::path& manifest) {
+  PackReader pack = PackReader::open(manifest);
+  for (const std::string& pass : pack.passes())
+    for (size_t i = 0; i < pack.variant_count(pass); ++i) pack.variant(pass, i);
+}
+
+// The child of expect_pack_error_within_limits: exits 0 when `read` throws a PackError, printing its message.
+// It ends with _Exit, so it first removes its own copy of `dir` (the test body ran again in the child).
+[[noreturn]] void read_within_limits(const std::function<void()>& read, const testing::TempDir& dir) {
+#if !defined(__SANITIZE_ADDRESS__)  // ASan reserves terabytes of shadow memory: no address-space limit there
+  const rlimit limit{uint64_t{2} << 30, uint64_t{2} << 30};
+  ::setrlimit(RLIMIT_AS, &limit);
+#endif
+  ::alarm(60);
+  int code = 2;
+  try {
+    read();
+    std::fprintf(stderr, "no error\n");
+  } catch (const PackError& e) {
+    std::fprintf(stderr, "PackError: %s\n", e.what());
+    code = 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "not a PackError: %s\n", e.what());
+    code = 1;
+  }
+  std::error_code ec;
+  std::filesystem::remove_all(dir.path(), ec);
+  std::_Exit(code);
+}
+
+// Runs `read` in a child process (a death test) under a 2 GiB address-space limit and a 60 s alarm, so that a
+// reader that allocates or reads without bound fails this test, not the machine. Passes when `read` throws a
+// PackError whose message matches `message` (a POSIX extended regex).
+void expect_pack_error_within_limits(const std::function<void()>& read, const std::string& message,
+                                     const testing::TempDir& dir) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(read_within_limits(read, dir), ::testing::ExitedWithCode(0), message);
+}
+
+// Found by hand: 2^63 made the reader throw std::length_error when the blob was first read, and 2^32
+// allocated 4 GiB before zstd said no. A raw size over the format's limit is refused when the pack is opened.
+TEST(HostilePack, ABlobClaimingAHugeRawSizeIsRefusedAtOpenWithoutAllocatingIt) {
+  testing::TempDir dir;
+  const auto manifest = write_sample_pack(dir);
+  for (uint64_t raw_size : {uint64_t{1} << 63, uint64_t{1} << 32, ~uint64_t{0}}) {
+    std::string archive = testing::read_archive(manifest);
+    set64(archive, compressed_entry(archive) + 16, raw_size);
+    testing::reseal_pack(manifest, archive);
+    expect_pack_error_within_limits([&] { open_and_read(manifest); },
+                                    "PackError: blob 2: raw size " + std::to_string(raw_size) +
+                                        " is over the pack format's limit of 268435456 bytes", dir);
+  }
+}
+
+// A frame's header records its content size; a table that records another raw size (here one byte more, within
+// every limit) is refused at open, before a buffer of the recorded size is made for the frame.
+TEST(HostilePack, ABlobWhoseFrameHoldsAnotherSizeThanTheTableRecordsIsRefusedAtOpen) {
+  testing::TempDir dir;
+  const auto manifest = write_sample_pack(dir);
+  std::string archive = testing::read_archive(manifest);
+  const size_t entry = compressed_entry(archive);
+  set64(archive, entry + 16, get64(archive, entry + 16) + 1);
+  testing::reseal_pack(manifest, archive);
+  try {
+    PackReader::open(manifest);
+    FAIL() << "opened";
+  } catch (const PackError& e) {
+    EXPECT_EQ(e.code(), PackError::Code::Format);
+    EXPECT_EQ(std::string(e.what()), "blob 2: its zstd frame holds " + std::to_string(kCompressedMsl.size()) +
+                                         " bytes, the blob table records " + std::to_string(kCompressedMsl.size() + 1));
+  }
+}
+
+// Stored bytes are a frame only when they are fewer than the raw bytes; more stored than raw is no blob kiln writes.
+TEST(HostilePack, ABlobStoredLargerThanItsRawSizeIsRefusedAtOpen) {
+  testing::TempDir dir;
+  const auto manifest = write_sample_pack(dir);
+  std::string archive = testing::read_archive(manifest);
+  const size_t entry = compressed_entry(archive);
+  set64(archive, entry + 16, get64(archive, entry + 8) - 1);
+  testing::reseal_pack(manifest, archive);
+  try {
+    PackReader::open(manifest);
+    FAIL() << "opened";
+  } catch (const PackError& e) {
+    EXPECT_EQ(e.code(), PackError::Code::Format);
+    EXPECT_EQ(std::string(e.what()).rfind("blob 2: stored size ", 0), 0u) << e.what();
+  }
+}
+
+// A zstd frame's header may claim any content size. One that claims 100 MiB in 17 bytes (a header and one
+// run-length block of 16 bytes) is refused at open: no frame of 17 bytes can hold more than one 128 KiB block.
+TEST(HostilePack, AFrameClaimingMoreThanItsBytesCanHoldIsRefusedAtOpen) {
+  testing::TempDir dir;
+  const uint64_t claimed = uint64_t{100} << 20;
+  std::string frame = "\x28\xb5\x2f\xfd";  // magic
+  frame += '\xe0';                           // single segment, 8-byte content size
+  for (int i = 0; i < 8; ++i) frame += static_cast<char>(claimed >> (8 * i));
+  const uint32_t block = 1 | (1 << 1) | (16 << 3);  // last block, run-length, 16 bytes
+  for (int i = 0; i < 3; ++i) frame += static_cast<char>(block >> (8 * i));
+  frame += 'k';
+  ASSERT_EQ(frame.size(), 17u);
+  ArchiveBuilder archive;
+  PackedBlob blob;
+  blob.stored = frame;
+  blob.raw_size = claimed;
+  archive.add(blob);
+  json manifest{{"format", kManifestFormat}, {"format_version", kPackFormatVersion}, {"name", "sample"},
+                {"passes", json::array()}, {"binaries", json::array()}, {"reflections", json::array()}};
+  ASSERT_EQ(write_pack(dir.path(), "sample", archive, manifest).error, "");
+  try {
+    PackReader::open(dir / "sample.manifest.json");
+    FAIL() << "opened";
+  } catch (const PackError& e) {
+    EXPECT_EQ(e.code(), PackError::Code::Format);
+    EXPECT_EQ(std::string(e.what()), "blob 0: a zstd frame of 17 bytes cannot hold 104857600");
+  }
+}
+
+// Found by hand: a FIFO in place of the archive or the manifest blocked open() forever. The reader opens without
+// blocking and reads regular files only. If open() does block, the test unblocks it by opening the FIFO itself.
+TEST(HostilePack, AFifoInPlaceOfTheArchiveOrTheManifestIsRefusedWithoutBlocking) {
+  testing::TempDir dir;
+  const auto manifest = write_sample_pack(dir);
+  const std::filesystem::path archive = testing::archive_named_by(manifest);
+  for (const std::filesystem::path& fifo : {archive, manifest}) {
+    std::filesystem::remove(fifo);
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+    auto opened = std::async(std::launch::async, [&] {
+      try {
+        PackReader::open(fifo == manifest ? dir.path() : manifest);
+        return std::string("opened");
+      } catch (const PackError& e) {
+        return e.file() + ": " + e.what();
+      }
+    });
+    if (opened.wait_for(std::chrono::seconds(10)) != std::future_status::ready) {
+      ADD_FAILURE() << "open() blocked on the FIFO " << fifo;
+      ::close(::open(fifo.c_str(), O_WRONLY));
+    }
+    EXPECT_EQ(opened.get(), fifo.string() + ": a FIFO, not a regular file");
+    std::filesystem::remove(fifo);
+    write_sample_pack(dir);
+  }
+}
+
+// Found by hand: a 64 GiB sparse file in place of the archive was read whole. Its size is checked against the
+// manifest's record before a byte is read; and a manifest that records such a size (here with a checksum that
+// cannot match, which the reader never gets to) is refused by the format's limit, as is a manifest that large.
+TEST(HostilePack, AnArchiveOrManifestOfTheWrongOrAHugeSizeIsRefusedBeforeItIsRead) {
+  testing::TempDir dir;
+  const auto manifest = write_sample_pack(dir);
+  const std::filesystem::path archive = testing::archive_named_by(manifest);
+  const uint64_t size = std::filesystem::file_size(archive), huge = uint64_t{64} << 30;
+  std::filesystem::resize_file(archive, huge);
+  expect_pack_error_within_limits([&] { open_and_read(manifest); },
+                                  "PackError: archive of pack 'sample' is " + std::to_string(huge) + " bytes, not the " +
+                                      std::to_string(size) + " its manifest records", dir);
+
+  json m = json::parse(testing::read_file(manifest));
+  m["archive"]["size"] = huge;
+  dir.write("sample.manifest.json", testing::resealed_manifest(m.dump(1) + "\n"));
+  expect_pack_error_within_limits([&] { open_and_read(manifest); },
+                                  "PackError: archive of pack 'sample' is " + std::to_string(huge) +
+                                      " bytes, over the pack format's limit of 4294967296 bytes", dir);
+
+  std::filesystem::resize_file(manifest, huge);
+  expect_pack_error_within_limits([&] { open_and_read(manifest); },
+                                  "PackError: the manifest is " + std::to_string(huge) +
+                                      " bytes, over the pack format's limit of 268435456 bytes", dir);
 }
 
 TEST(Pack, ArchiveIsDeterministic) {

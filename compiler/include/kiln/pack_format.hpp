@@ -12,8 +12,9 @@
 //   ...           blobs, each starting at a multiple of 8 (zero padding between)
 //
 // Blobs are deduplicated by content; the JSON manifest says which blob is which. A blob whose stored
-// size differs from its raw size is one zstd frame; otherwise it is stored as is (kiln compresses a
-// blob only when that makes it smaller).
+// size is less than its raw size is exactly one zstd frame that records its content size (= the raw size);
+// otherwise the two sizes are equal and the blob is stored as is (kiln compresses a blob only when that
+// makes it smaller).
 //
 // The manifest names the archive ("archive": file, size, XXH3-64, blob count) and carries its own
 // checksum: the top-level field "manifest_xxh3_64" holds the XXH3-64 (16 lower-case hex digits) of the
@@ -26,8 +27,8 @@
 // whole pack, the previous or the new one, and at worst an orphaned archive that the next build removes.
 //
 // Version 3: the archive is named by its content (version 2 called it `<name>.kpack`, and renamed it into
-// place before the manifest, so a build killed between the two renames broke the previous pack).
-// Version 2: the manifest checksum. Version 1 had none.
+// place before the manifest, so a build killed between the two renames broke the previous pack); sizes are
+// limited (below). Version 2: the manifest checksum. Version 1 had none.
 #pragma once
 
 #include <cstdint>
@@ -49,6 +50,14 @@ inline constexpr unsigned kManifestChecksumDigits = 16;
 inline constexpr std::string_view kPackNameCharacters =
     "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-.";
 inline constexpr std::string_view kArchiveExtension = ".kpack";
+
+// Limits that the writer keeps and the reader enforces before it allocates, so a damaged or hostile pack
+// whose checksums agree still cannot make the reader allocate or read more than this. The default pack's
+// largest blob is 30 KB raw, its manifest 1.6 MB and its archive 22 MB (5212 blobs): the limits are far
+// above any real pack and far below what would exhaust a game's memory.
+inline constexpr uint64_t kMaxBlobBytes = uint64_t{256} << 20;      // raw size of one blob
+inline constexpr uint64_t kMaxArchiveBytes = uint64_t{4} << 30;     // the archive file
+inline constexpr uint64_t kMaxManifestBytes = uint64_t{256} << 20;  // the manifest file
 
 // `<pack_name>.<archive_xxh3_64>.kpack`, the hash as 16 lower-case hex digits.
 inline std::string archive_file_name(std::string_view pack_name, std::string_view archive_xxh3_64) {

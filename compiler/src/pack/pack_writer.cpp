@@ -73,7 +73,18 @@ std::filesystem::path manifest_path(const std::filesystem::path& directory, cons
 WrittenPack write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
                        nlohmann::json manifest) {
   WrittenPack written;
+  for (const PackedBlob& blob : archive.blobs())
+    if (blob.raw_size > kMaxBlobBytes) {
+      written.error = "an output of " + std::to_string(blob.raw_size) + " bytes is over the pack format's limit of " +
+                      std::to_string(kMaxBlobBytes) + " bytes per blob";
+      return written;
+    }
   std::string bytes = archive.finish();
+  if (bytes.size() > kMaxArchiveBytes) {
+    written.error = "the archive would be " + std::to_string(bytes.size()) + " bytes, over the pack format's limit of " +
+                    std::to_string(kMaxArchiveBytes) + " bytes";
+    return written;
+  }
   const std::string archive_hash = hex64(hash64(bytes));
   written.archive_file = archive_file_name(name, archive_hash);
   manifest["archive"] = {{"file", written.archive_file}, {"size", bytes.size()}, {"xxh3_64", archive_hash},
@@ -81,6 +92,11 @@ WrittenPack write_pack(const std::filesystem::path& directory, const std::string
   manifest["manifest_xxh3_64"] = std::string(kManifestChecksumDigits, '0');
   // Indented one level per nesting would make the manifest ~3x larger; one line per binary is still diffable.
   std::string text = manifest.dump(1) + "\n";
+  if (text.size() > kMaxManifestBytes) {
+    written.error = "the manifest would be " + std::to_string(text.size()) + " bytes, over the pack format's limit of " +
+                    std::to_string(kMaxManifestBytes) + " bytes";
+    return written;
+  }
   // The checksum covers the text with its own digits zeroed (pack_format.hpp). Only a top-level key can be
   // followed by `": "` outside a string, and kiln writes this key nowhere else.
   const size_t field = text.find(kManifestChecksumField);

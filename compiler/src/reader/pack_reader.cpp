@@ -1,13 +1,16 @@
 #include "kiln/pack_reader.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <xxhash.h>
 #include <zstd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstring>
-#include <fstream>
+#include <optional>
 #include <set>
-#include <sstream>
 
 #include "kiln/pack_format.hpp"
 
@@ -16,16 +19,58 @@ namespace {
 
 using nlohmann::json;
 
-std::string read_whole(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    std::error_code ec;
-    throw PackError(PackError::Code::Io, std::filesystem::exists(path, ec) ? "cannot open the file" : "no such file or directory",
-                    path.string());
+// Reads a pack file whole: a regular file only (a FIFO would block, a device never end), checked before it is
+// opened and again on the opened descriptor (opened without blocking, so a file swapped for a FIFO in between
+// cannot block either); its size checked against `expected` (the manifest's record) and `limit` before a byte
+// is read or a buffer made. `what` names the file in messages ("the manifest").
+std::string read_pack_file(const std::string& path, const std::string& what, uint64_t limit,
+                           std::optional<uint64_t> expected = std::nullopt) {
+  auto system_error = [&](const char* doing) {
+    const int error = errno;
+    return PackError(PackError::Code::Io,
+                     error == ENOENT ? std::string("no such file or directory") : doing + std::string(": ") + std::strerror(error),
+                     path);
+  };
+  auto check_type = [&](const struct stat& info) {
+    if (!S_ISREG(info.st_mode))
+      throw PackError(PackError::Code::Io,
+                      std::string(S_ISDIR(info.st_mode) ? "a directory" : S_ISFIFO(info.st_mode) ? "a FIFO" : "a device or socket") +
+                          ", not a regular file",
+                      path);
+  };
+  struct stat info {};
+  if (::stat(path.c_str(), &info) != 0) throw system_error("cannot open the file");
+  check_type(info);
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) throw system_error("cannot open the file");
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  if (::fstat(fd, &info) != 0) throw system_error("cannot read the file");
+  check_type(info);
+  const uint64_t size = static_cast<uint64_t>(info.st_size);
+  if (expected && size != *expected)
+    throw PackError(PackError::Code::Checksum,
+                    what + " is " + std::to_string(size) + " bytes, not the " + std::to_string(*expected) +
+                        " its manifest records",
+                    path);
+  if (size > limit)
+    throw PackError(PackError::Code::Format,
+                    what + " is " + std::to_string(size) + " bytes, over the pack format's limit of " +
+                        std::to_string(limit) + " bytes",
+                    path);
+  std::string bytes(size, '\0');
+  size_t got = 0;
+  while (got < bytes.size()) {
+    const ssize_t n = ::read(fd, bytes.data() + got, bytes.size() - got);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throw system_error("cannot read the file");
+    if (n == 0) break;
+    got += static_cast<size_t>(n);
   }
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return std::move(buffer).str();
+  if (got != bytes.size()) throw PackError(PackError::Code::Checksum, what + " was truncated while it was read", path);
+  return bytes;
 }
 
 uint64_t get64(const std::string& bytes, size_t at) {
@@ -161,8 +206,8 @@ PackReader PackReader::open(const std::filesystem::path& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) {
     std::vector<std::filesystem::path> found;
-    for (const auto& entry : std::filesystem::directory_iterator(path, ec))
-      if (entry.path().string().ends_with(".manifest.json")) found.push_back(entry.path());
+    for (std::filesystem::directory_iterator it(path, ec), end; !ec && it != end; it.increment(ec))
+      if (it->path().string().ends_with(".manifest.json")) found.push_back(it->path());
     if (found.size() != 1)
       throw PackError(PackError::Code::Io, "the directory holds " + std::to_string(found.size()) +
                                                " pack manifests (*.manifest.json); name the manifest file",
@@ -171,7 +216,7 @@ PackReader PackReader::open(const std::filesystem::path& path) {
   }
   PackReader reader;
   const std::string manifest_name = manifest_file.string();
-  std::string text = read_whole(manifest_file);
+  std::string text = read_pack_file(manifest_name, "the manifest", kMaxManifestBytes);
   try {
     reader.manifest_ = json::parse(text);
   } catch (const json::parse_error& error) {
@@ -191,8 +236,9 @@ PackReader PackReader::open(const std::filesystem::path& path) {
   const json& format_version = top("format_version");
   if (!format_version.is_number_unsigned() || format_version.get<uint64_t>() != kPackFormatVersion)
     throw PackError(PackError::Code::Version,
-                    (format_version.is_null() ? std::string("the manifest has no format_version")
-                                              : "pack format version " + format_version.dump() + " is not supported") +
+                    (format_version.is_null()     ? std::string("the manifest has no format_version")
+                     : format_version.is_primitive() ? "pack format version " + format_version.dump() + " is not supported"
+                                                     : std::string("the manifest's format_version is not a number")) +
                         " (this reader reads version " + std::to_string(kPackFormatVersion) + ")",
                     manifest_name);
   check_manifest_checksum(std::move(text), manifest_name);
@@ -213,8 +259,12 @@ PackReader PackReader::open(const std::filesystem::path& path) {
                       "malformed manifest: /archive/file: " + json(archive_name).dump() +
                           " is not the archive's name, <name>.<xxh3_64>" + std::string(kArchiveExtension),
                       manifest_name);
+    const json& recorded_size = archive.at("size");
+    if (!recorded_size.is_number_unsigned())
+      throw PackError(PackError::Code::Format, "malformed manifest: /archive/size: is not a size", manifest_name);
     reader.archive_file_ = (manifest_file.parent_path() / archive_name).string();
-    reader.archive_ = read_whole(reader.archive_file_);
+    reader.archive_ = read_pack_file(reader.archive_file_, "archive of pack '" + reader.name_ + "'", kMaxArchiveBytes,
+                                     recorded_size.get<uint64_t>());
     const std::string& bytes = reader.archive_;
     auto fail = [&](PackError::Code code, const std::string& message) { throw PackError(code, message, reader.archive_file_); };
     if (bytes.size() < kPackHeaderSize || std::memcmp(bytes.data(), kPackMagic, 8) != 0)
@@ -224,21 +274,46 @@ PackReader PackReader::open(const std::filesystem::path& path) {
     std::memcpy(&count, bytes.data() + 12, 4);
     if (version != kPackFormatVersion)
       fail(PackError::Code::Version, "archive format version " + std::to_string(version) + " is not supported");
-    if (get64(bytes, 24) != bytes.size() || archive.at("size").get<uint64_t>() != bytes.size())
+    if (get64(bytes, 24) != bytes.size())
       fail(PackError::Code::Checksum, "archive of pack '" + reader.name_ + "' is truncated or has the wrong size");
     if (XXH3_64bits(bytes.data() + kPackHeaderSize, bytes.size() - kPackHeaderSize) != get64(bytes, 16) ||
         hex64(XXH3_64bits(bytes.data(), bytes.size())) != archive.at("xxh3_64").get<std::string>())
       fail(PackError::Code::Checksum, "archive of pack '" + reader.name_ + "' fails its checksum");
     if (kPackHeaderSize + kPackBlobEntrySize * uint64_t{count} > bytes.size())
       fail(PackError::Code::Format, "archive blob table is out of bounds");
+    reader.blobs_.reserve(count);
     for (uint32_t i = 0; i < count; ++i) {
       size_t at = kPackHeaderSize + kPackBlobEntrySize * i;
       Blob blob{get64(bytes, at), get64(bytes, at + 8), get64(bytes, at + 16), get64(bytes, at + 24)};
+      const std::string which = "blob " + std::to_string(i);
       if (blob.offset > bytes.size() || blob.stored_size > bytes.size() - blob.offset)
-        fail(PackError::Code::Format, "blob " + std::to_string(i) + " is out of bounds");
-      // Stored blobs are checked now; compressed ones when they are first decompressed.
-      if (blob.stored_size == blob.raw_size && XXH3_64bits(bytes.data() + blob.offset, blob.stored_size) != blob.hash)
-        fail(PackError::Code::Checksum, "blob " + std::to_string(i) + " fails its checksum");
+        fail(PackError::Code::Format, which + " is out of bounds");
+      if (blob.raw_size > kMaxBlobBytes)
+        fail(PackError::Code::Format, which + ": raw size " + std::to_string(blob.raw_size) +
+                                          " is over the pack format's limit of " + std::to_string(kMaxBlobBytes) + " bytes");
+      if (blob.stored_size > blob.raw_size)
+        fail(PackError::Code::Format, which + ": stored size " + std::to_string(blob.stored_size) +
+                                          " is larger than its raw size " + std::to_string(blob.raw_size));
+      const char* stored = bytes.data() + blob.offset;
+      if (blob.stored_size == blob.raw_size) {
+        if (XXH3_64bits(stored, blob.stored_size) != blob.hash) fail(PackError::Code::Checksum, which + " fails its checksum");
+      } else {
+        // A frame is decompressed (and its checksum checked) when it is first read; its sizes are checked now, so
+        // that the buffer made then is only as large as the frame can fill.
+        const size_t frame_size = ZSTD_findFrameCompressedSize(stored, blob.stored_size);
+        if (ZSTD_isError(frame_size) || frame_size != blob.stored_size) fail(PackError::Code::Format, which + " is not one zstd frame");
+        const unsigned long long content_size = ZSTD_getFrameContentSize(stored, blob.stored_size);
+        if (content_size == ZSTD_CONTENTSIZE_UNKNOWN || content_size == ZSTD_CONTENTSIZE_ERROR)
+          fail(PackError::Code::Format, which + ": its zstd frame does not record its size");
+        if (content_size != blob.raw_size)
+          fail(PackError::Code::Format, which + ": its zstd frame holds " + std::to_string(content_size) +
+                                            " bytes, the blob table records " + std::to_string(blob.raw_size));
+        // A frame's header may claim any size; no frame fills more than one 128 KiB block per 4 of its bytes
+        // (a 3-byte block header and 1 byte repeated), so a larger claim is refused before it is allocated.
+        if (blob.raw_size / ZSTD_BLOCKSIZE_MAX > blob.stored_size / 4)
+          fail(PackError::Code::Format, which + ": a zstd frame of " + std::to_string(blob.stored_size) +
+                                            " bytes cannot hold " + std::to_string(blob.raw_size));
+      }
       reader.blobs_.push_back(blob);
     }
     ManifestShape{manifest_name, reader.blobs_.size()}.check(m);
