@@ -414,6 +414,24 @@ TEST(HostilePack, AnArchiveOrManifestOfTheWrongOrAHugeSizeIsRefusedBeforeItIsRea
                                       " bytes, over the pack format's limit of 268435456 bytes", dir);
 }
 
+// Found by fuzzing: nlohmann reports a number too large for a double as out_of_range, not as a parse error;
+// it escaped open() and ended the process.
+TEST(HostilePack, AManifestNumberTooLargeForADoubleIsAPackError) {
+  testing::TempDir dir;
+  const auto manifest = write_sample_pack(dir);
+  std::string text = testing::read_file(manifest);
+  text.replace(text.find("\"format_version\": "), 18, "\"format_version\": 3e999, \"v\": ");
+  dir.write("sample.manifest.json", text);
+  try {
+    PackReader::open(manifest);
+    FAIL() << "opened";
+  } catch (const PackError& e) {
+    EXPECT_EQ(e.code(), PackError::Code::Format);
+    EXPECT_EQ(std::string(e.what()), "not a kiln manifest: invalid JSON: number overflow parsing '3e999'");
+    EXPECT_EQ(e.file(), manifest.string());
+  }
+}
+
 TEST(Pack, ArchiveIsDeterministic) {
   ArchiveBuilder a, b;
   for (ArchiveBuilder* builder : {&a, &b}) {

@@ -28,15 +28,14 @@ std::string read_pack_file(const std::string& path, const std::string& what, uin
   auto system_error = [&](const char* doing) {
     const int error = errno;
     return PackError(PackError::Code::Io,
-                     error == ENOENT ? std::string("no such file or directory") : doing + std::string(": ") + std::strerror(error),
+                     error == ENOENT ? std::string("no such file or directory")
+                                     : doing + std::string(": ") + std::strerror(error),
                      path);
   };
   auto check_type = [&](const struct stat& info) {
-    if (!S_ISREG(info.st_mode))
-      throw PackError(PackError::Code::Io,
-                      std::string(S_ISDIR(info.st_mode) ? "a directory" : S_ISFIFO(info.st_mode) ? "a FIFO" : "a device or socket") +
-                          ", not a regular file",
-                      path);
+    if (S_ISREG(info.st_mode)) return;
+    const char* kind = S_ISDIR(info.st_mode) ? "a directory" : S_ISFIFO(info.st_mode) ? "a FIFO" : "a device or socket";
+    throw PackError(PackError::Code::Io, std::string(kind) + ", not a regular file", path);
   };
   struct stat info {};
   if (::stat(path.c_str(), &info) != 0) throw system_error("cannot open the file");
@@ -222,6 +221,9 @@ PackReader PackReader::open(const std::filesystem::path& path) {
   } catch (const json::parse_error& error) {
     throw PackError(PackError::Code::Format, "not a kiln manifest: invalid JSON: " + reason_of(error),
                     location_of(manifest_file, text, error.byte > 0 ? error.byte - 1 : 0));
+  } catch (const json::exception& error) {
+    // Found by fuzzing: a number too large for a double ("1e999") is an out_of_range error, not a parse_error.
+    throw PackError(PackError::Code::Format, "not a kiln manifest: invalid JSON: " + reason_of(error), manifest_name);
   }
   const json& m = reader.manifest_;
   const json no_value;
