@@ -2,6 +2,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <iostream>
@@ -329,7 +330,11 @@ int main(int argc, char** argv) {
   std::vector<std::string> lint_inputs;
   std::string format = "text";
   CLI::App* lint = app.add_subcommand("lint", "Lint a pack definition (every rule) or HLSL files (source rules); exit 1 on errors");
-  lint->add_option("inputs", lint_inputs, "A pack definition (.json), or HLSL files")->required()->check(CLI::ExistingFile);
+  // No CLI11 existence check: a missing input is a finding in the chosen format (an empty SARIF file breaks
+  // a CI upload step with a confusing message).
+  lint->add_option("inputs", lint_inputs, "A pack definition (.json), or HLSL files")->required();
+  auto* lint_cache_opt = lint->add_option("--cache", cache_dir, "Cache directory for pack lint (default: ./.kiln-cache)");
+  lint->add_flag("--no-cache", no_cache, "Do not read or write the cache")->excludes(lint_cache_opt);
   add_scene(lint);
   lint->add_option("--format", format, "Output: text, json or sarif")->check(CLI::IsMember({"text", "json", "sarif"}));
   lint->add_flag("--werror", werror, "Treat warnings as errors");
@@ -410,16 +415,23 @@ int main(int argc, char** argv) {
   if (*lint) {
     kiln::LintReport report;
     if (lint_inputs.size() == 1 && lint_inputs[0].ends_with(".json")) {
-      char temp[] = "/tmp/kiln-lint-XXXXXX";
-      if (!::mkdtemp(temp)) {
-        std::cerr << "kiln: error: cannot create a temporary directory\n";
+      // The pack is built into a scratch directory under $TMPDIR (temp_directory_path reads it).
+      std::error_code ec;
+      std::string temp = (std::filesystem::temp_directory_path(ec) / "kiln-lint-XXXXXX").string();
+      if (ec || !::mkdtemp(temp.data())) {
+        std::cerr << "kiln: error: cannot create a temporary directory under '"
+                  << std::filesystem::temp_directory_path(ec).string() << "'\n";
         return 1;
       }
       options.pack_file = lint_inputs[0];
       options.output_dir = temp;
-      options.cache_dir = std::filesystem::path(".kiln-cache");
+      if (!no_cache) options.cache_dir = cache_dir.empty() ? std::filesystem::path(".kiln-cache") : std::filesystem::path(cache_dir);
       report = kiln::lint_pack(options);
-      std::filesystem::remove_all(temp);
+      // A finding that names a file in the scratch directory (an internal compiler error's reproducer) keeps it.
+      const bool referenced = std::any_of(report.findings.begin(), report.findings.end(), [&](const kiln::LintFinding& f) {
+        return std::any_of(f.notes.begin(), f.notes.end(), [&](const std::string& note) { return note.find(temp) != std::string::npos; });
+      });
+      if (!referenced) std::filesystem::remove_all(temp, ec);
     } else {
       std::vector<std::filesystem::path> files(lint_inputs.begin(), lint_inputs.end());
       report = kiln::lint_files(files);

@@ -3,6 +3,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdlib>
+#include <filesystem>
+
 #include "test_support.hpp"
 
 namespace kiln {
@@ -180,6 +183,55 @@ TEST_F(Lint, SarifAndTextOutputsAndWerror) {
   EXPECT_EQ(text.err.substr(0, text.err.find('\n')),
             "S.hlsl:1:1: warning[unused-keyword]: keyword 'NEVER_READ' changes no compiled code of pass 'P': every variant "
             "with it is identical to the one without");
+}
+
+// A CI step runs `kiln lint ... --format sarif > kiln.sarif` and uploads the file: a missing input used to
+// leave it empty (CLI11 refused the path before any output). It is now a finding in the chosen format.
+TEST_F(Lint, AMissingInputIsAFindingInTheChosenFormat) {
+  auto sarif_run = testing::run_kiln({"lint", "missing.pack.json", "--format", "sarif"}, dir.path());
+  EXPECT_EQ(sarif_run.exit_code, 1);
+  json sarif = json::parse(sarif_run.out);
+  const json& results = sarif["runs"][0]["results"];
+  ASSERT_EQ(results.size(), 1u) << sarif_run.out;
+  EXPECT_EQ(results[0]["ruleId"], "build-error");
+  EXPECT_EQ(results[0]["level"], "error");
+  EXPECT_NE(results[0]["message"]["text"].get<std::string>().find("cannot open 'missing.pack.json'"), std::string::npos);
+  std::vector<std::string> ids = rules({"Missing.hlsl"});
+  EXPECT_EQ(ids, std::vector<std::string>{"build-error"});
+}
+
+// The scratch build goes under $TMPDIR, and a reproducer that a finding names is still there afterwards (lint
+// used to delete the directory it had just pointed the user to).
+TEST_F(Lint, ScratchIsUnderTmpdirAndAReproducerAFindingNamesIsKept) {
+  pack();
+  dir.write("S.hlsl", std::string(kVertex) + "float4 F(float4) : SV_Target { return 0; }\n");  // glslang 12 crashes
+  std::filesystem::create_directories(dir / "tmp");
+  ::setenv("TMPDIR", (dir / "tmp").c_str(), 1);
+  json report;
+  std::vector<std::string> ids = rules({"p.pack.json", "--no-cache"}, &report);
+  ::unsetenv("TMPDIR");
+  ASSERT_FALSE(report["findings"].empty());
+  std::string reproducer;
+  for (const json& f : report["findings"])
+    for (const json& note : f["notes"])
+      if (note.get<std::string>().starts_with("reproducer written to ")) reproducer = note.get<std::string>().substr(22);
+  ASSERT_FALSE(reproducer.empty()) << report.dump(1);
+  EXPECT_EQ(reproducer.rfind((dir / "tmp/kiln-lint-").string(), 0), 0u) << reproducer;
+  EXPECT_TRUE(std::filesystem::exists(reproducer)) << reproducer;
+}
+
+// Lint judges shaders: a cache that cannot be written is not a warning --werror fails on, and --no-cache
+// writes none.
+TEST_F(Lint, AnUnwritableCacheIsNotAFindingAndNoCacheWritesNone) {
+  pack();
+  dir.write("S.hlsl", std::string(kVertex) + "float4 F() : SV_Target { return 1.0; }\n");
+  dir.write("blocker", "a file where the cache directory would go\n");
+  auto blocked = testing::run_kiln({"lint", "p.pack.json", "--cache", "blocker", "--werror"}, dir.path());
+  EXPECT_EQ(blocked.exit_code, 0) << blocked.err;
+  EXPECT_EQ(blocked.err, "kiln lint: 0 error(s), 0 warning(s)\n");
+  auto uncached = testing::run_kiln({"lint", "p.pack.json", "--no-cache", "--werror"}, dir.path());
+  EXPECT_EQ(uncached.exit_code, 0) << uncached.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / ".kiln-cache"));
 }
 
 TEST(LintBundledLibrary, TheShaderLibraryIsLintClean) {

@@ -239,7 +239,9 @@ LintReport lint_pack(const BuildOptions& options) {
   DiagnosticSink sink;
   BuildReport build = build_pack(options, sink);
   for (const Diagnostic& d : sink.diagnostics()) {
-    if (d.severity == Severity::Note) continue;
+    // Lint judges the shaders, not the machine: a cache that cannot be written is not a finding (--werror
+    // failed on it alone).
+    if (d.severity == Severity::Note || d.id == DiagId::CacheUnwritable) continue;
     report.findings.push_back({rule_of(d.id), d.severity == Severity::Error ? Severity::Error : Severity::Warning,
                                d.location, d.message, d.notes});
   }
