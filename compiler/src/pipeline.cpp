@@ -327,7 +327,8 @@ std::optional<std::string> current_archive(const std::filesystem::path& director
   return archive_file;
 }
 
-// -j: worker processes, and the threads of the stages that run in kiln itself (preprocess, cache, pack).
+// -j: worker processes (preprocessing and compiling), and the threads of the stages that run in kiln itself
+// (cache, pack).
 unsigned parallelism(const BuildOptions& options) {
   return options.jobs ? options.jobs : std::max(1u, std::thread::hardware_concurrency());
 }
