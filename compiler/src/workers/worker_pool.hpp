@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "workers/compile_job.hpp"
+#include "workers/job_runner.hpp"
 
 namespace kiln {
 
@@ -21,13 +22,7 @@ struct WorkerLimits {
   std::string frontend{kDefaultFrontend};  // the front end the workers compile with (frontend_names())
 };
 
-struct WorkerOutcome {
-  enum class Kind { Done, Crashed, TimedOut, OutOfMemory, Failed } kind = Kind::Done;
-  JobOutput output;    // when Done
-  std::string detail;  // "killed by signal 11 (Segmentation fault)", ...
-};
-
-class WorkerPool {
+class WorkerPool final : public JobRunner {
  public:
   WorkerPool(std::filesystem::path executable, unsigned workers, WorkerLimits limits);
   ~WorkerPool();
@@ -36,8 +31,8 @@ class WorkerPool {
 
   // Runs every job; `on_done(index, outcome)` is called on this thread as each finishes. It may append
   // follow-up jobs to `jobs` (run next, in the same workers); `index` always indexes `jobs`.
-  void run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done);
-  unsigned spawned() const { return spawned_; }
+  void run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done) override;
+  unsigned spawned() const override { return spawned_; }
 
  private:
   struct Worker;

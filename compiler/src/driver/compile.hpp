@@ -1,0 +1,63 @@
+// Stages 5-7 (first half): compile the binaries the cache does not have, in two halves. Each stage source's
+// front end (glslang) runs once; its module is hashed, and the back end (legalize, validate, optimize, validate,
+// reflect, cross-compile) runs once per distinct module, so stage sources that differ only in code their entry
+// point never reaches (a fragment keyword's branch in a file the vertex stage also includes) share one. Both
+// halves are cached: the back end's result under the module's key, and under the source's key an alias to it
+// with the front end's warnings.
+//
+// The scheduler knows the workers only as a JobRunner: its tests run it with an in-process fake.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "cache/cache.hpp"
+#include "driver/messages.hpp"
+#include "driver/plan.hpp"
+#include "driver/settings.hpp"
+#include "driver/stage_sources.hpp"
+#include "workers/job_runner.hpp"
+
+namespace kiln {
+
+// A distinct front-end module and its back end's result.
+struct CompiledModule {
+  Hash128 key;
+  bool settled = false;                     // its back end has finished, or the cache had it
+  std::shared_ptr<const JobOutput> output;  // when settled and good
+  WorkerOutcome failure;                    // when settled and not good
+  bool fresh = false;                       // compiled in this build: cached once the build is known good
+  std::vector<size_t> waiting;              // binaries whose front end produced it, before it settled
+};
+
+// What the cache store needs of a compile: the fresh modules, and each binary's module and front-end warnings.
+struct CompileResults {
+  std::vector<CompiledModule> modules;
+  std::vector<std::optional<Hash128>> module_of;              // per binary: its module's key, when known
+  std::vector<std::vector<FrontendMessage>> front_messages;  // per binary, when its front end ran now
+  std::vector<bool> front_end_ran;                            // per binary
+};
+
+struct CompileServices {
+  JobRunner& runner;
+  Cache* cache = nullptr;  // nothing: no cache
+  Preprocessor& preprocessor;  // for cache misses known only through a memo
+};
+
+// Fills each binary's output (a shared, settled module's), or reports why it has none: compile errors are
+// grouped into `messages`, worker deaths are internal compiler errors with a reproducer in <output>/kiln-ice.
+CompileResults compile_binaries(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
+                                StageSources& sources, std::vector<Binary>& binaries, CompileServices services,
+                                const SourceLocator& locator, MessageGroups& messages, DiagnosticSink& sink,
+                                BuildReport& report);
+
+// Stores this build's results in the cache (back ends under their module's key, aliases under each source's key,
+// preprocessing memos) and commits them as one segment, unless the input had errors: a build with errors in the
+// user's input leaves no cache entry behind. Internal compiler errors are not the input's fault: the other
+// variants' results are kept, so the next build only retries those.
+void store_in_cache(Cache& cache, bool memos, const CompileResults& results, const StageSources& sources,
+                    const std::vector<Binary>& binaries, bool user_errors, unsigned threads, DiagnosticSink& sink,
+                    BuildReport& report);
+
+}  // namespace kiln

@@ -1,0 +1,47 @@
+#include "driver/emit.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include "common/files.hpp"
+#include "driver/stage_timer.hpp"
+#include "optimize/spirv_tools.hpp"
+#include "pack/blob.hpp"
+
+namespace kiln {
+
+void emit_dumps(const Plan& plan, const StageSources& sources, const std::vector<Binary>& binaries,
+                const BuildOptions& options, DiagnosticSink& sink, BuildReport& report) {
+  if (options.emit.empty()) return;
+  StageTimer timer(report, "emit");
+  const std::filesystem::path root = options.output_dir / "emit";
+  auto put = [&](const std::filesystem::path& path, const std::string& bytes) {
+    std::error_code ec;
+    std::filesystem::create_directories(path.parent_path(), ec);
+    if (std::string error = write_file_atomic(path, bytes); !error.empty())
+      sink.report(DiagId::OutputUnwritable, SourceLocation{path.string(), 0, 0}, error);
+  };
+  if (options.emit.count("variants")) {
+    nlohmann::json listing = nlohmann::json::array();
+    for (uint32_t p = 0; p < plan.passes.size(); ++p)
+      for (const Variant& v : plan.expansions[p].variants)
+        listing.push_back({{"pass", plan.pack.passes[p].name}, {"keywords", enabled_keywords(plan.passes[p].groups, v)}});
+    put(root / "variants.json", listing.dump(2) + "\n");
+  }
+  for (const StageSource& s : sources.list) {
+    const std::filesystem::path base =
+        root / plan.pack.passes[s.pass].name / std::string(stage_name(s.stage)) / keywords_slug(s.defines);
+    if (options.emit.count("preprocessed") && s.preprocessed && s.ok) put(base.string() + ".hlsl", s.text);
+    if (s.binary < 0 || !binaries[static_cast<size_t>(s.binary)].output) continue;  // did not compile
+    const JobOutput& out = *binaries[static_cast<size_t>(s.binary)].output;
+    auto put_blob = [&](const char* stage, Target target, const char* extension) {
+      if (options.emit.count(stage) && out.blobs.count(target)) put(base.string() + extension, unpack_blob(out.blobs.at(target)));
+    };
+    if (options.emit.count("spvasm")) put(base.string() + ".spvasm", disassemble_spirv(unpack_spirv(out.blobs.at(Target::Spirv))));
+    put_blob("glsl", Target::Glsl, ".glsl");
+    put_blob("glsl", Target::Gles, ".es.glsl");
+    put_blob("msl", Target::Msl, ".metal");
+    if (options.emit.count("reflection")) put(base.string() + ".reflection.json", out.reflection.dump(2) + "\n");
+  }
+}
+
+}  // namespace kiln

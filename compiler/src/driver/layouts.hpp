@@ -1,0 +1,19 @@
+// Stage 7 (second half): every variant and stage of a pass must agree on its resource layout.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "driver/plan.hpp"
+#include "driver/stage_sources.hpp"
+
+namespace kiln {
+
+// Each pass's merged layout; nothing when a pass's binaries disagree (reported).
+std::optional<std::vector<nlohmann::json>> check_pass_layouts(const Plan& plan, const StageSources& sources,
+                                                              const std::vector<Binary>& binaries, DiagnosticSink& sink,
+                                                              BuildReport& report);
+
+}  // namespace kiln

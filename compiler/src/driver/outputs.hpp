@@ -1,0 +1,32 @@
+// The build's files besides the pack: the output directory, the stamp that makes a no-change build a no-op,
+// and the depfile a build tool reads.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "kiln/diagnostics.hpp"
+
+namespace kiln {
+
+// Creates the output directory; false (reported) when it cannot be written, before any work is spent.
+[[nodiscard]] bool prepare_output_directory(const std::filesystem::path& directory, DiagnosticSink& sink);
+
+// The pack's archive file name when the pack in `directory` is the one the stamp was written with, for these
+// inputs; nothing when it must be built.
+std::optional<std::string> current_archive(const std::filesystem::path& directory, const std::string& name,
+                                           const std::string& inputs_hash);
+
+// The stamp (<name>.stamp) records the inputs hash, the size and mtime of the manifest, and the name, size and
+// mtime of the archive it was written with: a no-change rebuild compares a few numbers instead of re-reading a
+// large pack. Empty, or what went wrong.
+[[nodiscard]] std::string write_stamp(const std::filesystem::path& directory, const std::string& name,
+                                      const std::string& archive_file, const std::string& inputs_hash);
+
+// A Makefile-syntax depfile: the manifest depends on every input read. False (reported) when it cannot be written.
+bool write_depfile(const std::filesystem::path& depfile, const std::filesystem::path& manifest,
+                   const std::vector<std::filesystem::path>& dependencies, DiagnosticSink& sink);
+
+}  // namespace kiln

@@ -1,0 +1,86 @@
+// Stages 0-3: definitions, declarations, expansion, stripping.
+#include "driver/plan.hpp"
+
+#include "driver/stage_timer.hpp"
+
+namespace kiln {
+
+std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sink, BuildReport& report) {
+  auto plan = std::make_unique<Plan>();
+  ReadLimits limits{options.max_file_bytes};
+  {
+    StageTimer timer(report, "load");
+    auto pack = load_pack_definition(options.pack_file, limits, sink);
+    bool ok = pack.has_value();
+    for (const auto& file : options.scene_files) {
+      auto scene = load_scene_profile(file, limits, sink);
+      if (scene) plan->scenes.push_back(std::move(*scene));
+      else ok = false;
+    }
+    if (!ok) return nullptr;
+    plan->pack = std::move(*pack);
+    for (SceneProfile& scene : plan->scenes)
+      ok = resolve_scene_profile(scene, plan->pack.scene_features_json, plan->pack.materials, sink) && ok;
+    if (!ok) return nullptr;
+  }
+  {
+    StageTimer timer(report, "declarations");
+    std::vector<std::filesystem::path> roots = plan->pack.include_dirs;
+    for (const PassDefinition& pass : plan->pack.passes) roots.push_back(pass.source.parent_path());
+    plan->roots = std::make_unique<IncludeRoots>(roots);
+    bool ok = true;
+    for (const PassDefinition& pass : plan->pack.passes) {
+      std::error_code ec;
+      if (!std::filesystem::exists(pass.source, ec)) {
+        sink.report(DiagId::FileUnreadable, pass.defined_at,
+                    "pass '" + pass.name + "': source file '" + pass.source.string() + "' does not exist");
+        ok = false;
+        continue;
+      }
+      auto declarations = scan_declarations(pass.source, *plan->roots, limits, plan->sources, sink);
+      if (!declarations) {
+        ok = false;
+        continue;
+      }
+      plan->passes.push_back(PassKeywords{&pass, declarations->groups});
+      plan->declarations.push_back(std::move(*declarations));
+    }
+    if (!ok) return nullptr;
+  }
+  {
+    StageTimer timer(report, "expand+strip");
+    if (!check_rule_keywords(plan->passes, plan->pack, plan->scenes, sink)) return nullptr;
+    StripRules rules{&plan->pack.constraints, &plan->scenes, &plan->pack.materials};
+    auto expansions = expand_and_strip(plan->passes, rules, plan->pack.budget, plan->pack, sink);
+    if (!expansions) return nullptr;
+    plan->expansions = std::move(*expansions);
+    for (size_t p = 0; p < plan->expansions.size(); ++p) {
+      const PassExpansion& e = plan->expansions[p];
+      const std::string& pass = plan->pack.passes[p].name;
+      for (const auto& effect : e.strip.constraints) {
+        const Constraint& c = *effect.constraint;
+        std::string rule = "constraint " + c.keyword;
+        if (!c.requires_all.empty()) rule += " requires [" + join_keywords(c.requires_all) + "]";
+        if (!c.requires_any.empty()) rule += " requires_any [" + join_keywords(c.requires_any) + "]";
+        if (!c.excludes.empty()) rule += " excludes [" + join_keywords(c.excludes) + "]";
+        plan->strip.push_back({pass, rule, "-" + effect.removed.text(), c.reason});
+      }
+      if (!plan->pack.materials.empty() && (e.valid.saturated || e.strip.after_materials.value != e.valid.value))
+        plan->strip.push_back({pass, "materials (" + std::to_string(plan->pack.materials.size()) + " presets)",
+                               e.valid.text() + " -> " + e.strip.after_materials.text(),
+                               "shader_feature combinations no material uses"});
+      if (!plan->scenes.empty())
+        plan->strip.push_back({pass, "scenes (" + std::to_string(plan->scenes.size()) + ")",
+                               e.strip.after_materials.text() + " -> " + e.kept.text(), "keywords no scene enables"});
+    }
+    for (const PassExpansion& e : plan->expansions) {
+      plan->funnel.declared_saturated |= e.declared.saturated;
+      plan->funnel.declared += e.declared.value;
+      plan->funnel.valid += e.valid.value;
+      plan->funnel.kept += e.kept.value;
+    }
+  }
+  return plan;
+}
+
+}  // namespace kiln

@@ -1,0 +1,35 @@
+// Stages 0-3, shared by `kiln build`, `kiln list` and `kiln lint`: load the pack definition and scene profiles,
+// scan each pass's declarations, expand the permutations and strip them.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "declarations/declarations.hpp"
+#include "definition/definition.hpp"
+#include "kiln/build.hpp"
+#include "permutations/permutations.hpp"
+#include "preprocess/include_resolver.hpp"
+
+namespace kiln {
+
+struct Plan {
+  PackDefinition pack;
+  std::vector<SceneProfile> scenes;
+  SourceSet sources;  // every file read, the build's one snapshot of each
+  std::unique_ptr<IncludeRoots> roots;
+  std::vector<PassDeclarations> declarations;  // per pass
+  std::vector<PassKeywords> passes;            // per pass
+  std::vector<PassExpansion> expansions;       // per pass: the variants kept
+  std::vector<StripLine> strip;
+  Funnel funnel;
+
+  const std::string& entry_point(uint32_t pass, Stage stage) const {
+    return pack.passes[pass].entry_points[static_cast<size_t>(stage)];
+  }
+};
+
+// Nothing when an input is wrong (reported to `sink`). Stage times go to `report`.
+std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sink, BuildReport& report);
+
+}  // namespace kiln

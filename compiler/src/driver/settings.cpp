@@ -1,0 +1,47 @@
+#include "driver/settings.hpp"
+
+#include <algorithm>
+
+#include "cross/cross_compile.hpp"
+#include "kiln/pack_format.hpp"
+#include "optimize/spirv_tools.hpp"
+#include "workers/compile_job.hpp"
+
+namespace kiln {
+
+Hasher& BuildSettings::add_compile_options(Hasher& hasher, Stage stage, const std::string& entry_point) const {
+  return hasher.add(fingerprint).add(optimize ? 1 : 0).add(target_names).add(stage_name(stage)).add(entry_point);
+}
+
+std::optional<BuildSettings> choose_settings(const BuildOptions& options, const Plan& plan, DiagnosticSink& sink) {
+  BuildSettings settings;
+  settings.frontend = make_frontend(options.frontend);
+  if (!settings.frontend) {
+    std::string known;
+    for (const std::string& name : frontend_names()) known += (known.empty() ? "" : ", ") + name;
+    sink.report(DiagId::UnknownFrontend, SourceLocation{options.pack_file.string(), 0, 0},
+                "no front end named '" + options.frontend + "' (kiln has: " + known + ")");
+    return std::nullopt;
+  }
+  settings.fingerprint = std::string("kiln ") + kKilnVersion + " (compile job revision " + std::to_string(kCompileJobRevision) +
+                         "); " + settings.frontend->name() + " " + settings.frontend->version() + "; " +
+                         spirv_tools_version() + "; SPIRV-Cross " + spirv_cross_version();
+  settings.targets = options.targets.empty() ? plan.pack.targets : options.targets;
+  if (std::find(settings.targets.begin(), settings.targets.end(), Target::Spirv) == settings.targets.end())
+    settings.targets.insert(settings.targets.begin(), Target::Spirv);
+  std::sort(settings.targets.begin(), settings.targets.end());
+  for (Target t : settings.targets) settings.target_names += std::string(target_name(t)) + ",";
+  settings.optimize = options.optimize;
+  return settings;
+}
+
+std::string hash_inputs(const BuildSettings& settings, const Plan& plan) {
+  Hasher inputs;
+  inputs.add(uint64_t{kPackFormatVersion});
+  inputs.add(settings.fingerprint).add(settings.optimize ? 1 : 0).add(settings.target_names).add(plan.pack.text);
+  for (const SceneProfile& scene : plan.scenes) inputs.add(scene.text);
+  for (const auto& [path, file] : plan.sources.files) inputs.add(path.string()).add(file.text);
+  return inputs.finish().hex();
+}
+
+}  // namespace kiln

@@ -1,0 +1,201 @@
+#include "driver/stage_sources.hpp"
+
+#include <algorithm>
+#include <tuple>
+
+#include "common/files.hpp"
+#include "driver/stage_timer.hpp"
+
+namespace kiln {
+namespace {
+
+Hash128 source_key(const Plan& plan, const BuildSettings& settings, const StageSource& s) {
+  Hasher key;
+  return settings.add_compile_options(key, s.stage, plan.entry_point(s.pass, s.stage)).add(s.text).finish();
+}
+
+StageSources enumerate(const Plan& plan, BuildReport& report) {
+  StageSources out;
+  std::map<std::tuple<uint32_t, Stage, std::vector<std::string>>, size_t> index;
+  out.variant_source.resize(plan.passes.size());
+  for (uint32_t p = 0; p < plan.passes.size(); ++p) {
+    const auto& variants = plan.expansions[p].variants;
+    out.variant_source[p].resize(variants.size());
+    for (size_t v = 0; v < variants.size(); ++v) {
+      for (Stage s : kAllStages) {
+        int& slot = out.variant_source[p][v][static_cast<size_t>(s)];
+        slot = -1;
+        if (plan.entry_point(p, s).empty()) continue;
+        ++report.funnel.stage_instances;
+        auto defines = enabled_keywords(plan.passes[p].groups, variants[v], s);
+        auto [it, inserted] = index.emplace(std::make_tuple(p, s, defines), out.list.size());
+        if (inserted) out.list.push_back(StageSource{p, s, defines, v});
+        slot = static_cast<int>(it->second);
+      }
+    }
+  }
+  return out;
+}
+
+// A stage source whose memo is in the cache, with every file it read unchanged, is not preprocessed: its key
+// comes from the memo, and its text is made only if the cache does not have its result. The memo key covers
+// the versions, options, stage, entry point, defines, working directory (names in #line) and the list of every
+// file the scan found (a new file could change what an #include finds).
+void use_memos(StageSources& sources, const Plan& plan, const BuildSettings& settings, Cache& cache, BuildReport& report) {
+  Hasher listing;
+  std::error_code cwd_error;
+  listing.add(std::filesystem::current_path(cwd_error).string());
+  for (const auto& [path, file] : plan.sources.files) {
+    listing.add(path.string());
+    sources.file_hashes[display_path(path)] = hash64(file.text);
+  }
+  const std::string files_listed = listing.finish().hex();
+  for (StageSource& s : sources.list) {
+    Hasher memo;
+    settings.add_compile_options(memo.add("preprocess"), s.stage, plan.entry_point(s.pass, s.stage))
+        .add(display_path(plan.declarations[s.pass].entry))
+        .add(files_listed);
+    for (const std::string& define : s.defines) memo.add(define);
+    s.memo = memo.finish();
+    bool rejected = false;
+    std::optional<PreprocessMemo> known = cache.load_memo(s.memo, [&](const PreprocessMemo& candidate) {
+      return !candidate.files.empty() && std::all_of(candidate.files.begin(), candidate.files.end(), [&](const auto& file) {
+               auto it = sources.file_hashes.find(file.first);
+               return it != sources.file_hashes.end() && it->second == file.second;
+             });
+    }, rejected);
+    if (rejected) ++report.cache_rejected;
+    if (!known) continue;
+    s.ok = true;
+    s.key = known->source_key;
+    ++report.preprocess_memo_hits;
+  }
+}
+
+}  // namespace
+
+std::string variant_description(const Plan& plan, const StageSource& s) {
+  return variant_description(plan, s.pass, s.stage, s.defines);
+}
+
+std::string keywords_slug(const std::vector<std::string>& keywords) {
+  if (keywords.empty()) return "_";
+  std::string out;
+  for (const std::string& k : keywords) out += (out.empty() ? "" : "+") + k;
+  return out;
+}
+
+Preprocessor::Preprocessor(const Plan& plan, const BuildSettings& settings, JobRunner& runner, const BuildOptions& options)
+    : plan_(plan), settings_(settings), runner_(runner), options_(options), pass_files_(plan.passes.size()) {}
+
+std::shared_ptr<const std::vector<IncludableFile>> Preprocessor::files_of(uint32_t pass) {
+  if (!pass_files_[pass]) {
+    auto files = std::make_shared<std::vector<IncludableFile>>();
+    for (const std::filesystem::path& path : plan_.declarations[pass].files) {
+      const SourceFile* file = plan_.sources.find(path);
+      if (!file) continue;
+      IncludableFile served{display_path(path), file->text, file->pragma_once, {}};
+      for (const auto& [name, target] : file->includes) served.includes.emplace(name, display_path(target));
+      files->push_back(std::move(served));
+    }
+    pass_files_[pass] = std::move(files);
+  }
+  return pass_files_[pass];
+}
+
+void Preprocessor::run(StageSources& sources, const std::vector<size_t>& which) {
+  if (which.empty()) return;
+  std::vector<CompileJob> jobs(which.size());
+  for (size_t w = 0; w < which.size(); ++w) {
+    const StageSource& s = sources.list[which[w]];
+    jobs[w].id = which[w];
+    jobs[w].kind = JobKind::Preprocess;
+    jobs[w].stage = s.stage;
+    jobs[w].files = files_of(s.pass);
+    jobs[w].defines = s.defines;
+  }
+  runner_.run(jobs, [&](size_t j, WorkerOutcome outcome) {
+    StageSource& s = sources.list[which[j]];
+    const std::string entry_name = display_path(plan_.declarations[s.pass].entry);
+    s.preprocessed = true;
+    s.ok = false;
+    if (outcome.kind == WorkerOutcome::Kind::Done && outcome.output.failed_step == "internal") {
+      s.internal_error = "threw an exception (" +
+                         (outcome.output.messages.empty() ? std::string("no message") : outcome.output.messages[0].text) + ")";
+    } else if (outcome.kind == WorkerOutcome::Kind::Done) {
+      s.ok = outcome.output.ok;
+      s.text = std::move(outcome.output.preprocessed);
+      s.messages = std::move(outcome.output.messages);
+      s.files_read = std::move(outcome.output.files_read);
+      if (s.ok) s.key = source_key(plan_, settings_, s);
+    } else if (outcome.kind == WorkerOutcome::Kind::OutOfMemory) {
+      s.messages = {{Severity::Error, entry_name, 0,
+                     "preprocessing needed more than the compiler worker's " + std::to_string(options_.worker_memory_limit_mb) +
+                         " MiB (a macro that expands exponentially?)"}};
+    } else if (outcome.kind == WorkerOutcome::Kind::TimedOut) {
+      s.messages = {{Severity::Error, entry_name, 0,
+                     "preprocessing took longer than the compiler worker's " +
+                         std::to_string(options_.worker_timeout.count() / 1000) + " s (a macro that expands exponentially?)"}};
+    } else {
+      s.internal_error = outcome.detail;  // the preprocessor crashed: a bug in it, not in the shader
+    }
+    std::vector<std::string>().swap(jobs[j].defines);
+  });
+}
+
+StageSources prepare_stage_sources(const Plan& plan, const BuildSettings& settings, Cache* memo_cache,
+                                   Preprocessor& preprocessor, BuildReport& report) {
+  StageTimer timer(report, "preprocess");
+  StageSources sources = enumerate(plan, report);
+  if (memo_cache) use_memos(sources, plan, settings, *memo_cache, report);
+  std::vector<size_t> pending;
+  for (size_t i = 0; i < sources.list.size(); ++i)
+    if (!sources.list[i].key) pending.push_back(i);
+  preprocessor.run(sources, pending);
+  report.funnel.unique_preprocessed = sources.list.size();
+  return sources;
+}
+
+void report_preprocess_failure(const StageSource& s, size_t order, const Plan& plan, const SourceLocator& locator,
+                               MessageGroups& messages, DiagnosticSink& sink, BuildReport& report) {
+  const std::string entry_name = display_path(plan.declarations[s.pass].entry);
+  if (!s.internal_error.empty()) {
+    report.internal_errors = true;
+    sink.report(DiagId::InternalCompilerError, SourceLocation{entry_name, 0, 0},
+                "internal compiler error: the compiler worker " + s.internal_error + " while preprocessing " +
+                    variant_description(plan, s),
+                {"this is a bug in the compiler, not in your shader"});
+    return;
+  }
+  auto first = std::find_if(s.messages.begin(), s.messages.end(),
+                            [](const FrontendMessage& m) { return m.severity == Severity::Error; });
+  if (first == s.messages.end())  // failed without saying why: still an error, never a silently missing variant
+    messages.collect(DiagId::PreprocessorError, SourceLocation{entry_name, 0, 0}, "preprocessing failed",
+                     variant_description(plan, s), order);
+  else
+    messages.collect(DiagId::PreprocessorError, locator.located(*first, entry_name), first->text, variant_description(plan, s),
+                     order);
+}
+
+std::vector<Binary> dedupe_stage_sources(StageSources& sources, const Plan& plan, const SourceLocator& locator,
+                                         MessageGroups& messages, DiagnosticSink& sink, BuildReport& report) {
+  StageTimer timer(report, "dedupe");
+  std::vector<Binary> binaries;
+  std::map<Hash128, size_t> by_key;
+  for (size_t i = 0; i < sources.list.size(); ++i) {
+    StageSource& s = sources.list[i];
+    if (!s.ok) {
+      report_preprocess_failure(s, i, plan, locator, messages, sink, report);
+      continue;
+    }
+    const Hash128 key = *s.key;
+    auto [it, inserted] = by_key.emplace(key, binaries.size());
+    if (inserted) binaries.push_back(Binary{key, s.stage, plan.entry_point(s.pass, s.stage), i, {}, nullptr});
+    binaries[it->second].sources.push_back(i);
+    s.binary = static_cast<int>(it->second);
+  }
+  report.funnel.unique_compiles = binaries.size();
+  return binaries;
+}
+
+}  // namespace kiln

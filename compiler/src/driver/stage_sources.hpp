@@ -1,0 +1,93 @@
+// Stage 4: the stage sources of a build. One per (pass, stage, keywords the stage sees), preprocessed once
+// however many variants share it (in the compiler workers, under their limits), or not at all when a
+// preprocessing memo in the cache says what it would give; then deduplicated by content into binaries, the
+// unit the compile stage works on.
+#pragma once
+
+#include <array>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "cache/cache.hpp"
+#include "common/hash.hpp"
+#include "driver/messages.hpp"
+#include "driver/plan.hpp"
+#include "driver/settings.hpp"
+#include "workers/job_runner.hpp"
+
+namespace kiln {
+
+struct StageSource {
+  uint32_t pass = 0;
+  Stage stage = Stage::Vertex;
+  std::vector<std::string> defines;  // the keywords the stage sees
+  size_t first_variant = 0;          // for messages
+  bool ok = false;
+  bool preprocessed = false;  // text holds the preprocessed source (not only known through a memo)
+  std::string text;
+  std::vector<FrontendMessage> messages;
+  int binary = -1;
+  std::optional<Hash128> key;           // the source's cache key: from the text, or from a memo
+  Hash128 memo;                         // where its preprocessing memo is cached
+  std::vector<std::string> files_read;  // display names, when preprocessed in this build
+  std::string internal_error;           // the worker preprocessing it crashed: how
+};
+
+struct StageSources {
+  std::vector<StageSource> list;
+  // variant_source[pass][variant][stage]: index into `list`, or -1 when the pass has no such stage.
+  std::vector<std::vector<std::array<int, kStageCount>>> variant_source;
+  std::map<std::string, uint64_t> file_hashes;  // display name -> XXH3 of the text, for preprocessing memos
+};
+
+// One distinct preprocessed source (with its stage and entry point): one front end, one compile.
+struct Binary {
+  Hash128 key;
+  Stage stage = Stage::Vertex;
+  std::string entry_point;
+  size_t source = 0;  // a StageSource that produced it
+  std::vector<size_t> sources;
+  std::shared_ptr<const JobOutput> output;  // shared by every binary whose front end gave the same module
+};
+
+std::string variant_description(const Plan& plan, const StageSource& source);
+
+// A file name for a set of keywords: "_FOG+_SHADOWS", "_" for none (--emit dumps, reproducers).
+std::string keywords_slug(const std::vector<std::string>& keywords);
+
+// Runs Preprocess jobs: each pass's files travel with its jobs (the worker never reads the file system).
+class Preprocessor {
+ public:
+  Preprocessor(const Plan& plan, const BuildSettings& settings, JobRunner& runner, const BuildOptions& options);
+  // Preprocesses `which` (indexes into sources.list); sets text, messages, files read and key of each.
+  void run(StageSources& sources, const std::vector<size_t>& which);
+
+ private:
+  std::shared_ptr<const std::vector<IncludableFile>> files_of(uint32_t pass);
+
+  const Plan& plan_;
+  const BuildSettings& settings_;
+  JobRunner& runner_;
+  const BuildOptions& options_;
+  std::vector<std::shared_ptr<const std::vector<IncludableFile>>> pass_files_;
+};
+
+// Enumerates the stage sources of every variant, takes what the cache's memos know, and preprocesses the rest.
+// `cache`: nothing, or the cache whose memos to use (not with --emit preprocessed: its text is wanted).
+StageSources prepare_stage_sources(const Plan& plan, const BuildSettings& settings, Cache* memo_cache,
+                                   Preprocessor& preprocessor, BuildReport& report);
+
+// Reports why a stage source did not preprocess: its first error only (after one, glslang's preprocessor stops,
+// and what it reports next, like "missing #endif" after an #error, cascades from it); a crash is an internal
+// compiler error.
+void report_preprocess_failure(const StageSource& source, size_t order, const Plan& plan, const SourceLocator& locator,
+                               MessageGroups& messages, DiagnosticSink& sink, BuildReport& report);
+
+// Deduplicates the preprocessed sources by key into binaries; reports those that did not preprocess.
+std::vector<Binary> dedupe_stage_sources(StageSources& sources, const Plan& plan, const SourceLocator& locator,
+                                         MessageGroups& messages, DiagnosticSink& sink, BuildReport& report);
+
+}  // namespace kiln

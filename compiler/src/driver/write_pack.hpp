@@ -1,0 +1,23 @@
+// Stage 8: the pack. The archive (named by its content), the manifest (whose rename switches packs), then the
+// stamp that lets the next build with the same inputs skip everything.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "driver/plan.hpp"
+#include "driver/settings.hpp"
+#include "driver/stage_sources.hpp"
+
+namespace kiln {
+
+// False when a file could not be written (reported). Binaries and blobs are numbered in (pass, variant, stage)
+// order: the same bytes for any -j.
+[[nodiscard]] bool write_variant_pack(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
+                                      const StageSources& sources, const std::vector<Binary>& binaries,
+                                      const std::vector<nlohmann::json>& layouts, const std::string& inputs_hash,
+                                      DiagnosticSink& sink, BuildReport& report);
+
+}  // namespace kiln
