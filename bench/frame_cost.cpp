@@ -16,9 +16,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "render/golden.hpp"
+#include "golden/golden.hpp"
 #include "render/renderer.hpp"
-#include "scene_reference.hpp"
+#include "golden/scene_inputs.hpp"
+#include "reference/scene_reference.hpp"
 
 namespace {
 

@@ -243,7 +243,7 @@ def study_section(w, st):
     w("")
     w(f"Every term below was compiled by kiln's front end and SPIRV-Tools (`tests/gpu/Probe.hlsl`, one `TERM_*` per")
     w(f"probe) and **run on {st['device']}** over a dense grid; its output was read back and compared with the")
-    w("double-precision CPU reference (`tests/reference`): the exact formula, or Monte-Carlo ground truth for the")
+    w("double-precision CPU reference (`verify/reference`): the exact formula, or Monte-Carlo ground truth for the")
     w("environment BRDF and the white furnace. fp16 rows are explicit 16-bit variants (`_HALF_PRECISION`), measured")
     w("where roughness >= 0.089 (below it they clamp to a different lobe by design).")
     w("")

@@ -2,7 +2,7 @@
 //
 // Error: each term is compiled by kiln's front end and SPIRV-Tools (tests/gpu/Probe.hlsl, PROBE_TERM) and run
 // on lavapipe over a dense grid; its GPU output is compared with the double-precision CPU reference
-// (tests/reference): the exact formula, or the Monte-Carlo ground truth (DFG integrals, directional albedo).
+// (verify/reference): the exact formula, or the Monte-Carlo ground truth (DFG integrals, directional albedo).
 // Cost: weighted instruction count of the optimized SPIR-V (primary; weights in lavapipe.hpp) minus the
 // empty probe's; lavapipe wall time as a secondary axis with its spread.
 //
@@ -19,8 +19,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "lavapipe.hpp"
-#include "reference.hpp"
+#include "probe/lavapipe.hpp"
+#include "reference/reference.hpp"
 #include "reflect/reflect.hpp"
 
 namespace ref = kiln::reference;

@@ -4,7 +4,10 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <iostream>
 #include <optional>
 #include <sstream>
@@ -16,8 +19,6 @@
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
 #include "lint/lint.hpp"
-#include "render/golden.hpp"
-#include "render/backend.hpp"
 #include "tools/pack_tools.hpp"
 
 namespace {
@@ -63,70 +64,37 @@ void print_summary(const kiln::BuildReport& r, std::ostream& out) {
   out << "\n";
 }
 
-std::vector<std::string> split_words(const std::string& text) {
-  std::vector<std::string> words;
-  std::istringstream in(text);
-  for (std::string w; in >> w;) words.push_back(w);
-  return words;
-}
+// Rendering and golden tests: verbs of kiln-verify, found like kiln-worker ($KILN_VERIFY, next to kiln, then
+// ../libexec/kiln, then the build tree).
+const std::pair<const char*, const char*> kVerifyVerbs[] = {
+    {"render", "Render a scene with one Forward variant of a pack (lavapipe or llvmpipe GL; runs kiln-verify)"},
+    {"test", "Render every Forward variant and compare it with its CPU-reference golden (runs kiln-verify)"},
+};
 
-int run_render(const std::string& pack_dir, const std::string& keywords, const std::string& scene_file,
-               const std::string& png_out, const std::string& exr_out, const std::string& size_text,
-               const std::string& api) {
-  try {
-    uint32_t width = 0, height = 0;
-    if (!size_text.empty() && std::sscanf(size_text.c_str(), "%ux%u", &width, &height) != 2) {
-      std::cerr << "kiln render: error: --size wants WxH, e.g. 256x256 (got '" << size_text << "')\n";
-      return 1;
-    }
-    kiln::PackReader pack = kiln::PackReader::open(pack_dir);
-    kiln::render::Scene scene = kiln::render::load_scene(scene_file);
-    auto renderer = kiln::render::Backend::open(kiln::render::parse_api(api), pack, scene, width, height);
-    kiln::SelectedVariant variant = pack.select("Forward", split_words(keywords));
-    auto start = std::chrono::steady_clock::now();
-    kiln::render::Image image = renderer->render(variant);
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    bool linear = std::find(variant.keywords.begin(), variant.keywords.end(), "_LINEAR_OUTPUT") != variant.keywords.end();
-    kiln::render::write_png(png_out, image.width, image.height, kiln::render::encode_srgb8(image, linear));
-    if (!exr_out.empty()) {
-      // .kimg: kiln's raw float image (render/image.hpp), read by tests without an EXR library.
-      if (exr_out.ends_with(".kimg")) kiln::render::write_kimg(exr_out, image);
-      else kiln::render::write_exr(exr_out, image);
-    }
-    std::cout << "kiln render: " << png_out << " (" << image.width << "x" << image.height << ", variant "
-              << kiln::render::variant_name(variant.keywords) << ", " << renderer->device() << ", " << format_ms(ms)
-              << " including shader compilation)\n";
-    return 0;
-  } catch (const std::exception& e) {
-    std::cerr << e.what() << "\n";
+int run_verify(int argc, char** argv) {
+  std::vector<std::filesystem::path> candidates;
+  if (const char* env = std::getenv("KILN_VERIFY"); env && *env) candidates.emplace_back(env);
+  std::error_code ec;
+  if (auto self = std::filesystem::read_symlink("/proc/self/exe", ec); !ec) {
+    candidates.push_back(self.parent_path() / "kiln-verify");
+    candidates.push_back(self.parent_path().parent_path() / "libexec" / "kiln" / "kiln-verify");
+  }
+#ifdef KILN_BUILD_VERIFY_PATH
+  candidates.emplace_back(KILN_BUILD_VERIFY_PATH);
+#endif
+  for (const std::filesystem::path& candidate : candidates) {
+    if (::access(candidate.c_str(), X_OK) != 0) continue;
+    std::vector<char*> args(argv, argv + argc);
+    std::string program = candidate.string();
+    args[0] = program.data();
+    args.push_back(nullptr);
+    ::execv(program.c_str(), args.data());
+    std::cerr << "kiln: error: cannot run " << program << ": " << std::strerror(errno) << "\n";
     return 1;
   }
-}
-
-int run_test(const std::string& pack_dir, const std::string& scene_file, const std::string& golden_dir,
-             const std::string& tolerances, const std::string& report_dir, const std::string& filter,
-             const std::string& shard, const std::string& api, const std::string& against) {
-  kiln::render::GoldenTestOptions options;
-  options.pack_dir = pack_dir;
-  options.scene = scene_file;
-  options.golden_dir = golden_dir;
-  options.tolerances = tolerances;
-  options.report_dir = report_dir;
-  options.filter = filter;
-  options.api = api;
-  options.against = against;
-  if (!shard.empty() && (std::sscanf(shard.c_str(), "%u/%u", &options.shard_index, &options.shard_count) != 2 ||
-                         options.shard_count == 0 || options.shard_index >= options.shard_count)) {
-    std::cerr << "kiln test: error: --shard wants I/N with I < N (got '" << shard << "')\n";
-    return 1;
-  }
-  try {
-    kiln::render::GoldenTestSummary summary = kiln::render::run_golden_test(options, std::cout);
-    return summary.ok() ? 0 : 1;
-  } catch (const std::exception& e) {
-    std::cerr << e.what() << "\n";
-    return 1;
-  }
+  std::cerr << "kiln: error: 'kiln " << argv[1] << "' runs kiln-verify, which this installation does not have "
+            << "(configure kiln with -DKILN_BUILD_VERIFY=ON, or set KILN_VERIFY to its path)\n";
+  return 1;
 }
 
 int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cache_dir, bool quiet) {
@@ -277,6 +245,8 @@ int run_diff_packs(const std::string& a, const std::string& b, bool as_json) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  for (const auto& [verb, description] : kVerifyVerbs)
+    if (argc > 1 && std::strcmp(argv[1], verb) == 0) return run_verify(argc, argv);
   CLI::App app{"kiln: shader permutation compiler (HLSL -> SPIR-V, GLSL, GLSL ES, MSL variant packs)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("kiln ") + kiln::kKilnVersion + "\nallocator: " + kiln::allocator_description());
@@ -350,30 +320,9 @@ int main(int argc, char** argv) {
   diff->add_option("b", other_dir, "The new pack")->required();
   diff->add_flag("--json", as_json, "Print JSON");
 
-  std::string variant_keywords, png_out, exr_out, size_text, golden_dir, tolerances, report_dir, filter, shard;
-  std::string api = "vulkan";
-  const char* api_help = "vulkan (SPIR-V on lavapipe), gl (GLSL 450 on llvmpipe OpenGL 4.5) or gles (GLSL ES on llvmpipe OpenGL ES 3.2)";
-  CLI::App* render = app.add_subcommand("render", "Render a scene with one Forward variant of a pack (lavapipe or llvmpipe GL)");
-  render->add_option("pack_dir", pack_dir, "Directory holding a pack (or its manifest)")->required();
-  render->add_option("--variant", variant_keywords, "The variant's keywords, space-separated (selection rules: docs/design.md)");
-  render->add_option("--scene", scene_file, "Render scene (variants/scenes/render/*.json)")->required()->check(CLI::ExistingFile);
-  render->add_option("-o,--output", png_out, "PNG output (8-bit sRGB, tone-mapped)")->required();
-  render->add_option("--exr", exr_out, "Also write the float image (OpenEXR, 32-bit; a .kimg name writes kiln's raw float format)");
-  render->add_option("--size", size_text, "Image size WxH (default: the scene's)");
-  render->add_option("--api", api, api_help)->check(CLI::IsMember({"vulkan", "gl", "gles"}));
-
-  CLI::App* test = app.add_subcommand("test", "Render every Forward variant and compare it with its CPU-reference golden");
-  test->add_option("pack_dir", pack_dir, "Directory holding a pack (or its manifest)")->required();
-  test->add_option("--scene", scene_file, "Render scene")->required()->check(CLI::ExistingFile);
-  test->add_option("--golden", golden_dir, "Golden directory (kiln-reference goldens)")->required();
-  test->add_option("--tolerances", tolerances, "Tolerance classes (JSON)")->required()->check(CLI::ExistingFile);
-  test->add_option("--report", report_dir, "Directory for failure images and index.html");
-  test->add_option("--filter", filter, "Only variants whose keyword list contains this text");
-  test->add_option("--shard", shard, "I/N: run every N-th variant starting at I");
-  test->add_option("--api", api, api_help)->check(CLI::IsMember({"vulkan", "gl", "gles"}));
-  std::string against;
-  test->add_option("--against", against, "Compare with this API's image of each variant instead of the reference image")
-      ->check(CLI::IsMember({"vulkan", "gl", "gles"}));
+  // Rendering and golden tests live in kiln-verify (verify/), which links Vulkan, EGL, PNG and OpenEXR; kiln does not.
+  // These entries only list them in --help: main() hands both verbs to kiln-verify before parsing.
+  for (const auto& [verb, description] : kVerifyVerbs) app.add_subcommand(verb, description)->prefix_command();
 
   app.failure_message([](const CLI::App*, const CLI::Error& error) {
     return std::string("kiln: error: ") + error.what() + "\nRun with --help for more information.\n";
@@ -392,8 +341,6 @@ int main(int argc, char** argv) {
     // --help and --version end here with 0; any other argument error is the user's: exit code 1, not CLI11's 100+.
     return app.exit(error) == 0 ? 0 : 1;
   }
-  if (*render) return run_render(pack_dir, variant_keywords, scene_file, png_out, exr_out, size_text, api);
-  if (*test) return run_test(pack_dir, scene_file, golden_dir, tolerances, report_dir, filter, shard, api, against);
   if (*check) return run_check_scene(pack_dir, scene_file, as_json);
   if (*diff) return run_diff_packs(pack_dir, other_dir, as_json);
 

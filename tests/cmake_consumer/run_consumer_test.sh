@@ -32,6 +32,13 @@ installed=$(ls "$work/installed/share/kiln_consumer")
 named=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["archive"]["file"])' "$manifest")
 [ "$installed" = "$(printf '%s\n' "$named" lit.manifest.json | sort)" ] || { echo "FAIL: installed: $installed"; exit 1; }
 cmp "$work/installed/share/kiln_consumer/$named" "$(dirname "$manifest")/$named"
+if [ "$mode" = subdirectory ]; then
+  echo "== add_subdirectory(kiln): nothing of kiln installed, no verify/ (Vulkan, EGL, PNG, OpenEXR) configured or built"
+  others=$(cd "$work/installed" && find . -type f ! -path './share/kiln_consumer/*')
+  [ -z "$others" ] || { echo "FAIL: kiln installed into the consumer's tree: $others"; exit 1; }
+  ! grep -q "kiln-verify\|kiln_verify\|Vulkan_LIBRARY\|OpenEXR_DIR" "$work/build/CMakeCache.txt" "$work/build1.log" ||
+    { echo "FAIL: add_subdirectory(kiln) configured or built verify/"; exit 1; }
+fi
 
 stamp() { stat -c %Y.%y "$manifest"; }
 rebuilds() { cmake --build "$work/build" -j 2 2>&1 | tee "$work/last.log" | grep -c "kiln: building shader pack" || true; }

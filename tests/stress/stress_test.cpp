@@ -15,7 +15,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
-#include "lavapipe.hpp"
+#include "probe/lavapipe.hpp"
 
 namespace kiln::gpu {
 namespace {

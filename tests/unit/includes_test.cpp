@@ -3,7 +3,7 @@
 
 
 #include "declarations/declarations.hpp"
-#include "preprocess/include_resolver.hpp"
+#include "common/include_resolver.hpp"
 #include "test_support.hpp"
 
 namespace kiln {

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "reference.hpp"
+#include "reference/reference.hpp"
 #include "test_support.hpp"
 
 namespace kiln::reference {

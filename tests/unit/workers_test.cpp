@@ -77,13 +77,13 @@ TEST(Workers, AnotherFrontEndDrivesTheSameBackEnd) {
   CompileJob front = job(kValid);
   front.kind = JobKind::FrontEnd;
   JobOutput module = run_compile_job(*glslang, front);
-  ASSERT_TRUE(module.ok) << module.failed_step;
+  ASSERT_TRUE(module.ok) << step_name(module.failed_step);
   StandInFrontend stand_in(module.spirv);
 
   const CompileJob full = job(kValid);
   JobOutput expected = run_compile_job(*glslang, full);
   JobOutput got = run_compile_job(stand_in, full);
-  ASSERT_TRUE(expected.ok && got.ok) << got.failed_step;
+  ASSERT_TRUE(expected.ok && got.ok) << step_name(got.failed_step);
   ASSERT_EQ(got.blobs.size(), 4u);
   for (const auto& [target, blob] : expected.blobs)
     EXPECT_EQ(got.blobs.at(target), blob) << target_name(target);
@@ -95,7 +95,7 @@ TEST(Workers, AnotherFrontEndDrivesTheSameBackEnd) {
 TEST(Workers, CompileProducesEveryTarget) {
   auto outcomes = run_jobs({job(kValid)});
   ASSERT_EQ(outcomes[0].kind, WorkerOutcome::Kind::Done);
-  ASSERT_TRUE(outcomes[0].output.ok) << outcomes[0].output.failed_step;
+  ASSERT_TRUE(outcomes[0].output.ok) << step_name(outcomes[0].output.failed_step);
   const auto& blobs = outcomes[0].output.blobs;
   EXPECT_EQ(unpack_spirv(blobs.at(Target::Spirv)).at(0), 0x07230203u);
   EXPECT_NE(unpack_blob(blobs.at(Target::Glsl)).find("#version 450"), std::string::npos);
@@ -126,7 +126,7 @@ TEST(Workers, BackEndAppendedByOnDoneFinishesWhatTheFrontEndStarted) {
   ASSERT_EQ(jobs.size(), 3u);
   ASSERT_TRUE(outcomes[0].output.ok);
   EXPECT_TRUE(outcomes[0].output.blobs.empty());  // a front end stops at the module
-  ASSERT_TRUE(outcomes[2].output.ok) << outcomes[2].output.failed_step;
+  ASSERT_TRUE(outcomes[2].output.ok) << step_name(outcomes[2].output.failed_step);
   ASSERT_TRUE(outcomes[1].output.ok);
   // Front end + back end gives what one Full job gives.
   EXPECT_EQ(outcomes[2].output.blobs, outcomes[1].output.blobs);
@@ -169,7 +169,7 @@ TEST(Workers, MissingEntryPointIsAnErrorNotAWarning) {
   auto outcomes = run_jobs({job(kValid, "Mian")});
   ASSERT_EQ(outcomes[0].kind, WorkerOutcome::Kind::Done);
   EXPECT_FALSE(outcomes[0].output.ok);
-  EXPECT_EQ(outcomes[0].output.failed_step, "entry-point");
+  EXPECT_EQ(outcomes[0].output.failed_step, CompileStep::EntryPoint);
 }
 
 // A worker preprocesses from the files a job carries, by the includes the declaration scan resolved in each:
@@ -195,7 +195,7 @@ TEST(Workers, PreprocessingServesIncludesOnlyFromTheJobsFiles) {
   EXPECT_EQ(outcomes[0].output.files_read, (std::vector<std::string>{"lib/Lib.hlsl", "Main.hlsl"}));
   ASSERT_EQ(outcomes[1].kind, WorkerOutcome::Kind::Done);
   EXPECT_FALSE(outcomes[1].output.ok);
-  EXPECT_EQ(outcomes[1].output.failed_step, "preprocess");
+  EXPECT_EQ(outcomes[1].output.failed_step, CompileStep::Preprocess);
   ASSERT_FALSE(outcomes[1].output.messages.empty());
   EXPECT_NE(outcomes[1].output.messages[0].text.find("was not seen by the declaration scan"), std::string::npos)
       << outcomes[1].output.messages[0].text;

@@ -31,7 +31,7 @@
 #include <vector>
 
 #include "common/hash.hpp"
-#include "workers/compile_job.hpp"
+#include "common/compile_result.hpp"
 
 namespace kiln {
 
@@ -70,7 +70,7 @@ class Cache {
   bool store_memo(const Hash128& key, const PreprocessMemo& memo);
   // Marks the segments loads were served from as used; writes the staged entries as one segment (nothing
   // when none are staged); then keeps the cache within its size limit. Empty, or what failed.
-  std::string commit();
+  [[nodiscard]] std::string commit();
 
   // Segments whose header or index failed its checks, as of the last scan.
   size_t unreadable_segments();

@@ -28,9 +28,9 @@ std::optional<std::string> read_binary_file(const std::filesystem::path& path);
 
 // Writes via a temporary file in the same directory and rename(2): readers see the old file or the
 // new one, never a torn one. Returns an error message, or an empty string on success.
-std::string write_file_atomic(const std::filesystem::path& path, std::string_view bytes);
+[[nodiscard]] std::string write_file_atomic(const std::filesystem::path& path, std::string_view bytes);
 // The same for a file made of several parts, written one after the other (no concatenated copy).
-std::string write_file_atomic(const std::filesystem::path& path, const std::vector<std::string_view>& parts);
+[[nodiscard]] std::string write_file_atomic(const std::filesystem::path& path, const std::vector<std::string_view>& parts);
 
 // A path as shown to users: relative to the working directory when below it.
 std::string display_path(const std::filesystem::path& path);

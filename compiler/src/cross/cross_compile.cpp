@@ -1,3 +1,4 @@
+#include "common/target_environment.hpp"
 #include "cross/cross_compile.hpp"
 
 #include "cross/widen_float16.hpp"
@@ -22,14 +23,14 @@ CrossResult to_glsl(const std::vector<uint32_t>& spirv, bool es) {
   CrossResult result;
   spirv_cross::CompilerGLSL compiler(spirv);
   spirv_cross::CompilerGLSL::Options options;
-  options.version = es ? 310 : 450;      // GLSL 4.50 core / GLSL ES 3.10
+  options.version = static_cast<uint32_t>(es ? kTargetEnvironment.gles_version : kTargetEnvironment.glsl_version);
   options.es = es;
   options.vulkan_semantics = false;      // plain OpenGL: no descriptor sets, combined samplers
   options.enable_420pack_extension = !es;
   options.fragment.default_float_precision = spirv_cross::CompilerGLSL::Options::Highp;
   options.fragment.default_int_precision = spirv_cross::CompilerGLSL::Options::Highp;
   // GL clip space has z in [-1, 1]; shaders are written for Vulkan's [0, 1].
-  options.vertex.fixup_clipspace = true;
+  options.vertex.fixup_clipspace = kTargetEnvironment.gl_clip_space_fixup;
   compiler.set_common_options(options);
 
   // HLSL keeps textures and samplers apart; GL needs them combined, each bound at its texture's binding.
@@ -70,7 +71,7 @@ CrossResult to_msl(const std::vector<uint32_t>& spirv) {
   spirv_cross::CompilerMSL compiler(spirv);
   spirv_cross::CompilerMSL::Options options;
   options.platform = spirv_cross::CompilerMSL::Options::macOS;
-  options.set_msl_version(2, 1);
+  options.set_msl_version(kTargetEnvironment.msl_major, kTargetEnvironment.msl_minor);
   compiler.set_msl_options(options);
   // Names as the HLSL declares them (and as the SPIR-V reflection and the GL records name them), taken before
   // compile(): SPIRV-Cross renames a StructuredBuffer's variable that collides with its block's name

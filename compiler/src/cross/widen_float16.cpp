@@ -1,4 +1,5 @@
 #include "cross/widen_float16.hpp"
+#include "optimize/spirv_tools.hpp"
 
 #define SPV_ENABLE_UTILITY_CODE
 #include <spirv_cross/spirv.hpp>
@@ -147,7 +148,7 @@ WidenResult widen_float16_for_gl(const std::vector<uint32_t>& spirv) {
   out.insert(out.begin() + static_cast<std::ptrdiff_t>(decorations_at), decorations.begin(), decorations.end());
 
   // The widened half types now duplicate the 32-bit ones: merge them.
-  spvtools::Optimizer optimizer(SPV_ENV_VULKAN_1_1);
+  spvtools::Optimizer optimizer(spirv_tools_environment());
   std::string messages;
   optimizer.SetMessageConsumer([&](spv_message_level_t, const char*, const spv_position_t&, const char* message) {
     messages += message;

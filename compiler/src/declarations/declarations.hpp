@@ -7,7 +7,7 @@
 
 #include "common/files.hpp"
 #include "kiln/model.hpp"
-#include "preprocess/include_resolver.hpp"
+#include "common/include_resolver.hpp"
 
 namespace kiln {
 

@@ -1,3 +1,4 @@
+#include "common/target_environment.hpp"
 #include "driver/compile.hpp"
 
 #include <algorithm>
@@ -10,13 +11,25 @@
 namespace kiln {
 namespace {
 
-// The diagnostic a failed compile step is reported with.
-DiagId diagnostic_for_step(const std::string& step) {
-  if (step == "frontend") return DiagId::HlslError;
-  if (step == "reflect") return DiagId::BlockTooLarge;
-  if (step.starts_with("validate")) return DiagId::SpirvInvalid;
-  if (step.starts_with("cross")) return DiagId::CrossCompileFailed;
-  return DiagId::OptimizerFailed;  // legalize, optimize
+// The diagnostic a failed compile step is reported with: the one place steps meet diagnostic IDs.
+DiagId diagnostic_for(CompileStep step) {
+  switch (step) {
+    case CompileStep::Frontend: return DiagId::HlslError;
+    case CompileStep::EntryPoint: return DiagId::MissingEntryPoint;
+    case CompileStep::Preprocess: return DiagId::PreprocessorError;
+    case CompileStep::Legalize:
+    case CompileStep::Optimize: return DiagId::OptimizerFailed;
+    case CompileStep::Validate:
+    case CompileStep::ValidateOptimized: return DiagId::SpirvInvalid;
+    case CompileStep::Reflect: return DiagId::BlockTooLarge;
+    case CompileStep::CrossGlsl:
+    case CompileStep::CrossGles:
+    case CompileStep::CrossMsl: return DiagId::CrossCompileFailed;
+    case CompileStep::None:
+    case CompileStep::OutOfMemory:  // the pool reports these as outcomes, not as failed steps
+    case CompileStep::Internal: break;
+  }
+  return DiagId::InternalCompilerError;
 }
 
 // One compile: front ends for the misses, back ends as their modules appear, each binary settled exactly once.
@@ -195,19 +208,23 @@ class Scheduler {
     const StageSource& s = sources_.list[binary.source];
     const std::string variant = variant_description(plan_, s);
     const size_t order = sources_.list.size() + b;
-    // An exception inside the worker is kiln's bug like a crash is: exit 2, never a user error.
-    const bool threw = outcome.kind == WorkerOutcome::Kind::Done && outcome.output.failed_step == "internal";
+    const DiagId id = diagnostic_for(outcome.output.failed_step);
+    // A crash, or a step no diagnostic is for (an exception inside the worker), is kiln's bug: exit 2, never a
+    // user error.
+    const bool threw = outcome.kind == WorkerOutcome::Kind::Done && id == DiagId::InternalCompilerError;
     if (outcome.kind != WorkerOutcome::Kind::Done || threw) {
+      const std::string what = outcome.output.failed_step == CompileStep::Internal
+                                   ? std::string("threw an exception (")
+                                   : "failed in step '" + std::string(step_name(outcome.output.failed_step)) + "' (";
       const std::string detail =
-          threw ? "threw an exception (" +
-                      (outcome.output.messages.empty() ? std::string("no message") : outcome.output.messages[0].text) + ")"
+          threw ? what + (outcome.output.messages.empty() ? std::string("no message") : outcome.output.messages[0].text) + ")"
                 : outcome.detail;
       internal_compiler_error(binary, s, variant, detail, module);
       return;
     }
     const std::string entry_name = display_path(plan_.declarations[s.pass].entry);
-    const std::string& step = outcome.output.failed_step;
-    if (step == "entry-point") {
+    const std::string step(step_name(outcome.output.failed_step));
+    if (id == DiagId::MissingEntryPoint) {
       SourceLocation at = locate_json_string(plan_.pack.file.string(), plan_.pack.text, binary.entry_point);
       messages_.collect(DiagId::MissingEntryPoint, at,
                         "entry point '" + binary.entry_point + "' of the " + std::string(stage_name(s.stage)) +
@@ -215,7 +232,6 @@ class Scheduler {
                         variant, order);
       return;
     }
-    const DiagId id = diagnostic_for_step(step);
     // Only the first error: glslang's later ones cascade from it ("'declaration' : Expected").
     auto first = std::find_if(outcome.output.messages.begin(), outcome.output.messages.end(),
                               [](const FrontendMessage& m) { return m.severity == Severity::Error; });
@@ -250,8 +266,8 @@ class Scheduler {
       std::string error =
           write_file_atomic(spv, std::string_view(reinterpret_cast<const char*>(module->data()), module->size() * 4));
       header += "// the front end succeeded; the worker died in the back end, given " + spv.filename().string() +
-                ":\n// spirv-opt --legalize-hlsl " + base + ".spv -o legal.spv && spirv-val --target-env vulkan1.1 "
-                "legal.spv && spirv-opt -O legal.spv -o opt.spv && spirv-cross opt.spv\n";
+                ":\n// spirv-opt --legalize-hlsl " + base + ".spv -o legal.spv && spirv-val --target-env " + kTargetEnvironment.spirv_env +
+                " legal.spv && spirv-opt -O legal.spv -o opt.spv && spirv-cross opt.spv\n";
       if (error.empty()) notes.push_back("the front end's SPIR-V module (the back end's input) written to " + spv.string());
       else unwritten.push_back("the front end's SPIR-V module could not be written: " + error);
     }

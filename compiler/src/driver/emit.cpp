@@ -5,7 +5,7 @@
 #include "common/files.hpp"
 #include "driver/stage_timer.hpp"
 #include "optimize/spirv_tools.hpp"
-#include "pack/blob.hpp"
+#include "common/blob.hpp"
 
 namespace kiln {
 

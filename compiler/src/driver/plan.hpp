@@ -9,7 +9,7 @@
 #include "definition/definition.hpp"
 #include "kiln/build.hpp"
 #include "permutations/permutations.hpp"
-#include "preprocess/include_resolver.hpp"
+#include "common/include_resolver.hpp"
 
 namespace kiln {
 

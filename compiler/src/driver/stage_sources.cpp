@@ -119,7 +119,7 @@ void Preprocessor::run(StageSources& sources, const std::vector<size_t>& which) 
     const std::string entry_name = display_path(plan_.declarations[s.pass].entry);
     s.preprocessed = true;
     s.ok = false;
-    if (outcome.kind == WorkerOutcome::Kind::Done && outcome.output.failed_step == "internal") {
+    if (outcome.kind == WorkerOutcome::Kind::Done && outcome.output.failed_step == CompileStep::Internal) {
       s.internal_error = "threw an exception (" +
                          (outcome.output.messages.empty() ? std::string("no message") : outcome.output.messages[0].text) + ")";
     } else if (outcome.kind == WorkerOutcome::Kind::Done) {

@@ -1,3 +1,4 @@
+#include "common/target_environment.hpp"
 #include "driver/write_pack.hpp"
 
 #include "cross/cross_compile.hpp"
@@ -114,8 +115,10 @@ bool write_variant_pack(const Plan& plan, const BuildOptions& options, const Bui
                            {"spirv_tools", spirv_tools_version()},
                            {"spirv_cross", spirv_cross_version()}}},
                 {"options", {{"optimize", options.optimize}, {"targets", target_list_json},
-                             {"spirv_env", "vulkan1.1"}, {"glsl_version", 450}, {"gles_version", 310},
-                             {"msl_version", "2.1"}, {"gl_clip_space_fixup", true}}},
+                             {"spirv_env", kTargetEnvironment.spirv_env},
+                             {"glsl_version", kTargetEnvironment.glsl_version}, {"gles_version", kTargetEnvironment.gles_version},
+                             {"msl_version", kTargetEnvironment.msl_version},
+                             {"gl_clip_space_fixup", kTargetEnvironment.gl_clip_space_fixup}}},
                 {"inputs_hash", inputs_hash},
                 {"funnel", {{"declared", f.declared}, {"valid", f.valid}, {"kept", f.kept},
                             {"stage_instances", f.stage_instances}, {"unique_preprocessed", f.unique_preprocessed},

@@ -9,18 +9,10 @@
 #include <vector>
 
 #include "kiln/diagnostics.hpp"
+#include "common/compile_result.hpp"
 #include "kiln/model.hpp"
 
 namespace kiln {
-
-// One message of the front end, in the user's file coordinates (via #line).
-struct FrontendMessage {
-  Severity severity = Severity::Error;
-  std::string path;
-  int line = 0;
-  std::string text;
-  int column = 0;  // when the front end says (glslang's HLSL parser does for "HLSL parsing failed")
-};
 
 // Serves #include requests during preprocessing from kiln's confined source set.
 class IncludeSource {

@@ -12,6 +12,7 @@
 #include <set>
 #include <sstream>
 
+#include "common/target_environment.hpp"
 #include "frontend/frontend.hpp"
 #include "common/hash.hpp"
 #include "frontend/glslang_literals.hpp"
@@ -32,8 +33,11 @@ constexpr auto kMessages = static_cast<EShMessages>(EShMsgReadHlsl | EShMsgSpvRu
 
 void configure(glslang::TShader& shader, Stage stage) {
   shader.setEnvInput(glslang::EShSourceHlsl, to_glslang(stage), glslang::EShClientVulkan, 100);
-  shader.setEnvClient(glslang::EShClientVulkan, glslang::EShTargetVulkan_1_1);
-  shader.setEnvTarget(glslang::EShTargetSpv, glslang::EShTargetSpv_1_3);
+  constexpr TargetEnvironment env = kTargetEnvironment;  // glslang encodes versions as Vulkan's and SPIR-V's headers do
+  shader.setEnvClient(glslang::EShClientVulkan,
+                      static_cast<glslang::EShTargetClientVersion>((env.vulkan_major << 22) | (env.vulkan_minor << 12)));
+  shader.setEnvTarget(glslang::EShTargetSpv,
+                      static_cast<glslang::EShTargetLanguageVersion>((env.spirv_major << 16) | (env.spirv_minor << 8)));
 }
 
 // Whether `line` is exactly a `#pragma once` directive (spaces, tabs and a trailing comment allowed).

@@ -1,3 +1,4 @@
+#include "common/target_environment.hpp"
 #include "optimize/spirv_tools.hpp"
 
 #include <spirv-tools/libspirv.hpp>
@@ -6,8 +7,7 @@
 namespace kiln {
 namespace {
 
-// Vulkan 1.1 / SPIR-V 1.3: what glslang targets, and what every Vulkan 1.1 driver (lavapipe included) takes.
-constexpr spv_target_env kTargetEnv = SPV_ENV_VULKAN_1_1;
+constexpr spv_target_env kTargetEnv = spirv_tools_environment();
 
 spvtools::MessageConsumer collect_into(std::vector<std::string>& messages) {
   return [&messages](spv_message_level_t level, const char*, const spv_position_t& position, const char* text) {
@@ -39,7 +39,7 @@ bool run_validator(const std::vector<uint32_t>& spirv, std::vector<std::string>&
 
 SpirvStepResult validate_spirv(const std::vector<uint32_t>& spirv) {
   SpirvStepResult result;
-  result.step = "validate";
+  result.step = CompileStep::Validate;
   result.ok = run_validator(spirv, result.messages);
   if (result.ok) result.spirv = spirv;
   return result;
@@ -47,7 +47,7 @@ SpirvStepResult validate_spirv(const std::vector<uint32_t>& spirv) {
 
 namespace {
 
-SpirvStepResult run_recipe(const std::vector<uint32_t>& spirv, const char* step, void (*recipe)(spvtools::Optimizer&)) {
+SpirvStepResult run_recipe(const std::vector<uint32_t>& spirv, CompileStep step, void (*recipe)(spvtools::Optimizer&)) {
   SpirvStepResult result;
   result.step = step;
   spvtools::Optimizer optimizer(kTargetEnv);
@@ -61,7 +61,7 @@ SpirvStepResult run_recipe(const std::vector<uint32_t>& spirv, const char* step,
 }  // namespace
 
 SpirvStepResult legalize_spirv(const std::vector<uint32_t>& spirv) {
-  return run_recipe(spirv, "legalize", [](spvtools::Optimizer& o) { o.RegisterLegalizationPasses(); });
+  return run_recipe(spirv, CompileStep::Legalize, [](spvtools::Optimizer& o) { o.RegisterLegalizationPasses(); });
 }
 
 // The first sixteen passes of SPIRV-Tools' legalization recipe (RegisterLegalizationPasses, 2023.1): wrap
@@ -75,7 +75,7 @@ SpirvStepResult legalize_spirv(const std::vector<uint32_t>& spirv) {
 // `-O` runs again right after. Measured on the bundled library: the same -O output, instruction for
 // instruction, for every module (only the ID numbering differs), 11% less SPIRV-Tools time.
 SpirvStepResult legalize_spirv_core(const std::vector<uint32_t>& spirv) {
-  return run_recipe(spirv, "legalize", [](spvtools::Optimizer& o) {
+  return run_recipe(spirv, CompileStep::Legalize, [](spvtools::Optimizer& o) {
     for (const char* pass : {"--wrap-opkill", "--eliminate-dead-branches", "--merge-return",
                              "--inline-entry-points-exhaustive", "--eliminate-dead-functions", "--private-to-local",
                              "--fix-storage-class", "--eliminate-local-single-block", "--eliminate-local-single-store",
@@ -87,7 +87,7 @@ SpirvStepResult legalize_spirv_core(const std::vector<uint32_t>& spirv) {
 }
 
 SpirvStepResult optimize_spirv(const std::vector<uint32_t>& spirv) {
-  return run_recipe(spirv, "optimize", [](spvtools::Optimizer& o) { o.RegisterPerformancePasses(); });
+  return run_recipe(spirv, CompileStep::Optimize, [](spvtools::Optimizer& o) { o.RegisterPerformancePasses(); });
 }
 
 namespace {
@@ -102,7 +102,7 @@ SpirvStepResult legalize_and_validate(const std::vector<uint32_t>& spirv, bool o
     if (core.ok) {
       std::vector<std::string> rejected;
       if (run_validator(core.spirv, rejected)) {
-        core.step = "validate";
+        core.step = CompileStep::Validate;
         return core;
       }
     }
@@ -110,7 +110,7 @@ SpirvStepResult legalize_and_validate(const std::vector<uint32_t>& spirv, bool o
   SpirvStepResult full = legalize_spirv(spirv);
   full.full_legalization = true;
   if (!full.ok) return full;
-  full.step = "validate";
+  full.step = CompileStep::Validate;
   full.ok = run_validator(full.spirv, full.messages);
   return full;
 }
@@ -124,7 +124,7 @@ SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool opt
   optimized.full_legalization = result.full_legalization;
   optimized.messages.insert(optimized.messages.begin(), result.messages.begin(), result.messages.end());
   if (!optimized.ok) return optimized;
-  optimized.step = "validate-optimized";
+  optimized.step = CompileStep::ValidateOptimized;
   optimized.ok = run_validator(optimized.spirv, optimized.messages);
   return optimized;
 }

@@ -3,13 +3,25 @@
 
 #include <cstdint>
 #include <string>
+
+#include "common/compile_step.hpp"
+#include "common/target_environment.hpp"
+
+#include <spirv-tools/libspirv.h>
 #include <vector>
 
 namespace kiln {
 
+// SPIRV-Tools' name for kTargetEnvironment.
+constexpr spv_target_env spirv_tools_environment() {
+  static_assert(kTargetEnvironment.vulkan_major == 1 && kTargetEnvironment.vulkan_minor == 1,
+                "map the new Vulkan version to its SPIRV-Tools environment here");
+  return SPV_ENV_VULKAN_1_1;
+}
+
 struct SpirvStepResult {
   bool ok = false;
-  std::string step;  // "legalize", "validate", "optimize", "validate-optimized"
+  CompileStep step = CompileStep::None;  // Legalize, Validate, Optimize, ValidateOptimized
   std::vector<std::string> messages;
   std::vector<uint32_t> spirv;
   bool full_legalization = false;  // the core legalization recipe was not enough (see legalize_spirv_core)

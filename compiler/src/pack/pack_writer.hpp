@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/hash.hpp"
-#include "pack/blob.hpp"
+#include "common/blob.hpp"
 
 namespace kiln {
 
@@ -38,7 +38,7 @@ struct WrittenPack {
 // Writes the archive under its content's name, then `<dir>/<name>.manifest.json` naming it (the rename that
 // switches the pack), then removes the pack's archives the manifest no longer names; fills manifest["archive"].
 // One output directory serves one build at a time: a concurrent build of the same pack could lose its archive.
-WrittenPack write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
+[[nodiscard]] WrittenPack write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
                        nlohmann::json manifest);
 
 // Removes the archives of pack `name` in `directory` other than `keep`: those a build killed before its

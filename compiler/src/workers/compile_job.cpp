@@ -18,9 +18,9 @@ JobOutput run_front_end(Frontend& frontend, const CompileJob& job) {
   CompileResult compiled = frontend.compile({job.stage, job.entry_point, job.source_name, job.source});
   out.messages = std::move(compiled.messages);
   if (compiled.missing_entry_point) {
-    out.failed_step = "entry-point";
+    out.failed_step = CompileStep::EntryPoint;
   } else if (!compiled.ok) {
-    out.failed_step = "frontend";
+    out.failed_step = CompileStep::Frontend;
   } else {
     out.ok = true;
     out.spirv = std::move(compiled.spirv);
@@ -41,7 +41,7 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
   try {
     out.reflection = reflect_spirv(spirv.spirv);
   } catch (const ReflectionError& error) {
-    out.failed_step = "reflect";
+    out.failed_step = CompileStep::Reflect;
     out.messages.push_back({Severity::Error, "", 0, error.what()});
     return out;
   }
@@ -50,7 +50,7 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
     if (target == Target::Spirv) continue;
     CrossResult cross = cross_compiler.compile(target);
     if (!cross.ok) {
-      out.failed_step = "cross-" + std::string(target_name(target));
+      out.failed_step = cross_step(target);
       out.messages.push_back({Severity::Error, "", 0, cross.error});
       out.blobs.clear();
       return out;
@@ -109,7 +109,7 @@ JobOutput run_preprocess(Frontend& frontend, const CompileJob& job) {
                                 " MiB, over the limit of " + std::to_string(kMaxPreprocessedBytes >> 20) + " MiB"});
   }
   if (!result.ok) {
-    out.failed_step = "preprocess";
+    out.failed_step = CompileStep::Preprocess;
     return out;
   }
   out.ok = true;
@@ -185,58 +185,6 @@ CompileJob decode_job(const std::vector<uint8_t>& bytes) {
     job.files = std::move(files);
   }
   return job;
-}
-
-std::vector<uint8_t> encode_output(const JobOutput& output) {
-  json j{{"ok", output.ok}, {"failed_step", output.failed_step}};
-  json messages = json::array();
-  for (const FrontendMessage& m : output.messages)
-    messages.push_back({{"severity", static_cast<int>(m.severity)}, {"path", m.path}, {"line", m.line}, {"text", m.text},
-                        {"column", m.column}});
-  j["messages"] = messages;
-  j["spirv"] = json::binary(spirv_to_bytes(output.spirv));
-  json blobs = json::object();
-  for (const auto& [target, blob] : output.blobs)
-    blobs[std::string(target_name(target))] = {json::binary(std::vector<uint8_t>(blob.stored.begin(), blob.stored.end())),
-                                               blob.raw_size, blob.checksum, blob.key.low, blob.key.high};
-  j["blobs"] = blobs;
-  j["reflection"] = output.reflection;
-  j["full_legalization"] = output.full_legalization;
-  if (!output.preprocessed.empty() || !output.files_read.empty()) {
-    j["preprocessed"] = output.preprocessed;
-    j["files_read"] = output.files_read;
-  }
-  return json::to_cbor(j);
-}
-
-JobOutput decode_output(const std::vector<uint8_t>& bytes) {
-  json j = json::from_cbor(bytes);
-  JobOutput out;
-  out.ok = j.at("ok").get<bool>();
-  out.failed_step = j.at("failed_step").get<std::string>();
-  for (const json& m : j.at("messages"))
-    out.messages.push_back({static_cast<Severity>(m.at("severity").get<int>()), m.at("path").get<std::string>(),
-                            m.at("line").get<int>(), m.at("text").get<std::string>(), m.at("column").get<int>()});
-  out.spirv = binary_to_words(j.at("spirv").get_binary());
-  for (auto& [name, fields] : j.at("blobs").items()) {
-    auto target = parse_target(name);
-    if (!target || fields.size() != 5) throw std::runtime_error("malformed output blob");
-    PackedBlob blob;
-    const auto& stored = fields.at(0).get_binary();
-    blob.stored.assign(stored.begin(), stored.end());
-    blob.raw_size = fields.at(1).get<uint64_t>();
-    blob.checksum = fields.at(2).get<uint64_t>();
-    blob.key = {fields.at(3).get<uint64_t>(), fields.at(4).get<uint64_t>()};
-    if (blob.stored.size() > blob.raw_size) throw std::runtime_error("malformed output blob");
-    out.blobs[*target] = std::move(blob);
-  }
-  out.reflection = std::move(j.at("reflection"));
-  out.full_legalization = j.at("full_legalization").get<bool>();
-  if (j.contains("preprocessed")) {
-    out.preprocessed = j.at("preprocessed").get<std::string>();
-    out.files_read = j.at("files_read").get<std::vector<std::string>>();
-  }
-  return out;
 }
 
 }  // namespace kiln

@@ -10,9 +10,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/compile_step.hpp"
 #include "frontend/frontend.hpp"
 #include "kiln/model.hpp"
-#include "pack/blob.hpp"
 
 namespace kiln {
 
@@ -60,19 +60,6 @@ struct CompileJob {
 // One stage source's preprocessed text: kiln's largest is under 200 KiB; past this a worker stops with an error.
 inline constexpr size_t kMaxPreprocessedBytes = size_t{64} << 20;
 
-struct JobOutput {
-  bool ok = false;
-  // Where it failed: "preprocess", "frontend", "entry-point", "legalize", "validate", "optimize",
-  // "validate-optimized", "cross-glsl", "cross-gles", "cross-msl", "out-of-memory".
-  std::string failed_step;
-  std::vector<FrontendMessage> messages;
-  std::vector<uint32_t> spirv;            // FrontEnd: the front end's module (not legal SPIR-V yet)
-  std::map<Target, PackedBlob> blobs;     // BackEnd, Full: every output, the optimized SPIR-V included
-  nlohmann::json reflection;               // reflect_spirv + "gl" / "msl" bindings
-  bool full_legalization = false;          // legalized by SPIRV-Tools' full recipe (the core one was not enough)
-  std::string preprocessed;                // Preprocess: the text
-  std::vector<std::string> files_read;     // Preprocess: the names of the files it read, the entry included
-};
 
 // FrontEnd: `spirv` is the front end's module. BackEnd and Full: the finished outputs in `blobs`, packed in the
 // worker so that each is compressed once, on the core that compiled it.
@@ -80,7 +67,5 @@ JobOutput run_compile_job(Frontend& frontend, const CompileJob& job);
 
 std::vector<uint8_t> encode_job(const CompileJob& job);
 CompileJob decode_job(const std::vector<uint8_t>& bytes);
-std::vector<uint8_t> encode_output(const JobOutput& output);
-JobOutput decode_output(const std::vector<uint8_t>& bytes);  // throws on malformed input
 
 }  // namespace kiln

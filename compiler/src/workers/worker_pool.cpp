@@ -242,7 +242,7 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
             WorkerOutcome outcome;
             try {
               outcome.output = decode_output(payload);
-              if (outcome.output.failed_step == "out-of-memory") {
+              if (outcome.output.failed_step == CompileStep::OutOfMemory) {
                 outcome.kind = WorkerOutcome::Kind::OutOfMemory;
                 outcome.detail = "exceeded the memory limit of " + std::to_string(limits_.memory_limit_mb) + " MiB";
                 stop(worker, true);  // its heap may be in any state: start a fresh one
@@ -333,10 +333,10 @@ int worker_main(int argc, char** argv) {
       output = run_compile_job(*frontend, job);
     } catch (const std::bad_alloc&) {
       output = JobOutput{};
-      output.failed_step = "out-of-memory";
+      output.failed_step = CompileStep::OutOfMemory;
     } catch (const std::exception& error) {
       output = JobOutput{};
-      output.failed_step = "internal";
+      output.failed_step = CompileStep::Internal;
       output.messages.push_back({Severity::Error, "", 0, error.what()});
     }
     std::vector<uint8_t> encoded;
@@ -344,7 +344,7 @@ int worker_main(int argc, char** argv) {
       encoded = encode_output(output);
     } catch (const std::bad_alloc&) {
       JobOutput oom;
-      oom.failed_step = "out-of-memory";
+      oom.failed_step = CompileStep::OutOfMemory;
       encoded = encode_output(oom);
     }
     if (!write_message(1, encoded)) return 1;

@@ -17,8 +17,8 @@
 
 #include "kiln/pack_reader.hpp"
 #include "render/gl_context.hpp"
-#include "render/image.hpp"
-#include "render/scene.hpp"
+#include "scene/image.hpp"
+#include "scene/scene.hpp"
 
 namespace kiln::render {
 

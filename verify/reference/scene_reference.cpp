@@ -1,4 +1,4 @@
-#include "scene_reference.hpp"
+#include "reference/scene_reference.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -451,40 +451,6 @@ render::Image shade_image(const ReferenceInputs& in, const std::vector<std::stri
       if (unstable) o[3] = render::kUnstablePixel;
     }
   return out;
-}
-
-SceneInputs::SceneInputs(render::SceneRenderer& renderer, const PackReader& debug_pack)
-    : renderer_(renderer),
-      gbuffer_(renderer.render_gbuffer(debug_pack)),
-      environment_(render::load_environment(renderer.scene().environment)),
-      additional_(renderer.additional_shadow_atlas()) {
-  std::ifstream in(renderer.scene().dfg, std::ios::binary);
-  if (!in) throw std::runtime_error("cannot open " + renderer.scene().dfg.string());
-  std::stringstream bytes;
-  bytes << in.rdbuf();
-  dfg_ = decode_dfg_table(bytes.str());
-  prepare({});
-}
-
-void SceneInputs::prepare(const std::vector<std::string>& keywords) {
-  const int cascades = render::cascades_for(keywords, renderer_.scene());
-  if (main_shadows_.count(cascades)) return;
-  main_shadows_[cascades] = renderer_.main_shadow_atlas(cascades);
-  frames_[cascades] = &renderer_.frame(cascades);
-}
-
-ReferenceInputs SceneInputs::inputs(const std::vector<std::string>& keywords) const {
-  const int cascades = render::cascades_for(keywords, renderer_.scene());
-  ReferenceInputs in;
-  in.scene = &renderer_.scene();
-  in.environment = &environment_;
-  in.dfg = &dfg_;
-  in.gbuffer = &gbuffer_;
-  in.frame = frames_.at(cascades);
-  in.main_shadow = &main_shadows_.at(cascades);
-  in.additional_shadow = &additional_;
-  in.additional_frame = frames_.at(1);
-  return in;
 }
 
 }  // namespace kiln::reference

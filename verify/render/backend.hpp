@@ -7,8 +7,8 @@
 #include <string>
 
 #include "kiln/pack_reader.hpp"
-#include "render/image.hpp"
-#include "render/scene.hpp"
+#include "scene/image.hpp"
+#include "scene/scene.hpp"
 
 namespace kiln::render {
 

@@ -1,4 +1,4 @@
-#include "render/golden.hpp"
+#include "golden/golden.hpp"
 
 #include <algorithm>
 #include <cmath>

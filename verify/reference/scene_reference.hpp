@@ -11,11 +11,10 @@
 #include <string>
 #include <vector>
 
-#include "reference.hpp"
-#include "render/environment.hpp"
-#include "render/golden.hpp"
-#include "render/renderer.hpp"
-#include "render/scene.hpp"
+#include "reference/reference.hpp"
+#include "scene/environment.hpp"
+#include "scene/frame_images.hpp"
+#include "scene/scene.hpp"
 
 namespace kiln::reference {
 
@@ -34,26 +33,6 @@ struct ReferenceInputs {
   const render::ShadowAtlas* main_shadow = nullptr;  // same
   const render::ShadowAtlas* additional_shadow = nullptr;
   const render::FrameSetup* additional_frame = nullptr;  // shadow views of the additional lights
-};
-
-// The inputs of one scene as a renderer provides them: the G-buffer the debug pack's GBuffer pass draws, the
-// shadow atlases and frames, and the environment and DFG table the scene names. Atlases and frames are made by
-// prepare() on the renderer's thread; inputs() is then safe to call from several threads.
-class SceneInputs {
- public:
-  SceneInputs(render::SceneRenderer& renderer, const PackReader& debug_pack);
-  void prepare(const std::vector<std::string>& keywords);  // the variant's cascade layout
-  ReferenceInputs inputs(const std::vector<std::string>& keywords) const;
-  const render::GBuffer& gbuffer() const { return gbuffer_; }
-
- private:
-  render::SceneRenderer& renderer_;
-  render::GBuffer gbuffer_;
-  render::Environment environment_;
-  DfgTable dfg_;
-  std::map<int, render::ShadowAtlas> main_shadows_;
-  std::map<int, const render::FrameSetup*> frames_;
-  render::ShadowAtlas additional_;
 };
 
 // Shades every covered pixel for the variant `keywords` of the Forward pass; background pixels are 0.

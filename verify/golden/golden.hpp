@@ -11,13 +11,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "render/image.hpp"
+#include "scene/image.hpp"
 
 namespace kiln::render {
 
-// Reference alpha marking a pixel whose shadow test is tied within fp32 error of its inputs (a shadow edge
-// that may fall on either side of the pixel): excluded from both metrics and counted separately.
-inline constexpr float kUnstablePixel = 2.0f;
 
 // Limits for a class of variants; a variant is held to the loosest limits of every class it matches.
 struct ToleranceClass {

@@ -11,28 +11,13 @@
 #include <vector>
 
 #include "kiln/pack_reader.hpp"
-#include "render/environment.hpp"
-#include "render/image.hpp"
-#include "render/scene.hpp"
+#include "scene/environment.hpp"
+#include "scene/frame_images.hpp"
+#include "scene/image.hpp"
+#include "scene/scene.hpp"
 #include "render/vulkan_context.hpp"
 
 namespace kiln::render {
-
-// What the debug pack's GBuffer pass wrote, per pixel (see shaderlib/passes/DebugGBuffer.hlsl).
-struct GBuffer {
-  Image position;   // xyz world position as interpolated, w 1 where covered, 0 for background
-  Image normal;     // xyz interpolated (not renormalized) world normal, w +1 front face, -1 back face
-  Image tangent;    // xyz interpolated world tangent, w bitangent sign
-  Image material0;  // rgb base color, a metallic
-  Image material1;  // x perceptual roughness, y reflectance, z anisotropy
-};
-
-// A depth atlas as the ShadowCaster pass rendered it (depth in [0, 1], row-major, top row first).
-struct ShadowAtlas {
-  uint32_t width = 0;
-  uint32_t height = 0;
-  std::vector<float> depth;
-};
 
 class SceneRenderer {
  public:

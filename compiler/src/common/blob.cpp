@@ -1,4 +1,4 @@
-#include "pack/blob.hpp"
+#include "common/blob.hpp"
 
 #include <stdexcept>
 

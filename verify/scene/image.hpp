@@ -10,6 +10,10 @@
 
 namespace kiln::render {
 
+// Reference alpha marking a pixel whose shadow test is tied within fp32 error of its inputs (a shadow edge
+// that may fall on either side of the pixel): excluded from both metrics and counted separately.
+inline constexpr float kUnstablePixel = 2.0f;
+
 struct Image {
   uint32_t width = 0;
   uint32_t height = 0;

@@ -1,4 +1,4 @@
-#include "render/image.hpp"
+#include "scene/image.hpp"
 
 #include <png.h>
 #include <unistd.h>

@@ -1,4 +1,4 @@
-#include "lavapipe.hpp"
+#include "probe/lavapipe.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -367,7 +367,7 @@ std::optional<ProbeProgram> compile_probe(const std::filesystem::path& probe_fil
     }
     SpirvStepResult steps = legalize_validate_optimize(std::move(compiled.spirv), optimize);
     if (!steps.ok) {
-      error = steps.step + " failed for " + entry_name + ":";
+      error = std::string(step_name(steps.step)) + " failed for " + entry_name + ":";
       for (const auto& m : steps.messages) error += "\n" + m;
       return std::nullopt;
     }

@@ -1,4 +1,4 @@
-#include "preprocess/include_resolver.hpp"
+#include "common/include_resolver.hpp"
 
 #include <system_error>
 

@@ -1,4 +1,4 @@
-#include "render/environment.hpp"
+#include "scene/environment.hpp"
 
 #include <cstring>
 #include <fstream>

@@ -10,13 +10,14 @@
 #include <map>
 #include <thread>
 
-#include "common/parallel.hpp"
+#include "parallel.hpp"
 
-#include "reference.hpp"
-#include "render/golden.hpp"
-#include "render/image.hpp"
+#include "reference/reference.hpp"
+#include "golden/golden.hpp"
+#include "scene/image.hpp"
 #include "render/renderer.hpp"
-#include "scene_reference.hpp"
+#include "golden/scene_inputs.hpp"
+#include "reference/scene_reference.hpp"
 
 namespace {
 

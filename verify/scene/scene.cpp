@@ -1,4 +1,4 @@
-#include "render/scene.hpp"
+#include "scene/scene.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,0 +1,70 @@
+#include "common/compile_result.hpp"
+
+#include <stdexcept>
+
+namespace kiln {
+namespace {
+
+using nlohmann::json;
+
+std::vector<uint32_t> binary_to_words(const std::vector<uint8_t>& bytes) {
+  return spirv_from_bytes(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+}
+
+}  // namespace
+
+std::vector<uint8_t> encode_output(const JobOutput& output) {
+  json j{{"ok", output.ok}, {"failed_step", std::string(step_name(output.failed_step))}};
+  json messages = json::array();
+  for (const FrontendMessage& m : output.messages)
+    messages.push_back({{"severity", static_cast<int>(m.severity)}, {"path", m.path}, {"line", m.line}, {"text", m.text},
+                        {"column", m.column}});
+  j["messages"] = messages;
+  j["spirv"] = json::binary(spirv_to_bytes(output.spirv));
+  json blobs = json::object();
+  for (const auto& [target, blob] : output.blobs)
+    blobs[std::string(target_name(target))] = {json::binary(std::vector<uint8_t>(blob.stored.begin(), blob.stored.end())),
+                                               blob.raw_size, blob.checksum, blob.key.low, blob.key.high};
+  j["blobs"] = blobs;
+  j["reflection"] = output.reflection;
+  j["full_legalization"] = output.full_legalization;
+  if (!output.preprocessed.empty() || !output.files_read.empty()) {
+    j["preprocessed"] = output.preprocessed;
+    j["files_read"] = output.files_read;
+  }
+  return json::to_cbor(j);
+}
+
+JobOutput decode_output(const std::vector<uint8_t>& bytes) {
+  json j = json::from_cbor(bytes);
+  JobOutput out;
+  out.ok = j.at("ok").get<bool>();
+  const auto step = parse_step(j.at("failed_step").get<std::string>());
+  if (!step) throw std::runtime_error("unknown compile step in a worker's output");
+  out.failed_step = *step;
+  for (const json& m : j.at("messages"))
+    out.messages.push_back({static_cast<Severity>(m.at("severity").get<int>()), m.at("path").get<std::string>(),
+                            m.at("line").get<int>(), m.at("text").get<std::string>(), m.at("column").get<int>()});
+  out.spirv = binary_to_words(j.at("spirv").get_binary());
+  for (auto& [name, fields] : j.at("blobs").items()) {
+    auto target = parse_target(name);
+    if (!target || fields.size() != 5) throw std::runtime_error("malformed output blob");
+    PackedBlob blob;
+    const auto& stored = fields.at(0).get_binary();
+    blob.stored.assign(stored.begin(), stored.end());
+    blob.raw_size = fields.at(1).get<uint64_t>();
+    blob.checksum = fields.at(2).get<uint64_t>();
+    blob.key = {fields.at(3).get<uint64_t>(), fields.at(4).get<uint64_t>()};
+    if (blob.stored.size() > blob.raw_size) throw std::runtime_error("malformed output blob");
+    out.blobs[*target] = std::move(blob);
+  }
+  out.reflection = std::move(j.at("reflection"));
+  out.full_legalization = j.at("full_legalization").get<bool>();
+  if (j.contains("preprocessed")) {
+    out.preprocessed = j.at("preprocessed").get<std::string>();
+    out.files_read = j.at("files_read").get<std::vector<std::string>>();
+  }
+  return out;
+}
+
+}  // namespace kiln

@@ -1,0 +1,43 @@
+// What a compile job gives back, and its one encoding: the worker pipe carries it, and the cache stores it (so a
+// worker's output and a cached result are the same record).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "common/blob.hpp"
+#include "common/compile_step.hpp"
+#include "kiln/diagnostics.hpp"
+#include "kiln/model.hpp"
+
+namespace kiln {
+
+// One message of the front end, in the user's file coordinates (via #line).
+struct FrontendMessage {
+  Severity severity = Severity::Error;
+  std::string path;
+  int line = 0;
+  std::string text;
+  int column = 0;  // when the front end says (glslang's HLSL parser does for "HLSL parsing failed")
+};
+
+struct JobOutput {
+  bool ok = false;
+  CompileStep failed_step = CompileStep::None;  // where it failed (common/compile_step.hpp)
+  std::vector<FrontendMessage> messages;
+  std::vector<uint32_t> spirv;            // FrontEnd: the front end's module (not legal SPIR-V yet)
+  std::map<Target, PackedBlob> blobs;     // BackEnd, Full: every output, the optimized SPIR-V included
+  nlohmann::json reflection;               // reflect_spirv + "gl" / "msl" bindings
+  bool full_legalization = false;          // legalized by SPIRV-Tools' full recipe (the core one was not enough)
+  std::string preprocessed;                // Preprocess: the text
+  std::vector<std::string> files_read;     // Preprocess: the names of the files it read, the entry included
+};
+
+std::vector<uint8_t> encode_output(const JobOutput& output);
+JobOutput decode_output(const std::vector<uint8_t>& bytes);  // throws on malformed input
+
+}  // namespace kiln

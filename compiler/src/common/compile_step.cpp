@@ -1,0 +1,50 @@
+#include "common/compile_step.hpp"
+
+#include <array>
+#include <utility>
+
+namespace kiln {
+namespace {
+
+constexpr std::array<std::pair<CompileStep, std::string_view>, 14> kNames{{
+    {CompileStep::None, ""},
+    {CompileStep::Preprocess, "preprocess"},
+    {CompileStep::Frontend, "frontend"},
+    {CompileStep::EntryPoint, "entry-point"},
+    {CompileStep::Legalize, "legalize"},
+    {CompileStep::Validate, "validate"},
+    {CompileStep::Optimize, "optimize"},
+    {CompileStep::ValidateOptimized, "validate-optimized"},
+    {CompileStep::Reflect, "reflect"},
+    {CompileStep::CrossGlsl, "cross-glsl"},
+    {CompileStep::CrossGles, "cross-gles"},
+    {CompileStep::CrossMsl, "cross-msl"},
+    {CompileStep::OutOfMemory, "out-of-memory"},
+    {CompileStep::Internal, "internal"},
+}};
+
+}  // namespace
+
+std::string_view step_name(CompileStep step) {
+  for (const auto& [s, name] : kNames)
+    if (s == step) return name;
+  return "?";
+}
+
+std::optional<CompileStep> parse_step(std::string_view name) {
+  for (const auto& [s, n] : kNames)
+    if (n == name) return s;
+  return std::nullopt;
+}
+
+CompileStep cross_step(Target target) {
+  switch (target) {
+    case Target::Glsl: return CompileStep::CrossGlsl;
+    case Target::Gles: return CompileStep::CrossGles;
+    case Target::Msl: return CompileStep::CrossMsl;
+    case Target::Spirv: break;
+  }
+  return CompileStep::None;
+}
+
+}  // namespace kiln

@@ -1,0 +1,241 @@
+// The build's compile scheduler (driver/compile) run against an in-process JobRunner: no worker processes, and
+// the test decides in which order jobs finish.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <deque>
+#include <set>
+
+#include "driver/compile.hpp"
+#include "driver/plan.hpp"
+#include "driver/settings.hpp"
+#include "driver/stage_sources.hpp"
+#include "test_support.hpp"
+
+namespace kiln {
+namespace {
+
+// Answers each job the way the test says; runs them first-in-first-out or last-in-first-out (a stand-in for
+// "whichever worker finishes first"), follow-up jobs included.
+class FakeRunner final : public JobRunner {
+ public:
+  enum class Order { Fifo, Lifo };
+  std::function<WorkerOutcome(const CompileJob&)> answer;
+  Order order = Order::Fifo;
+  std::vector<CompileJob> seen;
+
+  void run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done) override {
+    std::deque<size_t> pending;
+    for (size_t j = 0; j < jobs.size(); ++j) pending.push_back(j);
+    while (!pending.empty()) {
+      size_t j = order == Order::Fifo ? pending.front() : pending.back();
+      if (order == Order::Fifo) pending.pop_front();
+      else pending.pop_back();
+      seen.push_back(jobs[j]);
+      const size_t before = jobs.size();
+      on_done(j, answer(jobs[j]));
+      for (size_t added = before; added < jobs.size(); ++added) pending.push_back(added);
+    }
+  }
+  unsigned spawned() const override { return 0; }
+
+  size_t count(JobKind kind) const {
+    return static_cast<size_t>(std::count_if(seen.begin(), seen.end(), [&](const CompileJob& j) { return j.kind == kind; }));
+  }
+};
+
+WorkerOutcome done(JobOutput output) {
+  WorkerOutcome outcome;
+  outcome.output = std::move(output);
+  return outcome;
+}
+
+// Preprocessing gives a text per (stage, keywords); every front end of a stage gives that stage's one module
+// (the keyword's code is never reached); back ends succeed.
+WorkerOutcome default_answer(const CompileJob& job) {
+  JobOutput out;
+  out.ok = true;
+  if (job.kind == JobKind::Preprocess) {
+    out.preprocessed = std::string(stage_name(job.stage)) + " " + join_keywords(job.defines);
+  } else if (job.kind == JobKind::FrontEnd) {
+    out.spirv = {0x07230203u, job.stage == Stage::Vertex ? 1u : 2u};
+  } else {
+    out.blobs[Target::Spirv] = pack_spirv(job.spirv);
+  }
+  return done(std::move(out));
+}
+
+class Scheduler : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_.write("S.hlsl", "#pragma multi_compile _ A B\nfloat4 V() : SV_Position { return 0; }\nfloat4 F() : SV_Target { return 0; }\n");
+    dir_.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+    options_.pack_file = dir_ / "p.pack.json";
+    options_.output_dir = dir_ / "out";
+    plan_ = make_plan(options_, *sink_, report_);
+    ASSERT_TRUE(plan_);
+    settings_ = choose_settings(options_, *plan_, *sink_);
+    ASSERT_TRUE(settings_);
+  }
+
+  // Stages 4-7 (first half) against `runner`, as build_pack runs them.
+  CompileResults compile(FakeRunner& runner, Cache* cache = nullptr) {
+    Preprocessor preprocessor(*plan_, *settings_, runner, options_);
+    SourceLocator locator(*plan_);
+    sources_ = prepare_stage_sources(*plan_, *settings_, nullptr, preprocessor, report_);
+    binaries_ = dedupe_stage_sources(sources_, *plan_, locator, messages_, *sink_, report_);
+    return compile_binaries(*plan_, options_, *settings_, sources_, binaries_, CompileServices{runner, cache, preprocessor},
+                            locator, messages_, *sink_, report_);
+  }
+
+  std::string reported() {
+    messages_.report(*sink_);
+    std::string text;
+    for (const Diagnostic& d : sink_->diagnostics()) text += format_diagnostic(d);
+    return text;
+  }
+
+  void reset() {
+    sink_ = std::make_unique<DiagnosticSink>();
+    report_ = BuildReport();
+    messages_ = MessageGroups();
+  }
+
+  testing::TempDir dir_;
+  BuildOptions options_;
+  std::unique_ptr<DiagnosticSink> sink_ = std::make_unique<DiagnosticSink>();
+  BuildReport report_;
+  std::unique_ptr<Plan> plan_;
+  std::optional<BuildSettings> settings_;
+  StageSources sources_;
+  std::vector<Binary> binaries_;
+  MessageGroups messages_;
+};
+
+TEST_F(Scheduler, RunsOneBackEndPerDistinctModuleAndSharesItsOutput) {
+  FakeRunner runner;
+  runner.answer = default_answer;
+  CompileResults results = compile(runner);
+  EXPECT_EQ(runner.count(JobKind::Preprocess), 6u);  // 3 variants x 2 stages, each stage sees the keyword
+  EXPECT_EQ(runner.count(JobKind::FrontEnd), 6u);
+  EXPECT_EQ(runner.count(JobKind::BackEnd), 2u);  // one module per stage
+  EXPECT_EQ(report_.back_ends, 2u);
+  EXPECT_EQ(report_.funnel.unique_modules, 2u);
+  ASSERT_EQ(results.modules.size(), 2u);
+  std::set<const JobOutput*> vertex, fragment;  // every binary of a stage shares its module's one output
+  for (const Binary& b : binaries_) {
+    ASSERT_TRUE(b.output) << b.entry_point;
+    (b.stage == Stage::Vertex ? vertex : fragment).insert(b.output.get());
+  }
+  EXPECT_EQ(vertex.size(), 1u);
+  EXPECT_EQ(fragment.size(), 1u);
+  EXPECT_NE(*vertex.begin(), *fragment.begin());
+  EXPECT_FALSE(sink_->has_errors()) << reported();
+}
+
+TEST_F(Scheduler, TheOrderInWhichJobsFinishChangesNothing) {
+  FakeRunner fifo, lifo;
+  fifo.answer = lifo.answer = [](const CompileJob& job) {
+    if (job.kind == JobKind::FrontEnd && job.source.find(" A") != std::string::npos) {
+      JobOutput out;
+      out.failed_step = CompileStep::Frontend;
+      out.messages = {{Severity::Error, "S.hlsl", 2, "'x' : undeclared identifier"}};
+      return done(std::move(out));
+    }
+    return default_answer(job);
+  };
+  lifo.order = FakeRunner::Order::Lifo;
+  compile(fifo);
+  const std::string first = reported();
+  std::vector<bool> first_outputs;
+  for (const Binary& b : binaries_) first_outputs.push_back(b.output != nullptr);
+
+  reset();
+  compile(lifo);
+  EXPECT_EQ(reported(), first);
+  std::vector<bool> second_outputs;
+  for (const Binary& b : binaries_) second_outputs.push_back(b.output != nullptr);
+  EXPECT_EQ(second_outputs, first_outputs);
+  EXPECT_NE(first.find("error[K1401]"), std::string::npos) << first;
+  EXPECT_NE(first.find("and in 1 more variant(s)"), std::string::npos) << first;  // A in both stages: grouped
+}
+
+TEST_F(Scheduler, ABackEndDeathIsAnInternalErrorOfEveryBinaryWaitingOnItsModule) {
+  FakeRunner runner;
+  runner.answer = [](const CompileJob& job) {
+    if (job.kind == JobKind::BackEnd && job.stage == Stage::Fragment) {
+      WorkerOutcome crashed;
+      crashed.kind = WorkerOutcome::Kind::Crashed;
+      crashed.detail = "was killed by signal 11 (Segmentation fault)";
+      return crashed;
+    }
+    return default_answer(job);
+  };
+  compile(runner);
+  EXPECT_TRUE(report_.internal_errors);
+  size_t fragment_without_output = 0, vertex_with_output = 0;
+  for (const Binary& b : binaries_) {
+    if (b.stage == Stage::Fragment && !b.output) ++fragment_without_output;
+    if (b.stage == Stage::Vertex && b.output) ++vertex_with_output;
+  }
+  EXPECT_EQ(fragment_without_output, 3u);
+  EXPECT_EQ(vertex_with_output, 3u);
+  EXPECT_EQ(sink_->error_count(), 3);  // one internal compiler error per variant, each with its reproducer
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "out" / "kiln-ice" / "P.fragment.A.hlsl"));
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "out" / "kiln-ice" / "P.fragment.A.spv"));
+}
+
+TEST_F(Scheduler, FailedStepsAreReportedWithTheirDiagnostic) {
+  struct Case {
+    CompileStep step;
+    const char* name;
+    const char* id;
+  };
+  for (const Case& c : {Case{CompileStep::Validate, "validate", "K1403"}, Case{CompileStep::Legalize, "legalize", "K1404"},
+                        Case{CompileStep::Optimize, "optimize", "K1404"},
+                        Case{CompileStep::ValidateOptimized, "validate-optimized", "K1403"},
+                        Case{CompileStep::CrossMsl, "cross-msl", "K1405"}}) {
+    SCOPED_TRACE(c.name);
+    reset();
+    FakeRunner runner;
+    runner.answer = [&](const CompileJob& job) {
+      if (job.kind == JobKind::BackEnd && job.stage == Stage::Fragment) {
+        JobOutput out;
+        out.failed_step = c.step;
+        out.messages = {{Severity::Error, "", 0, "something is wrong"}};
+        return done(std::move(out));
+      }
+      return default_answer(job);
+    };
+    compile(runner);
+    const std::string text = reported();
+    EXPECT_NE(text.find(std::string("error[") + c.id + "]: " + c.name + ": something is wrong"), std::string::npos) << text;
+    EXPECT_FALSE(report_.internal_errors);
+  }
+}
+
+TEST_F(Scheduler, AModuleTheCacheHasRunsNoBackEnd) {
+  Cache cache(dir_ / "cache");
+  FakeRunner first;
+  first.answer = default_answer;
+  CompileResults results = compile(first, &cache);
+  store_in_cache(cache, false, results, sources_, binaries_, false, 1, *sink_, report_);
+  ASSERT_FALSE(sink_->has_errors()) << reported();
+
+  // The same sources: found whole, nothing runs. A new keyword's sources: front ends only, their modules known.
+  dir_.write("S.hlsl", "#pragma multi_compile _ A B C\nfloat4 V() : SV_Position { return 0; }\nfloat4 F() : SV_Target { return 0; }\n");
+  plan_ = make_plan(options_, *sink_, report_);
+  ASSERT_TRUE(plan_);
+  report_ = BuildReport();
+  FakeRunner second;
+  second.answer = default_answer;
+  compile(second, &cache);
+  EXPECT_EQ(report_.cache_hits, 6u);
+  EXPECT_EQ(second.count(JobKind::FrontEnd), 2u);  // C, per stage
+  EXPECT_EQ(second.count(JobKind::BackEnd), 0u);
+  EXPECT_EQ(report_.back_end_hits, 2u);
+  for (const Binary& b : binaries_) EXPECT_TRUE(b.output);
+}
+
+}  // namespace
+}  // namespace kiln

@@ -1,0 +1,135 @@
+// kiln-verify: renders packs and compares them with the CPU reference's goldens (`kiln render`, `kiln test`;
+// kiln hands these verbs to this executable). Everything here links Vulkan, EGL, PNG and OpenEXR; the compiler
+// does not.
+#include <CLI/CLI.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "golden/golden.hpp"
+#include "kiln/pack_reader.hpp"
+#include "render/backend.hpp"
+#include "scene/image.hpp"
+
+namespace {
+
+std::string format_ms(double ms) {
+  char text[32];
+  if (ms >= 1000) std::snprintf(text, sizeof text, "%.2f s", ms / 1000);
+  else std::snprintf(text, sizeof text, "%.1f ms", ms);
+  return text;
+}
+
+std::vector<std::string> split_words(const std::string& text) {
+  std::vector<std::string> words;
+  std::istringstream in(text);
+  for (std::string w; in >> w;) words.push_back(w);
+  return words;
+}
+
+int run_render(const std::string& pack_dir, const std::string& keywords, const std::string& scene_file,
+               const std::string& png_out, const std::string& exr_out, const std::string& size_text,
+               const std::string& api) {
+  try {
+    uint32_t width = 0, height = 0;
+    if (!size_text.empty() && std::sscanf(size_text.c_str(), "%ux%u", &width, &height) != 2) {
+      std::cerr << "kiln render: error: --size wants WxH, e.g. 256x256 (got '" << size_text << "')\n";
+      return 1;
+    }
+    kiln::PackReader pack = kiln::PackReader::open(pack_dir);
+    kiln::render::Scene scene = kiln::render::load_scene(scene_file);
+    auto renderer = kiln::render::Backend::open(kiln::render::parse_api(api), pack, scene, width, height);
+    kiln::SelectedVariant variant = pack.select("Forward", split_words(keywords));
+    auto start = std::chrono::steady_clock::now();
+    kiln::render::Image image = renderer->render(variant);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    bool linear = std::find(variant.keywords.begin(), variant.keywords.end(), "_LINEAR_OUTPUT") != variant.keywords.end();
+    kiln::render::write_png(png_out, image.width, image.height, kiln::render::encode_srgb8(image, linear));
+    if (!exr_out.empty()) {
+      // .kimg: kiln's raw float image (render/image.hpp), read by tests without an EXR library.
+      if (exr_out.ends_with(".kimg")) kiln::render::write_kimg(exr_out, image);
+      else kiln::render::write_exr(exr_out, image);
+    }
+    std::cout << "kiln render: " << png_out << " (" << image.width << "x" << image.height << ", variant "
+              << kiln::render::variant_name(variant.keywords) << ", " << renderer->device() << ", " << format_ms(ms)
+              << " including shader compilation)\n";
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << e.what() << "\n";
+    return 1;
+  }
+}
+
+int run_test(const std::string& pack_dir, const std::string& scene_file, const std::string& golden_dir,
+             const std::string& tolerances, const std::string& report_dir, const std::string& filter,
+             const std::string& shard, const std::string& api, const std::string& against) {
+  kiln::render::GoldenTestOptions options;
+  options.pack_dir = pack_dir;
+  options.scene = scene_file;
+  options.golden_dir = golden_dir;
+  options.tolerances = tolerances;
+  options.report_dir = report_dir;
+  options.filter = filter;
+  options.api = api;
+  options.against = against;
+  if (!shard.empty() && (std::sscanf(shard.c_str(), "%u/%u", &options.shard_index, &options.shard_count) != 2 ||
+                         options.shard_count == 0 || options.shard_index >= options.shard_count)) {
+    std::cerr << "kiln test: error: --shard wants I/N with I < N (got '" << shard << "')\n";
+    return 1;
+  }
+  try {
+    kiln::render::GoldenTestSummary summary = kiln::render::run_golden_test(options, std::cout);
+    return summary.ok() ? 0 : 1;
+  } catch (const std::exception& e) {
+    std::cerr << e.what() << "\n";
+    return 1;
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"kiln-verify: renders variant packs on Mesa lavapipe/llvmpipe and compares them with CPU-reference goldens", "kiln"};
+  app.require_subcommand(1);
+  std::string pack_dir, scene_file;
+  std::string variant_keywords, png_out, exr_out, size_text, golden_dir, tolerances, report_dir, filter, shard;
+  std::string api = "vulkan";
+  const char* api_help = "vulkan (SPIR-V on lavapipe), gl (GLSL 450 on llvmpipe OpenGL 4.5) or gles (GLSL ES on llvmpipe OpenGL ES 3.2)";
+  CLI::App* render = app.add_subcommand("render", "Render a scene with one Forward variant of a pack (lavapipe or llvmpipe GL)");
+  render->add_option("pack_dir", pack_dir, "Directory holding a pack (or its manifest)")->required();
+  render->add_option("--variant", variant_keywords, "The variant's keywords, space-separated (selection rules: docs/design.md)");
+  render->add_option("--scene", scene_file, "Render scene (variants/scenes/render/*.json)")->required()->check(CLI::ExistingFile);
+  render->add_option("-o,--output", png_out, "PNG output (8-bit sRGB, tone-mapped)")->required();
+  render->add_option("--exr", exr_out, "Also write the float image (OpenEXR, 32-bit; a .kimg name writes kiln's raw float format)");
+  render->add_option("--size", size_text, "Image size WxH (default: the scene's)");
+  render->add_option("--api", api, api_help)->check(CLI::IsMember({"vulkan", "gl", "gles"}));
+
+  CLI::App* test = app.add_subcommand("test", "Render every Forward variant and compare it with its CPU-reference golden");
+  test->add_option("pack_dir", pack_dir, "Directory holding a pack (or its manifest)")->required();
+  test->add_option("--scene", scene_file, "Render scene")->required()->check(CLI::ExistingFile);
+  test->add_option("--golden", golden_dir, "Golden directory (kiln-reference goldens)")->required();
+  test->add_option("--tolerances", tolerances, "Tolerance classes (JSON)")->required()->check(CLI::ExistingFile);
+  test->add_option("--report", report_dir, "Directory for failure images and index.html");
+  test->add_option("--filter", filter, "Only variants whose keyword list contains this text");
+  test->add_option("--shard", shard, "I/N: run every N-th variant starting at I");
+  test->add_option("--api", api, api_help)->check(CLI::IsMember({"vulkan", "gl", "gles"}));
+  std::string against;
+  test->add_option("--against", against, "Compare with this API's image of each variant instead of the reference image")
+      ->check(CLI::IsMember({"vulkan", "gl", "gles"}));
+
+  app.failure_message([](const CLI::App*, const CLI::Error& error) {
+    return std::string("kiln: error: ") + error.what() + "\nRun with --help for more information.\n";
+  });
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    return app.exit(error) == 0 ? 0 : 1;
+  }
+  if (*render) return run_render(pack_dir, variant_keywords, scene_file, png_out, exr_out, size_text, api);
+  return run_test(pack_dir, scene_file, golden_dir, tolerances, report_dir, filter, shard, api, against);
+}
