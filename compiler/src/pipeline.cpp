@@ -25,6 +25,7 @@
 #include "frontend/frontend.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_format.hpp"
+#include "layouts/layout_check.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "pack/pack_writer.hpp"
 #include "permutations/permutations.hpp"
@@ -77,6 +78,7 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sin
     }
     if (!ok) return nullptr;
     plan->pack = std::move(*pack);
+    apply_command_line(plan->pack, options.bindings, options.defines);
     for (SceneProfile& scene : plan->scenes)
       ok = resolve_scene_profile(scene, plan->pack.scene_features_json, plan->pack.materials, sink) && ok;
     if (!ok) return nullptr;
@@ -248,6 +250,29 @@ SourceLocation locate_declaration(const Plan& plan, uint32_t pass, const std::st
   return SourceLocation{entry_name, 0, 0};
 }
 
+// What the layout check (layouts/) needs of a pass: each distinct binary with its stage, reflection and the
+// variants that use it, and a way to find a resource's declaration.
+PassLayoutInput layout_input(const Plan& plan, uint32_t pass, const std::vector<std::array<int, kStageCount>>& variant_source,
+                             const std::vector<StageSource>& stage_sources, const std::vector<Binary>& binaries) {
+  PassLayoutInput input;
+  input.pass = plan.pack.passes[pass].name;
+  input.pass_location = plan.pack.passes[pass].defined_at;
+  std::map<int, size_t> index_of_binary;
+  for (size_t v = 0; v < variant_source.size(); ++v) {
+    input.variant_names.push_back(join_keywords(enabled_keywords(plan.passes[pass].groups, plan.expansions[pass].variants[v])));
+    for (int source : variant_source[v]) {
+      if (source < 0) continue;
+      const int b = stage_sources[static_cast<size_t>(source)].binary;
+      auto [it, inserted] = index_of_binary.emplace(b, input.binaries.size());
+      if (inserted) input.binaries.push_back({binaries[static_cast<size_t>(b)].stage, &binaries[static_cast<size_t>(b)].output->reflection, {}});
+      input.binaries[it->second].variants.push_back(v);
+    }
+  }
+  const std::string entry_name = display_path(plan.declarations[pass].entry);
+  input.locate = [&plan, pass, entry_name](const std::string& name) { return locate_declaration(plan, pass, name, entry_name); };
+  return input;
+}
+
 std::string tools_fingerprint(Frontend& frontend) {
   return std::string("kiln ") + kKilnVersion + " (compile job revision " + std::to_string(kCompileJobRevision) + "); " +
          frontend.name() + " " + frontend.version() + "; " +
@@ -281,6 +306,17 @@ json materials_json(const PackDefinition& pack) {
   json out = json::array();
   for (const MaterialPreset& m : pack.materials) out.push_back({{"name", m.name}, {"keywords", m.keywords}});
   return out;
+}
+
+// The binding options and defines a pass was built with, when not the defaults (docs/bindings.md): absent
+// fields keep the manifests of packs that use neither as they were.
+void add_pass_settings_json(json& pass_json, const PassDefinition& pass) {
+  if (!pass.bindings.canonical().empty()) pass_json["bindings"] = pass.bindings.canonical();
+  if (!pass.defines.empty()) {
+    json defines = json::object();
+    for (const Define& define : pass.defines) defines[define.name] = define.value;
+    pass_json["defines"] = defines;
+  }
 }
 
 std::string depfile_escape(const std::string& path) {
@@ -351,6 +387,7 @@ std::optional<PlanListing> list_variants(const BuildOptions& options, Diagnostic
     listing.pass_groups.emplace_back(plan->pack.passes[p].name, plan->passes[p].groups);
   for (const auto& [path, file] : plan->sources.files) listing.sources.emplace_back(display_path(path), file.text);
   for (const SceneProfile& scene : plan->scenes) listing.scenes.emplace_back(scene.name, scene.keywords);
+  for (const PassDefinition& pass : plan->pack.passes) listing.pass_settings.push_back({pass.name, pass.bindings, pass.defines});
   for (size_t p = 0; p < plan->passes.size(); ++p) {
     const auto& groups = plan->passes[p].groups;
     for (const Variant& v : plan->expansions[p].variants) {
@@ -421,6 +458,10 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   for (Target t : targets) target_names += std::string(target_name(t)) + ",";
   inputs.add(fingerprint).add(options.optimize ? 1 : 0).add(target_names).add(plan->pack.text);
   for (const SceneProfile& scene : plan->scenes) inputs.add(scene.text);
+  // The pack's own bindings and defines are in its text; the command line's are added when given (a build
+  // without them keeps the inputs hash, and so the manifest, it always had).
+  if (!options.bindings.canonical().empty()) inputs.add("bindings").add(options.bindings.canonical());
+  for (const Define& define : options.defines) inputs.add("define").add(define.name).add(define.value);
   for (const auto& [path, file] : plan->sources.files) inputs.add(path.string()).add(file.text);
   const std::string inputs_hash = inputs.finish().hex();
   report.manifest = manifest_path(options.output_dir, plan->pack.name);
@@ -443,12 +484,19 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   std::vector<StageSource> stage_sources;
   // Every cache key starts with what a compile's output depends on besides its input: the tools, the
   // options, the stage and the entry point.
-  auto add_compile_options = [&](Hasher& hasher, Stage stage, const std::string& entry_point) -> Hasher& {
-    return hasher.add(fingerprint).add(options.optimize ? 1 : 0).add(target_names).add(stage_name(stage)).add(entry_point);
+  // The pass's binding options too (docs/bindings.md; "binding model 1": glslang's bindings are assigned by
+  // kiln's resolver).
+  auto add_compile_options = [&](Hasher& hasher, uint32_t pass, Stage stage, const std::string& entry_point) -> Hasher& {
+    return hasher.add(fingerprint).add(options.optimize ? 1 : 0).add(target_names).add(stage_name(stage)).add(entry_point)
+        .add("binding model 1").add(plan->pack.passes[pass].bindings.canonical());
   };
+  // "NAME=VALUE" per define of each pass, in order: Preprocess jobs carry them before the keywords.
+  std::vector<std::vector<std::string>> pass_defines(plan->pack.passes.size());
+  for (size_t p = 0; p < plan->pack.passes.size(); ++p)
+    for (const Define& define : plan->pack.passes[p].defines) pass_defines[p].push_back(define.name + "=" + define.value);
   auto source_key = [&](const StageSource& s) {
     Hasher key;
-    return add_compile_options(key, s.stage, plan->pack.passes[s.pass].entry_points[static_cast<size_t>(s.stage)])
+    return add_compile_options(key, s.pass, s.stage, plan->pack.passes[s.pass].entry_points[static_cast<size_t>(s.stage)])
         .add(s.text)
         .finish();
   };
@@ -487,7 +535,8 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       jobs[w].kind = JobKind::Preprocess;
       jobs[w].stage = s.stage;
       jobs[w].files = files_of(s.pass);
-      jobs[w].defines = s.defines;
+      jobs[w].defines = pass_defines[s.pass];
+      jobs[w].defines.insert(jobs[w].defines.end(), s.defines.begin(), s.defines.end());
     }
     worker_pool().run(jobs, [&](size_t j, WorkerOutcome outcome) {
       StageSource& s = stage_sources[which[j]];
@@ -553,9 +602,10 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       const std::string files_listed = listing.finish().hex();
       for (StageSource& s : stage_sources) {
         Hasher memo;
-        add_compile_options(memo.add("preprocess"), s.stage, plan->pack.passes[s.pass].entry_points[static_cast<size_t>(s.stage)])
+        add_compile_options(memo.add("preprocess"), s.pass, s.stage, plan->pack.passes[s.pass].entry_points[static_cast<size_t>(s.stage)])
             .add(display_path(plan->declarations[s.pass].entry))
             .add(files_listed);
+        for (const std::string& define : pass_defines[s.pass]) memo.add(define);
         for (const std::string& define : s.defines) memo.add(define);
         s.memo = memo.finish();
         bool rejected = false;
@@ -694,6 +744,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       job.source = s.text;
       job.targets = targets;
       job.optimize = options.optimize;
+      job.bindings = plan->pack.passes[s.pass].bindings;
       jobs.push_back(std::move(job));
       job_subject.push_back(b);
     }
@@ -829,7 +880,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
         front_messages[b] = std::move(outcome.output.messages);
         const std::vector<uint32_t>& spirv = outcome.output.spirv;
         Hasher module_key;
-        Hash128 key = add_compile_options(module_key, binaries[b].stage, binaries[b].entry_point)
+        Hash128 key = add_compile_options(module_key, stage_sources[binaries[b].source].pass, binaries[b].stage, binaries[b].entry_point)
                           .add(std::string_view(reinterpret_cast<const char*>(spirv.data()), spirv.size() * 4))
                           .finish();
         auto [it, inserted] = module_by_key.emplace(key, modules.size());
@@ -856,6 +907,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
             back.spirv = std::move(outcome.output.spirv);  // `spirv` is not read again on this path
             back.targets = jobs[j].targets;
             back.optimize = jobs[j].optimize;
+            back.bindings = jobs[j].bindings;
             jobs.push_back(std::move(back));  // runs next, in whichever worker is free
             job_subject.push_back(modules.size());
             ++report.back_ends;
@@ -931,16 +983,8 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   std::vector<json> pass_layouts(plan->passes.size());
   {
     StageTimer timer(report, "reflect");
-    for (uint32_t p = 0; p < plan->passes.size(); ++p) {
-      std::vector<LayoutSource> sources;
-      std::set<int> seen;
-      for (size_t i = 0; i < stage_sources.size(); ++i) {
-        const StageSource& s = stage_sources[i];
-        if (s.pass != p || !seen.insert(s.binary).second) continue;
-        sources.push_back({variant_description(*plan, s), &binaries[static_cast<size_t>(s.binary)].output->reflection});
-      }
-      pass_layouts[p] = merge_pass_layout(plan->pack.passes[p].name, sources, plan->pack.passes[p].defined_at, sink);
-    }
+    for (uint32_t p = 0; p < plan->passes.size(); ++p)
+      pass_layouts[p] = check_pass_layout(layout_input(*plan, p, variant_source[p], stage_sources, binaries), sink);
     if (sink.has_errors()) return finish();
   }
 
@@ -999,11 +1043,13 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
         variants.push_back({{"keywords", enabled_keywords(plan->passes[p].groups, expansion.variants[v])},
                             {"binaries", stage_binaries}});
       }
-      passes_json.push_back({{"name", def.name},
-                             {"stages", stages},
-                             {"keyword_groups", groups},
-                             {"layout", pass_layouts[p]},
-                             {"variants", variants}});
+      json pass_json{{"name", def.name},
+                     {"stages", stages},
+                     {"keyword_groups", groups},
+                     {"layout", pass_layouts[p]},
+                     {"variants", variants}};
+      add_pass_settings_json(pass_json, def);
+      passes_json.push_back(std::move(pass_json));
     }
     json target_list_json = json::array();
     for (Target t : targets) target_list_json.push_back(target_name(t));
