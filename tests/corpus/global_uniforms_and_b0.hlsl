@@ -1,4 +1,4 @@
-// corpus: $Global beside a cbuffer at b0 (glslang puts both at binding 0 unless something moves one)
+// corpus: $Global beside a cbuffer at b0, each used by one stage (glslang alone puts both at binding 0)
 // default: ok
 // option: {"global_uniform": {"binding": 7, "set": 0}}
 // layout: PerObject uniform_buffer 0.0, $Global uniform_buffer 0.7

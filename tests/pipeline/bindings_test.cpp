@@ -190,7 +190,7 @@ TEST_F(Bindings, ThePassBindingsAndDefinesAreInTheManifest) {
   DiagnosticSink sink;
   ASSERT_TRUE(build(sink)) << errors_of(sink);
   json pass = json::parse(testing::read_file(dir / "out/p.manifest.json"))["passes"][0];
-  EXPECT_EQ(pass["bindings"], "-fvk-s-shift 32 all -fvk-t-shift 16 all");
+  EXPECT_EQ(pass["bindings"], "-fvk-t-shift 16 all -fvk-s-shift 32 all");
   EXPECT_EQ(pass["defines"], json({{"FAST", "1"}, {"QUALITY", "2"}}));
 }
 
@@ -248,7 +248,10 @@ TEST_F(Bindings, ADefineThatIsNotAnIdentifierInThePackIsAnError) {
   DiagnosticSink sink;
   EXPECT_FALSE(build(sink));
   EXPECT_EQ(errors_of(sink), (dir / "p.pack.json").string() +
-                                 ":1:26: error[K1011]: define '2FAST' is not a preprocessor identifier (or its value spans lines)\n");
+                                 ":1:28: error[K1011]: define '2FAST' is not a preprocessor identifier (or its value spans lines)\n"
+                                 "    {\"name\": \"p\", \"defines\": {\"2FAST\": 1}, \"passes\": [{\"name\": \"P\", \"source\": "
+                                 "\"S.hlsl\", \"stages\": {\"vertex\": \"V\", \"fragment\": \"F\"}}]}\n"
+                                 "                               ^\n");
 }
 
 }  // namespace

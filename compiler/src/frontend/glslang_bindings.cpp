@@ -33,7 +33,9 @@ class KilnResolver final : public glslang::TDefaultIoResolverBase {
   int resolveBinding(EShLanguage, glslang::TVarEntryInfo& ent) override {
     const glslang::TType& type = ent.symbol->getType();
     const glslang::TResourceType resource = getResourceType(type);
-    if (resource == glslang::EResCount || !ent.live) return ent.newBinding = -1;
+    // Dead resources are bound too (they are not emitted): every stage and variant of a source then numbers
+    // its automatic bindings alike, whichever resources its entry point uses.
+    if (resource == glslang::EResCount) return ent.newBinding = -1;
     if (auto pin = pinned(type, ent)) return ent.newBinding = reserveSlot(static_cast<int>(pin->second), static_cast<int>(pin->first));
     const int set = getLayoutSet(type);
     const int base = static_cast<int>(options_.shift(register_class(resource), static_cast<uint32_t>(set)));

@@ -90,8 +90,8 @@ class Checker {
     }
     SourceLocation at = locate(a);
     sink_.report(DiagId::LayoutMismatch, at, message, notes);
-    if (a["name"] != b["name"]) {
-      SourceLocation other = locate(b);
+    if (a["name"] != b["name"] && in_.locate) {
+      SourceLocation other = in_.locate(b["name"].get<std::string>());
       if (other.line > 0)
         sink_.report(Diagnostic{DiagId::LayoutMismatch, Severity::Note, other, describe(b) + " is declared here", {}});
     }
