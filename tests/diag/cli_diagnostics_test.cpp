@@ -691,6 +691,24 @@ TEST_F(Cli, AMalformedShiftIsAClearError) {
                      {"--fvk-t-shift", "16", "space1"});
 }
 
+TEST_F(Cli, InspectShowsThePassBindingOptionsDefinesAndLayout) {
+  dir.write("S.hlsl", "cbuffer PerFrame : register(b0) { float4 tint; };\nTexture2D albedo : register(t0);\n"
+                      "SamplerState albedoSampler : register(s0);\n"
+                      "float4 V(float4 p : POSITION) : SV_Position { return p + tint; }\n"
+                      "float4 F(float4 p : SV_Position) : SV_Target { return albedo.Sample(albedoSampler, p.xy); }\n");
+  ASSERT_EQ(build({"--fvk-t-shift", "16", "all", "--fvk-s-shift", "32", "0", "-D", "QUALITY=2"}).exit_code, 0);
+  auto r = testing::run_kiln({"inspect", "out"}, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("  pass P: 1 variants\n"
+                       "    bindings: -fvk-t-shift 16 all -fvk-s-shift 32 0\n"
+                       "    defines: {\"QUALITY\":\"2\"}\n"
+                       "    set 0 binding 0: PerFrame (uniform_buffer)\n"
+                       "    set 0 binding 16: albedo (texture)\n"
+                       "    set 0 binding 32: albedoSampler (sampler)\n"),
+            std::string::npos)
+      << r.out;
+}
+
 TEST_F(Cli, ListJsonShowsTheBindingOptionsAndDefinesOfEachPass) {
   dir.write("S.hlsl", kEntries);
   dir.write("p.pack.json", R"({"name": "p", "bindings": {"shifts": [{"register": "t", "shift": 16}]}, "defines": {"Q": 1},
