@@ -673,6 +673,18 @@ TEST_F(Cli, TextureAndSamplerAtOneRegisterNumberSuggestTheCombinedMode) {
   EXPECT_EQ(build({"--combined-image-samplers"}).exit_code, 0);
 }
 
+TEST_F(Cli, ASamplerSharedByTexturesCannotBeCombinedAndSaysWhy) {
+  dir.write("S.hlsl", "Texture2D a : register(t0);\nTexture2D b : register(t1);\nSamplerState s : register(s0);\n"
+                      "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "float4 F(float4 p : SV_Position) : SV_Target { return a.Sample(s, p.xy) + b.Sample(s, p.xy); }\n");
+  expect_build_error("S.hlsl: error[K1404]: combine-image-samplers: the texture and the sampler at set 0 binding 0 cannot "
+                     "become one combined image sampler: the sampler also samples another texture, or the texture is "
+                     "sampled with another sampler; give the sampler its own binding (an s shift)\n"
+                     "  note: in pass 'P' fragment stage, keywords [<none>]\n"
+                     "kiln: 1 error(s)\n",
+                     {"--combined-image-samplers"});
+}
+
 TEST_F(Cli, ADefineThatIsNotAnIdentifierIsAClearError) {
   dir.write("S.hlsl", kEntries);
   expect_build_error("<command line>: error[K1014]: -D '2FAST=1': '2FAST' is not a preprocessor identifier (expected -D "

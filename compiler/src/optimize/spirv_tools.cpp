@@ -196,8 +196,18 @@ SpirvStepResult combine_image_samplers(const std::vector<uint32_t>& spirv) {
       result.messages.push_back("SPIRV-Tools does not know " + pass);
       return result;
     }
-  result.ok = optimizer.Run(spirv.data(), spirv.size(), &result.spirv, optimizer_options()) &&
-              run_validator(result.spirv, result.messages);
+  const bool converted = optimizer.Run(spirv.data(), spirv.size(), &result.spirv, optimizer_options());
+  if (!converted && result.messages.empty()) {
+    // The pass says nothing when it refuses: a sampler that shares a binding with one texture must sample
+    // only that texture (and the texture be sampled only through it) to become one combined image sampler.
+    std::string where;
+    for (const auto& [set, binding] : slots)
+      where += (where.empty() ? "" : ", ") + std::string("set ") + std::to_string(set) + " binding " + std::to_string(binding);
+    result.messages.push_back("the texture and the sampler at " + where +
+                              " cannot become one combined image sampler: the sampler also samples another texture, or "
+                              "the texture is sampled with another sampler; give the sampler its own binding (an s shift)");
+  }
+  result.ok = converted && run_validator(result.spirv, result.messages);
   if (!result.ok) result.spirv.clear();
   return result;
 }
