@@ -484,8 +484,10 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   std::vector<StageSource> stage_sources;
   // Every cache key starts with what a compile's output depends on besides its input: the tools, the
   // options, the stage and the entry point.
-  // The pass's binding options too (docs/bindings.md; "binding model 1": glslang's bindings are assigned by
-  // kiln's resolver).
+  // The pass's binding options too (docs/bindings.md). "binding model 1" marks keys made since kiln's own
+  // resolver assigns glslang's bindings (a resource without a register was at binding 0 before): cache
+  // entries of older builds are not reused. It is not a kCompileJobRevision bump because that revision is in
+  // the inputs hash, which the manifest records: packs whose bindings did not change keep their bytes.
   auto add_compile_options = [&](Hasher& hasher, uint32_t pass, Stage stage, const std::string& entry_point) -> Hasher& {
     return hasher.add(fingerprint).add(options.optimize ? 1 : 0).add(target_names).add(stage_name(stage)).add(entry_point)
         .add("binding model 1").add(plan->pack.passes[pass].bindings.canonical());
