@@ -652,6 +652,25 @@ TEST_F(Cli, BindingClashBetweenVariantsNamesEachSideWithItsVariants) {
       "kiln: 1 error(s)\n");
 }
 
+// An #ifdef before a resource without a register moves its automatic binding: one error, for the move.
+TEST_F(Cli, AnAutomaticBindingMovedByAKeywordIsOneErrorAboutTheMove) {
+  dir.write("S.hlsl",
+            "#pragma multi_compile_fragment _ EXTRA\n#ifdef EXTRA\nTexture2D extra;\n#endif\nTexture2D albedo;\n"
+            "SamplerState smp : register(s8);\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "float4 F(float4 p : SV_Position) : SV_Target {\n  float4 c = albedo.Sample(smp, p.xy);\n"
+            "#ifdef EXTRA\n  c += extra.Sample(smp, p.xy);\n#endif\n  return c;\n}\n");
+  expect_layout_error(*this,
+      "S.hlsl:5:11: error[K1406]: pass 'P': 'albedo' is at set 0 binding 0 in 1 variant [<none>] and at set 0 binding 1 in "
+      "1 variant [EXTRA]\n"
+      "    Texture2D albedo;\n"
+      "              ^\n"
+      "  note: a resource must have one binding in every stage and variant of a pass; one declared without a register is "
+      "bound automatically in declaration order, so a keyword that removes a declaration before it moves it: give it a "
+      "register or [[vk::binding(N, S)]]\n"
+      "kiln: 1 error(s)\n");
+}
+
 TEST_F(Cli, TextureAndSamplerAtOneRegisterNumberSuggestTheCombinedMode) {
   dir.write("S.hlsl", "Texture2D albedo : register(t1);\nSamplerState albedoSampler : register(s1);\n"
                       "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"

@@ -86,7 +86,8 @@ class Checker {
       message += "'" + a["name"].get<std::string>() + "' is at " + slot_text(a) + " in " + first_variants(holding_a) + " and at " +
                  slot_text(b) + " in " + first_variants(holding_b);
       notes.push_back("a resource must have one binding in every stage and variant of a pass; one declared without a register "
-                      "is bound automatically per stage and variant: give it a register or [[vk::binding(N, S)]]");
+                      "is bound automatically in declaration order, so a keyword that removes a declaration before it moves "
+                      "it: give it a register or [[vk::binding(N, S)]]");
     }
     SourceLocation at = locate(a);
     sink_.report(DiagId::LayoutMismatch, at, message, notes);
@@ -160,7 +161,16 @@ json check_pass_layout(const PassLayoutInput& input, DiagnosticSink& sink) {
   for (const auto& binary : input.binaries) reflections.push_back(binary.reflection);
   MergedLayout merged = merge_layouts(reflections);
   Checker checker(input, sink);
-  for (const LayoutClash& clash : merged.clashes) checker.report(clash);
+  // A resource that moved (an automatic binding shifted by an #ifdef before it) makes the slot it left or
+  // took look shared too: the move is the root cause, reported alone.
+  std::set<std::string> moved;
+  for (const LayoutClash& clash : merged.clashes)
+    if (clash.kind == LayoutClash::Kind::MovedResource) moved.insert(clash.first["name"].get<std::string>());
+  for (const LayoutClash& clash : merged.clashes) {
+    const bool consequence = clash.kind == LayoutClash::Kind::SharedSlot && clash.first["name"] != clash.second["name"] &&
+                             (moved.count(clash.first["name"]) || moved.count(clash.second["name"]));
+    if (!consequence) checker.report(clash);
+  }
   return merged.clashes.empty() ? merged.layout : json();
 }
 
