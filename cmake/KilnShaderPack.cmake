@@ -1,9 +1,10 @@
 # kiln_add_shader_pack(<target> PACK <pack.json> [SCENES <scene.json>...] [TARGETS spirv glsl gles msl]
-#                      [OUTPUT_DIR <dir>] [CACHE_DIR <dir>])
+#                      [DEFINES NAME[=VALUE]...] [OUTPUT_DIR <dir>] [CACHE_DIR <dir>])
 #
 # Adds a custom target <target> (built by ALL) whose output is the variant pack of <pack.json>. kiln writes
 # a depfile listing every HLSL file it read, so editing any included file rebuilds the pack (and nothing
-# else), and a build with no change does no work, with Ninja and with Unix Makefiles.
+# else), and a build with no change does no work, with Ninja and with Unix Makefiles. DEFINES are passed as
+# `kiln build -D` (they win over the pack definition's "defines"; docs/bindings.md); changing them rebuilds.
 #
 # Target properties set on <target> for consumers:
 #   KILN_PACK_DIR       directory holding the pack
@@ -16,7 +17,7 @@
 include_guard(GLOBAL)
 
 function(kiln_add_shader_pack target)
-  cmake_parse_arguments(PARSE_ARGV 1 ARG "" "PACK;OUTPUT_DIR;CACHE_DIR" "SCENES;TARGETS")
+  cmake_parse_arguments(PARSE_ARGV 1 ARG "" "PACK;OUTPUT_DIR;CACHE_DIR" "SCENES;TARGETS;DEFINES")
   if(NOT ARG_PACK)
     message(FATAL_ERROR "kiln_add_shader_pack(${target}): PACK <pack.json> is required")
   endif()
@@ -55,12 +56,17 @@ function(kiln_add_shader_pack target)
     set(target_args --targets "${target_list}")
   endif()
 
+  set(define_args "")
+  foreach(define IN LISTS ARG_DEFINES)
+    list(APPEND define_args -D "${define}")
+  endforeach()
+
   set(manifest "${output_dir}/${pack_name}.manifest.json")
   set(depfile "${output_dir}/${pack_name}.d")
   add_custom_command(
     OUTPUT "${manifest}"
     COMMAND kiln::kiln build "${pack}" -o "${output_dir}" --cache "${cache_dir}" --depfile "${depfile}"
-            ${scene_args} ${target_args} -q
+            ${scene_args} ${target_args} ${define_args} -q
     DEPENDS "${pack}" ${scene_files} kiln::kiln
     DEPFILE "${depfile}"
     COMMENT "kiln: building shader pack '${pack_name}'"

@@ -9,12 +9,14 @@
 #include <cstdlib>
 #include <cstring>
 #include <iostream>
+#include <map>
 #include <optional>
 #include <sstream>
 
 #include "allocator.hpp"
 #include "progress_line.hpp"
 #include "common/files.hpp"
+#include "definition/definition.hpp"
 #include "frontend/frontend.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
@@ -132,7 +134,14 @@ int run_list(kiln::BuildOptions options, bool as_json) {
       for (const auto& [stage, kw] : v.stage_keywords) stages[stage] = kw;
       out.push_back({{"pass", v.pass}, {"keywords", v.keywords}, {"stages", stages}});
     }
-    std::cout << json{{"pack", listing->pack}, {"variants", out}}.dump(2) << "\n";
+    // What each pass is built with: its binding options (DXC's spelling; "" is the default) and defines.
+    json passes = json::array();
+    for (const auto& settings : listing->pass_settings) {
+      json defines = json::object();
+      for (const auto& define : settings.defines) defines[define.name] = define.value;
+      passes.push_back({{"pass", settings.pass}, {"bindings", settings.bindings.canonical()}, {"defines", defines}});
+    }
+    std::cout << json{{"pack", listing->pack}, {"passes", passes}, {"variants", out}}.dump(2) << "\n";
   } else {
     for (const auto& v : listing->variants) {
       std::cout << v.pass << ": " << kiln::join_keywords(v.keywords);
@@ -143,6 +152,13 @@ int run_list(kiln::BuildOptions options, bool as_json) {
               << listing->funnel.valid << " valid)\n";
   }
   return 0;
+}
+
+const json& manifest_pass(const json& manifest, const std::string& name) {
+  static const json none = json::object();
+  for (const json& pass : manifest.at("passes"))
+    if (pass.at("name") == name) return pass;
+  return none;
 }
 
 int run_inspect(const std::string& pack_dir, bool as_json, const std::string& extract) {
@@ -170,7 +186,12 @@ int run_inspect(const std::string& pack_dir, bool as_json, const std::string& ex
       for (const std::string& pass : pack.passes()) {
         json variants = json::array();
         for (size_t i = 0; i < pack.variant_count(pass); ++i) variants.push_back(pack.variant(pass, i).keywords);
-        out["passes"].push_back({{"name", pass}, {"variants", variants}});
+        json entry{{"name", pass}, {"variants", variants}};
+        // The bindings chosen (docs/bindings.md): the options, defines and resulting layout of the pass.
+        const json& recorded = manifest_pass(pack.manifest(), pass);
+        for (const char* field : {"bindings", "defines", "layout"})
+          if (recorded.contains(field)) entry[field] = recorded.at(field);
+        out["passes"].push_back(std::move(entry));
       }
       std::cout << out.dump(2) << "\n";
     } else {
@@ -180,6 +201,13 @@ int run_inspect(const std::string& pack_dir, bool as_json, const std::string& ex
                 << pack.manifest().at("archive").at("file").get<std::string>() << "\n";
       for (const std::string& pass : pack.passes()) {
         std::cout << "  pass " << pass << ": " << pack.variant_count(pass) << " variants\n";
+        const json& recorded = manifest_pass(pack.manifest(), pass);
+        if (recorded.contains("bindings")) std::cout << "    bindings: " << recorded.at("bindings").get<std::string>() << "\n";
+        if (recorded.contains("defines")) std::cout << "    defines: " << recorded.at("defines").dump() << "\n";
+        if (recorded.contains("layout") && recorded.at("layout").is_object())
+          for (const json& r : recorded.at("layout").at("resources"))
+            std::cout << "    set " << r.at("set") << " binding " << r.at("binding") << ": " << r.at("name").get<std::string>()
+                      << " (" << r.at("kind").get<std::string>() << ")\n";
         for (size_t i = 0; i < pack.variant_count(pass); ++i)
           std::cout << "    [" << kiln::join_keywords(pack.variant(pass, i).keywords) << "]\n";
       }
@@ -258,6 +286,39 @@ int main(int argc, char** argv) {
   unsigned jobs = 0;
   double timeout_s = 120;
 
+  // Binding model and defines (docs/bindings.md): DXC's spellings; build, list and lint take them alike.
+  std::vector<std::string> define_texts;
+  std::map<char, std::vector<std::pair<std::string, std::string>>> shift_texts;
+  std::pair<std::string, std::string> globals_text;
+  bool auto_bind = false, no_auto_bind = false, combined = false, separate = false;
+  auto add_binding_options = [&](CLI::App* cmd) {
+    cmd->add_option("-D,--define", define_texts, "Preprocessor define NAME or NAME=VALUE (repeatable; wins over the pack's)");
+    for (char c : std::string("btsu"))
+      cmd->add_option(std::string("--fvk-") + c + "-shift", shift_texts[c],
+                      std::string("N SPACE: shift the bindings of ") + c + " registers in SPACE (a number or 'all') by N (repeatable)");
+    cmd->add_option("--fvk-bind-globals", globals_text, "N M: the implicit $Global uniform block at binding N, set M");
+    cmd->add_flag("--auto-bind", auto_bind, "Bind resources that declare no register automatically (the default)");
+    cmd->add_flag("--no-auto-bind", no_auto_bind, "Do not bind resources that declare no register automatically");
+    cmd->add_flag("--combined-image-samplers", combined, "A texture and a sampler at one register number become one combined binding");
+    cmd->add_flag("--separate-image-samplers", separate, "Keep textures and samplers apart (the default)");
+  };
+  // False (with K1014 reported) when an argument is malformed.
+  auto read_binding_options = [&](kiln::BuildOptions& into) {
+    kiln::DiagnosticSink sink;
+    print_diagnostics_as_they_come(sink);
+    bool ok = true;
+    if (auto defines = kiln::parse_command_line_defines(define_texts, sink)) into.defines = *defines;
+    else ok = false;
+    for (auto& [letter, list] : shift_texts)
+      for (auto& [shift, space] : list)
+        ok = kiln::parse_command_line_shift(*kiln::parse_register_class(std::string(1, letter)), shift, space, into.bindings, sink) && ok;
+    if (!globals_text.first.empty())
+      ok = kiln::parse_command_line_globals(globals_text.first, globals_text.second, into.bindings, sink) && ok;
+    if (auto_bind || no_auto_bind) into.bindings.auto_bind = !no_auto_bind;
+    if (combined || separate) into.bindings.combined_image_samplers = !separate;
+    return ok;
+  };
+
   auto add_scene = [&](CLI::App* cmd) {
     cmd->add_option("--scene", scenes, "Scene profile (JSON); keep only variants some scene can request")->check(CLI::ExistingFile);
   };
@@ -266,6 +327,7 @@ int main(int argc, char** argv) {
   build->add_option("pack", pack_file, "Pack definition (variants/*.pack.json)")->required();
   build->add_option("-o,--output", output, "Output directory for <name>.manifest.json and its archive")->required();
   add_scene(build);
+  add_binding_options(build);
   build->add_option("-j,--jobs", jobs, "Compiler worker processes (default, or 0: one per core)");
   auto* cache_opt = build->add_option("--cache", cache_dir, "Cache directory (default: ./.kiln-cache)");
   build->add_flag("--no-cache", no_cache, "Do not read or write the cache")->excludes(cache_opt);
@@ -288,6 +350,7 @@ int main(int argc, char** argv) {
   CLI::App* list = app.add_subcommand("list", "List every variant a pack would contain, with the keywords each stage sees");
   list->add_option("pack", pack_file, "Pack definition")->required();
   add_scene(list);
+  add_binding_options(list);
   list->add_flag("--json", as_json, "Print JSON");
 
   std::string pack_dir, extract;
@@ -306,6 +369,7 @@ int main(int argc, char** argv) {
   auto* lint_cache_opt = lint->add_option("--cache", cache_dir, "Cache directory for pack lint (default: ./.kiln-cache)");
   lint->add_flag("--no-cache", no_cache, "Do not read or write the cache")->excludes(lint_cache_opt);
   add_scene(lint);
+  add_binding_options(lint);
   lint->add_option("--format", format, "Output: text, json or sarif")->check(CLI::IsMember({"text", "json", "sarif"}));
   lint->add_flag("--werror", werror, "Treat warnings as errors");
 
@@ -351,6 +415,7 @@ int main(int argc, char** argv) {
   if (!depfile.empty()) options.depfile = depfile;
   options.emit.insert(emit.begin(), emit.end());
   for (const auto& name : target_names) options.targets.push_back(*kiln::parse_target(name));
+  if (!read_binding_options(options)) return 1;
 
   if (*build) {
     options.output_dir = output;

@@ -82,6 +82,7 @@ std::optional<PlanListing> list_variants(const BuildOptions& options, Diagnostic
     listing.pass_groups.emplace_back(plan->pack.passes[p].name, plan->passes[p].groups);
   for (const auto& [path, file] : plan->sources.files) listing.sources.emplace_back(display_path(path), file.text);
   for (const SceneProfile& scene : plan->scenes) listing.scenes.emplace_back(scene.name, scene.keywords);
+  for (const PassDefinition& pass : plan->pack.passes) listing.pass_settings.push_back({pass.name, pass.bindings, pass.defines});
   for (size_t p = 0; p < plan->passes.size(); ++p) {
     const auto& groups = plan->passes[p].groups;
     for (const Variant& v : plan->expansions[p].variants) {
@@ -111,7 +112,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   if (!prepare_output_directory(options.output_dir, sink)) return finish();
   auto settings = choose_settings(options, *plan, sink);
   if (!settings) return finish();
-  const std::string inputs_hash = hash_inputs(*settings, *plan);
+  const std::string inputs_hash = hash_inputs(*settings, *plan, options);
   report.manifest = manifest_path(options.output_dir, plan->pack.name);
   auto archive = options.emit.empty() ? current_archive(options.output_dir, plan->pack.name, inputs_hash) : std::nullopt;
   if (archive) {
@@ -141,7 +142,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   messages.report(sink);
   bool ok = !sink.has_errors();
   if (ok) {
-    auto layouts = check_pass_layouts(*plan, sources, binaries, sink, report);  // stage 7
+    auto layouts = check_pass_layouts(*plan, locator, sources, binaries, sink, report);  // stage 7
     ok = layouts && write_variant_pack(*plan, options, *settings, sources, binaries, *layouts, inputs_hash, sink, report);
   }
   emit_dumps(*plan, sources, binaries, options, sink, report);  // failed builds too

@@ -250,7 +250,7 @@ TEST_F(Cli, UnknownFieldInAPackOrSceneIsAnErrorSuggestingTheClosestKnownOne) {
                      "p.pack.json:2:93: error[K1011]: unknown field \"colour\" in a pass\n"
                      "      \"passes\": [{\"name\": \"P\", \"source\": \"S.hlsl\", \"stages\": {\"vertex\": \"V\", \"fragment\": \"F\"}, \"colour\": 1}]}\n"
                      "                                                                                                ^\n"
-                     "  note: known fields: name, description, source, stages\n"
+                     "  note: known fields: name, description, source, stages, bindings, defines\n"
                      "kiln: 2 error(s)\n");
 
   dir.write("p.pack.json", kPack);
@@ -589,6 +589,169 @@ TEST_F(Cli, BadArgumentsAreUserErrorsWithExitCode1) {
 
 namespace kiln {
 namespace {
+
+// K1406 (docs/bindings.md): once per root cause, at both HLSL declarations, naming the stages of the one
+// variant that disagree, with the number of variants and the shift that fixes it.
+// A layout clash is found after every variant compiled (their results are cached: each is valid alone);
+// no pack is written.
+void expect_layout_error(Cli& cli, const std::string& err) {
+  auto r = cli.build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, err);
+  EXPECT_FALSE(std::filesystem::exists(cli.dir / "out/p.manifest.json"));
+}
+
+TEST_F(Cli, BindingClashBetweenTheStagesOfOneVariantIsReportedOnceAtBothDeclarations) {
+  dir.write("S.hlsl",
+            "#pragma multi_compile _ A\n"
+            "cbuffer PerFrame : register(b0) { float4x4 viewProj; };\n"
+            "Texture2D albedo : register(t0);\n"
+            "SamplerState albedoSampler : register(s1);\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return mul(viewProj, p); }\n"
+            "float4 F(float4 p : SV_Position) : SV_Target { return albedo.Sample(albedoSampler, p.xy); }\n");
+  expect_layout_error(*this,
+      "S.hlsl:2:9: error[K1406]: pass 'P': set 0 binding 0 holds 'PerFrame' (uniform_buffer) in the vertex stage and "
+      "'albedo' (texture) in the fragment stage of the same variant, in 2 variants\n"
+      "    cbuffer PerFrame : register(b0) { float4x4 viewProj; };\n"
+      "            ^\n"
+      "  note: first in variant [<none>]\n"
+      "  note: registers of different classes share a number: shift one class, e.g. \"bindings\": {\"shifts\": "
+      "[{\"register\": \"t\", \"shift\": 16, \"space\": 0}]} in the pack definition or --fvk-t-shift 16 0 (DXC's "
+      "-fvk-t-shift), or give one of them [[vk::binding(N, 0)]]\n"
+      "S.hlsl:3:11: note[K1406]: 'albedo' (texture) is declared here\n"
+      "    Texture2D albedo : register(t0);\n"
+      "              ^\n"
+      "kiln: 1 error(s)\n");
+  // The shift it suggests fixes it.
+  EXPECT_EQ(build({"--fvk-t-shift", "16", "0"}).exit_code, 0);
+}
+
+TEST_F(Cli, BindingClashBetweenVariantsNamesEachSideWithItsVariants) {
+  dir.write("S.hlsl",
+            "#pragma multi_compile_fragment _ SWAP\n"
+            "#ifdef SWAP\n"
+            "Texture2D tex : register(t1);\n"
+            "SamplerState smp : register(s2);\n"
+            "#else\n"
+            "cbuffer B : register(b1) { float4 x; };\n"
+            "#endif\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "#ifdef SWAP\nfloat4 F() : SV_Target { return tex.Sample(smp, float2(0.5, 0.5)); }\n"
+            "#else\nfloat4 F() : SV_Target { return x; }\n#endif\n");
+  expect_layout_error(*this,
+      "S.hlsl:6:9: error[K1406]: pass 'P': set 0 binding 1 holds both 'B' (uniform_buffer) and 'tex' (texture), in "
+      "different variants: 'B' (uniform_buffer) in 1 variant [<none>], 'tex' (texture) in 1 variant [SWAP]\n"
+      "    cbuffer B : register(b1) { float4 x; };\n"
+      "            ^\n"
+      "  note: registers of different classes share a number: shift one class, e.g. \"bindings\": {\"shifts\": "
+      "[{\"register\": \"t\", \"shift\": 16, \"space\": 0}]} in the pack definition or --fvk-t-shift 16 0 (DXC's "
+      "-fvk-t-shift), or give one of them [[vk::binding(N, 0)]]\n"
+      "S.hlsl:3:11: note[K1406]: 'tex' (texture) is declared here\n"
+      "    Texture2D tex : register(t1);\n"
+      "              ^\n"
+      "kiln: 1 error(s)\n");
+}
+
+// An #ifdef before a resource without a register moves its automatic binding: one error, for the move.
+TEST_F(Cli, AnAutomaticBindingMovedByAKeywordIsOneErrorAboutTheMove) {
+  dir.write("S.hlsl",
+            "#pragma multi_compile_fragment _ EXTRA\n#ifdef EXTRA\nTexture2D extra;\n#endif\nTexture2D albedo;\n"
+            "SamplerState smp : register(s8);\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "float4 F(float4 p : SV_Position) : SV_Target {\n  float4 c = albedo.Sample(smp, p.xy);\n"
+            "#ifdef EXTRA\n  c += extra.Sample(smp, p.xy);\n#endif\n  return c;\n}\n");
+  expect_layout_error(*this,
+      "S.hlsl:5:11: error[K1406]: pass 'P': 'albedo' is at set 0 binding 0 in 1 variant [<none>] and at set 0 binding 1 in "
+      "1 variant [EXTRA]\n"
+      "    Texture2D albedo;\n"
+      "              ^\n"
+      "  note: a resource must have one binding in every stage and variant of a pass; one declared without a register is "
+      "bound automatically in declaration order, so a keyword that removes a declaration before it moves it: give it a "
+      "register or [[vk::binding(N, S)]]\n"
+      "kiln: 1 error(s)\n");
+}
+
+TEST_F(Cli, TextureAndSamplerAtOneRegisterNumberSuggestTheCombinedMode) {
+  dir.write("S.hlsl", "Texture2D albedo : register(t1);\nSamplerState albedoSampler : register(s1);\n"
+                      "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "float4 F(float4 p : SV_Position) : SV_Target { return albedo.Sample(albedoSampler, p.xy); }\n");
+  expect_layout_error(*this,
+      "S.hlsl:1:11: error[K1406]: pass 'P': set 0 binding 1 holds both 'albedo' (texture) and 'albedoSampler' (sampler) "
+      "in the fragment stage, in 1 variant\n"
+      "    Texture2D albedo : register(t1);\n"
+      "              ^\n"
+      "  note: first in variant [<none>]\n"
+      "  note: registers of different classes share a number: shift one class, e.g. \"bindings\": {\"shifts\": "
+      "[{\"register\": \"s\", \"shift\": 16, \"space\": 0}]} in the pack definition or --fvk-s-shift 16 0 (DXC's "
+      "-fvk-s-shift), or give one of them [[vk::binding(N, 0)]]; or, if the texture and the sampler are meant as one "
+      "combined image sampler, set \"combined_image_samplers\": true (--combined-image-samplers)\n"
+      "S.hlsl:2:14: note[K1406]: 'albedoSampler' (sampler) is declared here\n"
+      "    SamplerState albedoSampler : register(s1);\n"
+      "                 ^\n"
+      "kiln: 1 error(s)\n");
+  EXPECT_EQ(build({"--combined-image-samplers"}).exit_code, 0);
+}
+
+TEST_F(Cli, ASamplerSharedByTexturesCannotBeCombinedAndSaysWhy) {
+  dir.write("S.hlsl", "Texture2D a : register(t0);\nTexture2D b : register(t1);\nSamplerState s : register(s0);\n"
+                      "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "float4 F(float4 p : SV_Position) : SV_Target { return a.Sample(s, p.xy) + b.Sample(s, p.xy); }\n");
+  expect_build_error("S.hlsl: error[K1404]: combine-image-samplers: the texture and the sampler at set 0 binding 0 cannot "
+                     "become one combined image sampler: the sampler also samples another texture, or the texture is "
+                     "sampled with another sampler; give the sampler its own binding (an s shift)\n"
+                     "  note: in pass 'P' fragment stage, keywords [<none>]\n"
+                     "kiln: 1 error(s)\n",
+                     {"--combined-image-samplers"});
+}
+
+TEST_F(Cli, ADefineThatIsNotAnIdentifierIsAClearError) {
+  dir.write("S.hlsl", kEntries);
+  expect_build_error("<command line>: error[K1014]: -D '2FAST=1': '2FAST' is not a preprocessor identifier (expected -D "
+                     "NAME or -D NAME=VALUE; NAME is letters, digits and '_', not starting with a digit)\n",
+                     {"-D", "LEVEL=2", "-D", "2FAST=1"});
+  auto list = testing::run_kiln({"list", "p.pack.json", "-D", "A-B"}, dir.path());
+  EXPECT_EQ(list.exit_code, 1);
+  EXPECT_EQ(list.err, "<command line>: error[K1014]: -D 'A-B': 'A-B' is not a preprocessor identifier (expected -D NAME "
+                      "or -D NAME=VALUE; NAME is letters, digits and '_', not starting with a digit)\n");
+}
+
+TEST_F(Cli, AMalformedShiftIsAClearError) {
+  dir.write("S.hlsl", kEntries);
+  expect_build_error("<command line>: error[K1014]: --fvk-t-shift 16 space1: expected a shift and a register space, both "
+                     "non-negative integers (the space may be 'all')\n",
+                     {"--fvk-t-shift", "16", "space1"});
+}
+
+TEST_F(Cli, InspectShowsThePassBindingOptionsDefinesAndLayout) {
+  dir.write("S.hlsl", "cbuffer PerFrame : register(b0) { float4 tint; };\nTexture2D albedo : register(t0);\n"
+                      "SamplerState albedoSampler : register(s0);\n"
+                      "float4 V(float4 p : POSITION) : SV_Position { return p + tint; }\n"
+                      "float4 F(float4 p : SV_Position) : SV_Target { return albedo.Sample(albedoSampler, p.xy); }\n");
+  ASSERT_EQ(build({"--fvk-t-shift", "16", "all", "--fvk-s-shift", "32", "0", "-D", "QUALITY=2"}).exit_code, 0);
+  auto r = testing::run_kiln({"inspect", "out"}, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("  pass P: 1 variants\n"
+                       "    bindings: -fvk-t-shift 16 all -fvk-s-shift 32 0\n"
+                       "    defines: {\"QUALITY\":\"2\"}\n"
+                       "    set 0 binding 0: PerFrame (uniform_buffer)\n"
+                       "    set 0 binding 16: albedo (texture)\n"
+                       "    set 0 binding 32: albedoSampler (sampler)\n"),
+            std::string::npos)
+      << r.out;
+}
+
+TEST_F(Cli, ListJsonShowsTheBindingOptionsAndDefinesOfEachPass) {
+  dir.write("S.hlsl", kEntries);
+  dir.write("p.pack.json", R"({"name": "p", "bindings": {"shifts": [{"register": "t", "shift": 16}]}, "defines": {"Q": 1},
+    "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"},
+                "bindings": {"combined_image_samplers": true}}]})");
+  auto r = testing::run_kiln({"list", "p.pack.json", "--json", "-D", "Q=3", "-D", "R", "--fvk-s-shift", "32", "1"}, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  auto passes = nlohmann::json::parse(r.out)["passes"];
+  ASSERT_EQ(passes.size(), 1u);
+  EXPECT_EQ(passes[0]["bindings"], "-fvk-t-shift 16 all -fvk-s-shift 32 1 -combined-image-samplers");
+  EXPECT_EQ(passes[0]["defines"], nlohmann::json({{"Q", "3"}, {"R", "1"}}));
+}
 
 TEST_F(Cli, ListJsonShowsTheKeywordsEachStageSees) {
   dir.write("S.hlsl", std::string("#pragma multi_compile _ A\n#pragma multi_compile_fragment _ B\n") + kEntries);

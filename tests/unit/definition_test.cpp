@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "definition/definition.hpp"
+#include "frontend/bindings.hpp"
 #include "test_support.hpp"
 
 namespace kiln {
@@ -40,6 +41,45 @@ TEST(Definition, SchemasListExactlyTheFieldsKilnAccepts) {
   EXPECT_EQ(listed(pack.at("properties").at("constraints").at("items")), sorted(kiln.constraint));
   EXPECT_EQ(listed(pack.at("properties").at("materials").at("items")), sorted(kiln.material));
   EXPECT_EQ(listed(read_schema("scene.schema.json")), sorted(kiln.scene));
+  EXPECT_EQ(listed(pack.at("$defs").at("bindings")), sorted(kiln.bindings));
+  EXPECT_EQ(listed(pack.at("$defs").at("bindings").at("properties").at("shifts").at("items")), sorted(kiln.shift));
+}
+
+// [[vk::binding]] is found by the declared name, through other attributes, template arguments and array sizes.
+TEST(Definition, VkBindingAttributesAreFoundByTheDeclaredName) {
+  const auto found = find_vk_bindings(
+      "[[vk::binding(3, 2)]] cbuffer PerFrame : register(b0) { float4 a; };\n"
+      "[[ vk :: binding ( 5 ) ]] [[vk::image_format(\"rgba8\")]] RWTexture2D<float4> output[4] : register(u1);\n"
+      "[[vk::binding(7, 1)]] ConstantBuffer<Light> lights;\n"
+      "[[vk::location(0)]] float4 notAResource;\n"
+      "float4 myvk::binding(1)]] x;\n");
+  EXPECT_EQ(found, (std::map<std::string, std::pair<uint32_t, uint32_t>>{
+                       {"PerFrame", {3, 2}}, {"output", {5, 0}}, {"lights", {7, 1}}}));
+}
+
+TEST(Definition, DefinesParseAsTheCommandLineWritesThem) {
+  EXPECT_EQ(parse_define("FAST"), (Define{"FAST", "1"}));
+  EXPECT_EQ(parse_define("LEVEL=3"), (Define{"LEVEL", "3"}));
+  EXPECT_EQ(parse_define("EMPTY="), (Define{"EMPTY", ""}));
+  EXPECT_EQ(parse_define("EXPR=a=b"), (Define{"EXPR", "a=b"}));
+  EXPECT_FALSE(parse_define("2FAST"));
+  EXPECT_FALSE(parse_define("A-B=1"));
+  EXPECT_FALSE(parse_define("=1"));
+  EXPECT_FALSE(parse_define("A=1\n#define B 2"));
+}
+
+TEST(Definition, BindingOptionsOverrideFieldByFieldAndASpaceShiftWinsOverAll) {
+  BindingOptions pack, pass;
+  pack.shifts[{RegisterClass::T, kAllSpaces}] = 16;
+  pack.combined_image_samplers = true;
+  pass.shifts[{RegisterClass::T, 1}] = 4;
+  pass.auto_bind = false;
+  pack.override_with(pass);
+  EXPECT_EQ(pack.shift(RegisterClass::T, 0), 16u);
+  EXPECT_EQ(pack.shift(RegisterClass::T, 1), 4u);
+  EXPECT_EQ(pack.shift(RegisterClass::S, 0), 0u);
+  EXPECT_EQ(pack.canonical(), "-fvk-t-shift 16 all -fvk-t-shift 4 1 -no-auto-bind -combined-image-samplers");
+  EXPECT_EQ(BindingOptions{}.canonical(), "");
 }
 
 TEST(Definition, BundledPackDefinitionsAndSceneProfilesLoadWithoutDiagnostics) {

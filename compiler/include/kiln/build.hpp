@@ -38,6 +38,8 @@ struct BuildOptions {
   std::string frontend = "glslang";                 // HLSL front end, by name (frontend_names())
   std::vector<Target> targets;                      // empty: the pack definition's targets
   uint64_t max_file_bytes = 4u << 20;
+  BindingOptions bindings;       // command line: overrides every pass's "bindings" field by field
+  std::vector<Define> defines;   // command line (-D): added to every pass's, replacing a define of the same name
   std::function<void(size_t done, size_t total, size_t cache_hits)> progress;
 };
 
@@ -95,10 +97,17 @@ struct VariantListing {
   std::vector<std::string> keywords;
   std::vector<std::pair<std::string, std::vector<std::string>>> stage_keywords;  // stage -> keywords it sees
 };
+// Per pass: the binding options and defines in effect (pack, pass and command line combined).
+struct PassSettings {
+  std::string pass;
+  BindingOptions bindings;
+  std::vector<Define> defines;
+};
 struct PlanListing {
   std::string pack;
   Funnel funnel;
   std::vector<VariantListing> variants;
+  std::vector<PassSettings> pass_settings;
   // For lint: each pass's keyword groups (with where they are declared), every source file read
   // (display path -> text), and the keywords each scene may enable.
   std::vector<std::pair<std::string, std::vector<KeywordGroup>>> pass_groups;

@@ -44,11 +44,49 @@ struct KeywordGroup {
   int index_of(std::string_view keyword) const;  // -1 if absent
 };
 
+// How HLSL registers become Vulkan descriptor bindings (docs/bindings.md). The DXC/slangc model:
+// `register(t3, space1)` is set 1, binding 3 + the t shift of space 1; `[[vk::binding(b, s)]]` is taken as
+// written, never shifted; a resource with no register gets the first free binding of set 0 at or above its
+// class's shift. The default (no shifts) reproduces glslang's plain register numbers.
+enum class RegisterClass : uint8_t { B, T, S, U };  // cbuffer, SRV (texture, read-only buffer), sampler, UAV
+inline constexpr int kRegisterClassCount = 4;
+char register_class_letter(RegisterClass register_class);  // 'b', 't', 's', 'u'
+std::optional<RegisterClass> parse_register_class(std::string_view letter);
+
+inline constexpr int64_t kAllSpaces = -1;
+
+// Every field is optional so that pack, pass and command line can each override the one before.
+struct BindingOptions {
+  std::map<std::pair<RegisterClass, int64_t>, uint32_t> shifts;  // (class, space or kAllSpaces) -> shift
+  std::optional<bool> auto_bind;                // resources without a register: bound automatically (default on)
+  std::optional<bool> combined_image_samplers;  // a texture and a sampler at one binding become one combined binding
+  std::optional<std::pair<uint32_t, uint32_t>> global_uniform;  // (binding, set) of the implicit $Global block
+
+  void override_with(const BindingOptions& later);  // `later`'s fields win
+  uint32_t shift(RegisterClass register_class, uint32_t space) const;  // a space's own shift wins over "all"
+  bool auto_binds() const { return auto_bind.value_or(true); }
+  bool combines() const { return combined_image_samplers.value_or(false); }
+  // One canonical line: cache keys, the no-change check, the manifest and `kiln list` use it.
+  std::string canonical() const;
+};
+
+// A preprocessor define from the pack definition or the command line: `#define name value`.
+struct Define {
+  std::string name;
+  std::string value = "1";
+  friend bool operator==(const Define&, const Define&) = default;
+};
+// "NAME" or "NAME=VALUE", as -D takes it; nothing when NAME is not a preprocessor identifier.
+std::optional<Define> parse_define(std::string_view text);
+bool is_identifier(std::string_view text);
+
 struct PassDefinition {
   std::string name;
   std::filesystem::path source;                      // entry HLSL file of the pass
   std::array<std::string, kStageCount> entry_points;  // empty: the pass has no such stage
   SourceLocation defined_at;
+  BindingOptions bindings;      // the pack's, with the pass's own overrides applied
+  std::vector<Define> defines;  // the pack's, then the pass's own
 };
 
 // "keyword" may only appear with all of `requires_all`, at least one of `requires_any`, none of `excludes`.
@@ -76,6 +114,8 @@ struct PackDefinition {
   std::vector<std::filesystem::path> include_dirs;
   std::vector<Target> targets;
   uint64_t budget = 4096;
+  BindingOptions bindings;      // pack level (each pass holds the result with its overrides)
+  std::vector<Define> defines;  // pack level
   std::vector<PassDefinition> passes;
   std::vector<Constraint> constraints;
   std::vector<MaterialPreset> materials;  // empty: every shader_feature combination

@@ -6,12 +6,13 @@
 namespace kiln {
 namespace {
 
-constexpr std::array<std::pair<CompileStep, std::string_view>, 14> kNames{{
+constexpr std::array<std::pair<CompileStep, std::string_view>, 15> kNames{{
     {CompileStep::None, ""},
     {CompileStep::Preprocess, "preprocess"},
     {CompileStep::Frontend, "frontend"},
     {CompileStep::EntryPoint, "entry-point"},
     {CompileStep::Legalize, "legalize"},
+    {CompileStep::CombineImageSamplers, "combine-image-samplers"},
     {CompileStep::Validate, "validate"},
     {CompileStep::Optimize, "optimize"},
     {CompileStep::ValidateOptimized, "validate-optimized"},

@@ -15,6 +15,7 @@ enum class CompileStep {
   Frontend,           // the HLSL front end rejected the source
   EntryPoint,         // the entry point is not defined
   Legalize,
+  CombineImageSamplers,  // --combined-image-samplers: textures and samplers at one register become one binding
   Validate,           // spirv-val on the legalized module
   Optimize,
   ValidateOptimized,  // spirv-val on the optimized module

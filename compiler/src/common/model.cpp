@@ -1,6 +1,7 @@
 #include "kiln/model.hpp"
 
 #include <algorithm>
+#include <cctype>
 
 namespace kiln {
 
@@ -30,6 +31,57 @@ std::string_view target_extension(Target target) {
     case Target::Msl: return ".metal";
   }
   return ".bin";
+}
+
+char register_class_letter(RegisterClass register_class) { return "btsu"[static_cast<size_t>(register_class)]; }
+
+std::optional<RegisterClass> parse_register_class(std::string_view letter) {
+  for (RegisterClass c : {RegisterClass::B, RegisterClass::T, RegisterClass::S, RegisterClass::U})
+    if (letter.size() == 1 && letter[0] == register_class_letter(c)) return c;
+  return std::nullopt;
+}
+
+void BindingOptions::override_with(const BindingOptions& later) {
+  for (const auto& [where, value] : later.shifts) shifts[where] = value;
+  if (later.auto_bind) auto_bind = later.auto_bind;
+  if (later.combined_image_samplers) combined_image_samplers = later.combined_image_samplers;
+  if (later.global_uniform) global_uniform = later.global_uniform;
+}
+
+uint32_t BindingOptions::shift(RegisterClass register_class, uint32_t space) const {
+  if (auto it = shifts.find({register_class, int64_t{space}}); it != shifts.end()) return it->second;
+  if (auto it = shifts.find({register_class, kAllSpaces}); it != shifts.end()) return it->second;
+  return 0;
+}
+
+std::string BindingOptions::canonical() const {
+  std::string out;
+  for (const auto& [where, value] : shifts) {
+    if (value == 0 && where.second == kAllSpaces) continue;  // the default, spelled out
+    out += std::string("-fvk-") + register_class_letter(where.first) + "-shift " + std::to_string(value) + " " +
+           (where.second == kAllSpaces ? std::string("all") : std::to_string(where.second)) + " ";
+  }
+  if (!auto_binds()) out += "-no-auto-bind ";
+  if (combines()) out += "-combined-image-samplers ";
+  if (global_uniform)
+    out += "-fvk-bind-globals " + std::to_string(global_uniform->first) + " " + std::to_string(global_uniform->second) + " ";
+  if (!out.empty()) out.pop_back();
+  return out;
+}
+
+bool is_identifier(std::string_view text) {
+  if (text.empty() || std::isdigit(static_cast<unsigned char>(text[0]))) return false;
+  return std::all_of(text.begin(), text.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
+}
+
+std::optional<Define> parse_define(std::string_view text) {
+  const size_t equals = text.find('=');
+  Define define;
+  define.name = std::string(text.substr(0, equals));
+  if (equals != std::string_view::npos) define.value = std::string(text.substr(equals + 1));
+  // A value is one line of the preamble: a newline would end the #define and start another directive.
+  if (!is_identifier(define.name) || define.value.find_first_of("\r\n") != std::string::npos) return std::nullopt;
+  return define;
 }
 
 std::optional<Target> parse_target(std::string_view name) {

@@ -10,12 +10,6 @@ const SourceFile* SourceSet::find(const std::filesystem::path& canonical) const 
   return it == files.end() ? nullptr : &it->second;
 }
 
-bool is_identifier(std::string_view word) {
-  if (word.empty() || !(std::isalpha(static_cast<unsigned char>(word[0])) || word[0] == '_')) return false;
-  return std::all_of(word.begin(), word.end(),
-                     [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
-}
-
 // Source lines with comments blanked out (same length, so columns stay true). Block comments may span lines.
 std::vector<std::string> code_lines(std::string_view text) {
   std::vector<std::string> lines;

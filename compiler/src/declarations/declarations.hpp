@@ -44,7 +44,7 @@ std::optional<PassDeclarations> scan_declarations(const std::filesystem::path& e
 std::optional<KeywordGroup> parse_keyword_pragma(std::string_view body, const SourceLocation& at, int body_column,
                                                  DiagnosticSink& sink, bool& malformed);
 
-bool is_identifier(std::string_view word);
+// is_identifier (a keyword must be a preprocessor identifier) is in kiln/model.hpp: defines use it too.
 
 // Source lines with comments blanked out (same length, so columns stay true); shared with lint.
 std::vector<std::string> code_lines(std::string_view text);

@@ -89,19 +89,107 @@ struct FieldReader {
   }
 };
 
+// "bindings": {"shifts": [{"register": "t", "shift": 16, "space": 0}], "auto_bind": true,
+//              "combined_image_samplers": false, "global_uniform": {"binding": 0, "set": 0}}
+BindingOptions read_bindings(FieldReader& fields, const json& object, const std::string& what);
+
+// "defines": {"NAME": "value" | integer | true | false}
+std::vector<Define> read_defines(FieldReader& fields, const json& object, const std::string& what);
+
 }  // namespace
 
 const DefinitionFields& definition_fields() {
   static const DefinitionFields fields{
       {"$schema", "name", "description", "shader", "include_dirs", "targets", "budget", "passes", "constraints",
-       "materials", "scene_features"},
-      {"name", "description", "source", "stages"},
+       "materials", "scene_features", "bindings", "defines"},
+      {"name", "description", "source", "stages", "bindings", "defines"},
       {"keyword", "requires", "requires_any", "excludes", "reason"},
       {"name", "description", "keywords"},
       {"$schema", "name", "description", "uses", "materials", "keywords"},
+      {"shifts", "auto_bind", "combined_image_samplers", "global_uniform"},
+      {"register", "shift", "space"},
   };
   return fields;
 }
+
+namespace {
+
+BindingOptions read_bindings(FieldReader& fields, const json& object, const std::string& what) {
+  BindingOptions out;
+  auto it = object.find("bindings");
+  if (it == object.end()) return out;
+  if (!it->is_object()) {
+    fields.fail("bindings", "\"bindings\" of " + what + " must be an object");
+    return out;
+  }
+  fields.only(*it, definition_fields().bindings, "\"bindings\"");
+  auto non_negative = [](const json& value) { return value.is_number_unsigned() && value.get<uint64_t>() <= UINT32_MAX; };
+  if (auto shifts = it->find("shifts"); shifts != it->end()) {
+    if (!shifts->is_array()) fields.fail("shifts", "\"shifts\" must be an array of {\"register\", \"shift\", \"space\"}");
+    else
+      for (const json& item : *shifts) {
+        if (!item.is_object()) {
+          fields.fail("shifts", "each shift must be an object {\"register\": \"t\", \"shift\": 16, \"space\": 0}");
+          continue;
+        }
+        fields.only(item, definition_fields().shift, "a shift");
+        auto letter = fields.string(item, "register", true);
+        auto register_class = letter ? parse_register_class(*letter) : std::nullopt;
+        if (letter && !register_class)
+          fields.fail(*letter, "unknown register class '" + *letter + "' (expected b, t, s or u)");
+        auto shift = item.find("shift");
+        if (shift == item.end() || !non_negative(*shift)) {
+          fields.fail("shift", "a shift needs \"shift\": a non-negative integer");
+          continue;
+        }
+        int64_t space = kAllSpaces;
+        if (auto s = item.find("space"); s != item.end()) {
+          if (non_negative(*s)) space = s->get<int64_t>();
+          else if (!(s->is_string() && s->get<std::string>() == "all"))
+            fields.fail("space", "\"space\" must be a non-negative integer or \"all\"");
+        }
+        if (register_class) out.shifts[{*register_class, space}] = shift->get<uint32_t>();
+      }
+  }
+  for (const char* flag : {"auto_bind", "combined_image_samplers"}) {
+    auto value = it->find(flag);
+    if (value == it->end()) continue;
+    if (!value->is_boolean()) fields.fail(flag, std::string("\"") + flag + "\" must be true or false");
+    else (std::string(flag) == "auto_bind" ? out.auto_bind : out.combined_image_samplers) = value->get<bool>();
+  }
+  if (auto global = it->find("global_uniform"); global != it->end()) {
+    auto binding = global->is_object() ? global->find("binding") : global->end();
+    if (!global->is_object() || binding == global->end() || !non_negative(*binding) ||
+        (global->contains("set") && !non_negative(global->at("set"))) || global->size() > (global->contains("set") ? 2u : 1u))
+      fields.fail("global_uniform", "\"global_uniform\" must be {\"binding\": N, \"set\": M} (\"set\" defaults to 0)");
+    else
+      out.global_uniform = std::make_pair(binding->get<uint32_t>(), global->value("set", uint32_t{0}));
+  }
+  return out;
+}
+
+std::vector<Define> read_defines(FieldReader& fields, const json& object, const std::string& what) {
+  std::vector<Define> out;
+  auto it = object.find("defines");
+  if (it == object.end()) return out;
+  if (!it->is_object()) {
+    fields.fail("defines", "\"defines\" of " + what + " must be an object: name -> value");
+    return out;
+  }
+  for (auto& [name, value] : it->items()) {
+    Define define{name, "1"};
+    if (value.is_string()) define.value = value.get<std::string>();
+    else if (value.is_number_integer()) define.value = value.dump();
+    else if (value.is_boolean()) define.value = value.get<bool>() ? "1" : "0";
+    else fields.fail(name, "define '" + name + "' must have a string, integer or boolean value");
+    if (!parse_define(define.name + "=" + define.value))
+      fields.fail(name, "define '" + name + "' is not a preprocessor identifier (or its value spans lines)");
+    out.push_back(std::move(define));
+  }
+  return out;
+}
+
+}  // namespace
 
 std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& file, const ReadLimits& limits,
                                                    DiagnosticSink& sink) {
@@ -146,6 +234,9 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
       pack.budget = it->get<uint64_t>();
   }
 
+  pack.bindings = read_bindings(fields, *root, "the pack");
+  pack.defines = read_defines(fields, *root, "the pack");
+
   auto passes = root->find("passes");
   if (passes == root->end() || !passes->is_array() || passes->empty()) {
     fields.fail("passes", "\"passes\" must be a non-empty array");
@@ -176,6 +267,13 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
         } else {
           pass.entry_points[static_cast<size_t>(*stage)] = entry.get<std::string>();
         }
+      }
+      pass.bindings = pack.bindings;
+      pass.bindings.override_with(read_bindings(fields, item, "pass '" + pass.name + "'"));
+      pass.defines = pack.defines;
+      for (Define& define : read_defines(fields, item, "pass '" + pass.name + "'")) {
+        std::erase_if(pass.defines, [&](const Define& d) { return d.name == define.name; });  // the pass's value wins
+        pass.defines.push_back(std::move(define));
       }
       for (const PassDefinition& other : pack.passes)
         if (other.name == pass.name) fields.fail(pass.name, "pass '" + pass.name + "' is defined twice");
@@ -231,6 +329,73 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
   }
   if (!fields.ok) return std::nullopt;
   return pack;
+}
+
+namespace {
+
+const SourceLocation kCommandLine{"<command line>", 0, 0};
+
+std::optional<uint32_t> command_line_number(const std::string& text) {
+  if (text.empty() || text.size() > 9 || text.find_first_not_of("0123456789") != std::string::npos) return std::nullopt;
+  return static_cast<uint32_t>(std::stoul(text));
+}
+
+}  // namespace
+
+std::optional<std::vector<Define>> parse_command_line_defines(const std::vector<std::string>& texts, DiagnosticSink& sink) {
+  std::vector<Define> defines;
+  bool ok = true;
+  for (const std::string& text : texts) {
+    if (auto define = parse_define(text)) {
+      std::erase_if(defines, [&](const Define& d) { return d.name == define->name; });  // the last -D wins
+      defines.push_back(*define);
+    } else {
+      ok = false;
+      sink.report(DiagId::InvalidCommandLineOption, kCommandLine,
+                  "-D '" + text + "': '" + text.substr(0, text.find('=')) +
+                      "' is not a preprocessor identifier (expected -D NAME or -D NAME=VALUE; NAME is letters, digits "
+                      "and '_', not starting with a digit)");
+    }
+  }
+  if (!ok) return std::nullopt;
+  return defines;
+}
+
+bool parse_command_line_shift(RegisterClass register_class, const std::string& shift, const std::string& space,
+                              BindingOptions& options, DiagnosticSink& sink) {
+  auto value = command_line_number(shift);
+  auto space_number = space == "all" ? std::optional<uint32_t>(0) : command_line_number(space);
+  if (!value || !space_number) {
+    sink.report(DiagId::InvalidCommandLineOption, kCommandLine,
+                std::string("--fvk-") + register_class_letter(register_class) + "-shift " + shift + " " + space +
+                    ": expected a shift and a register space, both non-negative integers (the space may be 'all')");
+    return false;
+  }
+  options.shifts[{register_class, space == "all" ? kAllSpaces : int64_t{*space_number}}] = *value;
+  return true;
+}
+
+bool parse_command_line_globals(const std::string& binding, const std::string& set, BindingOptions& options,
+                                DiagnosticSink& sink) {
+  auto b = command_line_number(binding), s = command_line_number(set);
+  if (!b || !s) {
+    sink.report(DiagId::InvalidCommandLineOption, kCommandLine,
+                "--fvk-bind-globals " + binding + " " + set + ": expected a binding and a descriptor set, both non-negative integers");
+    return false;
+  }
+  options.global_uniform = std::make_pair(*b, *s);
+  return true;
+}
+
+void apply_command_line(PackDefinition& pack, const BindingOptions& bindings, const std::vector<Define>& defines) {
+  pack.bindings.override_with(bindings);
+  for (PassDefinition& pass : pack.passes) {
+    pass.bindings.override_with(bindings);
+    for (const Define& define : defines) {
+      std::erase_if(pass.defines, [&](const Define& d) { return d.name == define.name; });
+      pass.defines.push_back(define);
+    }
+  }
 }
 
 std::optional<SceneProfile> load_scene_profile(const std::filesystem::path& file, const ReadLimits& limits,

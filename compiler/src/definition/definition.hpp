@@ -14,7 +14,7 @@ namespace kiln {
 // misspelled "budjet" must not silently mean the default budget). variants/schema/ lists the same fields
 // (checked by unit.Definition tests).
 struct DefinitionFields {
-  std::vector<std::string_view> pack, pass, constraint, material, scene;
+  std::vector<std::string_view> pack, pass, constraint, material, scene, bindings, shift;
 };
 const DefinitionFields& definition_fields();
 
@@ -22,6 +22,17 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
                                                    DiagnosticSink& sink);
 std::optional<SceneProfile> load_scene_profile(const std::filesystem::path& file, const ReadLimits& limits,
                                                DiagnosticSink& sink);
+
+// The command line's binding options and defines, applied to every pass (they win over the pack's).
+void apply_command_line(PackDefinition& pack, const BindingOptions& bindings, const std::vector<Define>& defines);
+
+// The command line's spellings (docs/bindings.md): "NAME[=VALUE]" for -D; "N SPACE" (SPACE a number or
+// "all") for -fvk-<class>-shift; "N M" for -fvk-bind-globals. Errors are K1014, at "<command line>".
+std::optional<std::vector<Define>> parse_command_line_defines(const std::vector<std::string>& texts, DiagnosticSink& sink);
+bool parse_command_line_shift(RegisterClass register_class, const std::string& shift, const std::string& space,
+                              BindingOptions& options, DiagnosticSink& sink);
+bool parse_command_line_globals(const std::string& binding, const std::string& set, BindingOptions& options,
+                                DiagnosticSink& sink);
 
 // Turns a profile's "uses" and "materials" into keywords with the pack's scene_features table and
 // material presets (both as JSON text, as recorded in a pack definition or a manifest).

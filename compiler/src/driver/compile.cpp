@@ -18,6 +18,7 @@ DiagId diagnostic_for(CompileStep step) {
     case CompileStep::EntryPoint: return DiagId::MissingEntryPoint;
     case CompileStep::Preprocess: return DiagId::PreprocessorError;
     case CompileStep::Legalize:
+    case CompileStep::CombineImageSamplers:
     case CompileStep::Optimize: return DiagId::OptimizerFailed;
     case CompileStep::Validate:
     case CompileStep::ValidateOptimized: return DiagId::SpirvInvalid;
@@ -108,6 +109,7 @@ class Scheduler {
       job.source = s.text;
       job.targets = settings_.targets;
       job.optimize = settings_.optimize;
+      job.bindings = plan_.pack.passes[s.pass].bindings;
       jobs_.push_back(std::move(job));
       job_subject_.push_back(b);
     }
@@ -152,7 +154,7 @@ class Scheduler {
     results_.front_messages[b] = std::move(outcome.output.messages);
     const std::vector<uint32_t>& spirv = outcome.output.spirv;
     Hasher module_key;
-    Hash128 key = settings_.add_compile_options(module_key, binaries_[b].stage, binaries_[b].entry_point)
+    Hash128 key = settings_.add_compile_options(module_key, plan_.pack.passes[s.pass], binaries_[b].stage)
                       .add(std::string_view(reinterpret_cast<const char*>(spirv.data()), spirv.size() * 4))
                       .finish();
     auto [it, inserted] = module_by_key_.emplace(key, results_.modules.size());
@@ -179,6 +181,7 @@ class Scheduler {
         back.spirv = std::move(outcome.output.spirv);  // `spirv` is not read again on this path
         back.targets = jobs_[j].targets;
         back.optimize = jobs_[j].optimize;
+        back.bindings = jobs_[j].bindings;
         jobs_.push_back(std::move(back));  // runs next, in whichever worker is free
         job_subject_.push_back(results_.modules.size());
         ++report_.back_ends;

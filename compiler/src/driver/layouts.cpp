@@ -1,27 +1,50 @@
 #include "driver/layouts.hpp"
 
-#include <set>
+#include <map>
 
+#include "common/files.hpp"
 #include "driver/stage_timer.hpp"
-#include "reflect/reflect.hpp"
+#include "layouts/layout_check.hpp"
 
 namespace kiln {
+namespace {
 
-std::optional<std::vector<nlohmann::json>> check_pass_layouts(const Plan& plan, const StageSources& sources,
+// What the layout check (layouts/) needs of a pass: each distinct binary with its stage, reflection and the
+// variants that use it, and a way to find a resource's declaration.
+PassLayoutInput layout_input(const Plan& plan, const SourceLocator& locator, uint32_t pass, const StageSources& sources,
+                             const std::vector<Binary>& binaries) {
+  PassLayoutInput input;
+  input.pass = plan.pack.passes[pass].name;
+  input.pass_location = plan.pack.passes[pass].defined_at;
+  std::map<int, size_t> index_of_binary;
+  const auto& variant_source = sources.variant_source[pass];
+  for (size_t v = 0; v < variant_source.size(); ++v) {
+    input.variant_names.push_back(join_keywords(enabled_keywords(plan.passes[pass].groups, plan.expansions[pass].variants[v])));
+    for (int source : variant_source[v]) {
+      if (source < 0) continue;
+      const int b = sources.list[static_cast<size_t>(source)].binary;
+      auto [it, inserted] = index_of_binary.emplace(b, input.binaries.size());
+      if (inserted)
+        input.binaries.push_back({binaries[static_cast<size_t>(b)].stage, &binaries[static_cast<size_t>(b)].output->reflection, {}});
+      input.binaries[it->second].variants.push_back(v);
+    }
+  }
+  const std::string entry_name = display_path(plan.declarations[pass].entry);
+  input.locate = [&locator, pass, entry_name](const std::string& name) { return locator.declaration(pass, name, entry_name); };
+  return input;
+}
+
+}  // namespace
+
+std::optional<std::vector<nlohmann::json>> check_pass_layouts(const Plan& plan, const SourceLocator& locator,
+                                                              const StageSources& sources,
                                                               const std::vector<Binary>& binaries, DiagnosticSink& sink,
                                                               BuildReport& report) {
   StageTimer timer(report, "reflect");
   const int errors_before = sink.error_count();
   std::vector<nlohmann::json> layouts(plan.passes.size());
-  for (uint32_t p = 0; p < plan.passes.size(); ++p) {
-    std::vector<LayoutSource> layout_sources;
-    std::set<int> seen;
-    for (const StageSource& s : sources.list) {
-      if (s.pass != p || !seen.insert(s.binary).second) continue;
-      layout_sources.push_back({variant_description(plan, s), &binaries[static_cast<size_t>(s.binary)].output->reflection});
-    }
-    layouts[p] = merge_pass_layout(plan.pack.passes[p].name, layout_sources, plan.pack.passes[p].defined_at, sink);
-  }
+  for (uint32_t p = 0; p < plan.passes.size(); ++p)
+    layouts[p] = check_pass_layout(layout_input(plan, locator, p, sources, binaries), sink);
   if (sink.error_count() != errors_before) return std::nullopt;
   return layouts;
 }

@@ -6,13 +6,15 @@
 
 #include <nlohmann/json.hpp>
 
+#include "driver/messages.hpp"
 #include "driver/plan.hpp"
 #include "driver/stage_sources.hpp"
 
 namespace kiln {
 
 // Each pass's merged layout; nothing when a pass's binaries disagree (reported).
-std::optional<std::vector<nlohmann::json>> check_pass_layouts(const Plan& plan, const StageSources& sources,
+std::optional<std::vector<nlohmann::json>> check_pass_layouts(const Plan& plan, const SourceLocator& locator,
+                                                              const StageSources& sources,
                                                               const std::vector<Binary>& binaries, DiagnosticSink& sink,
                                                               BuildReport& report);
 

@@ -19,6 +19,7 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sin
     }
     if (!ok) return nullptr;
     plan->pack = std::move(*pack);
+    apply_command_line(plan->pack, options.bindings, options.defines);
     for (SceneProfile& scene : plan->scenes)
       ok = resolve_scene_profile(scene, plan->pack.scene_features_json, plan->pack.materials, sink) && ok;
     if (!ok) return nullptr;

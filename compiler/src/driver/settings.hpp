@@ -22,8 +22,9 @@ struct BuildSettings {
   std::string target_names;     // "spirv,glsl,..." as hashed
   bool optimize = true;
 
-  // The start of every compile's cache key: what its output depends on besides its input.
-  Hasher& add_compile_options(Hasher& hasher, Stage stage, const std::string& entry_point) const;
+  // The start of every compile's cache key: what its output depends on besides its input (the pass gives the
+  // entry point and the binding options).
+  Hasher& add_compile_options(Hasher& hasher, const PassDefinition& pass, Stage stage) const;
 };
 
 // Nothing when the front end is unknown (reported).
@@ -31,6 +32,6 @@ std::optional<BuildSettings> choose_settings(const BuildOptions& options, const 
 
 // The inputs hash: the tools, options, pack format (a pack another format version wrote is rebuilt) and the
 // bytes of every file read.
-std::string hash_inputs(const BuildSettings& settings, const Plan& plan);
+std::string hash_inputs(const BuildSettings& settings, const Plan& plan, const BuildOptions& options);
 
 }  // namespace kiln

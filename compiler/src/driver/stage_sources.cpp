@@ -11,7 +11,14 @@ namespace {
 
 Hash128 source_key(const Plan& plan, const BuildSettings& settings, const StageSource& s) {
   Hasher key;
-  return settings.add_compile_options(key, s.stage, plan.entry_point(s.pass, s.stage)).add(s.text).finish();
+  return settings.add_compile_options(key, plan.pack.passes[s.pass], s.stage).add(s.text).finish();
+}
+
+// "NAME=VALUE" per define of a pass, in order: Preprocess jobs carry them before the keywords.
+std::vector<std::string> pass_defines(const PassDefinition& pass) {
+  std::vector<std::string> out;
+  for (const Define& define : pass.defines) out.push_back(define.name + "=" + define.value);
+  return out;
 }
 
 StageSources enumerate(const Plan& plan, BuildReport& report) {
@@ -52,9 +59,10 @@ void use_memos(StageSources& sources, const Plan& plan, const BuildSettings& set
   const std::string files_listed = listing.finish().hex();
   for (StageSource& s : sources.list) {
     Hasher memo;
-    settings.add_compile_options(memo.add("preprocess"), s.stage, plan.entry_point(s.pass, s.stage))
+    settings.add_compile_options(memo.add("preprocess"), plan.pack.passes[s.pass], s.stage)
         .add(display_path(plan.declarations[s.pass].entry))
         .add(files_listed);
+    for (const std::string& define : pass_defines(plan.pack.passes[s.pass])) memo.add(define);
     for (const std::string& define : s.defines) memo.add(define);
     s.memo = memo.finish();
     bool rejected = false;
@@ -112,7 +120,8 @@ void Preprocessor::run(StageSources& sources, const std::vector<size_t>& which) 
     jobs[w].kind = JobKind::Preprocess;
     jobs[w].stage = s.stage;
     jobs[w].files = files_of(s.pass);
-    jobs[w].defines = s.defines;
+    jobs[w].defines = pass_defines(plan_.pack.passes[s.pass]);  // the pass's defines, then the keywords
+    jobs[w].defines.insert(jobs[w].defines.end(), s.defines.begin(), s.defines.end());
   }
   runner_.run(jobs, [&](size_t j, WorkerOutcome outcome) {
     StageSource& s = sources.list[which[j]];

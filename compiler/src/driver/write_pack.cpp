@@ -42,6 +42,17 @@ json materials_json(const PackDefinition& pack) {
   return out;
 }
 
+// The binding options and defines a pass was built with, when not the defaults (docs/bindings.md): absent
+// fields keep the manifests of packs that use neither as they were.
+void add_pass_settings_json(json& pass_json, const PassDefinition& pass) {
+  if (!pass.bindings.canonical().empty()) pass_json["bindings"] = pass.bindings.canonical();
+  if (!pass.defines.empty()) {
+    json defines = json::object();
+    for (const Define& define : pass.defines) defines[define.name] = define.value;
+    pass_json["defines"] = defines;
+  }
+}
+
 }  // namespace
 
 bool write_variant_pack(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
@@ -97,11 +108,13 @@ bool write_variant_pack(const Plan& plan, const BuildOptions& options, const Bui
       variants.push_back({{"keywords", enabled_keywords(plan.passes[p].groups, expansion.variants[v])},
                           {"binaries", stage_binaries}});
     }
-    passes_json.push_back({{"name", def.name},
-                           {"stages", stages},
-                           {"keyword_groups", groups},
-                           {"layout", layouts[p]},
-                           {"variants", variants}});
+    json pass_json{{"name", def.name},
+                   {"stages", stages},
+                   {"keyword_groups", groups},
+                   {"layout", layouts[p]},
+                   {"variants", variants}};
+    add_pass_settings_json(pass_json, def);
+    passes_json.push_back(std::move(pass_json));
   }
   json target_list_json = json::array();
   for (Target t : settings.targets) target_list_json.push_back(target_name(t));

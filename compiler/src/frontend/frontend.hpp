@@ -31,7 +31,7 @@ struct PreprocessRequest {
   Stage stage = Stage::Fragment;
   std::string entry_name;  // shown in #line directives
   std::string_view entry_text;
-  std::vector<std::string> defines;  // each becomes `#define NAME 1`
+  std::vector<std::string> defines;  // "NAME" becomes `#define NAME 1`, "NAME=VALUE" `#define NAME VALUE`
   const IncludeSource* includes = nullptr;
 };
 
@@ -46,6 +46,7 @@ struct CompileRequest {
   std::string entry_point;
   std::string source_name;
   std::string_view source;  // preprocessed
+  BindingOptions bindings;  // how registers become bindings (docs/bindings.md)
 };
 
 struct CompileResult {

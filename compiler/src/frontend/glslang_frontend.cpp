@@ -15,6 +15,7 @@
 #include "common/target_environment.hpp"
 #include "frontend/frontend.hpp"
 #include "common/hash.hpp"
+#include "frontend/glslang_bindings.hpp"
 #include "frontend/glslang_literals.hpp"
 
 namespace kiln {
@@ -183,7 +184,11 @@ class GlslangFrontend final : public Frontend {
     const char* name = request.entry_name.c_str();
     shader.setStringsWithLengthsAndNames(&text, &length, &name, 1);
     std::string preamble;
-    for (const std::string& define : request.defines) preamble += "#define " + define + " 1\n";
+    for (const std::string& define : request.defines) {
+      const size_t equals = define.find('=');
+      preamble += equals == std::string::npos ? "#define " + define + " 1\n"
+                                              : "#define " + define.substr(0, equals) + " " + define.substr(equals + 1) + "\n";
+    }
     shader.setPreamble(preamble.c_str());
     configure(shader, request.stage);
     Includer includer(request.includes, request.entry_name, protected_texts_);
@@ -217,6 +222,12 @@ class GlslangFrontend final : public Frontend {
     if (!program.link(kMessages)) {
       auto link = parse_frontend_log(program.getInfoLog(), request.source_name);
       result.messages.insert(result.messages.end(), link.begin(), link.end());
+      return result;
+    }
+    if (std::string error; !map_glslang_bindings(program, to_glslang(request.stage), request.bindings, request.source, error)) {
+      auto messages = parse_frontend_log(error, request.source_name);
+      if (messages.empty()) messages.push_back({Severity::Error, request.source_name, 0, error});
+      result.messages.insert(result.messages.end(), messages.begin(), messages.end());
       return result;
     }
     glslang::SpvOptions options;

@@ -3,6 +3,10 @@
 
 #include <spirv-tools/libspirv.hpp>
 #include <spirv-tools/optimizer.hpp>
+#include <spirv_cross/spirv.hpp>  // the SPIR-V enums only
+
+#include <map>
+#include <set>
 
 namespace kiln {
 namespace {
@@ -127,6 +131,85 @@ SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool opt
   optimized.step = CompileStep::ValidateOptimized;
   optimized.ok = run_validator(optimized.spirv, optimized.messages);
   return optimized;
+}
+
+namespace {
+
+// (set, binding) of every slot that a texture variable and a sampler variable both decorate.
+std::set<std::pair<uint32_t, uint32_t>> shared_texture_sampler_slots(const std::vector<uint32_t>& spirv) {
+  enum Kind { Other, Image, Sampler };
+  std::map<uint32_t, Kind> type_kind;           // type id -> what it is (through pointers and arrays)
+  std::map<uint32_t, uint32_t> set_of, binding_of;
+  std::map<uint32_t, Kind> variables;
+  for (size_t at = 5; at < spirv.size();) {
+    const uint32_t count = spirv[at] >> 16, opcode = spirv[at] & 0xffff;
+    if (count == 0 || at + count > spirv.size()) break;
+    const uint32_t* w = &spirv[at];
+    switch (opcode) {
+      case spv::OpDecorate:
+        if (count >= 4 && w[2] == spv::DecorationDescriptorSet) set_of[w[1]] = w[3];
+        if (count >= 4 && w[2] == spv::DecorationBinding) binding_of[w[1]] = w[3];
+        break;
+      case spv::OpTypeImage: type_kind[w[1]] = Image; break;
+      case spv::OpTypeSampler: type_kind[w[1]] = Sampler; break;
+      case spv::OpTypeArray:
+      case spv::OpTypeRuntimeArray: type_kind[w[1]] = type_kind[w[2]]; break;
+      case spv::OpTypePointer: type_kind[w[1]] = type_kind[w[3]]; break;
+      case spv::OpVariable:
+        if (type_kind[w[1]] != Other) variables[w[2]] = type_kind[w[1]];
+        break;
+      default: break;
+    }
+    at += count;
+  }
+  std::map<std::pair<uint32_t, uint32_t>, int> seen;  // bit 1: a texture, bit 2: a sampler
+  for (const auto& [id, kind] : variables)
+    if (binding_of.count(id)) seen[{set_of[id], binding_of[id]}] |= kind == Image ? 1 : 2;
+  std::set<std::pair<uint32_t, uint32_t>> slots;
+  for (const auto& [slot, kinds] : seen)
+    if (kinds == 3) slots.insert(slot);
+  return slots;
+}
+
+}  // namespace
+
+SpirvStepResult combine_image_samplers(const std::vector<uint32_t>& spirv) {
+  const auto slots = shared_texture_sampler_slots(spirv);
+  if (slots.empty()) {
+    SpirvStepResult unchanged;
+    unchanged.ok = true;
+    unchanged.step = CompileStep::CombineImageSamplers;
+    unchanged.spirv = spirv;
+    return unchanged;
+  }
+  std::string flag = "--convert-to-sampled-image=";
+  for (const auto& [set, binding] : slots) flag += std::to_string(set) + ":" + std::to_string(binding) + " ";
+  flag.pop_back();
+  SpirvStepResult result;
+  result.step = CompileStep::CombineImageSamplers;
+  spvtools::Optimizer optimizer(kTargetEnv);
+  optimizer.SetMessageConsumer(collect_into(result.messages));
+  // The pass leaves the sampler variable behind, loaded but no longer used: removed, so that the reflection
+  // and the GL and MSL outputs show one combined binding.
+  for (const std::string& pass : {flag, std::string("--eliminate-dead-code-aggressive"), std::string("--eliminate-dead-variables")})
+    if (!optimizer.RegisterPassFromFlag(pass)) {
+      result.messages.push_back("SPIRV-Tools does not know " + pass);
+      return result;
+    }
+  const bool converted = optimizer.Run(spirv.data(), spirv.size(), &result.spirv, optimizer_options());
+  if (!converted && result.messages.empty()) {
+    // The pass says nothing when it refuses: a sampler that shares a binding with one texture must sample
+    // only that texture (and the texture be sampled only through it) to become one combined image sampler.
+    std::string where;
+    for (const auto& [set, binding] : slots)
+      where += (where.empty() ? "" : ", ") + std::string("set ") + std::to_string(set) + " binding " + std::to_string(binding);
+    result.messages.push_back("the texture and the sampler at " + where +
+                              " cannot become one combined image sampler: the sampler also samples another texture, or "
+                              "the texture is sampled with another sampler; give the sampler its own binding (an s shift)");
+  }
+  result.ok = converted && run_validator(result.spirv, result.messages);
+  if (!result.ok) result.spirv.clear();
+  return result;
 }
 
 std::string disassemble_spirv(const std::vector<uint32_t>& spirv) {

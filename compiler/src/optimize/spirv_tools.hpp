@@ -38,6 +38,9 @@ SpirvStepResult legalize_spirv_core(const std::vector<uint32_t>& spirv);
 SpirvStepResult optimize_spirv(const std::vector<uint32_t>& spirv);
 // spirv-val alone (used by lint and tests).
 SpirvStepResult validate_spirv(const std::vector<uint32_t>& spirv);
+// Every texture and sampler variable that share one (set, binding) become one combined image sampler
+// (SPIRV-Tools' convert-to-sampled-image pass), then validated. Step "combine-image-samplers".
+SpirvStepResult combine_image_samplers(const std::vector<uint32_t>& spirv);
 std::string disassemble_spirv(const std::vector<uint32_t>& spirv);
 std::string spirv_tools_version();
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <map>
+#include <set>
 
 namespace kiln {
 namespace {
@@ -154,68 +155,39 @@ json reflect_spirv(const std::vector<uint32_t>& spirv) {
   return out;
 }
 
-json merge_pass_layout(const std::string& pass, const std::vector<LayoutSource>& sources,
-                       const SourceLocation& pass_location, DiagnosticSink& sink) {
-  // (set, binding) -> first resource seen there and who had it.
-  std::map<std::pair<uint32_t, uint32_t>, std::pair<json, std::string>> by_slot;
-  std::map<std::string, std::pair<json, std::string>> by_name;
+MergedLayout merge_layouts(const std::vector<const json*>& reflections) {
+  MergedLayout out;
+  std::map<std::pair<uint32_t, uint32_t>, json> by_slot;  // (set, binding) -> first resource seen there
+  std::map<std::string, json> by_name;
   json push_constants = json::array();
-  std::string push_owner;
-  bool ok = true;
-  auto mismatch = [&](const std::string& message, const std::string& first, const std::string& second) {
-    ok = false;
-    sink.report(DiagId::LayoutMismatch, pass_location, "pass '" + pass + "': " + message,
-                {"in " + first, "and in " + second});
+  std::set<std::pair<std::string, std::string>> reported;
+  auto clash = [&](LayoutClash::Kind kind, const json& first, const json& second) {
+    if (reported.emplace(first.dump(), second.dump()).second) out.clashes.push_back({kind, first, second});
   };
-  // Compare what must agree: a block's members' offsets and types; an image's dimension; the kind.
-  auto same_shape = [](json a, json b) {
-    a.erase("stages");
-    b.erase("stages");
-    return a == b;
-  };
-  for (const LayoutSource& source : sources) {
-    for (const json& resource : (*source.reflection)["resources"]) {
+  for (const json* reflection : reflections) {
+    for (const json& resource : (*reflection)["resources"]) {
       auto slot = std::make_pair(resource["set"].get<uint32_t>(), resource["binding"].get<uint32_t>());
-      const std::string name = resource["name"];
-      if (auto it = by_slot.find(slot); it != by_slot.end()) {
-        if (!same_shape(it->second.first, resource)) {
-          mismatch("set " + std::to_string(slot.first) + " binding " + std::to_string(slot.second) + " holds '" +
-                       it->second.first["name"].get<std::string>() + "' (" + it->second.first["kind"].get<std::string>() +
-                       ") in one variant and '" + name + "' (" + resource["kind"].get<std::string>() +
-                       ") or a different layout in another",
-                   it->second.second, source.description);
-        }
-      } else {
-        by_slot.emplace(slot, std::make_pair(resource, source.description));
-      }
-      if (auto it = by_name.find(name); it != by_name.end()) {
-        if (it->second.first["set"] != resource["set"] || it->second.first["binding"] != resource["binding"]) {
-          mismatch("resource '" + name + "' is at set " + it->second.first["set"].dump() + " binding " +
-                       it->second.first["binding"].dump() + " in one variant and at set " + resource["set"].dump() +
-                       " binding " + resource["binding"].dump() + " in another",
-                   it->second.second, source.description);
-        }
-      } else {
-        by_name.emplace(name, std::make_pair(resource, source.description));
-      }
+      auto [at_slot, new_slot] = by_slot.emplace(slot, resource);
+      if (!new_slot && at_slot->second != resource) clash(LayoutClash::Kind::SharedSlot, at_slot->second, resource);
+      auto [named, new_name] = by_name.emplace(resource["name"].get<std::string>(), resource);
+      if (!new_name && (named->second["set"] != resource["set"] || named->second["binding"] != resource["binding"]))
+        clash(LayoutClash::Kind::MovedResource, named->second, resource);
     }
-    const json& push = (*source.reflection)["push_constants"];
-    if (!push.empty()) {
-      if (push_constants.empty()) {
-        push_constants = push;
-        push_owner = source.description;
-      } else if (push != push_constants) {
-        mismatch("push constant blocks differ", push_owner, source.description);
-      }
-    }
+    const json& push = (*reflection)["push_constants"];
+    if (push.empty()) continue;
+    if (push_constants.empty()) push_constants = push;
+    else if (push != push_constants) clash(LayoutClash::Kind::PushConstants, push_constants, push);
   }
-  json merged = json::object();
   json resources = json::array();
-  for (auto& [slot, entry] : by_slot) resources.push_back(entry.first);
-  merged["resources"] = resources;
-  merged["push_constants"] = push_constants;
-  if (!ok) return json();
-  return merged;
+  for (auto& [slot, resource] : by_slot) resources.push_back(resource);
+  out.layout = {{"resources", resources}, {"push_constants", push_constants}};
+  return out;
+}
+
+bool holds_resource(const json& reflection, const json& resource) {
+  for (const json& r : reflection["resources"])
+    if (r == resource) return true;
+  return false;
 }
 
 }  // namespace kiln

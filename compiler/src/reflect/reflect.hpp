@@ -22,16 +22,23 @@ struct ReflectionError : std::runtime_error {
 // Throws ReflectionError.
 nlohmann::json reflect_spirv(const std::vector<uint32_t>& spirv);
 
-// One reflected binary of a pass, with a description of where it came from for messages.
-struct LayoutSource {
-  std::string description;  // "Forward fragment [A B]"
-  const nlohmann::json* reflection;
+// Two things a pass's binaries disagree on: the resources `first` and `second` at one (set, binding)
+// (SharedSlot), one resource name at two slots (MovedResource), or two push constant blocks (PushConstants).
+// Each distinct pair once, in the order first met.
+struct LayoutClash {
+  enum class Kind { SharedSlot, MovedResource, PushConstants } kind = Kind::SharedSlot;
+  nlohmann::json first, second;
 };
 
-// Merges the resources of all binaries of a pass into one layout; a binding that means two different
-// things, a resource at two bindings or two different block layouts under one name are LayoutMismatch
-// errors. Returns the merged layout.
-nlohmann::json merge_pass_layout(const std::string& pass, const std::vector<LayoutSource>& sources,
-                                 const SourceLocation& pass_location, DiagnosticSink& sink);
+struct MergedLayout {
+  nlohmann::json layout;  // {"resources": [...], "push_constants": [...]}
+  std::vector<LayoutClash> clashes;
+};
+
+// Merges the reflections of all binaries of a pass into one layout.
+MergedLayout merge_layouts(const std::vector<const nlohmann::json*>& reflections);
+
+// Whether a binary's reflection holds `resource` (same name, kind, set, binding and shape).
+bool holds_resource(const nlohmann::json& reflection, const nlohmann::json& resource);
 
 }  // namespace kiln

@@ -15,7 +15,7 @@ namespace {
 
 JobOutput run_front_end(Frontend& frontend, const CompileJob& job) {
   JobOutput out;
-  CompileResult compiled = frontend.compile({job.stage, job.entry_point, job.source_name, job.source});
+  CompileResult compiled = frontend.compile({job.stage, job.entry_point, job.source_name, job.source, job.bindings});
   out.messages = std::move(compiled.messages);
   if (compiled.missing_entry_point) {
     out.failed_step = CompileStep::EntryPoint;
@@ -38,6 +38,16 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
     return out;
   }
   out.full_legalization = spirv.full_legalization;
+  if (job.bindings.combines()) {
+    // A texture and a sampler that share a binding become one combined image sampler (docs/bindings.md).
+    SpirvStepResult combined = combine_image_samplers(spirv.spirv);
+    if (!combined.ok) {
+      out.failed_step = combined.step;
+      for (std::string& message : combined.messages) out.messages.push_back({Severity::Error, "", 0, std::move(message)});
+      return out;
+    }
+    spirv.spirv = std::move(combined.spirv);
+  }
   try {
     out.reflection = reflect_spirv(spirv.spirv);
   } catch (const ReflectionError& error) {
@@ -133,6 +143,30 @@ JobOutput run_compile_job(Frontend& frontend, const CompileJob& job) {
 
 namespace {
 
+json bindings_to_json(const BindingOptions& options) {
+  json shifts = json::array();
+  for (const auto& [where, shift] : options.shifts)
+    shifts.push_back({std::string(1, register_class_letter(where.first)), where.second, shift});
+  json j{{"shifts", shifts}};
+  if (options.auto_bind) j["auto_bind"] = *options.auto_bind;
+  if (options.combined_image_samplers) j["combined"] = *options.combined_image_samplers;
+  if (options.global_uniform) j["global"] = {options.global_uniform->first, options.global_uniform->second};
+  return j;
+}
+
+BindingOptions bindings_from_json(const json& j) {
+  BindingOptions options;
+  for (const json& shift : j.at("shifts")) {
+    auto register_class = parse_register_class(shift.at(0).get<std::string>());
+    if (!register_class) throw std::runtime_error("malformed binding shift");
+    options.shifts[{*register_class, shift.at(1).get<int64_t>()}] = shift.at(2).get<uint32_t>();
+  }
+  if (j.contains("auto_bind")) options.auto_bind = j.at("auto_bind").get<bool>();
+  if (j.contains("combined")) options.combined_image_samplers = j.at("combined").get<bool>();
+  if (j.contains("global")) options.global_uniform = std::make_pair(j.at("global").at(0).get<uint32_t>(), j.at("global").at(1).get<uint32_t>());
+  return options;
+}
+
 std::vector<uint32_t> binary_to_words(const std::vector<uint8_t>& bytes) {
   return spirv_from_bytes(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
@@ -146,7 +180,8 @@ std::vector<uint8_t> encode_job(const CompileJob& job) {
          {"entry", job.entry_point},
          {"source_name", job.source_name},
          {"source", job.source},
-         {"optimize", job.optimize}};
+         {"optimize", job.optimize},
+         {"bindings", bindings_to_json(job.bindings)}};
   json targets = json::array();
   for (Target t : job.targets) targets.push_back(target_name(t));
   j["targets"] = targets;
@@ -174,6 +209,7 @@ CompileJob decode_job(const std::vector<uint8_t>& bytes) {
   job.source_name = j.at("source_name").get<std::string>();
   job.source = j.at("source").get<std::string>();
   job.optimize = j.at("optimize").get<bool>();
+  job.bindings = bindings_from_json(j.at("bindings"));
   for (const json& t : j.at("targets"))
     if (auto target = parse_target(t.get<std::string>())) job.targets.push_back(*target);
   if (job.kind == JobKind::Preprocess) {

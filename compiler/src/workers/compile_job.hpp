@@ -52,9 +52,10 @@ struct CompileJob {
   std::vector<uint32_t> spirv;  // the front end's module (BackEnd)
   std::vector<Target> targets;
   bool optimize = true;
+  BindingOptions bindings;  // FrontEnd, Full: registers -> bindings; BackEnd, Full: combined image samplers
   // Preprocess: the pass's files, the entry first (shared by every job of the pass), and the keywords.
   std::shared_ptr<const std::vector<IncludableFile>> files;
-  std::vector<std::string> defines;
+  std::vector<std::string> defines;  // the pack's "NAME=VALUE" defines, then the stage's keywords
 };
 
 // One stage source's preprocessed text: kiln's largest is under 200 KiB; past this a worker stops with an error.

@@ -1,0 +1,177 @@
+#include "layouts/layout_check.hpp"
+
+#include <algorithm>
+#include <set>
+
+#include "reflect/reflect.hpp"
+
+namespace kiln {
+namespace {
+
+using nlohmann::json;
+
+// The D3D register class a reflected resource comes from ('t' or 'u' for a storage buffer: read-only
+// StructuredBuffer and ByteAddressBuffer are t, their RW forms u).
+std::string register_classes(const json& resource) {
+  const std::string kind = resource["kind"];
+  if (kind == "uniform_buffer") return "b";
+  if (kind == "sampler") return "s";
+  if (kind == "storage_image") return "u";
+  if (kind == "storage_buffer") return "tu";
+  return "t";
+}
+
+std::string describe(const json& resource) {
+  const std::string name = resource["name"];
+  if (name == "$Global") return "the implicit $Global uniform block (global variables outside any cbuffer)";
+  return "'" + name + "' (" + resource["kind"].get<std::string>() + ")";
+}
+
+std::string slot_text(const json& resource) {
+  return "set " + resource["set"].dump() + " binding " + resource["binding"].dump();
+}
+
+std::string count_text(size_t n) { return std::to_string(n) + (n == 1 ? " variant" : " variants"); }
+
+class Checker {
+ public:
+  Checker(const PassLayoutInput& input, DiagnosticSink& sink) : in_(input), sink_(sink) {}
+
+  void report(const LayoutClash& clash) {
+    if (clash.kind == LayoutClash::Kind::PushConstants) {
+      sink_.report(DiagId::LayoutMismatch, in_.pass_location, "pass '" + in_.pass + "': push constant blocks differ between its stages or variants",
+                   {"every stage and variant of a pass must declare the same push constant block"});
+      return;
+    }
+    const json& a = clash.first;
+    const json& b = clash.second;
+    const std::vector<size_t> holding_a = holders(a), holding_b = holders(b);
+    // Variants in which some binary holds `a` and another (or the same) holds `b`.
+    std::vector<size_t> together;
+    std::set<std::pair<Stage, Stage>> stage_pairs;
+    bool same_binary = false;
+    for (size_t v = 0; v < in_.variant_names.size(); ++v) {
+      bool found = false;
+      for (size_t i : holding_a)
+        for (size_t j : holding_b)
+          if (uses(i, v) && uses(j, v)) {
+            found = true;
+            if (i == j) same_binary = true;
+            else stage_pairs.emplace(in_.binaries[i].stage, in_.binaries[j].stage);
+          }
+      if (found) together.push_back(v);
+    }
+    std::string message = "pass '" + in_.pass + "': ";
+    std::vector<std::string> notes;
+    if (clash.kind == LayoutClash::Kind::SharedSlot && a["name"] == b["name"]) {
+      message += describe(a) + " has a different layout in different variants (" + slot_text(a) + ")";
+      notes.push_back("in " + first_variants(holding_a) + "; and another layout in " + first_variants(holding_b));
+      notes.push_back("a resource's type and block members must not depend on keywords: give each layout its own name and binding");
+    } else if (clash.kind == LayoutClash::Kind::SharedSlot) {
+      message += slot_text(a) + " holds both " + describe(a) + " and " + describe(b);
+      if (same_binary) {
+        message += " in the " + std::string(stage_name(stage_of(holding_a, holding_b))) + " stage, in " + count_text(together.size());
+      } else if (!stage_pairs.empty()) {
+        const auto [sa, sb] = *stage_pairs.begin();
+        message = "pass '" + in_.pass + "': " + slot_text(a) + " holds " + describe(a) + " in the " + std::string(stage_name(sa)) +
+                  " stage and " + describe(b) + " in the " + std::string(stage_name(sb)) + " stage of the same variant, in " +
+                  count_text(together.size());
+      } else {
+        message += ", in different variants: " + describe(a) + " in " + first_variants(holding_a) + ", " + describe(b) + " in " +
+                   first_variants(holding_b);
+      }
+      if (!together.empty()) notes.push_back("first in variant [" + in_.variant_names[together.front()] + "]");
+      notes.push_back(fix_for_shared_slot(a, b));
+    } else {
+      message += "'" + a["name"].get<std::string>() + "' is at " + slot_text(a) + " in " + first_variants(holding_a) + " and at " +
+                 slot_text(b) + " in " + first_variants(holding_b);
+      notes.push_back("a resource must have one binding in every stage and variant of a pass; one declared without a register "
+                      "is bound automatically in declaration order, so a keyword that removes a declaration before it moves "
+                      "it: give it a register or [[vk::binding(N, S)]]");
+    }
+    SourceLocation at = locate(a);
+    sink_.report(DiagId::LayoutMismatch, at, message, notes);
+    if (a["name"] != b["name"] && in_.locate) {
+      SourceLocation other = in_.locate(b["name"].get<std::string>());
+      if (other.line > 0)
+        sink_.report(Diagnostic{DiagId::LayoutMismatch, Severity::Note, other, describe(b) + " is declared here", {}});
+    }
+  }
+
+ private:
+  std::vector<size_t> holders(const json& resource) const {
+    std::vector<size_t> out;
+    for (size_t i = 0; i < in_.binaries.size(); ++i)
+      if (holds_resource(*in_.binaries[i].reflection, resource)) out.push_back(i);
+    return out;
+  }
+  bool uses(size_t binary, size_t variant) const {
+    const auto& v = in_.binaries[binary].variants;
+    return std::binary_search(v.begin(), v.end(), variant);
+  }
+  Stage stage_of(const std::vector<size_t>& a, const std::vector<size_t>& b) const {
+    for (size_t i : a)
+      if (std::find(b.begin(), b.end(), i) != b.end()) return in_.binaries[i].stage;
+    return in_.binaries[a.front()].stage;
+  }
+  // "3 variants, the first [A B]"
+  std::string first_variants(const std::vector<size_t>& binaries) const {
+    std::set<size_t> variants;
+    for (size_t i : binaries) variants.insert(in_.binaries[i].variants.begin(), in_.binaries[i].variants.end());
+    if (variants.empty()) return "no variant";
+    return count_text(variants.size()) + (variants.size() == 1 ? " [" : ", the first [") + in_.variant_names[*variants.begin()] + "]";
+  }
+  SourceLocation locate(const json& resource) const {
+    SourceLocation at = in_.locate ? in_.locate(resource["name"].get<std::string>()) : SourceLocation{};
+    return at.line > 0 ? at : in_.pass_location;
+  }
+  // The shift (a later class moves: b < t < s < u) or attribute that separates the two.
+  std::string fix_for_shared_slot(const json& a, const json& b) const {
+    const std::string ca = register_classes(a), cb = register_classes(b);
+    const bool texture_and_sampler = (ca == "t" && cb == "s") || (ca == "s" && cb == "t");
+    std::string fix;
+    if (ca.find_first_of(cb) == std::string::npos) {
+      const char moved = std::max(ca.back(), cb.back(), [](char x, char y) { return std::string("btsu").find(x) < std::string("btsu").find(y); });
+      uint32_t highest = 0;
+      for (const auto& binary : in_.binaries)
+        for (const json& r : (*binary.reflection)["resources"]) highest = std::max(highest, r["binding"].get<uint32_t>());
+      const uint32_t shift = (highest / 16 + 1) * 16;
+      const std::string letter(1, moved), space = a["set"].dump();
+      fix = "registers of different classes share a number: shift one class, e.g. \"bindings\": {\"shifts\": [{\"register\": \"" +
+            letter + "\", \"shift\": " + std::to_string(shift) + ", \"space\": " + space + "}]} in the pack definition or --fvk-" +
+            letter + "-shift " + std::to_string(shift) + " " + space + " (DXC's -fvk-" + letter + "-shift), or give one of them [[vk::binding(N, " +
+            space + ")]]";
+    } else {
+      fix = "give one of them another register, or [[vk::binding(N, " + a["set"].dump() + ")]]";
+    }
+    if (texture_and_sampler)
+      fix += "; or, if the texture and the sampler are meant as one combined image sampler, set \"combined_image_samplers\": true "
+             "(--combined-image-samplers)";
+    return fix;
+  }
+
+  const PassLayoutInput& in_;
+  DiagnosticSink& sink_;
+};
+
+}  // namespace
+
+json check_pass_layout(const PassLayoutInput& input, DiagnosticSink& sink) {
+  std::vector<const json*> reflections;
+  for (const auto& binary : input.binaries) reflections.push_back(binary.reflection);
+  MergedLayout merged = merge_layouts(reflections);
+  Checker checker(input, sink);
+  // A resource that moved (an automatic binding shifted by an #ifdef before it) makes the slot it left or
+  // took look shared too: the move is the root cause, reported alone.
+  std::set<std::string> moved;
+  for (const LayoutClash& clash : merged.clashes)
+    if (clash.kind == LayoutClash::Kind::MovedResource) moved.insert(clash.first["name"].get<std::string>());
+  for (const LayoutClash& clash : merged.clashes) {
+    const bool consequence = clash.kind == LayoutClash::Kind::SharedSlot && clash.first["name"] != clash.second["name"] &&
+                             (moved.count(clash.first["name"]) || moved.count(clash.second["name"]));
+    if (!consequence) checker.report(clash);
+  }
+  return merged.clashes.empty() ? merged.layout : json();
+}
+
+}  // namespace kiln

@@ -1,0 +1,34 @@
+// Stage 7, second half: every variant and stage of a pass must agree on its resource layout (K1406).
+// A clash is reported once per root cause, at the HLSL declarations involved, saying whether the stages
+// of one variant or different variants disagree, how many variants it affects, and what fixes it.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "kiln/diagnostics.hpp"
+#include "kiln/model.hpp"
+
+namespace kiln {
+
+struct PassLayoutInput {
+  std::string pass;
+  SourceLocation pass_location;           // where the pass is defined: when a declaration cannot be found
+  std::vector<std::string> variant_names;  // per variant of the pass: its keywords, "A B" or "<none>"
+  struct Binary {
+    Stage stage = Stage::Vertex;
+    const nlohmann::json* reflection = nullptr;
+    std::vector<size_t> variants;  // the variants (indices into variant_names) that use this binary
+  };
+  std::vector<Binary> binaries;
+  // Where the pass's sources declare a resource (path 0 line when not found).
+  std::function<SourceLocation(const std::string& name)> locate;
+};
+
+// The pass's merged layout; null JSON when it has clashes (each reported to `sink`).
+nlohmann::json check_pass_layout(const PassLayoutInput& input, DiagnosticSink& sink);
+
+}  // namespace kiln

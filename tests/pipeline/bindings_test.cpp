@@ -1,0 +1,258 @@
+// The binding model of docs/bindings.md and preprocessor defines, through whole builds: which set and
+// binding each resource gets, that the options reach every target and the reflection, and that they are
+// part of the no-change check.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "kiln/build.hpp"
+#include "kiln/pack_reader.hpp"
+#include "test_support.hpp"
+
+namespace kiln {
+namespace {
+
+using nlohmann::json;
+
+std::string errors_of(const DiagnosticSink& sink) {
+  std::string text;
+  for (const Diagnostic& d : sink.diagnostics()) text += format_diagnostic(d);
+  return text;
+}
+
+// "name kind set.binding" per resource of a pass's merged layout, in (set, binding) order.
+std::string layout_of(const std::filesystem::path& manifest, size_t pass = 0) {
+  json m = json::parse(testing::read_file(manifest));
+  std::string out;
+  for (const json& r : m["passes"][pass]["layout"]["resources"])
+    out += (out.empty() ? "" : ", ") + r["name"].get<std::string>() + " " + r["kind"].get<std::string>() + " " +
+           r["set"].dump() + "." + r["binding"].dump();
+  return out;
+}
+
+struct Bindings : ::testing::Test {
+  testing::TempDir dir;
+  BindingOptions command_line;
+  std::vector<Define> defines;
+  BuildReport report;
+
+  // A pack of one pass P with entry points V and F in S.hlsl; `pack_fields` adds fields to the pack object.
+  void write_pack(const std::string& pack_fields = "", const std::string& pass_fields = "") {
+    dir.write("p.pack.json", R"({"name": "p", )" + pack_fields + (pack_fields.empty() ? "" : ", ") +
+                                 R"("passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"})" +
+                                 (pass_fields.empty() ? "" : ", " + pass_fields) + "}]}");
+  }
+  bool build(DiagnosticSink& sink, const std::string& out = "out") {
+    BuildOptions options;
+    options.pack_file = dir / "p.pack.json";
+    options.output_dir = dir / out;
+    options.cache_dir = dir / "cache";
+    options.jobs = 2;
+    options.worker_executable = KILN_WORKER_PATH;
+    options.bindings = command_line;
+    options.defines = defines;
+    report = build_pack(options, sink);
+    return report.ok;
+  }
+  std::string layout(const std::string& out = "out") { return layout_of(dir / out / "p.manifest.json"); }
+};
+
+// The D3D way: one register number per class. Without shifts every class starts at binding 0.
+const char* kD3DRegisters =
+    "cbuffer PerFrame : register(b0) { float4x4 viewProj; };\n"
+    "Texture2D albedo : register(t0);\n"
+    "SamplerState albedoSampler : register(s0);\n"
+    "float4 V(float4 p : POSITION) : SV_Position { return mul(viewProj, p); }\n"
+    "float4 F(float4 p : SV_Position) : SV_Target { return albedo.Sample(albedoSampler, p.xy); }\n";
+
+TEST_F(Bindings, RegisterClassesCollideWithoutShiftsAndSeparateWithThem) {
+  dir.write("S.hlsl", kD3DRegisters);
+  write_pack();
+  DiagnosticSink plain;
+  EXPECT_FALSE(build(plain));
+  EXPECT_TRUE(plain.contains(DiagId::LayoutMismatch)) << errors_of(plain);
+
+  write_pack(R"("bindings": {"shifts": [{"register": "t", "shift": 16}, {"register": "s", "shift": 32, "space": 0}]})");
+  DiagnosticSink shifted;
+  ASSERT_TRUE(build(shifted)) << errors_of(shifted);
+  EXPECT_EQ(layout(), "PerFrame uniform_buffer 0.0, albedo texture 0.16, albedoSampler sampler 0.32");
+}
+
+TEST_F(Bindings, ShiftsOnTheCommandLineOverrideThePackAndRebuild) {
+  dir.write("S.hlsl", kD3DRegisters);
+  write_pack(R"("bindings": {"shifts": [{"register": "t", "shift": 16}, {"register": "s", "shift": 32}]})");
+  DiagnosticSink first;
+  ASSERT_TRUE(build(first)) << errors_of(first);
+  command_line.shifts[{RegisterClass::T, 0}] = 8;  // a space's own shift wins over the pack's "all"
+  DiagnosticSink second;
+  ASSERT_TRUE(build(second)) << errors_of(second);
+  EXPECT_FALSE(report.up_to_date);
+  EXPECT_EQ(layout(), "PerFrame uniform_buffer 0.0, albedo texture 0.8, albedoSampler sampler 0.32");
+  DiagnosticSink third;
+  ASSERT_TRUE(build(third)) << errors_of(third);
+  EXPECT_TRUE(report.up_to_date);
+  command_line = {};
+  DiagnosticSink fourth;
+  ASSERT_TRUE(build(fourth)) << errors_of(fourth);
+  EXPECT_FALSE(report.up_to_date);
+  EXPECT_EQ(layout(), "PerFrame uniform_buffer 0.0, albedo texture 0.16, albedoSampler sampler 0.32");
+}
+
+TEST_F(Bindings, VkBindingIsNeverShiftedAndRegisterSpaceIsTheSet) {
+  dir.write("S.hlsl",
+            "[[vk::binding(3, 2)]] cbuffer Pinned : register(b0) { float4 a; };\n"
+            "[[vk::binding(5)]] Texture2D pinnedTexture : register(t0, space1);\n"
+            "Texture2D spaced : register(t1, space1);\n"
+            "SamplerState s : register(s0, space1);\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p + a; }\n"
+            "float4 F(float4 p : SV_Position) : SV_Target { return pinnedTexture.Sample(s, p.xy) + spaced.Sample(s, p.xy); }\n");
+  write_pack(R"("bindings": {"shifts": [{"register": "b", "shift": 100}, {"register": "t", "shift": 10},
+                                        {"register": "t", "shift": 20, "space": 1}, {"register": "s", "shift": 30}]})");
+  DiagnosticSink sink;
+  ASSERT_TRUE(build(sink)) << errors_of(sink);
+  EXPECT_EQ(layout(), "pinnedTexture texture 0.5, spaced texture 1.21, s sampler 1.30, Pinned uniform_buffer 2.3");
+}
+
+TEST_F(Bindings, ResourcesWithoutARegisterAreBoundAutomaticallyAboveTheirShift) {
+  dir.write("S.hlsl",
+            "Texture2D first;\nTexture2D second;\nSamplerState smp;\n"
+            "Texture2D fixedTexture : register(t0);\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "float4 F(float4 p : SV_Position) : SV_Target {\n"
+            "  return first.Sample(smp, p.xy) + second.Sample(smp, p.xy) + fixedTexture.Sample(smp, p.xy);\n}\n");
+  write_pack(R"("bindings": {"shifts": [{"register": "s", "shift": 8}]})");
+  DiagnosticSink sink;
+  ASSERT_TRUE(build(sink)) << errors_of(sink);
+  EXPECT_EQ(layout(), "fixedTexture texture 0.0, first texture 0.1, second texture 0.2, smp sampler 0.8");
+
+  command_line.auto_bind = false;  // glslang's plain numbering: everything unregistered at 0
+  DiagnosticSink off;
+  EXPECT_FALSE(build(off));
+  EXPECT_TRUE(off.contains(DiagId::LayoutMismatch)) << errors_of(off);
+}
+
+TEST_F(Bindings, TheGlobalUniformBlockGoesWhereConfiguredUnshifted) {
+  dir.write("S.hlsl",
+            "float4 tint;\n"
+            "cbuffer PerFrame : register(b0) { float4 offset; };\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p + offset; }\n"
+            "float4 F(float4 p : SV_Position) : SV_Target { return tint + offset; }\n");
+  write_pack();
+  DiagnosticSink automatic;
+  ASSERT_TRUE(build(automatic)) << errors_of(automatic);
+  EXPECT_EQ(layout(), "PerFrame uniform_buffer 0.0, $Global uniform_buffer 0.1");
+
+  write_pack(R"("bindings": {"shifts": [{"register": "b", "shift": 4}], "global_uniform": {"binding": 2, "set": 1}})");
+  DiagnosticSink placed;
+  ASSERT_TRUE(build(placed)) << errors_of(placed);
+  EXPECT_EQ(layout(), "PerFrame uniform_buffer 0.4, $Global uniform_buffer 1.2");
+}
+
+// A texture and a sampler at one register number: one combined binding in SPIR-V, GLSL, MSL and reflection.
+TEST_F(Bindings, CombinedModeMakesOneCombinedImageSamplerInEveryTarget) {
+  dir.write("S.hlsl",
+            "Texture2D albedo : register(t1);\nSamplerState albedoSampler : register(s1);\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "float4 F(float4 p : SV_Position) : SV_Target { return albedo.Sample(albedoSampler, p.xy); }\n");
+  write_pack("", R"("bindings": {"combined_image_samplers": true, "shifts": [{"register": "s", "shift": 40}]})");
+  DiagnosticSink sink;
+  ASSERT_TRUE(build(sink)) << errors_of(sink);
+  EXPECT_EQ(layout(), "albedo combined_image_sampler 0.1");
+  PackReader pack = PackReader::open(dir / "out");
+  const StageView* fragment = pack.select("P", {}).stage("fragment");
+  ASSERT_NE(fragment, nullptr);
+  EXPECT_NE(std::string(fragment->glsl).find("uniform sampler2D albedo;"), std::string::npos) << fragment->glsl;
+  EXPECT_EQ(std::string(fragment->glsl).find("albedoSampler"), std::string::npos) << fragment->glsl;
+  const std::string msl(fragment->msl);
+  EXPECT_NE(msl.find("texture2d<float> albedo [[texture(0)]]"), std::string::npos) << msl;
+  EXPECT_NE(msl.find("sampler albedoSmplr [[sampler(0)]]"), std::string::npos) << msl;
+  // SPIR-V: the sampled-image type, and no separate sampler left.
+  const std::string spirv(fragment->spirv);
+  const uint32_t sampled_image = (3u << 16) | 27u, sampler = (2u << 16) | 26u;  // OpTypeSampledImage, OpTypeSampler
+  auto has_instruction = [&](uint32_t first_word) {
+    for (size_t at = 20; at + 4 <= spirv.size(); at += 4)
+      if (*reinterpret_cast<const uint32_t*>(spirv.data() + at) == first_word) return true;
+    return false;
+  };
+  EXPECT_TRUE(has_instruction(sampled_image));
+  EXPECT_FALSE(has_instruction(sampler));
+
+  write_pack();  // without the mode: a texture and a sampler at one binding is a clash
+  DiagnosticSink separate;
+  EXPECT_FALSE(build(separate));
+  EXPECT_TRUE(separate.contains(DiagId::LayoutMismatch)) << errors_of(separate);
+}
+
+TEST_F(Bindings, ThePassBindingsAndDefinesAreInTheManifest) {
+  dir.write("S.hlsl", kD3DRegisters);
+  write_pack(R"("bindings": {"shifts": [{"register": "t", "shift": 16}]}, "defines": {"QUALITY": 2})",
+             R"("bindings": {"shifts": [{"register": "s", "shift": 32}]}, "defines": {"FAST": true})");
+  DiagnosticSink sink;
+  ASSERT_TRUE(build(sink)) << errors_of(sink);
+  json pass = json::parse(testing::read_file(dir / "out/p.manifest.json"))["passes"][0];
+  EXPECT_EQ(pass["bindings"], "-fvk-t-shift 16 all -fvk-s-shift 32 all");
+  EXPECT_EQ(pass["defines"], json({{"FAST", "1"}, {"QUALITY", "2"}}));
+}
+
+// Defines ---------------------------------------------------------------------------------------------
+
+const char* kDefined =
+    "#ifndef LEVEL\n#define LEVEL 1\n#endif\n"
+    "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+    "float4 F() : SV_Target { return float4(LEVEL * 0.125, 0, 0, 1); }\n";
+
+std::string fragment_glsl(const std::filesystem::path& out) {
+  PackReader pack = PackReader::open(out);
+  return std::string(pack.select("P", {}).stage("fragment")->glsl);
+}
+
+TEST_F(Bindings, ADefineInThePackChangesTheOutputAndThePassValueWins) {
+  dir.write("S.hlsl", kDefined);
+  write_pack();
+  DiagnosticSink none;
+  ASSERT_TRUE(build(none, "none")) << errors_of(none);
+  write_pack(R"("defines": {"LEVEL": 4})");
+  DiagnosticSink pack;
+  ASSERT_TRUE(build(pack, "pack")) << errors_of(pack);
+  write_pack(R"("defines": {"LEVEL": 4})", R"("defines": {"LEVEL": "6"})");
+  DiagnosticSink pass;
+  ASSERT_TRUE(build(pass, "pass")) << errors_of(pass);
+  EXPECT_NE(fragment_glsl(dir / "none").find("0.125"), std::string::npos) << fragment_glsl(dir / "none");
+  EXPECT_NE(fragment_glsl(dir / "pack").find("0.5"), std::string::npos) << fragment_glsl(dir / "pack");
+  EXPECT_NE(fragment_glsl(dir / "pass").find("0.75"), std::string::npos) << fragment_glsl(dir / "pass");
+}
+
+TEST_F(Bindings, ChangingADefineOnTheCommandLineRebuilds) {
+  dir.write("S.hlsl", kDefined);
+  write_pack(R"("defines": {"LEVEL": 4})");
+  DiagnosticSink first;
+  ASSERT_TRUE(build(first)) << errors_of(first);
+  defines = {{"LEVEL", "2"}};  // the command line wins over the pack
+  DiagnosticSink second;
+  ASSERT_TRUE(build(second)) << errors_of(second);
+  EXPECT_FALSE(report.up_to_date);
+  EXPECT_NE(fragment_glsl(dir / "out").find("0.25"), std::string::npos) << fragment_glsl(dir / "out");
+  DiagnosticSink third;
+  ASSERT_TRUE(build(third)) << errors_of(third);
+  EXPECT_TRUE(report.up_to_date);
+  defines = {{"LEVEL", "8"}};
+  DiagnosticSink fourth;
+  ASSERT_TRUE(build(fourth)) << errors_of(fourth);
+  EXPECT_FALSE(report.up_to_date);
+  EXPECT_NE(fragment_glsl(dir / "out").find("1.0"), std::string::npos) << fragment_glsl(dir / "out");
+}
+
+TEST_F(Bindings, ADefineThatIsNotAnIdentifierInThePackIsAnError) {
+  dir.write("S.hlsl", kDefined);
+  write_pack(R"("defines": {"2FAST": 1})");
+  DiagnosticSink sink;
+  EXPECT_FALSE(build(sink));
+  EXPECT_EQ(errors_of(sink), (dir / "p.pack.json").string() +
+                                 ":1:28: error[K1011]: define '2FAST' is not a preprocessor identifier (or its value spans lines)\n"
+                                 "    {\"name\": \"p\", \"defines\": {\"2FAST\": 1}, \"passes\": [{\"name\": \"P\", \"source\": "
+                                 "\"S.hlsl\", \"stages\": {\"vertex\": \"V\", \"fragment\": \"F\"}}]}\n"
+                                 "                               ^\n");
+}
+
+}  // namespace
+}  // namespace kiln
