@@ -340,10 +340,9 @@ int exit_code(const DiagnosticSink& sink, bool internal_errors) {
   return sink.has_errors() ? 1 : 0;
 }
 
-std::optional<PlanListing> list_variants(const BuildOptions& options, DiagnosticSink& sink) {
-  BuildReport report;
-  auto plan = make_plan(options, sink, report);
-  if (!plan) return std::nullopt;
+namespace {
+
+PlanListing make_listing(const Plan* plan) {
   PlanListing listing;
   listing.pack = plan->pack.name;
   listing.funnel = plan->funnel;
@@ -351,6 +350,7 @@ std::optional<PlanListing> list_variants(const BuildOptions& options, Diagnostic
     listing.pass_groups.emplace_back(plan->pack.passes[p].name, plan->passes[p].groups);
   for (const auto& [path, file] : plan->sources.files) listing.sources.emplace_back(display_path(path), file.text);
   for (const SceneProfile& scene : plan->scenes) listing.scenes.emplace_back(scene.name, scene.keywords);
+  for (size_t p = 0; p < plan->passes.size(); ++p) listing.pass_locations.push_back(plan->pack.passes[p].defined_at);
   for (size_t p = 0; p < plan->passes.size(); ++p) {
     const auto& groups = plan->passes[p].groups;
     for (const Variant& v : plan->expansions[p].variants) {
@@ -366,6 +366,15 @@ std::optional<PlanListing> list_variants(const BuildOptions& options, Diagnostic
   return listing;
 }
 
+}  // namespace
+
+std::optional<PlanListing> list_variants(const BuildOptions& options, DiagnosticSink& sink) {
+  BuildReport report;
+  auto plan = make_plan(options, sink, report);
+  if (!plan) return std::nullopt;
+  return make_listing(plan.get());
+}
+
 BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   BuildReport report;
   const auto start = Clock::now();
@@ -377,6 +386,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   // Stages 0-3: definitions, declarations, expansion, stripping.
   auto plan = make_plan(options, sink, report);
   if (!plan) return finish();
+  if (options.keep_plan) report.plan = make_listing(plan.get());
   report.funnel = plan->funnel;
   report.strip_report = plan->strip;
   report.dependencies.push_back(std::filesystem::absolute(options.pack_file));
