@@ -31,7 +31,7 @@ struct Lint : ::testing::Test {
   void SetUp() override { ::setenv("XDG_CACHE_HOME", (dir / "xdg").c_str(), 1); }
   void TearDown() override { ::unsetenv("XDG_CACHE_HOME"); }
   // `kiln lint ... --format sarif`, validated.
-  testing::RunResult sarif(std::vector<std::string> args, const std::filesystem::path& cwd = {}) {
+  testing::RunResult lint_sarif(std::vector<std::string> args, const std::filesystem::path& cwd = {}) {
     args.insert(args.begin(), "lint");
     args.push_back("--format");
     args.push_back("sarif");
@@ -191,7 +191,7 @@ TEST_F(Lint, UnguardedFp16DivisionIsReportedAndAGuardedOneIsNot) {
 TEST_F(Lint, SarifAndTextOutputsAndWerror) {
   pack();
   dir.write("S.hlsl", std::string("#pragma multi_compile_fragment _ NEVER_READ\n") + kVertex + "float4 F() : SV_Target { return 1.0; }\n");
-  auto sarif_run = sarif({"p.pack.json"});
+  auto sarif_run = lint_sarif({"p.pack.json"});
   EXPECT_EQ(sarif_run.exit_code, 0);  // warnings only
   json sarif = json::parse(sarif_run.out);
   EXPECT_EQ(sarif["version"], "2.1.0");
@@ -213,7 +213,7 @@ TEST_F(Lint, SarifAndTextOutputsAndWerror) {
 // A CI step runs `kiln lint ... --format sarif > kiln.sarif` and uploads the file: a missing input used to
 // leave it empty (CLI11 refused the path before any output). It is now a finding in the chosen format.
 TEST_F(Lint, AMissingInputIsAFindingInTheChosenFormat) {
-  auto sarif_run = sarif({"missing.pack.json"});
+  auto sarif_run = lint_sarif({"missing.pack.json"});
   EXPECT_EQ(sarif_run.exit_code, 1);
   json sarif = json::parse(sarif_run.out);
   const json& results = sarif["runs"][0]["results"];
@@ -281,9 +281,10 @@ TEST_F(Lint, TheDefaultCacheIsTheUsersXdgCacheDirectory) {
 TEST_F(Lint, NoOutputFileIsWrittenOnAFatalError) {
   pack();
   dir.write("S.hlsl", std::string(kVertex) + "float4 F() : SV_Target { return 1.0; }\n");
-  ::setenv("TMPDIR", (dir / "no-such-dir").c_str(), 1);
-  auto r = testing::run_kiln({"lint", "p.pack.json", "--format", "sarif", "-o", "out.sarif"}, dir.path());
-  ::unsetenv("TMPDIR");
+  // TMPDIR for kiln only (this process needs its own for the capture files).
+  auto r = testing::run({"/usr/bin/env", "TMPDIR=" + (dir / "no-such-dir").string(), KILN_CLI_PATH, "lint", "p.pack.json",
+                         "--format", "sarif", "-o", "out.sarif"},
+                        dir.path());
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(r.err, "kiln lint: error: cannot create a scratch directory under '" + (dir / "no-such-dir").string() +
                        "' (TMPDIR); 'out.sarif' was not written\n");
@@ -335,7 +336,7 @@ std::set<std::string> lint_doc_anchors() {
 
 TEST_F(Lint, SarifRulesHaveDescriptionsAndHelpIntoDocsAnchors) {
   dir.write("S.hlsl", "float4 F() : SV_Target { return 1.0; }\n");
-  json log = json::parse(sarif({"S.hlsl"}).out);
+  json log = json::parse(lint_sarif({"S.hlsl"}).out);
   const json& rules_json = log["runs"][0]["tool"]["driver"]["rules"];
   ASSERT_EQ(rules_json.size(), 11u);
   const std::set<std::string> anchors = lint_doc_anchors();
@@ -363,7 +364,7 @@ TEST_F(Lint, SarifResultsHaveRegionsAndRootRelativePercentEncodedUris) {
             "struct VOut { float4 p : SV_Position; float2 uv : TEXCOORD0; };\n"
             "VOut V(float4 p : POSITION) { VOut o; o.p = p; o.uv = p.xy; return o; }\n"
             "float4 F(float4 p : SV_Position, float2 uv : TEXCOORD0, float3 n : TEXCOORD1) : SV_Target { return float4(uv, n.x, 1.0); }\n");
-  auto r = sarif({"../my shaders/p.pack.json"}, dir / "sub");
+  auto r = lint_sarif({"../my shaders/p.pack.json"}, dir / "sub");
   json log = json::parse(r.out);
   const json& run = log["runs"][0];
   EXPECT_EQ(run["originalUriBaseIds"]["%SRCROOT%"]["uri"], "file://" + dir.path().string() + "/");
@@ -375,9 +376,9 @@ TEST_F(Lint, SarifResultsHaveRegionsAndRootRelativePercentEncodedUris) {
   EXPECT_EQ(location["region"]["startLine"], 3);  // "Forward", the pass's name
   EXPECT_EQ(location["region"]["startColumn"], 15);
   // --sarif-root moves the base; a file outside it gets an absolute file: URI.
-  json rooted = json::parse(sarif({"../my shaders/p.pack.json", "--sarif-root", "../my shaders"}, dir / "sub").out);
+  json rooted = json::parse(lint_sarif({"../my shaders/p.pack.json", "--sarif-root", "../my shaders"}, dir / "sub").out);
   EXPECT_EQ(rooted["runs"][0]["results"][0]["locations"][0]["physicalLocation"]["artifactLocation"]["uri"], "p.pack.json");
-  json outside = json::parse(sarif({"../my shaders/p.pack.json", "--sarif-root", "."}, dir / "sub").out);
+  json outside = json::parse(lint_sarif({"../my shaders/p.pack.json", "--sarif-root", "."}, dir / "sub").out);
   EXPECT_EQ(outside["runs"][0]["results"][0]["locations"][0]["physicalLocation"]["artifactLocation"]["uri"],
             "file://" + dir.path().string() + "/my%20shaders/p.pack.json");
 }

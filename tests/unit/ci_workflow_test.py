@@ -27,7 +27,7 @@ with open(os.path.join(source, "docs/ci/kiln-lint.yml"), encoding="utf-8") as f:
 check(isinstance(workflow, dict) and "jobs" in workflow, "no jobs")
 check(True in workflow or "on" in workflow, "no trigger ('on')")  # YAML 1.1 reads a bare `on` as true
 steps = [step for job in workflow["jobs"].values() for step in job["steps"]]
-commands = " ".join(step.get("run", "") for step in steps)
+commands = "\n".join(step.get("run", "") for step in steps)
 
 upload = [s for s in steps if s.get("uses", "").startswith("github/codeql-action/upload-sarif@")]
 check(len(upload) == 1, "no github/codeql-action/upload-sarif step")

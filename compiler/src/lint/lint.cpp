@@ -141,8 +141,10 @@ LintReport lint_files(const std::vector<std::filesystem::path>& files, const std
                                  d.id == DiagId::IncludeTooDeep || d.id == DiagId::IncludeSyntax || d.id == DiagId::IncludeCycle;
     const bool unreadable = d.id == DiagId::FileUnreadable || d.id == DiagId::FileNotRegular || d.id == DiagId::FileTooLarge ||
                             d.id == DiagId::FileNotText;
-    if (unreadable) report.findings.push_back({RuleId::BuildError, Severity::Error, d.location, d.message, d.notes});
-    else if (include_problem) report.findings.push_back({RuleId::BuildError, Severity::Warning, d.location, d.message, d.notes});
+    std::vector<std::string> notes = d.notes;  // a file's own directory is also a root: said once
+    notes.erase(std::unique(notes.begin(), notes.end()), notes.end());
+    if (unreadable) report.findings.push_back({RuleId::BuildError, Severity::Error, d.location, d.message, notes});
+    else if (include_problem) report.findings.push_back({RuleId::BuildError, Severity::Warning, d.location, d.message, notes});
   }
 
   LintContext context;
