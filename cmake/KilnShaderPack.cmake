@@ -9,8 +9,8 @@
 #   DEPENDS   more files or targets the pack's build depends on (e.g. a target that generates an HLSL file)
 # Paths may be relative (to the current source directory; OUTPUT_DIR to the current binary directory) and may
 # hold generator expressions (`$<CONFIG>`, `$<TARGET_PROPERTY:...>`). A file named without one is checked now:
-# a missing pack or scene file is a configure error. With one, it is known only at build time, where kiln
-# reports a missing file; a PACK with a generator expression needs NAME (the pack's "name", which decides the
+# a missing pack or scene file is a configure error. With one, it is known only at build time, where the build tool
+# (or kiln) reports a missing file; a PACK with a generator expression needs NAME (the pack's "name", which decides the
 # output's file names).
 #
 # The kiln that runs is the host tool: the KILN_EXECUTABLE cache variable when it is set, and it must be set

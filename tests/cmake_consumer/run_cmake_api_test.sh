@@ -59,7 +59,8 @@ expect_configure_error install_wrong_target \
 cmake -S "$source/tests/cmake_consumer/errors" -B "$work/errors-genex" -G "$generator" -DKILN_ERROR_CASE=missing_genex_scene \
   -DKILN_SOURCE_DIR="$source" -DCMAKE_PREFIX_PATH="$work/prefix" > "$work/errors-genex.log"
 if cmake --build "$work/errors-genex" > "$work/errors-genex-build.log" 2>&1; then fail "missing_genex_scene: built"; fi
-grep -qF -- "--scene: File does not exist: $source/tests/cmake_consumer/errors/missing-scene.json" "$work/errors-genex-build.log" ||
+# The build tool (a dependency of the pack's command) or kiln (--scene) names the missing file.
+grep -qF -- "$source/tests/cmake_consumer/errors/missing-scene.json" "$work/errors-genex-build.log" ||
   { cat "$work/errors-genex-build.log"; fail "missing_genex_scene: no clear build error"; }
 echo "ok: missing_genex_scene (at build time)"
 
