@@ -243,6 +243,13 @@ TEST_F(Lint, ScratchIsUnderTmpdirAndAReproducerAFindingNamesIsKept) {
   ASSERT_FALSE(reproducer.empty()) << report.dump(1);
   EXPECT_EQ(reproducer.rfind((dir / "tmp/kiln-lint-").string(), 0), 0u) << reproducer;
   EXPECT_TRUE(std::filesystem::exists(reproducer)) << reproducer;
+  // An internal compiler error has no line of its own: it is shown at the pass's definition (a SARIF region).
+  const json& ice = report["findings"][0];
+  EXPECT_EQ(ice["rule"], "build-error");
+  EXPECT_EQ(ice["path"], "p.pack.json");
+  EXPECT_EQ(ice["line"], 2);
+  EXPECT_EQ(ice["column"], 24);
+  EXPECT_EQ(ice["notes"].back(), "reported for 'S.hlsl'");
 }
 
 // Lint judges shaders: a cache that cannot be written is not a warning --werror fails on, and --no-cache
