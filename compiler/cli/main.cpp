@@ -360,17 +360,20 @@ int main(int argc, char** argv) {
   inspect->add_option("--extract", extract, "Write each blob as a file (.spv, .glsl, .es.glsl, .metal)");
 
   bool werror = false;
-  std::vector<std::string> lint_inputs;
-  std::string format = "text";
+  std::vector<std::string> lint_inputs, lint_include_dirs;
+  std::string format = "text", lint_output, sarif_root;
   CLI::App* lint = app.add_subcommand("lint", "Lint a pack definition (every rule) or HLSL files (source rules); exit 1 on errors");
   // No CLI11 existence check: a missing input is a finding in the chosen format (an empty SARIF file breaks
   // a CI upload step with a confusing message).
   lint->add_option("inputs", lint_inputs, "A pack definition (.json), or HLSL files")->required();
-  auto* lint_cache_opt = lint->add_option("--cache", cache_dir, "Cache directory for pack lint (default: ./.kiln-cache)");
+  auto* lint_cache_opt = lint->add_option("--cache", cache_dir, "Cache directory for pack lint (default: $XDG_CACHE_HOME/kiln or ~/.cache/kiln)");
   lint->add_flag("--no-cache", no_cache, "Do not read or write the cache")->excludes(lint_cache_opt);
   add_scene(lint);
   add_binding_options(lint);
+  lint->add_option("-I,--include-dir", lint_include_dirs, "Include root for the files' #include (file mode; repeatable)");
   lint->add_option("--format", format, "Output: text, json or sarif")->check(CLI::IsMember({"text", "json", "sarif"}));
+  lint->add_option("-o,--output", lint_output, "Write the report to this file (only when lint ran: never an empty or partial file)");
+  lint->add_option("--sarif-root", sarif_root, "SARIF URIs are relative to this directory (default: the git work tree, else the current directory)");
   lint->add_flag("--werror", werror, "Treat warnings as errors");
 
   std::string scene_file, other_dir;
@@ -431,13 +434,15 @@ int main(int argc, char** argv) {
       std::error_code ec;
       std::string temp = (std::filesystem::temp_directory_path(ec) / "kiln-lint-XXXXXX").string();
       if (ec || !::mkdtemp(temp.data())) {
-        std::cerr << "kiln: error: cannot create a temporary directory under '"
-                  << std::filesystem::temp_directory_path(ec).string() << "'\n";
-        return 1;
+        const char* tmpdir = std::getenv("TMPDIR");
+        std::cerr << "kiln lint: error: cannot create a scratch directory under '" << (tmpdir && *tmpdir ? tmpdir : "/tmp")
+                  << "' (TMPDIR)"
+                  << (lint_output.empty() ? "" : "; '" + lint_output + "' was not written") << "\n";
+        return 2;
       }
       options.pack_file = lint_inputs[0];
       options.output_dir = temp;
-      if (!no_cache) options.cache_dir = cache_dir.empty() ? std::filesystem::path(".kiln-cache") : std::filesystem::path(cache_dir);
+      if (!no_cache) options.cache_dir = cache_dir.empty() ? kiln::user_cache_directory() : std::filesystem::path(cache_dir);
       report = kiln::lint_pack(options);
       // A finding that names a file in the scratch directory (an internal compiler error's reproducer) keeps it.
       const bool referenced = std::any_of(report.findings.begin(), report.findings.end(), [&](const kiln::LintFinding& f) {
@@ -446,11 +451,20 @@ int main(int argc, char** argv) {
       if (!referenced) std::filesystem::remove_all(temp, ec);
     } else {
       std::vector<std::filesystem::path> files(lint_inputs.begin(), lint_inputs.end());
-      report = kiln::lint_files(files);
+      report = kiln::lint_files(files, std::vector<std::filesystem::path>(lint_include_dirs.begin(), lint_include_dirs.end()));
     }
-    if (format == "json") std::cout << kiln::format_lint_json(report);
-    else if (format == "sarif") std::cout << kiln::format_lint_sarif(report);
-    else std::cerr << kiln::format_lint_text(report);
+    std::string text;
+    if (format == "json") text = kiln::format_lint_json(report);
+    else if (format == "sarif") text = kiln::format_lint_sarif(report, {sarif_root.empty() ? kiln::default_sarif_root(std::filesystem::current_path()) : std::filesystem::path(sarif_root)});
+    else text = kiln::format_lint_text(report);
+    if (!lint_output.empty()) {
+      if (std::string error = kiln::write_file_atomic(lint_output, text); !error.empty()) {
+        std::cerr << "kiln lint: error: " << error << "\n";
+        return 2;
+      }
+    } else {
+      (format == "text" ? std::cerr : std::cout) << text;
+    }
     if (format == "text")
       std::cerr << "kiln lint: " << report.errors() << " error(s), " << report.warnings() << " warning(s)\n";
     return report.errors() > 0 || (werror && report.warnings() > 0) ? 1 : 0;

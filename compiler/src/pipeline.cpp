@@ -71,10 +71,9 @@ int exit_code(const DiagnosticSink& sink, bool internal_errors) {
   return sink.has_errors() ? 1 : 0;
 }
 
-std::optional<PlanListing> list_variants(const BuildOptions& options, DiagnosticSink& sink) {
-  BuildReport report;
-  auto plan = make_plan(options, sink, report);
-  if (!plan) return std::nullopt;
+namespace {
+
+PlanListing make_listing(const Plan* plan) {
   PlanListing listing;
   listing.pack = plan->pack.name;
   listing.funnel = plan->funnel;
@@ -83,6 +82,7 @@ std::optional<PlanListing> list_variants(const BuildOptions& options, Diagnostic
   for (const auto& [path, file] : plan->sources.files) listing.sources.emplace_back(display_path(path), file.text);
   for (const SceneProfile& scene : plan->scenes) listing.scenes.emplace_back(scene.name, scene.keywords);
   for (const PassDefinition& pass : plan->pack.passes) listing.pass_settings.push_back({pass.name, pass.bindings, pass.defines});
+  for (size_t p = 0; p < plan->passes.size(); ++p) listing.pass_locations.push_back(plan->pack.passes[p].defined_at);
   for (size_t p = 0; p < plan->passes.size(); ++p) {
     const auto& groups = plan->passes[p].groups;
     for (const Variant& v : plan->expansions[p].variants) {
@@ -98,6 +98,15 @@ std::optional<PlanListing> list_variants(const BuildOptions& options, Diagnostic
   return listing;
 }
 
+}  // namespace
+
+std::optional<PlanListing> list_variants(const BuildOptions& options, DiagnosticSink& sink) {
+  BuildReport report;
+  auto plan = make_plan(options, sink, report);
+  if (!plan) return std::nullopt;
+  return make_listing(plan.get());
+}
+
 BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   BuildReport report;
   std::optional<StageTimer> total(std::in_place, report, "total");
@@ -108,6 +117,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
 
   auto plan = make_plan(options, sink, report);  // stages 0-3
   if (!plan) return finish();
+  if (options.keep_plan) report.plan = make_listing(plan.get());  // lint observes the build's plan
   record_dependencies(options, *plan, report);
   if (!prepare_output_directory(options.output_dir, sink)) return finish();
   auto settings = choose_settings(options, *plan, sink);

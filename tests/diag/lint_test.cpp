@@ -3,8 +3,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cctype>
 #include <cstdlib>
 #include <filesystem>
+#include <set>
+#include <sstream>
 
 #include "test_support.hpp"
 
@@ -13,8 +16,29 @@ namespace {
 
 using nlohmann::json;
 
+// Every SARIF file the suite produces is validated against the official SARIF 2.1.0 schema
+// (tests/sarif/validate_sarif.py; python3-jsonschema).
+void expect_valid_sarif(const std::string& sarif) {
+  testing::TempDir scratch;
+  std::filesystem::path file = scratch.write("out.sarif", sarif);
+  auto r = testing::run({KILN_PYTHON, std::string(KILN_SOURCE_DIR) + "/tests/sarif/validate_sarif.py", file.string()}, scratch.path());
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err << sarif;
+}
+
 struct Lint : ::testing::Test {
   testing::TempDir dir;
+  // Lint's default cache is the user's ($XDG_CACHE_HOME/kiln): a test must not fill the real one.
+  void SetUp() override { ::setenv("XDG_CACHE_HOME", (dir / "xdg").c_str(), 1); }
+  void TearDown() override { ::unsetenv("XDG_CACHE_HOME"); }
+  // `kiln lint ... --format sarif`, validated.
+  testing::RunResult lint_sarif(std::vector<std::string> args, const std::filesystem::path& cwd = {}) {
+    args.insert(args.begin(), "lint");
+    args.push_back("--format");
+    args.push_back("sarif");
+    auto r = testing::run_kiln(args, cwd.empty() ? dir.path() : cwd);
+    expect_valid_sarif(r.out);
+    return r;
+  }
   void pack(const std::string& extra = "", int budget = 64) {
     dir.write("p.pack.json", R"({"name": "p", "budget": )" + std::to_string(budget) + R"(,
   "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}])" + extra + "}");
@@ -167,7 +191,7 @@ TEST_F(Lint, UnguardedFp16DivisionIsReportedAndAGuardedOneIsNot) {
 TEST_F(Lint, SarifAndTextOutputsAndWerror) {
   pack();
   dir.write("S.hlsl", std::string("#pragma multi_compile_fragment _ NEVER_READ\n") + kVertex + "float4 F() : SV_Target { return 1.0; }\n");
-  auto sarif_run = testing::run_kiln({"lint", "p.pack.json", "--format", "sarif"}, dir.path());
+  auto sarif_run = lint_sarif({"p.pack.json"});
   EXPECT_EQ(sarif_run.exit_code, 0);  // warnings only
   json sarif = json::parse(sarif_run.out);
   EXPECT_EQ(sarif["version"], "2.1.0");
@@ -177,6 +201,7 @@ TEST_F(Lint, SarifAndTextOutputsAndWerror) {
   ASSERT_EQ(run["results"].size(), 1u);
   EXPECT_EQ(run["results"][0]["ruleId"], "unused-keyword");
   EXPECT_EQ(run["results"][0]["locations"][0]["physicalLocation"]["artifactLocation"]["uri"], "S.hlsl");
+  EXPECT_EQ(run["results"][0]["locations"][0]["physicalLocation"]["artifactLocation"]["uriBaseId"], "%SRCROOT%");
   EXPECT_EQ(run["results"][0]["locations"][0]["physicalLocation"]["region"]["startLine"], 1);
   auto text = testing::run_kiln({"lint", "p.pack.json", "--werror"}, dir.path());
   EXPECT_EQ(text.exit_code, 1);
@@ -188,7 +213,7 @@ TEST_F(Lint, SarifAndTextOutputsAndWerror) {
 // A CI step runs `kiln lint ... --format sarif > kiln.sarif` and uploads the file: a missing input used to
 // leave it empty (CLI11 refused the path before any output). It is now a finding in the chosen format.
 TEST_F(Lint, AMissingInputIsAFindingInTheChosenFormat) {
-  auto sarif_run = testing::run_kiln({"lint", "missing.pack.json", "--format", "sarif"}, dir.path());
+  auto sarif_run = lint_sarif({"missing.pack.json"});
   EXPECT_EQ(sarif_run.exit_code, 1);
   json sarif = json::parse(sarif_run.out);
   const json& results = sarif["runs"][0]["results"];
@@ -218,6 +243,13 @@ TEST_F(Lint, ScratchIsUnderTmpdirAndAReproducerAFindingNamesIsKept) {
   ASSERT_FALSE(reproducer.empty()) << report.dump(1);
   EXPECT_EQ(reproducer.rfind((dir / "tmp/kiln-lint-").string(), 0), 0u) << reproducer;
   EXPECT_TRUE(std::filesystem::exists(reproducer)) << reproducer;
+  // An internal compiler error has no line of its own: it is shown at the pass's definition (a SARIF region).
+  const json& ice = report["findings"][0];
+  EXPECT_EQ(ice["rule"], "build-error");
+  EXPECT_EQ(ice["path"], "p.pack.json");
+  EXPECT_EQ(ice["line"], 2);
+  EXPECT_EQ(ice["column"], 24);
+  EXPECT_EQ(ice["notes"].back(), "reported for 'S.hlsl'");
 }
 
 // Lint judges shaders: a cache that cannot be written is not a warning --werror fails on, and --no-cache
@@ -234,13 +266,139 @@ TEST_F(Lint, AnUnwritableCacheIsNotAFindingAndNoCacheWritesNone) {
   EXPECT_FALSE(std::filesystem::exists(dir / ".kiln-cache"));
 }
 
+// Without --cache, lint uses the per-user XDG cache directory, never the working directory.
+TEST_F(Lint, TheDefaultCacheIsTheUsersXdgCacheDirectory) {
+  pack();
+  dir.write("S.hlsl", std::string(kVertex) + "float4 F() : SV_Target { return 1.0; }\n");
+  auto r = testing::run_kiln({"lint", "p.pack.json"}, dir.path());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_FALSE(std::filesystem::is_empty(dir / "xdg/kiln"));
+  EXPECT_FALSE(std::filesystem::exists(dir / ".kiln-cache"));
+  ::unsetenv("XDG_CACHE_HOME");
+  const char* home = std::getenv("HOME");
+  std::string saved_home = home ? home : "";
+  ::setenv("HOME", (dir / "home").c_str(), 1);
+  auto from_home = testing::run_kiln({"lint", "p.pack.json"}, dir.path());
+  ::setenv("HOME", saved_home.c_str(), 1);
+  EXPECT_EQ(from_home.exit_code, 0) << from_home.err;
+  EXPECT_FALSE(std::filesystem::is_empty(dir / "home/.cache/kiln"));
+}
+
+// A CI step that uploads the report must never find an empty or partial file: -o writes it only when lint ran.
+TEST_F(Lint, NoOutputFileIsWrittenOnAFatalError) {
+  pack();
+  dir.write("S.hlsl", std::string(kVertex) + "float4 F() : SV_Target { return 1.0; }\n");
+  // TMPDIR for kiln only (this process needs its own for the capture files).
+  auto r = testing::run({"/usr/bin/env", "TMPDIR=" + (dir / "no-such-dir").string(), KILN_CLI_PATH, "lint", "p.pack.json",
+                         "--format", "sarif", "-o", "out.sarif"},
+                        dir.path());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "kiln lint: error: cannot create a scratch directory under '" + (dir / "no-such-dir").string() +
+                       "' (TMPDIR); 'out.sarif' was not written\n");
+  EXPECT_FALSE(std::filesystem::exists(dir / "out.sarif"));
+  auto written = testing::run_kiln({"lint", "p.pack.json", "--format", "sarif", "-o", "out.sarif"}, dir.path());
+  EXPECT_EQ(written.exit_code, 0) << written.err;
+  EXPECT_EQ(written.out, "");
+  std::string text = testing::read_file(dir / "out.sarif");
+  expect_valid_sarif(text);
+  EXPECT_EQ(json::parse(text)["version"], "2.1.0");
+}
+
+// File mode reads each file's includes (next to it, then in -I roots): names a header defines or declares are
+// known. An include it cannot find is a warning that says so.
+TEST_F(Lint, FileModeReadsIncludesFromIncludeRoots) {
+  dir.write("lib/Defs.hlsl", "#pragma once\n#define LIB_FEATURE_X 1\n#pragma multi_compile _ _HEADER_KEYWORD\n");
+  dir.write("src/Main.hlsl", "#include \"Defs.hlsl\"\n#if LIB_FEATURE_X\n#endif\n#ifdef _HEADER_KEYWORD\n#endif\n");
+  json without;
+  auto ids = rules({"src/Main.hlsl"}, &without);
+  EXPECT_EQ(ids, (std::vector<std::string>{"build-error", "undeclared-keyword", "undeclared-keyword"})) << without.dump(1);
+  EXPECT_EQ(without["findings"][0]["severity"], "warning");
+  EXPECT_EQ(without["findings"][0]["message"], "cannot find include file 'Defs.hlsl'");
+  EXPECT_EQ(without["warnings"], 3);
+  json with;
+  EXPECT_EQ(rules({"src/Main.hlsl", "-I", "lib"}, &with), std::vector<std::string>{}) << with.dump(1);
+  // The included file is linted too.
+  dir.write("lib/Defs.hlsl", "#pragma once\n#define LIB_FEATURE_X 1\n#pragma multi_compile _ _HEADER_KEYWORD\n#ifdef _HEADER_KEYWORX\n#endif\n");
+  json typo;
+  EXPECT_EQ(rules({"src/Main.hlsl", "-I", "lib"}, &typo), std::vector<std::string>{"undeclared-keyword"});
+  EXPECT_EQ(typo["findings"][0]["path"], "lib/Defs.hlsl");
+  EXPECT_EQ(typo["findings"][0]["notes"][0], "did you mean '_HEADER_KEYWORD'?");
+}
+
+// GitHub-style anchors of docs/lint.md's headings: lower case, spaces to '-', other punctuation dropped.
+std::set<std::string> lint_doc_anchors() {
+  std::set<std::string> anchors;
+  std::istringstream doc(testing::read_file(std::string(KILN_SOURCE_DIR) + "/docs/lint.md"));
+  for (std::string line; std::getline(doc, line);) {
+    if (line.empty() || line[0] != '#') continue;
+    std::string title = line.substr(line.find_first_not_of('#')), anchor;
+    for (char c : title) {
+      if (std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_') anchor += static_cast<char>(std::tolower(c));
+      else if (c == ' ') anchor += '-';
+    }
+    anchors.insert(anchor.substr(anchor.find_first_not_of('-')));
+  }
+  return anchors;
+}
+
+TEST_F(Lint, SarifRulesHaveDescriptionsAndHelpIntoDocsAnchors) {
+  dir.write("S.hlsl", "float4 F() : SV_Target { return 1.0; }\n");
+  json log = json::parse(lint_sarif({"S.hlsl"}).out);
+  const json& rules_json = log["runs"][0]["tool"]["driver"]["rules"];
+  ASSERT_EQ(rules_json.size(), 11u);
+  const std::set<std::string> anchors = lint_doc_anchors();
+  for (const json& rule : rules_json) {
+    const std::string id = rule["id"];
+    EXPECT_FALSE(rule["shortDescription"]["text"].get<std::string>().empty()) << id;
+    EXPECT_GT(rule["fullDescription"]["text"].get<std::string>().size(), rule["shortDescription"]["text"].get<std::string>().size()) << id;
+    EXPECT_FALSE(rule["help"]["text"].get<std::string>().empty()) << id;
+    const std::string uri = rule["helpUri"];
+    ASSERT_NE(uri.find("lint.md#"), std::string::npos) << uri;
+    const std::string anchor = uri.substr(uri.find('#') + 1);
+    EXPECT_EQ(anchor, id);
+    EXPECT_TRUE(anchors.count(anchor)) << "docs/lint.md has no section '" << anchor << "'";
+  }
+}
+
+// Every result has a region (a pack-level finding: the pass's definition in the pack file); URIs are relative
+// to --sarif-root (default: the git work tree) through %SRCROOT%, and percent-encoded.
+TEST_F(Lint, SarifResultsHaveRegionsAndRootRelativePercentEncodedUris) {
+  std::filesystem::create_directories(dir / ".git");  // the work tree the default root finds
+  std::filesystem::create_directories(dir / "sub");
+  dir.write("my shaders/p.pack.json", "{\"name\": \"p\",\n  \"passes\": [\n    {\"name\": \"Forward\", \"source\": \"S.hlsl\", "
+                                      "\"stages\": {\"vertex\": \"V\", \"fragment\": \"F\"}}]}\n");
+  dir.write("my shaders/S.hlsl",
+            "struct VOut { float4 p : SV_Position; float2 uv : TEXCOORD0; };\n"
+            "VOut V(float4 p : POSITION) { VOut o; o.p = p; o.uv = p.xy; return o; }\n"
+            "float4 F(float4 p : SV_Position, float2 uv : TEXCOORD0, float3 n : TEXCOORD1) : SV_Target { return float4(uv, n.x, 1.0); }\n");
+  auto r = lint_sarif({"../my shaders/p.pack.json"}, dir / "sub");
+  json log = json::parse(r.out);
+  const json& run = log["runs"][0];
+  EXPECT_EQ(run["originalUriBaseIds"]["%SRCROOT%"]["uri"], "file://" + dir.path().string() + "/");
+  ASSERT_EQ(run["results"].size(), 1u) << r.out;
+  const json& location = run["results"][0]["locations"][0]["physicalLocation"];
+  EXPECT_EQ(run["results"][0]["ruleId"], "interface-mismatch");
+  EXPECT_EQ(location["artifactLocation"]["uri"], "my%20shaders/p.pack.json");
+  EXPECT_EQ(location["artifactLocation"]["uriBaseId"], "%SRCROOT%");
+  EXPECT_EQ(location["region"]["startLine"], 3);  // "Forward", the pass's name
+  EXPECT_EQ(location["region"]["startColumn"], 15);
+  // --sarif-root moves the base; a file outside it gets an absolute file: URI.
+  json rooted = json::parse(lint_sarif({"../my shaders/p.pack.json", "--sarif-root", "../my shaders"}, dir / "sub").out);
+  EXPECT_EQ(rooted["runs"][0]["results"][0]["locations"][0]["physicalLocation"]["artifactLocation"]["uri"], "p.pack.json");
+  json outside = json::parse(lint_sarif({"../my shaders/p.pack.json", "--sarif-root", "."}, dir / "sub").out);
+  EXPECT_EQ(outside["runs"][0]["results"][0]["locations"][0]["physicalLocation"]["artifactLocation"]["uri"],
+            "file://" + dir.path().string() + "/my%20shaders/p.pack.json");
+}
+
 TEST(LintBundledLibrary, TheShaderLibraryIsLintClean) {
-  testing::TempDir scratch;  // lint's cache goes to the working directory: not the source tree
+  testing::TempDir scratch;  // lint's cache goes to the user's cache directory: here, a scratch one
+  ::setenv("XDG_CACHE_HOME", (scratch / "xdg").c_str(), 1);
   auto r = testing::run_kiln({"lint", std::string(KILN_SOURCE_DIR) + "/variants/lit.pack.json", "--werror", "--scene",
                               std::string(KILN_SOURCE_DIR) + "/variants/scenes/outdoor_day.json", "--scene",
                               std::string(KILN_SOURCE_DIR) + "/variants/scenes/night_city.json", "--scene",
                               std::string(KILN_SOURCE_DIR) + "/variants/scenes/mobile.json"},
                              scratch.path());
+  ::unsetenv("XDG_CACHE_HOME");
   EXPECT_EQ(r.exit_code, 0) << r.err;
 }
 

@@ -41,6 +41,7 @@ struct BuildOptions {
   BindingOptions bindings;       // command line: overrides every pass's "bindings" field by field
   std::vector<Define> defines;   // command line (-D): added to every pass's, replacing a define of the same name
   std::function<void(size_t done, size_t total, size_t cache_hits)> progress;
+  bool keep_plan = false;                           // fill BuildReport::plan (lint observes the build's plan)
 };
 
 // declared -> valid -> after scene stripping -> unique per stage -> compiles -> modules -> unique binaries
@@ -54,6 +55,31 @@ struct Funnel {
   uint64_t unique_compiles = 0;    // distinct preprocessed text + entry + stage: front ends run
   uint64_t unique_modules = 0;     // distinct front-end SPIR-V modules: back ends run
   uint64_t unique_binaries = 0;    // distinct optimized SPIR-V: what the pack stores
+};
+
+// One variant, as `kiln list` shows it.
+struct VariantListing {
+  std::string pass;
+  std::vector<std::string> keywords;
+  std::vector<std::pair<std::string, std::vector<std::string>>> stage_keywords;  // stage -> keywords it sees
+};
+// Per pass: the binding options and defines in effect (pack, pass and command line combined).
+struct PassSettings {
+  std::string pass;
+  BindingOptions bindings;
+  std::vector<Define> defines;
+};
+struct PlanListing {
+  std::string pack;
+  Funnel funnel;
+  std::vector<VariantListing> variants;
+  std::vector<PassSettings> pass_settings;
+  // For lint: each pass's keyword groups (with where they are declared), every source file read
+  // (display path -> text), and the keywords each scene may enable.
+  std::vector<std::pair<std::string, std::vector<KeywordGroup>>> pass_groups;
+  std::vector<std::pair<std::string, std::string>> sources;
+  std::vector<std::pair<std::string, std::set<std::string>>> scenes;
+  std::vector<SourceLocation> pass_locations;  // where each pass (as in pass_groups) is defined in the pack file
 };
 
 // Per pass: what each constraint removes on its own (with its reason), then materials and scenes.
@@ -86,34 +112,13 @@ struct BuildReport {
   unsigned workers_started = 0;
   std::filesystem::path manifest;
   std::vector<std::filesystem::path> dependencies;  // every input file read
+  std::optional<PlanListing> plan;                  // stages 0-3's result, with BuildOptions::keep_plan
 };
 
 // Builds a pack. Every problem goes to `sink`; the report says what was done.
 BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink);
 
-// One variant, as `kiln list` shows it.
-struct VariantListing {
-  std::string pass;
-  std::vector<std::string> keywords;
-  std::vector<std::pair<std::string, std::vector<std::string>>> stage_keywords;  // stage -> keywords it sees
-};
-// Per pass: the binding options and defines in effect (pack, pass and command line combined).
-struct PassSettings {
-  std::string pass;
-  BindingOptions bindings;
-  std::vector<Define> defines;
-};
-struct PlanListing {
-  std::string pack;
-  Funnel funnel;
-  std::vector<VariantListing> variants;
-  std::vector<PassSettings> pass_settings;
-  // For lint: each pass's keyword groups (with where they are declared), every source file read
-  // (display path -> text), and the keywords each scene may enable.
-  std::vector<std::pair<std::string, std::vector<KeywordGroup>>> pass_groups;
-  std::vector<std::pair<std::string, std::string>> sources;
-  std::vector<std::pair<std::string, std::set<std::string>>> scenes;
-};
+// Stages 0-3 only, as `kiln list` shows them.
 std::optional<PlanListing> list_variants(const BuildOptions& options, DiagnosticSink& sink);
 
 // Exit code convention of the CLI: 0 ok, 1 user errors, 2 internal compiler errors.

@@ -1,5 +1,7 @@
 #include "declarations/declarations.hpp"
 
+#include "common/keyword_pragmas.hpp"
+
 #include <algorithm>
 #include <cctype>
 
@@ -255,30 +257,18 @@ std::optional<KeywordGroup> parse_keyword_pragma(std::string_view body, const So
     sink.report(id, SourceLocation{at.path, at.line, column}, std::move(message));
     return std::nullopt;
   };
-  if (pragma == "multi_compile_fog") {
-    if (words.size() > 1) return fail(DiagId::PragmaSyntax, words[1].column, "multi_compile_fog takes no keywords");
-    group.values = {"", "FOG_LINEAR", "FOG_EXP", "FOG_EXP2"};
-    group.stages = kAllStageBits;
+  // What each spelling means: common/keyword_pragmas.hpp.
+  const std::optional<KeywordPragma> kind = classify_keyword_pragma(pragma);
+  if (!kind) return std::nullopt;  // some other pragma (vertex, target, ...): not ours
+  group.material_feature = kind->kind->material_feature;
+  group.local = kind->local;
+  group.stages = kind->stages;
+  if (!kind->kind->implied_values.empty()) {
+    if (words.size() > 1) return fail(DiagId::PragmaSyntax, words[1].column, group.pragma + " takes no keywords");
+    group.values.assign(kind->kind->implied_values.begin(), kind->kind->implied_values.end());
     return group;
   }
-  std::string_view rest;
-  if (pragma.rfind("multi_compile", 0) == 0) {
-    rest = pragma.substr(std::string_view("multi_compile").size());
-  } else if (pragma.rfind("shader_feature", 0) == 0) {
-    rest = pragma.substr(std::string_view("shader_feature").size());
-    group.material_feature = true;
-  } else {
-    return std::nullopt;  // some other pragma (vertex, target, ...): not ours
-  }
-  if (rest.rfind("_local", 0) == 0) {
-    group.local = true;
-    rest.remove_prefix(6);
-  }
-  if (rest == "_vertex") {
-    group.stages = stage_bit(Stage::Vertex);
-  } else if (rest == "_fragment") {
-    group.stages = stage_bit(Stage::Fragment);
-  } else if (!rest.empty()) {
+  if (!kind->known_suffix) {
     return fail(DiagId::PragmaSyntax, words[0].column,
                 "unsupported keyword pragma '" + std::string(pragma) +
                     "' (expected multi_compile or shader_feature, optionally _local and _vertex/_fragment)");

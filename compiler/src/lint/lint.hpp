@@ -1,50 +1,49 @@
 // kiln lint: rules over a pack's sources, its variant plan and its compiled outputs, for CI.
-// Each rule has a stable id; findings print as `path:line:col: warning[rule-id]: message`, or as JSON,
-// or as SARIF 2.1.0 for code-scanning viewers.
+// Each rule has a stable id (rule_id.hpp) and lives in rules/<id>.cpp behind the registry (rule.hpp);
+// findings print as `path:line:col: warning[rule-id]: message`, or as JSON, or as SARIF 2.1.0 for
+// code-scanning viewers.
 #pragma once
 
+#include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "kiln/build.hpp"
+#include "lint/rule.hpp"
 
 namespace kiln {
 
-struct LintRule {
-  std::string id;
-  Severity severity;
-  std::string description;
-};
+// Lints a pack definition: builds it into options.output_dir (a scratch directory), observes the build's plan
+// and its outputs, and runs every rule.
+LintReport lint_pack(BuildOptions options);
+// Lints loose HLSL files with the source rules (undeclared keywords, fp16 guards). Each file's includes are
+// read (next to the including file, then in `include_dirs`, confined to those roots), so keywords declared and
+// names defined in included headers are known; the included files are linted too.
+LintReport lint_files(const std::vector<std::filesystem::path>& files,
+                      const std::vector<std::filesystem::path>& include_dirs = {});
 
-// The rule table, in a stable order.
-const std::vector<LintRule>& lint_rules();
-
-struct LintFinding {
-  std::string rule;
-  Severity severity = Severity::Warning;
-  SourceLocation location;
-  std::string message;
-  std::vector<std::string> notes;
-};
-
-struct LintReport {
-  std::vector<LintFinding> findings;
-  int errors() const;
-  int warnings() const;
-};
-
-// Lints a pack definition: builds it into options.output_dir (a scratch directory) and runs every rule.
-LintReport lint_pack(const BuildOptions& options);
-// Lints loose HLSL files: only the source rules (undeclared keywords, fp16 guards).
-LintReport lint_files(const std::vector<std::filesystem::path>& files);
-
-// Source rules, exposed for tests: `declared` are the keywords of every pass; `sources` display path -> text.
-void lint_undeclared_keywords(const std::vector<std::pair<std::string, std::string>>& sources,
-                              const std::vector<std::string>& declared, LintReport& report);
-void lint_fp16_guards(const std::vector<std::pair<std::string, std::string>>& sources, LintReport& report);
+// Runs the rules that `context` has the input for, by need (sources, plan, built pack), in table order.
+void run_lint_rules(const LintContext& context, LintReport& report);
+// The rule a build diagnostic is reported under (build-error when no rule claims its id).
+RuleId rule_for_diagnostic(DiagId id);
 
 std::string format_lint_text(const LintReport& report);
 std::string format_lint_json(const LintReport& report);
-std::string format_lint_sarif(const LintReport& report);
+
+struct SarifOptions {
+  // Artifact URIs are relative to this directory (uriBaseId "%SRCROOT%"); a file outside it keeps an absolute
+  // file: URI. Empty: the current directory.
+  std::filesystem::path root;
+};
+std::string format_lint_sarif(const LintReport& report, const SarifOptions& options = {});
+
+// The default --sarif-root: the git work tree containing `directory` (the nearest ancestor with a .git
+// entry), else `directory` itself.
+std::filesystem::path default_sarif_root(const std::filesystem::path& directory);
+
+// Lint's default cache: the per-user XDG cache directory, $XDG_CACHE_HOME/kiln (when absolute), else
+// $HOME/.cache/kiln; nothing (no cache) when neither is set.
+std::optional<std::filesystem::path> user_cache_directory();
 
 }  // namespace kiln

@@ -5,6 +5,7 @@
 #include <set>
 
 #include "common/files.hpp"
+#include "common/keyword_pragmas.hpp"
 #include "definition/definition.hpp"
 #include "permutations/permutations.hpp"
 
@@ -24,7 +25,7 @@ std::vector<KeywordGroup> recorded_groups(const json& pass) {
   for (const json& g : pass.at("keyword_groups")) {
     KeywordGroup group;
     group.pragma = g.value("pragma", "multi_compile");
-    group.material_feature = group.pragma.rfind("shader_feature", 0) == 0;
+    group.material_feature = is_material_feature_pragma(group.pragma);
     group.stages = 0;
     for (const json& s : g.value("stages", json::array({"vertex", "fragment"})))
       if (auto stage = parse_stage(s.get<std::string>())) group.stages |= stage_bit(*stage);

@@ -1,0 +1,80 @@
+// Keyword pragmas: what each spelling means, stated once. Read by the declaration scanner (stage 1), by the
+// tools that rebuild keyword groups from a manifest (which records each group's pragma as written), and by lint.
+//   #pragma multi_compile[_local][_vertex|_fragment] A B   every value is built
+//   #pragma shader_feature[_local][_vertex|_fragment] A B  built only when a material (or scene) uses it
+//   #pragma multi_compile_fog                              _ FOG_LINEAR FOG_EXP FOG_EXP2
+#pragma once
+
+#include <optional>
+#include <span>
+#include <string_view>
+
+#include "kiln/model.hpp"
+
+namespace kiln {
+
+struct KeywordPragmaKind {
+  std::string_view name;
+  bool material_feature;  // shader_feature: stripped unless a material uses it (a lone keyword may be off)
+  bool takes_suffixes;    // _local, then _vertex or _fragment
+  std::span<const std::string_view> implied_values;  // non-empty: the pragma declares these and takes no keywords
+};
+
+inline constexpr std::string_view kFogValues[] = {"", "FOG_LINEAR", "FOG_EXP", "FOG_EXP2"};
+// Exact names (implied values) first: multi_compile_fog is not multi_compile with a suffix.
+inline constexpr KeywordPragmaKind kKeywordPragmaKinds[] = {
+    {"multi_compile_fog", false, false, kFogValues},
+    {"multi_compile", false, true, {}},
+    {"shader_feature", true, true, {}},
+};
+inline constexpr std::string_view kLocalSuffix = "_local";
+struct StageSuffix {
+  std::string_view suffix;
+  Stage stage;
+};
+inline constexpr StageSuffix kStageSuffixes[] = {{"_vertex", Stage::Vertex}, {"_fragment", Stage::Fragment}};
+
+struct KeywordPragma {
+  const KeywordPragmaKind* kind = nullptr;
+  bool local = false;
+  StageMask stages = kAllStageBits;
+  bool known_suffix = true;  // false: starts like a keyword pragma but its suffix is not one of the above
+};
+
+// Nothing when `pragma` is not a keyword pragma at all (`#pragma once`, `#pragma vertex`...).
+constexpr std::optional<KeywordPragma> classify_keyword_pragma(std::string_view pragma) {
+  for (const KeywordPragmaKind& kind : kKeywordPragmaKinds) {
+    if (!kind.takes_suffixes) {
+      if (pragma == kind.name) return KeywordPragma{&kind};
+      continue;
+    }
+    if (!pragma.starts_with(kind.name)) continue;
+    KeywordPragma result{&kind};
+    std::string_view rest = pragma.substr(kind.name.size());
+    if (rest.starts_with(kLocalSuffix)) {
+      result.local = true;
+      rest.remove_prefix(kLocalSuffix.size());
+    }
+    if (rest.empty()) return result;
+    for (const StageSuffix& s : kStageSuffixes)
+      if (rest == s.suffix) {
+        result.stages = stage_bit(s.stage);
+        return result;
+      }
+    result.known_suffix = false;
+    return result;
+  }
+  return std::nullopt;
+}
+
+constexpr bool is_material_feature_pragma(std::string_view pragma) {
+  auto kind = classify_keyword_pragma(pragma);
+  return kind && kind->kind->material_feature;
+}
+
+static_assert(classify_keyword_pragma("shader_feature_local_fragment")->local);
+static_assert(classify_keyword_pragma("multi_compile_vertex")->stages == stage_bit(Stage::Vertex));
+static_assert(!classify_keyword_pragma("multi_compile_fog")->kind->takes_suffixes);
+static_assert(!classify_keyword_pragma("once"));
+
+}  // namespace kiln

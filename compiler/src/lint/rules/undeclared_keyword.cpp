@@ -1,0 +1,57 @@
+// undeclared-keyword: a keyword-shaped name tested by #if/#ifdef that nothing declares or defines (a typo?).
+#include <regex>
+#include <set>
+
+#include "common/files.hpp"
+#include "declarations/declarations.hpp"
+#include "lint/rules/rules.hpp"
+
+namespace kiln::rules {
+namespace {
+
+void check(const LintContext& context, LintReport& report) {
+  // Names #define'd anywhere are the library's own macros, not keywords.
+  static const std::regex define_re(R"(^\s*#\s*define\s+([A-Za-z_][A-Za-z0-9_]*))");
+  static const std::regex test_re(R"(^\s*#\s*(if|ifdef|ifndef|elif)\b(.*)$)");
+  static const std::regex name_re(R"([A-Za-z_][A-Za-z0-9_]*)");
+  // Keyword-shaped: upper case, digits and underscores, at least 3 characters (Unity's convention).
+  static const std::regex keyword_shape(R"(^_?[A-Z][A-Z0-9_]{2,}$)");
+  const std::vector<std::string>& declared = context.declared;
+  std::set<std::string> defined(declared.begin(), declared.end());
+  for (const auto& [path, text] : context.sources)
+    for (const std::string& line : code_lines(text)) {
+      std::smatch m;
+      if (std::regex_search(line, m, define_re)) defined.insert(m[1]);
+    }
+  for (const auto& [path, text] : context.sources) {
+    std::vector<std::string> lines = code_lines(text);
+    for (size_t i = 0; i < lines.size(); ++i) {
+      std::smatch m;
+      if (!std::regex_match(lines[i], m, test_re)) continue;
+      std::string rest = m[2];
+      size_t rest_offset = static_cast<size_t>(m.position(2));
+      for (auto it = std::sregex_iterator(rest.begin(), rest.end(), name_re); it != std::sregex_iterator(); ++it) {
+        std::string name = it->str();
+        if (name == "defined" || !std::regex_match(name, keyword_shape) || defined.count(name)) continue;
+        std::vector<std::string> notes;
+        if (auto suggestion = closest_match(name, declared)) notes.push_back("did you mean '" + *suggestion + "'?");
+        add_finding(report, RuleId::UndeclaredKeyword,
+                    SourceLocation{path, static_cast<int>(i + 1), static_cast<int>(rest_offset + it->position()) + 1},
+                    "'" + name + "' is tested here but no pragma declares it and nothing defines it", notes);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+constinit const LintRule undeclared_keyword{
+    RuleId::UndeclaredKeyword, "UndeclaredKeyword",
+    "A keyword-like name tested by #if/#ifdef is never declared or defined (typo?).",
+    "A name shaped like a keyword (_?[A-Z][A-Z0-9_]{2,}) tested by #if, #ifdef, #ifndef or #elif that no keyword "
+    "pragma declares and no #define in any file read defines is never true: usually a misspelt keyword. The "
+    "closest declared keyword is suggested. In file mode, pass the include roots with -I so that names defined "
+    "in included headers are known.",
+    Severity::Warning, LintInput::Sources, check};
+
+}  // namespace kiln::rules
