@@ -1,9 +1,12 @@
 # kiln_add_shader_pack(<target> PACK <pack.json> [SCENES <scene.json>...] [TARGETS spirv glsl gles msl]
-#                      [OUTPUT_DIR <dir>] [CACHE_DIR <dir>])
+#                      [OUTPUT_DIR <dir>] [CACHE_DIR <dir>] [REMOTE <url>] [REMOTE_UPLOAD])
 #
 # Adds a custom target <target> (built by ALL) whose output is the variant pack of <pack.json>. kiln writes
 # a depfile listing every HLSL file it read, so editing any included file rebuilds the pack (and nothing
 # else), and a build with no change does no work, with Ninja and with Unix Makefiles.
+#
+# REMOTE names a shared remote cache (docs/remote-cache.md; KILN_REMOTE in the environment does the same);
+# REMOTE_UPLOAD lets this build write to it. Tokens come from the environment, never from the build files.
 #
 # Target properties set on <target> for consumers:
 #   KILN_PACK_DIR       directory holding the pack
@@ -16,7 +19,7 @@
 include_guard(GLOBAL)
 
 function(kiln_add_shader_pack target)
-  cmake_parse_arguments(PARSE_ARGV 1 ARG "" "PACK;OUTPUT_DIR;CACHE_DIR" "SCENES;TARGETS")
+  cmake_parse_arguments(PARSE_ARGV 1 ARG "REMOTE_UPLOAD" "PACK;OUTPUT_DIR;CACHE_DIR;REMOTE" "SCENES;TARGETS")
   if(NOT ARG_PACK)
     message(FATAL_ERROR "kiln_add_shader_pack(${target}): PACK <pack.json> is required")
   endif()
@@ -55,12 +58,20 @@ function(kiln_add_shader_pack target)
     set(target_args --targets "${target_list}")
   endif()
 
+  set(remote_args "")
+  if(ARG_REMOTE)
+    list(APPEND remote_args --remote "${ARG_REMOTE}")
+  endif()
+  if(ARG_REMOTE_UPLOAD)
+    list(APPEND remote_args --remote-upload)
+  endif()
+
   set(manifest "${output_dir}/${pack_name}.manifest.json")
   set(depfile "${output_dir}/${pack_name}.d")
   add_custom_command(
     OUTPUT "${manifest}"
     COMMAND kiln::kiln build "${pack}" -o "${output_dir}" --cache "${cache_dir}" --depfile "${depfile}"
-            ${scene_args} ${target_args} -q
+            ${scene_args} ${target_args} ${remote_args} -q
     DEPENDS "${pack}" ${scene_files} kiln::kiln
     DEPFILE "${depfile}"
     COMMENT "kiln: building shader pack '${pack_name}'"

@@ -51,6 +51,10 @@ void print_summary(const kiln::BuildReport& r, std::ostream& out) {
         << "), cache hits " << r.cache_hits << " (not preprocessed " << r.preprocess_memo_hits << ")"
         << (r.cache_rejected ? ", rejected cache entries " + std::to_string(r.cache_rejected) : std::string())
         << ", workers " << r.workers_started << "\n";
+  if (!r.up_to_date && r.remote.configured)
+    out << "  remote cache: hits " << r.remote.hits << ", misses " << r.remote.misses << ", uploads " << r.remote.uploads
+        << " (" << r.remote.blobs_uploaded << " blobs), " << r.remote.bytes_down << " bytes down, " << r.remote.bytes_up
+        << " bytes up, errors " << r.remote.errors << (r.remote.switched_off ? " (switched off)" : "") << "\n";
   if (!r.up_to_date && !r.strip_report.empty()) {
     out << "  strip report:\n";
     for (const kiln::StripLine& line : r.strip_report)
@@ -314,6 +318,18 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember(kiln::frontend_names()));
   build->add_option("--worker-timeout", timeout_s, "Seconds one compile job may take before it is an internal error");
   build->add_flag("-q,--quiet", quiet, "Print only diagnostics");
+  // The remote cache (docs/remote-cache.md). Credentials come from the environment or netrc, never from arguments.
+  kiln::RemoteCacheOptions& remote = options.remote;
+  double remote_connect_s = remote.connect_timeout.count() / 1000.0, remote_timeout_s = remote.operation_timeout.count() / 1000.0;
+  build->add_option("--remote", remote.url, "Remote cache base URL, Bazel HTTP cache protocol (default: $KILN_REMOTE)");
+  build->add_flag("--remote-upload", remote.upload, "Upload what this build compiles (read-only otherwise)");
+  build->add_flag("--remote-required", remote.required, "Remote cache problems are errors, not warnings");
+  build->add_option("--remote-instance", remote.instance, "Path prefix under the remote URL (instance name)");
+  build->add_option("--remote-namespace", remote.key_namespace, "Mixed into every remote key: keeps caches apart on one server");
+  build->add_option("--remote-connect-timeout", remote_connect_s, "Seconds to connect to the remote cache (default: 3)")
+      ->check(CLI::PositiveNumber);
+  build->add_option("--remote-timeout", remote_timeout_s, "Seconds one remote request may take (default: 30)")
+      ->check(CLI::PositiveNumber);
 
   CLI::App* list = app.add_subcommand("list", "List every variant a pack would contain, with the keywords each stage sees");
   list->add_option("pack", pack_file, "Pack definition")->required();
@@ -407,6 +423,14 @@ int main(int argc, char** argv) {
 
   if (*build) {
     options.output_dir = output;
+    // The remote's URL, token and CA file may come from the environment (KILN_REMOTE_TOKEN is never printed).
+    auto environment = [](const char* name) { const char* value = std::getenv(name); return value ? std::string(value) : std::string(); };
+    if (remote.url.empty()) remote.url = environment("KILN_REMOTE");
+    remote.bearer_token = environment("KILN_REMOTE_TOKEN");
+    remote.token_file = environment("KILN_REMOTE_TOKEN_FILE");
+    remote.ca_file = environment("KILN_REMOTE_CA_FILE");
+    remote.connect_timeout = std::chrono::milliseconds(static_cast<long>(remote_connect_s * 1000));
+    remote.operation_timeout = std::chrono::milliseconds(static_cast<long>(remote_timeout_s * 1000));
     options.cache_max_mb = cache_max_mb;
     return run_build(options, no_cache, cache_dir, quiet);
   }

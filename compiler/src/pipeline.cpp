@@ -29,6 +29,7 @@
 #include "pack/pack_writer.hpp"
 #include "permutations/permutations.hpp"
 #include "reflect/reflect.hpp"
+#include "remote/remote_cache.hpp"
 #include "workers/worker_pool.hpp"
 
 namespace kiln {
@@ -438,12 +439,15 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   if (options.cache_dir) cache.emplace(*options.cache_dir, options.cache_max_mb << 20);
   std::map<std::string, uint64_t> file_hashes;  // display name -> XXH3 of the text, for preprocessing memos
   const bool memos = cache && !options.emit.count("preprocessed");
+  // The remote tier under the local cache (remote/): asked for local misses, written after a good build.
+  std::unique_ptr<RemoteCache> remote = RemoteCache::open(options.remote, sink);
 
   // Stage 4: preprocess each (pass, stage, keywords the stage sees) once, then dedupe by content.
   std::vector<StageSource> stage_sources;
   // Every cache key starts with what a compile's output depends on besides its input: the tools, the
   // options, the stage and the entry point.
-  auto add_compile_options = [&](Hasher& hasher, Stage stage, const std::string& entry_point) -> Hasher& {
+  // (A Hasher for local keys, a RemoteKeyHasher for remote keys: the same fields.)
+  auto add_compile_options = [&](auto& hasher, Stage stage, const std::string& entry_point) -> auto& {
     return hasher.add(fingerprint).add(options.optimize ? 1 : 0).add(target_names).add(stage_name(stage)).add(entry_point);
   };
   auto source_key = [&](const StageSource& s) {
@@ -678,7 +682,39 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     for (size_t b : misses)
       if (!stage_sources[binaries[b].source].preprocessed) unpreprocessed.push_back(binaries[b].source);
     preprocess_all(unpreprocessed);
+    // Local misses the remote cache has are not compiled: its entries, verified, go into the local cache too.
+    std::vector<std::optional<RemoteKey>> remote_key_of(binaries.size());
+    size_t remote_hits = 0;
+    if (remote && remote->usable()) {
+      std::vector<size_t> asked;
+      std::vector<RemoteKey> keys;
+      for (size_t b : misses) {
+        const StageSource& s = stage_sources[binaries[b].source];
+        if (!s.ok) continue;
+        RemoteKeyHasher key;
+        remote->start_key(key, "source");
+        remote_key_of[b] = add_compile_options(key, s.stage, binaries[b].entry_point).add(s.text).finish();
+        asked.push_back(b);
+        keys.push_back(*remote_key_of[b]);
+      }
+      std::vector<std::optional<RemoteFetched>> fetched = remote->fetch(keys);
+      for (size_t i = 0; i < asked.size(); ++i) {
+        if (!fetched[i]) continue;
+        const size_t b = asked[i];
+        RemoteFetched& hit = *fetched[i];
+        if (cache) {
+          cache->store(hit.module, hit.module_output);
+          cache->store_alias(*stage_sources[binaries[b].source].key, hit.module, hit.front_messages);
+        }
+        hit.module_output.messages.insert(hit.module_output.messages.begin(), hit.front_messages.begin(), hit.front_messages.end());
+        binaries[b].output = std::make_shared<const JobOutput>(std::move(hit.module_output));
+        module_of[b] = hit.module;
+        ++remote_hits;
+      }
+      remote->report_problems(sink);
+    }
     for (size_t b : misses) {
+      if (binaries[b].output) continue;  // from the remote cache
       const StageSource& s = stage_sources[binaries[b].source];
       if (!s.ok) {  // the memo said it preprocessed; it does not now (it cannot, with the same files)
         preprocess_failed(s, binaries[b].source);
@@ -706,12 +742,13 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       WorkerOutcome failure;                    // when settled and not good
       bool fresh = false;                       // compiled in this build: cached once the build is known good
       std::vector<size_t> waiting;              // binaries whose front end produced it, before it settled
+      std::optional<RemoteKey> remote_key;      // when this build may upload it
     };
     std::vector<Module> modules;
     std::map<Hash128, size_t> module_by_key;
     std::vector<std::vector<FrontendMessage>> front_messages(binaries.size());
     std::vector<bool> front_end_ran(binaries.size(), false);
-    size_t done = report.cache_hits;
+    size_t done = report.cache_hits + remote_hits;
     if (options.progress) options.progress(done, binaries.size(), report.cache_hits);
 
     // `module`: the front end's SPIR-V, when the worker died in the back end.
@@ -837,6 +874,13 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
         if (inserted) {
           Module module;
           module.key = key;
+          if (remote && options.remote.upload) {
+            RemoteKeyHasher remote_key;
+            remote->start_key(remote_key, "module");
+            module.remote_key = add_compile_options(remote_key, binaries[b].stage, binaries[b].entry_point)
+                                    .add(std::string_view(reinterpret_cast<const char*>(spirv.data()), spirv.size() * 4))
+                                    .finish();
+          }
           bool rejected = false;
           if (cache) {
             if (auto cached = cache->load(key, rejected)) {
@@ -911,6 +955,28 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
       if (std::string error = cache->commit(); !error.empty())
         sink.report(DiagId::CacheUnwritable, SourceLocation{cache->directory().string(), 0, 0}, error,
                     {"the outputs are unaffected; the next build compiles these variants again"});
+    }
+    if (remote && options.remote.upload && !user_errors) {
+      // What this build's front ends produced: each module's result (blobs first), then each source's alias.
+      StageTimer upload_timer(report, "remote upload");
+      std::vector<RemoteCache::ModuleUpload> uploads;
+      std::map<Hash128, size_t> upload_of;
+      for (const Module& m : modules)
+        if (m.output && m.remote_key) {
+          upload_of.emplace(m.key, uploads.size());
+          uploads.push_back({*m.remote_key, m.output.get()});
+        }
+      std::vector<RemoteCache::AliasUpload> aliases;
+      for (size_t b = 0; b < binaries.size(); ++b) {
+        auto module = module_of[b] ? upload_of.find(*module_of[b]) : upload_of.end();
+        if (front_end_ran[b] && binaries[b].output && remote_key_of[b] && module != upload_of.end())
+          aliases.push_back({*remote_key_of[b], module->second, *module_of[b], &front_messages[b]});
+      }
+      remote->upload(uploads, aliases);
+    }
+    if (remote) {
+      remote->report_problems(sink);
+      report.remote = remote->report();
     }
   }
   for (Grouped& g : grouped) std::sort(g.variants.begin(), g.variants.end());

@@ -22,6 +22,22 @@ inline const std::set<std::string>& emit_stage_names() {
   return names;
 }
 
+// The shared remote cache under the local one (docs/remote-cache.md): the Bazel HTTP cache protocol.
+struct RemoteCacheOptions {
+  std::string url;                                  // http(s)://host[:port][/path]; empty: no remote
+  std::string instance;                             // path prefix under the URL (like Bazel's instance name)
+  std::string key_namespace;                        // mixed into every key: caches apart on one server
+  bool upload = false;                              // write what this build compiled (read-only otherwise)
+  bool required = false;                            // remote errors fail the build (CI shard jobs)
+  std::chrono::milliseconds connect_timeout{3'000};
+  std::chrono::milliseconds operation_timeout{30'000};  // one request, transfer included
+  std::string bearer_token;                         // sent as "Authorization: Bearer"; never printed
+  std::filesystem::path token_file;                 // read when bearer_token is empty
+  std::filesystem::path ca_file;                    // empty: the system's CAs
+  std::filesystem::path netrc_file;                 // basic auth; empty: libcurl's default (~/.netrc)
+  unsigned parallel_transfers = 8;                  // requests in flight (one kept-alive connection each)
+};
+
 struct BuildOptions {
   std::filesystem::path pack_file;
   std::vector<std::filesystem::path> scene_files;
@@ -38,6 +54,7 @@ struct BuildOptions {
   std::string frontend = "glslang";                 // HLSL front end, by name (frontend_names())
   std::vector<Target> targets;                      // empty: the pack definition's targets
   uint64_t max_file_bytes = 4u << 20;
+  RemoteCacheOptions remote;
   std::function<void(size_t done, size_t total, size_t cache_hits)> progress;
 };
 
@@ -67,6 +84,19 @@ struct StageTiming {
   double milliseconds = 0;
 };
 
+// What the remote cache tier did; every count is of requests that were answered.
+struct RemoteReport {
+  bool configured = false;     // a remote was given
+  bool switched_off = false;   // errors turned it off for the rest of the build (or it was never usable)
+  size_t hits = 0;             // stage sources fetched whole (nothing compiled)
+  size_t misses = 0;
+  size_t uploads = 0;          // records written (results and aliases)
+  size_t blobs_uploaded = 0;
+  uint64_t bytes_down = 0;
+  uint64_t bytes_up = 0;
+  size_t errors = 0;           // failed requests and entries that failed verification
+};
+
 struct BuildReport {
   bool ok = false;
   bool up_to_date = false;          // nothing changed: no work done
@@ -82,6 +112,7 @@ struct BuildReport {
   size_t preprocess_memo_hits = 0;  // stage sources not preprocessed: what they read is unchanged
   size_t cache_rejected = 0;
   unsigned workers_started = 0;
+  RemoteReport remote;
   std::filesystem::path manifest;
   std::vector<std::filesystem::path> dependencies;  // every input file read
 };

@@ -1,0 +1,449 @@
+// The remote cache tier against a real nginx (WebDAV PUT) on loopback: two clients sharing one server, and each
+// fault a build must survive with the same pack and one warning (an error with --remote-required).
+// No test depends on timing: a timeout is a server that never answers, and the outcome is asserted, not the time.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+
+#include "kiln/build.hpp"
+#include "remote/remote_cache.hpp"
+#include "servers.hpp"
+#include "test_support.hpp"
+
+namespace kiln {
+namespace {
+
+// Two keyword groups: 2 vertex and 4 fragment stage sources, 5 modules.
+void write_library(const testing::TempDir& dir, const std::string& root = ".") {
+  dir.write(root + "/lib/Shadows.hlsl", "#pragma once\nfloat ShadowTerm(float x) { return saturate(x * 0.5); }\n");
+  dir.write(root + "/lib/Fog.hlsl", "#pragma once\nfloat FogTerm(float x) { return exp2(-x); }\n");
+  dir.write(root + "/S.hlsl",
+            "#pragma multi_compile _ SHADOWS\n#pragma multi_compile_fragment _ FOG\n"
+            "#include \"Shadows.hlsl\"\n#ifdef FOG\n#include \"Fog.hlsl\"\n#endif\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "float4 F(float4 p : SV_Position) : SV_Target {\n  float c = 1.0;\n"
+            "#ifdef SHADOWS\n  c *= ShadowTerm(p.x);\n#endif\n#ifdef FOG\n  c *= FogTerm(p.y);\n#endif\n"
+            "  return float4(c, c, c, 1.0);\n}\n");
+  dir.write(root + "/p.pack.json", R"({"name": "p", "include_dirs": ["lib"],
+      "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+}
+
+void overwrite(const std::filesystem::path& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+}
+
+std::string text_of(const DiagnosticSink& sink) {
+  std::string text;
+  for (const Diagnostic& d : sink.diagnostics()) text += format_diagnostic(d);
+  return text;
+}
+
+// The pack's two files, as bytes.
+std::pair<std::string, std::string> pack_bytes(const std::filesystem::path& out) {
+  return {testing::read_file(out / "p.manifest.json"), testing::read_archive(out / "p.manifest.json")};
+}
+
+struct Remote : ::testing::Test {
+  testing::TempDir dir;
+  int builds = 0;
+  void SetUp() override { write_library(dir); }
+
+  // A build with its own output and local cache directories: one "machine" each.
+  BuildReport build(RemoteCacheOptions remote, DiagnosticSink& sink, const std::function<void()>& on_progress = {}) {
+    BuildOptions options;
+    options.pack_file = dir / "p.pack.json";
+    const std::string name = "build" + std::to_string(builds++);
+    options.output_dir = dir / (name + "/out");
+    options.cache_dir = dir / (name + "/cache");
+    options.jobs = 2;
+    options.worker_executable = KILN_WORKER_PATH;
+    options.remote = std::move(remote);
+    if (on_progress) options.progress = [&](size_t, size_t, size_t) { on_progress(); };
+    last_output = options.output_dir;
+    return build_pack(options, sink);
+  }
+  std::filesystem::path last_output;
+
+  std::pair<std::string, std::string> reference() {
+    DiagnosticSink sink;
+    EXPECT_TRUE(build({}, sink).ok) << text_of(sink);
+    return pack_bytes(last_output);
+  }
+
+  // One request at a time: which request fails first, and whether the remote is switched off, are then the same
+  // in every run, so the warnings' exact text can be asserted.
+  static RemoteCacheOptions serial(const std::string& url, bool upload = false) {
+    RemoteCacheOptions remote;
+    remote.url = url;
+    remote.upload = upload;
+    remote.parallel_transfers = 1;
+    return remote;
+  }
+
+  // Fills the server from a build that uploads.
+  void populate(const std::string& url, RemoteCacheOptions remote = {}) {
+    if (remote.url.empty()) remote = serial(url, true);
+    remote.upload = true;
+    DiagnosticSink sink;
+    BuildReport report = build(remote, sink);
+    ASSERT_TRUE(report.ok) << text_of(sink);
+    ASSERT_EQ(sink.warning_count(), 0) << text_of(sink);
+    ASSERT_EQ(report.remote.uploads, 5u + 6u);  // 5 results, 6 aliases
+  }
+
+  // The fault's warning is exactly `expected` (its location is the server's URL) and the pack is the reference's;
+  // with --remote-required the same problem is an error and the build fails.
+  void expect_survived(RemoteCacheOptions remote, const std::string& expected, DiagId id) {
+    const auto wanted = reference();
+    DiagnosticSink sink;
+    BuildReport report = build(remote, sink);
+    EXPECT_TRUE(report.ok) << text_of(sink);
+    EXPECT_EQ(report.compiled, 6u);
+    EXPECT_EQ(text_of(sink), expected);
+    EXPECT_TRUE(pack_bytes(last_output) == wanted) << "the pack differs from a build without the remote";
+    EXPECT_GE(report.remote.errors, 1u);
+
+    remote.required = true;
+    DiagnosticSink strict;
+    BuildReport failed = build(remote, strict);
+    EXPECT_FALSE(failed.ok);
+    bool found = false;
+    for (const Diagnostic& d : strict.diagnostics()) found |= d.id == id && d.severity == Severity::Error;
+    EXPECT_TRUE(found) << text_of(strict);
+    EXPECT_FALSE(std::filesystem::exists(last_output / "p.manifest.json"));
+  }
+
+  // Every file nginx stores under data/<kind>/, by name.
+  static std::vector<std::filesystem::path> stored(const testing::Nginx& server, const std::string& kind) {
+    std::vector<std::filesystem::path> files;
+    for (const auto& entry : std::filesystem::directory_iterator(server.data() / kind)) files.push_back(entry.path());
+    std::sort(files.begin(), files.end());
+    return files;
+  }
+};
+
+const std::string kNeverFails = "  note: a remote cache problem never fails a build; --remote-required makes it an error\n";
+const std::string kSwitchedOff = "  note: the remote cache is off for the rest of this build\n";
+
+TEST_F(Remote, ASecondClientWithItsOwnLocalCacheCompilesNothingAndWritesTheSamePack) {
+  testing::Nginx server;
+  const auto wanted = reference();
+  RemoteCacheOptions remote;
+  remote.url = server.url();
+  remote.upload = true;
+  DiagnosticSink first_sink;
+  BuildReport first = build(remote, first_sink);
+  ASSERT_TRUE(first.ok) << text_of(first_sink);
+  EXPECT_EQ(first.compiled, 6u);
+  EXPECT_EQ(first.remote.misses, 6u);
+  EXPECT_EQ(first.remote.uploads, 11u);
+  EXPECT_EQ(first.remote.errors, 0u);
+  EXPECT_EQ(stored(server, "ac").size(), 11u);  // 5 results and 6 aliases
+  EXPECT_TRUE(pack_bytes(last_output) == wanted);
+
+  remote.upload = false;
+  DiagnosticSink second_sink;
+  BuildReport second = build(remote, second_sink);
+  ASSERT_TRUE(second.ok) << text_of(second_sink);
+  EXPECT_EQ(second.compiled, 0u);
+  EXPECT_EQ(second.back_ends, 0u);
+  EXPECT_EQ(second.remote.hits, 6u);
+  EXPECT_EQ(second.remote.errors, 0u);
+  EXPECT_GT(second.remote.bytes_down, 0u);
+  EXPECT_EQ(text_of(second_sink), "");
+  EXPECT_TRUE(pack_bytes(last_output) == wanted) << "the pack differs from a build that compiled";
+  // What came from the remote went into that client's local cache: its next build is all local hits.
+  BuildOptions again;
+  again.pack_file = dir / "p.pack.json";
+  again.output_dir = dir / "again";
+  again.cache_dir = dir / "build2/cache";
+  again.worker_executable = KILN_WORKER_PATH;
+  server.stop();
+  DiagnosticSink again_sink;
+  BuildReport third = build_pack(again, again_sink);
+  ASSERT_TRUE(third.ok);
+  EXPECT_EQ(third.cache_hits, 6u);
+  EXPECT_TRUE(pack_bytes(dir / "again") == wanted);
+}
+
+TEST_F(Remote, ReadOnlyUnlessUploadIsAsked) {
+  testing::Nginx server;
+  DiagnosticSink sink;
+  BuildReport report = build(serial(server.url()), sink);
+  ASSERT_TRUE(report.ok) << text_of(sink);
+  EXPECT_EQ(report.remote.uploads, 0u);
+  EXPECT_FALSE(std::filesystem::exists(server.data() / "ac"));
+}
+
+TEST_F(Remote, NamespacesAndInstancesKeepCachesApartOnOneServer) {
+  testing::Nginx server;
+  RemoteCacheOptions main = serial(server.url(), true);
+  main.key_namespace = "main";
+  populate(server.url(), main);
+  RemoteCacheOptions pull_request = serial(server.url());
+  pull_request.key_namespace = "pr";
+  DiagnosticSink sink;
+  EXPECT_EQ(build(pull_request, sink).remote.hits, 0u);
+  main.upload = false;
+  EXPECT_EQ(build(main, sink).remote.hits, 6u);
+  RemoteCacheOptions instance = main;
+  instance.instance = "team/shaders";
+  EXPECT_EQ(build(instance, sink).remote.hits, 0u);
+  instance.upload = true;
+  build(instance, sink);
+  EXPECT_TRUE(std::filesystem::exists(server.data() / "team/shaders/ac"));
+  EXPECT_EQ(sink.warning_count(), 0) << text_of(sink);
+}
+
+TEST_F(Remote, ServerDownIsOneWarningAndTheRemoteIsSwitchedOff) {
+  const std::string url = "http://127.0.0.1:" + std::to_string(testing::free_port());
+  expect_survived(serial(url), url + ": warning[K1701]: cannot reach the remote cache: Couldn't connect to server\n" +
+                                   kSwitchedOff + kNeverFails,
+                  DiagId::RemoteUnreachable);
+}
+
+TEST_F(Remote, ConnectionRefusedMidBuildIsOneWarning) {
+  testing::Nginx server;
+  const auto wanted = reference();
+  // The lookups are done when the first compile finishes; the server goes away before the upload.
+  DiagnosticSink sink;
+  BuildReport report = build(serial(server.url(), true), sink, [&] { server.stop(); });
+  EXPECT_TRUE(report.ok) << text_of(sink);
+  EXPECT_EQ(report.remote.misses, 6u);
+  EXPECT_EQ(text_of(sink), server.url() + ": warning[K1701]: cannot reach the remote cache: Couldn't connect to server\n" +
+                               kSwitchedOff + kNeverFails);
+  EXPECT_TRUE(pack_bytes(last_output) == wanted);
+}
+
+TEST_F(Remote, ServerErrorsAreMissesWithOneWarning) {
+  testing::Nginx server({"      return 500;"});
+  expect_survived(serial(server.url()),
+                  server.url() + ": warning[K1703]: the remote cache answered a download with HTTP 500\n" + kSwitchedOff +
+                      kNeverFails,
+                  DiagId::RemoteServerError);
+}
+
+TEST_F(Remote, TooManyRequestsIsAServerErrorToo) {
+  testing::Nginx server({"      return 429;"});
+  expect_survived(serial(server.url()),
+                  server.url() + ": warning[K1703]: the remote cache answered a download with HTTP 429\n" + kSwitchedOff +
+                      kNeverFails,
+                  DiagId::RemoteServerError);
+}
+
+// Anonymous reads, authenticated writes (auth_basic with an htpasswd file made by openssl passwd -apr1).
+struct AuthenticatedPut : Remote {
+  testing::TempDir secrets;
+  std::string location() {
+    testing::RunResult hashed = testing::run({"/usr/bin/openssl", "passwd", "-apr1", "s3cret-password"}, secrets.path());
+    secrets.write("htpasswd", "builder:" + hashed.out);
+    secrets.write("netrc", "machine 127.0.0.1 login builder password s3cret-password\n");
+    return "      limit_except GET HEAD { auth_basic \"kiln\"; auth_basic_user_file " + (secrets / "htpasswd").string() + "; }";
+  }
+};
+
+TEST_F(AuthenticatedPut, WithoutCredentialsAnUploadIs401AndABuildStillSucceeds) {
+  testing::Nginx server({location()});
+  expect_survived(serial(server.url(), true),
+                  server.url() + ": warning[K1706]: the remote cache refused an upload with HTTP 401\n" + kNeverFails,
+                  DiagId::RemoteUploadRefused);
+}
+
+TEST_F(AuthenticatedPut, NetrcCredentialsUploadAndAnonymousClientsRead) {
+  testing::Nginx server({location()});
+  RemoteCacheOptions writer = serial(server.url(), true);
+  writer.netrc_file = secrets / "netrc";
+  populate(server.url(), writer);
+  DiagnosticSink sink;
+  BuildReport reader = build(serial(server.url()), sink);
+  EXPECT_EQ(reader.remote.hits, 6u);
+  EXPECT_EQ(reader.compiled, 0u);
+  EXPECT_EQ(text_of(sink), "");
+}
+
+TEST_F(Remote, ForbiddenUploadIsOneWarning) {
+  testing::Nginx server({"      limit_except GET HEAD { deny all; }"});
+  expect_survived(serial(server.url(), true),
+                  server.url() + ": warning[K1706]: the remote cache refused an upload with HTTP 403\n" + kNeverFails,
+                  DiagId::RemoteUploadRefused);
+}
+
+TEST_F(Remote, DiskFullOnTheServerIsOneWarning) {
+  testing::Nginx server({"      if ($request_method = PUT) { return 507; }"});
+  expect_survived(serial(server.url(), true),
+                  server.url() + ": warning[K1706]: the remote cache refused an upload with HTTP 507\n" + kNeverFails,
+                  DiagId::RemoteUploadRefused);
+}
+
+// A bearer token is checked by nginx on writes; kiln never prints it.
+TEST_F(Remote, ABearerTokenAuthorizesUploadsAndIsNeverPrinted) {
+  testing::Nginx server({"      set $refused \"\";\n"
+                         "      if ($request_method = PUT) { set $refused \"put\"; }\n"
+                         "      if ($http_authorization = \"Bearer t0ken-abc\") { set $refused \"\"; }\n"
+                         "      if ($refused) { return 401; }"});
+  RemoteCacheOptions wrong = serial(server.url(), true);
+  wrong.bearer_token = "wr0ng-t0ken";
+  DiagnosticSink sink;
+  EXPECT_TRUE(build(wrong, sink).ok);
+  EXPECT_EQ(text_of(sink), server.url() + ": warning[K1706]: the remote cache refused an upload with HTTP 401\n" + kNeverFails);
+  EXPECT_EQ(text_of(sink).find("wr0ng"), std::string::npos);
+
+  testing::TempDir secrets;
+  RemoteCacheOptions right = serial(server.url(), true);
+  right.token_file = secrets.write("token", "t0ken-abc\n");
+  populate(server.url(), right);
+}
+
+TEST_F(Remote, ATokenIsNeverSentOverPlainHttpToAnotherHost) {
+  RemoteCacheOptions remote = serial("http://user:hunter2@cache.example.invalid:8080/base/");
+  remote.bearer_token = "t0ken-abc";
+  const auto wanted = reference();
+  DiagnosticSink sink;
+  BuildReport report = build(remote, sink);
+  EXPECT_TRUE(report.ok);
+  EXPECT_EQ(text_of(sink), "http://cache.example.invalid:8080/base: warning[K1707]: refusing to send the remote cache token "
+                           "over plain HTTP to 'cache.example.invalid': use https://\n"
+                           "  note: the build goes on without the remote cache\n" + kNeverFails);
+  EXPECT_TRUE(pack_bytes(last_output) == wanted);
+}
+
+TEST_F(Remote, AnUnreadableTokenFileIsAConfigurationWarning) {
+  RemoteCacheOptions remote = serial("https://127.0.0.1:9");
+  remote.token_file = dir / "no-such-token";
+  DiagnosticSink sink;
+  EXPECT_TRUE(build(remote, sink).ok);
+  EXPECT_EQ(text_of(sink), "https://127.0.0.1:9: warning[K1707]: the token file '" + (dir / "no-such-token").string() +
+                               "' cannot be read (or is over 4 KiB)\n"
+                               "  note: the build goes on without the remote cache\n" + kNeverFails);
+}
+
+TEST_F(Remote, AResponseThatNeverComesTimesOut) {
+  testing::FaultServer silent(testing::FaultServer::Mode::Silent);
+  RemoteCacheOptions remote = serial(silent.url());
+  remote.operation_timeout = std::chrono::milliseconds(100);
+  expect_survived(remote,
+                  silent.url() + ": warning[K1702]: no answer from the remote cache within the timeout (connect 3000 ms, "
+                                 "request 100 ms)\n" + kSwitchedOff + kNeverFails,
+                  DiagId::RemoteTimeout);
+}
+
+TEST_F(Remote, ABodyCutShortOfItsLengthIsAMiss) {
+  testing::FaultServer truncated(testing::FaultServer::Mode::Truncated);
+  expect_survived(serial(truncated.url()),
+                  truncated.url() + ": warning[K1704]: a download from the remote cache was cut short: Transferred a "
+                                    "partial file\n" + kSwitchedOff + kNeverFails,
+                  DiagId::RemoteTransferCut);
+}
+
+// Entries damaged on the server's disk: each is a miss, compiled again, and named.
+struct Tampered : Remote {
+  testing::Nginx server;
+  void SetUp() override {
+    Remote::SetUp();
+    populate(server.url());
+  }
+  std::string rejected(const std::string& why, const std::string& where) {
+    return server.url() + ": warning[K1705]: a remote cache entry failed verification: " + why + "\n  note: at " + where +
+           "\n" + kNeverFails;
+  }
+};
+
+TEST_F(Tampered, ABlobWhoseBytesNoLongerMatchItsDigest) {
+  const std::filesystem::path blob = stored(server, "cas").front();
+  std::string bytes = testing::read_file(blob);
+  bytes[bytes.size() / 2] ^= 0x20;
+  overwrite(blob, bytes);
+  expect_survived(serial(server.url()),
+                  rejected("a blob's SHA-256 does not match its name", "cas/" + blob.filename().string()),
+                  DiagId::RemoteEntryRejected);
+}
+
+TEST_F(Tampered, ABlobReplacedByAnotherBlob) {
+  const auto blobs = stored(server, "cas");
+  const std::filesystem::path victim = blobs.front(), other = blobs.back();
+  const std::string replacement = testing::read_file(other);
+  const bool same_size = replacement.size() == std::filesystem::file_size(victim);
+  overwrite(victim, replacement);
+  expect_survived(serial(server.url()),
+                  rejected(same_size ? "a blob's SHA-256 does not match its name" : "a blob has the wrong size",
+                           "cas/" + victim.filename().string()),
+                  DiagId::RemoteEntryRejected);
+}
+
+TEST_F(Tampered, APartialUploadWhoseBlobIsMissing) {
+  const std::filesystem::path blob = stored(server, "cas").front();
+  std::filesystem::remove(blob);
+  expect_survived(serial(server.url()), rejected("incomplete entry: a blob is missing", "cas/" + blob.filename().string()),
+                  DiagId::RemoteEntryRejected);
+}
+
+TEST_F(Tampered, ARecordWithACorruptByte) {
+  const std::filesystem::path record = stored(server, "ac").front();
+  std::string bytes = testing::read_file(record);
+  bytes.back() ^= 0x01;
+  overwrite(record, bytes);
+  expect_survived(serial(server.url()), rejected("record checksum does not match", "ac/" + record.filename().string()),
+                  DiagId::RemoteEntryRejected);
+}
+
+// A record resealed by someone who can write the server (its checksum is right) that names another blob: the blob
+// is what its digest says, but not what the record says it is.
+TEST_F(Tampered, AResealedRecordWhoseBlobDigestNamesAnotherBlob) {
+  std::filesystem::path result;
+  std::string bytes;
+  for (const auto& record : stored(server, "ac")) {
+    bytes = testing::read_file(record);
+    if (bytes.size() > 92 && bytes[12] == 1) {  // a result record (kind 1) with its blob list
+      result = record;
+      break;
+    }
+  }
+  ASSERT_FALSE(result.empty());
+  // Header: magic 8, format 4, kind 4, key 32, payload size 8, payload SHA-256 32; payload: count 4, then per blob
+  // target 4, digest 32, size 8. The first blob's digest and size become those of a blob of another entry.
+  constexpr size_t header = 88, first_digest = header + 4 + 4, first_size = first_digest + 32;
+  const std::string first = std::string(bytes, first_digest, 32);
+  std::filesystem::path other;
+  for (const auto& blob : stored(server, "cas")) {
+    const RemoteKey name = sha256(testing::read_file(blob));
+    if (std::string(reinterpret_cast<const char*>(name.bytes.data()), 32) != first &&
+        std::filesystem::file_size(blob) > 64) {
+      other = blob;
+      break;
+    }
+  }
+  ASSERT_FALSE(other.empty());
+  const std::string other_bytes = testing::read_file(other);
+  const RemoteKey digest = sha256(other_bytes);
+  bytes.replace(first_digest, 32, reinterpret_cast<const char*>(digest.bytes.data()), 32);
+  for (int i = 0; i < 8; ++i) bytes[first_size + i] = static_cast<char>(uint64_t{other_bytes.size()} >> (8 * i));
+  const RemoteKey resealed = sha256(std::string_view(bytes).substr(header));
+  bytes.replace(56, 32, reinterpret_cast<const char*>(resealed.bytes.data()), 32);
+  overwrite(result, bytes);
+  expect_survived(serial(server.url()),
+                  rejected("a blob does not unpack to the record's size and checksum", "cas/" + other.filename().string()),
+                  DiagId::RemoteEntryRejected);
+}
+
+struct Https : Remote {};
+
+TEST_F(Https, WithTheTestCaTheRemoteWorksAndWithoutItNothingIsSentInClear) {
+  testing::Nginx server({"", true});
+  RemoteCacheOptions trusted = serial(server.url(), true);
+  trusted.ca_file = server.ca_file();
+  populate(server.url(), trusted);
+  trusted.upload = false;
+  DiagnosticSink sink;
+  BuildReport hit = build(trusted, sink);
+  EXPECT_EQ(hit.remote.hits, 6u);
+  EXPECT_EQ(text_of(sink), "");
+  // The system's CAs do not know the test CA: verification fails, and kiln neither skips it nor tries http://.
+  expect_survived(serial(server.url()),
+                  server.url() + ": warning[K1701]: cannot reach the remote cache: SSL peer certificate or SSH remote key "
+                                 "was not OK\n" + kSwitchedOff + kNeverFails,
+                  DiagId::RemoteUnreachable);
+}
+
+}  // namespace
+}  // namespace kiln
