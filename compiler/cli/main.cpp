@@ -37,25 +37,29 @@ std::string format_ms(double ms) {
 
 void print_summary(const kiln::BuildReport& r, std::ostream& out) {
   const kiln::Funnel& f = r.funnel;
-  out << "kiln: " << (r.up_to_date ? "up to date: " : "wrote ") << r.manifest.string() << "\n";
+  const bool built = !r.up_to_date && !r.remote.pack_fetched;  // else nothing was compiled or looked up
+  out << "kiln: " << (r.up_to_date ? "up to date: " : r.remote.pack_fetched ? "fetched from the remote cache: " : "wrote ")
+      << r.manifest.string() << "\n";
   out << "  variants: " << (f.declared_saturated ? "more than " : "") << f.declared << " declared -> " << f.valid
       << " valid -> " << f.kept << " after stripping";
-  if (!r.up_to_date)
+  if (built)
     out << " -> " << f.stage_instances << " stage variants -> " << f.unique_preprocessed << " unique per stage -> "
         << f.unique_compiles << " compiles -> " << f.unique_modules << " modules -> " << f.unique_binaries
         << " unique binaries";
   out << "\n";
-  if (!r.up_to_date)
+  if (built)
     out << "  compiled " << r.compiled << " (back ends " << r.back_ends << ", full legalizations "
         << r.full_legalizations << ", cached back ends " << r.back_end_hits
         << "), cache hits " << r.cache_hits << " (not preprocessed " << r.preprocess_memo_hits << ")"
         << (r.cache_rejected ? ", rejected cache entries " + std::to_string(r.cache_rejected) : std::string())
         << ", workers " << r.workers_started << "\n";
-  if (!r.up_to_date && r.remote.configured)
+  if (!r.up_to_date && r.remote.configured && r.remote.pack_fetched)
+    out << "  remote cache: the finished pack of these inputs, " << r.remote.bytes_down << " bytes down\n";
+  else if (built && r.remote.configured)
     out << "  remote cache: hits " << r.remote.hits << ", misses " << r.remote.misses << ", uploads " << r.remote.uploads
         << " (" << r.remote.blobs_uploaded << " blobs), " << r.remote.bytes_down << " bytes down, " << r.remote.bytes_up
         << " bytes up, errors " << r.remote.errors << (r.remote.switched_off ? " (switched off)" : "") << "\n";
-  if (!r.up_to_date && !r.strip_report.empty()) {
+  if (built && !r.strip_report.empty()) {
     out << "  strip report:\n";
     for (const kiln::StripLine& line : r.strip_report)
       out << "    " << line.pass << ": " << line.what << ": " << line.count
@@ -326,7 +330,7 @@ int main(int argc, char** argv) {
   build->add_flag("--remote-required", remote.required, "Remote cache problems are errors, not warnings");
   build->add_option("--remote-instance", remote.instance, "Path prefix under the remote URL (instance name)");
   build->add_option("--remote-namespace", remote.key_namespace, "Mixed into every remote key: keeps caches apart on one server");
-  build->add_option("--remote-connect-timeout", remote_connect_s, "Seconds to connect to the remote cache (default: 3)")
+  build->add_option("--remote-connect-timeout", remote_connect_s, "Seconds to connect to the remote cache (default: 1)")
       ->check(CLI::PositiveNumber);
   build->add_option("--remote-timeout", remote_timeout_s, "Seconds one remote request may take (default: 30)")
       ->check(CLI::PositiveNumber);

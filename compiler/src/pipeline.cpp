@@ -416,13 +416,16 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
 
   // Up to date? The inputs hash covers tools, options, the pack format (a pack another format version wrote
   // is rebuilt) and the bytes of every file read.
-  Hasher inputs;
-  inputs.add(uint64_t{kPackFormatVersion});
   std::string target_names;
   for (Target t : targets) target_names += std::string(target_name(t)) + ",";
-  inputs.add(fingerprint).add(options.optimize ? 1 : 0).add(target_names).add(plan->pack.text);
-  for (const SceneProfile& scene : plan->scenes) inputs.add(scene.text);
-  for (const auto& [path, file] : plan->sources.files) inputs.add(path.string()).add(file.text);
+  auto add_inputs = [&](auto& hasher) {  // a Hasher here, a RemoteKeyHasher for the remote's pack-level entry
+    hasher.add(uint64_t{kPackFormatVersion});
+    hasher.add(fingerprint).add(options.optimize ? 1 : 0).add(target_names).add(plan->pack.text);
+    for (const SceneProfile& scene : plan->scenes) hasher.add(scene.text);
+    for (const auto& [path, file] : plan->sources.files) hasher.add(path.string()).add(file.text);
+  };
+  Hasher inputs;
+  add_inputs(inputs);
   const std::string inputs_hash = inputs.finish().hex();
   report.manifest = manifest_path(options.output_dir, plan->pack.name);
   if (auto archive_file = options.emit.empty() ? current_archive(options.output_dir, plan->pack.name, inputs_hash)
@@ -441,6 +444,25 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   const bool memos = cache && !options.emit.count("preprocessed");
   // The remote tier under the local cache (remote/): asked for local misses, written after a good build.
   std::unique_ptr<RemoteCache> remote = RemoteCache::open(options.remote, sink);
+  // First its pack-level entry: the finished pack of these inputs, if a machine with the same checkout built it.
+  std::optional<RemoteKey> pack_key;
+  if (remote && remote->usable() && options.emit.empty()) {
+    RemoteKeyHasher key;
+    remote->start_key(key, "pack");
+    add_inputs(key);
+    pack_key = key.add(plan->pack.name).finish();
+    std::optional<std::string> archive_file = remote->fetch_pack(*pack_key, options.output_dir, plan->pack.name);
+    remote->report_problems(sink);
+    report.remote = remote->report();
+    if (archive_file) {
+      remove_orphaned_archives(options.output_dir, plan->pack.name, *archive_file);
+      write_file_atomic(stamp_path(options.output_dir, plan->pack.name),
+                        stamp_text(options.output_dir, plan->pack.name, *archive_file, inputs_hash));
+      report.ok = !sink.has_errors();
+      write_depfile();
+      return finish();
+    }
+  }
 
   // Stage 4: preprocess each (pass, stage, keywords the stage sees) once, then dedupe by content.
   std::vector<StageSource> stage_sources;
@@ -1105,6 +1127,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     // Last: the stamp that lets the next build with the same inputs skip everything.
     write_file_atomic(stamp_path(options.output_dir, plan->pack.name),
                       stamp_text(options.output_dir, plan->pack.name, written.archive_file, inputs_hash));
+    if (pack_key && options.remote.upload) remote->upload_pack(*pack_key, options.output_dir, plan->pack.name, written.archive_file);
   }
 
   // Dumps for debugging (--emit), named <pass>/<stage>/<keywords>.<ext> under <output>/emit.
@@ -1138,6 +1161,10 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     }
   }
   write_depfile();
+  if (remote) {
+    remote->report_problems(sink);
+    report.remote = remote->report();
+  }
   report.ok = !sink.has_errors();
   return finish();
 }

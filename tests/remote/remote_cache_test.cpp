@@ -81,15 +81,41 @@ struct Remote : ::testing::Test {
     return remote;
   }
 
-  // Fills the server from a build that uploads.
-  void populate(const std::string& url, RemoteCacheOptions remote = {}) {
-    if (remote.url.empty()) remote = serial(url, true);
+  // Fills the server from a build that uploads: 5 results, 6 aliases and the pack-level entry. Unless `keep_pack`,
+  // the pack-level entry is then removed from the server, so that the next builds use the per-source entries.
+  void populate(const testing::Nginx& server, RemoteCacheOptions remote = {}, bool keep_pack = false) {
+    if (remote.url.empty()) remote = serial(server.url(), true);
     remote.upload = true;
     DiagnosticSink sink;
     BuildReport report = build(remote, sink);
     ASSERT_TRUE(report.ok) << text_of(sink);
     ASSERT_EQ(sink.warning_count(), 0) << text_of(sink);
-    ASSERT_EQ(report.remote.uploads, 5u + 6u);  // 5 results, 6 aliases
+    ASSERT_EQ(report.remote.uploads, 5u + 6u + 1u);
+    if (!keep_pack) forget_pack(server);
+  }
+
+  // The pack-level record (kind 3) and the two blobs it names (manifest, archive), by their names on disk.
+  struct PackEntry {
+    std::filesystem::path record, manifest, archive;
+  };
+  static PackEntry pack_entry(const testing::Nginx& server) {
+    for (const auto& record : stored(server, "ac")) {
+      const std::string bytes = testing::read_file(record);
+      if (bytes.size() < 92 || bytes[12] != 3) continue;
+      const size_t name = static_cast<unsigned char>(bytes[88]), at = 92 + name;
+      auto blob = [&](size_t offset) {
+        RemoteKey key;
+        std::copy(bytes.begin() + static_cast<long>(offset), bytes.begin() + static_cast<long>(offset) + 32, key.bytes.begin());
+        return server.data() / "cas" / key.hex();
+      };
+      return {record, blob(at), blob(at + 40)};
+    }
+    return {};
+  }
+  static void forget_pack(const testing::Nginx& server) {
+    PackEntry entry = pack_entry(server);
+    ASSERT_FALSE(entry.record.empty());
+    for (const auto& file : {entry.record, entry.manifest, entry.archive}) ASSERT_TRUE(std::filesystem::remove(file)) << file;
   }
 
   // The fault's warning is exactly `expected` (its location is the server's URL) and the pack is the reference's;
@@ -99,7 +125,6 @@ struct Remote : ::testing::Test {
     DiagnosticSink sink;
     BuildReport report = build(remote, sink);
     EXPECT_TRUE(report.ok) << text_of(sink);
-    EXPECT_EQ(report.compiled, 6u);
     EXPECT_EQ(text_of(sink), expected);
     EXPECT_TRUE(pack_bytes(last_output) == wanted) << "the pack differs from a build without the remote";
     EXPECT_GE(report.remote.errors, 1u);
@@ -137,10 +162,11 @@ TEST_F(Remote, ASecondClientWithItsOwnLocalCacheCompilesNothingAndWritesTheSameP
   ASSERT_TRUE(first.ok) << text_of(first_sink);
   EXPECT_EQ(first.compiled, 6u);
   EXPECT_EQ(first.remote.misses, 6u);
-  EXPECT_EQ(first.remote.uploads, 11u);
+  EXPECT_EQ(first.remote.uploads, 12u);
   EXPECT_EQ(first.remote.errors, 0u);
-  EXPECT_EQ(stored(server, "ac").size(), 11u);  // 5 results and 6 aliases
+  EXPECT_EQ(stored(server, "ac").size(), 12u);  // 5 results, 6 aliases, the pack
   EXPECT_TRUE(pack_bytes(last_output) == wanted);
+  forget_pack(server);  // the per-source entries, here
 
   remote.upload = false;
   DiagnosticSink second_sink;
@@ -167,6 +193,57 @@ TEST_F(Remote, ASecondClientWithItsOwnLocalCacheCompilesNothingAndWritesTheSameP
   EXPECT_TRUE(pack_bytes(dir / "again") == wanted);
 }
 
+// The pack-level entry: an unchanged checkout fetches the finished pack in three requests (record, manifest,
+// archive), and its next build is up to date.
+TEST_F(Remote, AnUnchangedCheckoutFetchesTheFinishedPackInThreeRequests) {
+  testing::Nginx server;
+  const auto wanted = reference();
+  populate(server, {}, true);
+  const auto requests = [&] {
+    const std::string log = testing::read_file(server.directory() / "access.log");
+    return std::count(log.begin(), log.end(), '\n');
+  };
+  const auto before = requests();
+  BuildOptions options;
+  options.pack_file = dir / "p.pack.json";
+  options.output_dir = dir / "fetched";
+  options.cache_dir = dir / "fetched-cache";
+  options.worker_executable = KILN_WORKER_PATH;
+  options.remote = serial(server.url());
+  DiagnosticSink sink;
+  BuildReport report = build_pack(options, sink);
+  ASSERT_TRUE(report.ok) << text_of(sink);
+  EXPECT_TRUE(report.remote.pack_fetched);
+  EXPECT_EQ(report.compiled, 0u);
+  EXPECT_EQ(report.workers_started, 0u);
+  EXPECT_EQ(requests() - before, 3);
+  EXPECT_EQ(text_of(sink), "");
+  EXPECT_TRUE(pack_bytes(dir / "fetched") == wanted);
+  BuildReport again = build_pack(options, sink);
+  EXPECT_TRUE(again.up_to_date);
+  EXPECT_EQ(requests() - before, 3);
+}
+
+TEST_F(Remote, ADamagedPackEntryIsAMissAndTheSourcesAreFetchedInstead) {
+  testing::Nginx server;
+  const auto wanted = reference();
+  populate(server, {}, true);
+  const PackEntry entry = pack_entry(server);
+  std::string bytes = testing::read_file(entry.archive);
+  bytes[bytes.size() / 2] ^= 0x10;
+  overwrite(entry.archive, bytes);
+  DiagnosticSink sink;
+  BuildReport report = build(serial(server.url()), sink);
+  ASSERT_TRUE(report.ok) << text_of(sink);
+  EXPECT_FALSE(report.remote.pack_fetched);
+  EXPECT_EQ(report.remote.hits, 6u);
+  EXPECT_EQ(report.compiled, 0u);
+  EXPECT_EQ(text_of(sink), server.url() + ": warning[K1705]: a remote cache entry failed verification: a blob's SHA-256 "
+                                          "does not match its name\n  note: at cas/" + entry.archive.filename().string() +
+                               "\n" + kNeverFails);
+  EXPECT_TRUE(pack_bytes(last_output) == wanted);
+}
+
 TEST_F(Remote, ReadOnlyUnlessUploadIsAsked) {
   testing::Nginx server;
   DiagnosticSink sink;
@@ -180,7 +257,7 @@ TEST_F(Remote, NamespacesAndInstancesKeepCachesApartOnOneServer) {
   testing::Nginx server;
   RemoteCacheOptions main = serial(server.url(), true);
   main.key_namespace = "main";
-  populate(server.url(), main);
+  populate(server, main);
   RemoteCacheOptions pull_request = serial(server.url());
   pull_request.key_namespace = "pr";
   DiagnosticSink sink;
@@ -254,7 +331,7 @@ TEST_F(AuthenticatedPut, NetrcCredentialsUploadAndAnonymousClientsRead) {
   testing::Nginx server({location()});
   RemoteCacheOptions writer = serial(server.url(), true);
   writer.netrc_file = secrets / "netrc";
-  populate(server.url(), writer);
+  populate(server, writer);
   DiagnosticSink sink;
   BuildReport reader = build(serial(server.url()), sink);
   EXPECT_EQ(reader.remote.hits, 6u);
@@ -292,7 +369,7 @@ TEST_F(Remote, ABearerTokenAuthorizesUploadsAndIsNeverPrinted) {
   testing::TempDir secrets;
   RemoteCacheOptions right = serial(server.url(), true);
   right.token_file = secrets.write("token", "t0ken-abc\n");
-  populate(server.url(), right);
+  populate(server, right);
 }
 
 TEST_F(Remote, ATokenIsNeverSentOverPlainHttpToAnotherHost) {
@@ -323,8 +400,20 @@ TEST_F(Remote, AResponseThatNeverComesTimesOut) {
   RemoteCacheOptions remote = serial(silent.url());
   remote.operation_timeout = std::chrono::milliseconds(100);
   expect_survived(remote,
-                  silent.url() + ": warning[K1702]: no answer from the remote cache within the timeout (connect 3000 ms, "
-                                 "request 100 ms)\n" + kSwitchedOff + kNeverFails,
+                  silent.url() + ": warning[K1702]: no answer from the remote cache within the request timeout (100 ms)\n" +
+                      kSwitchedOff + kNeverFails,
+                  DiagId::RemoteTimeout);
+}
+
+// A server whose accept queue is full drops the connection attempt: no connection within the connect timeout
+// switches the remote off at once (every other request would wait as long).
+TEST_F(Remote, AConnectionThatNeverCompletesTimesOutAndSwitchesTheRemoteOff) {
+  testing::FaultServer full(testing::FaultServer::Mode::Backlogged);
+  RemoteCacheOptions remote = serial(full.url());
+  remote.connect_timeout = std::chrono::milliseconds(100);
+  expect_survived(remote,
+                  full.url() + ": warning[K1702]: could not connect to the remote cache within the connect timeout (100 ms)\n" +
+                      kSwitchedOff + kNeverFails,
                   DiagId::RemoteTimeout);
 }
 
@@ -341,7 +430,7 @@ struct Tampered : Remote {
   testing::Nginx server;
   void SetUp() override {
     Remote::SetUp();
-    populate(server.url());
+    populate(server);
   }
   std::string rejected(const std::string& why, const std::string& where) {
     return server.url() + ": warning[K1705]: a remote cache entry failed verification: " + why + "\n  note: at " + where +
@@ -432,7 +521,7 @@ TEST_F(Https, WithTheTestCaTheRemoteWorksAndWithoutItNothingIsSentInClear) {
   testing::Nginx server({"", true});
   RemoteCacheOptions trusted = serial(server.url(), true);
   trusted.ca_file = server.ca_file();
-  populate(server.url(), trusted);
+  populate(server, trusted);
   trusted.upload = false;
   DiagnosticSink sink;
   BuildReport hit = build(trusted, sink);
@@ -443,6 +532,59 @@ TEST_F(Https, WithTheTestCaTheRemoteWorksAndWithoutItNothingIsSentInClear) {
                   server.url() + ": warning[K1701]: cannot reach the remote cache: SSL peer certificate or SSH remote key "
                                  "was not OK\n" + kSwitchedOff + kNeverFails,
                   DiagId::RemoteUnreachable);
+}
+
+}  // namespace
+}  // namespace kiln
+
+namespace kiln {
+namespace {
+
+// Two machines through the CLI: each a checkout with its own local cache, one nginx between them. At the same
+// path (CI workspaces) the second fetches the finished pack, byte for byte; elsewhere (the inputs hash covers
+// the files' absolute paths) it fetches every stage source and writes the same archive. It compiles nothing.
+TEST(RemoteCli, ASecondMachineCompilesNothingAndWritesTheSamePack) {
+  testing::Nginx server;
+  testing::TempDir root;
+  write_library(root, "ws");
+  ::setenv("KILN_REMOTE", server.url().c_str(), 1);
+  auto first = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "../cacheA", "--remote-upload"}, root / "ws");
+  ::unsetenv("KILN_REMOTE");
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  EXPECT_EQ(first.err, "");
+  EXPECT_NE(first.out.find("  remote cache: hits 0, misses 6, uploads 12 ("), std::string::npos) << first.out;
+  std::filesystem::rename(root / "ws", root / "machineA");
+
+  write_library(root, "ws");
+  auto second = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "../cacheB", "--remote", server.url()},
+                                  root / "ws");
+  ASSERT_EQ(second.exit_code, 0) << second.err;
+  EXPECT_EQ(second.err, "");
+  EXPECT_EQ(second.out.rfind("kiln: fetched from the remote cache: out/p.manifest.json\n", 0), 0u) << second.out;
+  EXPECT_NE(second.out.find("  remote cache: the finished pack of these inputs, "), std::string::npos) << second.out;
+  EXPECT_TRUE(pack_bytes(root / "machineA/out") == pack_bytes(root / "ws/out"));
+
+  write_library(root, "elsewhere/deeper");
+  auto third = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "../cacheC", "--remote", server.url()},
+                                 root / "elsewhere/deeper");
+  ASSERT_EQ(third.exit_code, 0) << third.err;
+  EXPECT_NE(third.out.find("  compiled 0 (back ends 0,"), std::string::npos) << third.out;
+  EXPECT_NE(third.out.find("  remote cache: hits 6, misses 0, uploads 0 (0 blobs), "), std::string::npos) << third.out;
+  EXPECT_EQ(testing::read_archive(root / "machineA/out/p.manifest.json"),
+            testing::read_archive(root / "elsewhere/deeper/out/p.manifest.json"));
+}
+
+TEST(RemoteCli, RemoteRequiredMakesAnUnreachableServerAnError) {
+  testing::TempDir root;
+  write_library(root, "ws");
+  const std::string url = "http://127.0.0.1:" + std::to_string(testing::free_port());
+  auto run = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "cache", "--remote", url, "--remote-required",
+                                "-q"}, root / "ws");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.err, url + ": error[K1701]: cannot reach the remote cache: Couldn't connect to server\n"
+                           "  note: the remote cache is off for the rest of this build\n"
+                           "kiln: 1 error(s)\n");
+  EXPECT_FALSE(std::filesystem::exists(root / "ws/out/p.manifest.json"));
 }
 
 }  // namespace

@@ -153,10 +153,11 @@ class Nginx {
 };
 
 // Only for what nginx cannot be configured to do: answer with fewer bytes than its Content-Length says
-// (Truncated), or take connections and never answer (Silent).
+// (Truncated), take connections and never answer (Silent), or never complete a connection (Backlogged: a full
+// accept queue, whose connection attempts Linux drops).
 class FaultServer {
  public:
-  enum class Mode { Truncated, Silent };
+  enum class Mode { Truncated, Silent, Backlogged };
   explicit FaultServer(Mode mode) : mode_(mode) {
     listener_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
     sockaddr_in address{};
@@ -167,11 +168,30 @@ class FaultServer {
         ::getsockname(listener_, reinterpret_cast<sockaddr*>(&address), &size) != 0)
       throw std::runtime_error("cannot listen on loopback");
     port_ = ntohs(address.sin_port);
+    if (mode_ == Mode::Backlogged) {
+      // Connections are made until one does not complete: the queue is full from then on (how many it holds
+      // differs between kernels). The 200 ms wait decides nothing but how soon the probing stops.
+      ::listen(listener_, 0);
+      for (int i = 0; i < 16; ++i) {
+        int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+        ::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address);
+        pollfd p{fd, POLLOUT, 0};
+        int error = 0;
+        socklen_t length = sizeof error;
+        if (::poll(&p, 1, 200) == 1 && ::getsockopt(fd, SOL_SOCKET, SO_ERROR, &error, &length) == 0 && error == 0) {
+          held_.push_back(fd);
+          continue;
+        }
+        ::close(fd);
+        return;
+      }
+      throw std::runtime_error("the accept queue never filled up");
+    }
     thread_ = std::thread([this] { serve(); });
   }
   ~FaultServer() {
     stopping_ = true;
-    thread_.join();
+    if (thread_.joinable()) thread_.join();
     for (int fd : held_) ::close(fd);
     ::close(listener_);
   }

@@ -29,7 +29,7 @@ struct RemoteCacheOptions {
   std::string key_namespace;                        // mixed into every key: caches apart on one server
   bool upload = false;                              // write what this build compiled (read-only otherwise)
   bool required = false;                            // remote errors fail the build (CI shard jobs)
-  std::chrono::milliseconds connect_timeout{3'000};
+  std::chrono::milliseconds connect_timeout{1'000};    // a server that is down costs at most this, once
   std::chrono::milliseconds operation_timeout{30'000};  // one request, transfer included
   std::string bearer_token;                         // sent as "Authorization: Bearer"; never printed
   std::filesystem::path token_file;                 // read when bearer_token is empty
@@ -88,8 +88,9 @@ struct StageTiming {
 struct RemoteReport {
   bool configured = false;     // a remote was given
   bool switched_off = false;   // errors turned it off for the rest of the build (or it was never usable)
+  bool pack_fetched = false;   // the finished pack of these inputs came from the remote (nothing else done)
   size_t hits = 0;             // stage sources fetched whole (nothing compiled)
-  size_t misses = 0;
+  size_t misses = 0;           // stage sources looked up and not found (or not looked up: the remote was off)
   size_t uploads = 0;          // records written (results and aliases)
   size_t blobs_uploaded = 0;
   uint64_t bytes_down = 0;

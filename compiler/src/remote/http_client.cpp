@@ -62,6 +62,7 @@ HttpClient::HttpClient(HttpSettings settings) : settings_(std::move(settings)) {
   curl_easy_setopt(c, CURLOPT_SSL_VERIFYHOST, 2L);
   if (!settings_.ca_file.empty()) curl_easy_setopt(c, CURLOPT_CAINFO, settings_.ca_file.c_str());
   curl_easy_setopt(c, CURLOPT_USERAGENT, "kiln-remote-cache/1");
+  curl_easy_setopt(c, CURLOPT_ERRORBUFFER, error_);
   curl_slist* headers = nullptr;
   // curl waits up to a second for "100 Continue" before sending a large body; nginx and bazel-remote need no such handshake.
   headers = curl_slist_append(headers, "Expect:");
@@ -112,8 +113,13 @@ void HttpClient::reset_request() {
 
 HttpResult HttpClient::perform(HttpResult result) {
   CURL* c = handle(curl_);
+  error_[0] = 0;
   const CURLcode code = curl_easy_perform(c);
   result.failure = classify(code);
+  // libcurl gives one code for both timeouts; its message says which ("Connection timed out after ...", "SSL
+  // connection timeout", "Resolving timed out after ...", against "Operation timed out after ...").
+  const std::string_view message(error_);
+  if (code == CURLE_OPERATION_TIMEDOUT && !message.starts_with("Operation timed out")) result.failure = HttpResult::Failure::ConnectTimeout;
   if (over_limit_) result.failure = HttpResult::Failure::TooLarge;
   if (result.failure == HttpResult::Failure::None) {
     curl_easy_getinfo(c, CURLINFO_RESPONSE_CODE, &result.status);

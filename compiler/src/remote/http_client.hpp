@@ -12,7 +12,7 @@
 namespace kiln {
 
 struct HttpSettings {
-  std::chrono::milliseconds connect_timeout{3'000};
+  std::chrono::milliseconds connect_timeout{1'000};
   std::chrono::milliseconds operation_timeout{30'000};
   std::string bearer_token;  // empty: none; never logged
   std::string ca_file;       // empty: the system's CA store
@@ -22,9 +22,10 @@ struct HttpSettings {
 
 struct HttpResult {
   // Connect: no connection (refused, name not resolved, TLS handshake or certificate verification failed).
-  // Timeout: connect or operation timeout. Cut: the transfer ended early (short body, reset, nothing sent).
+  // ConnectTimeout: no connection within the connect timeout. Timeout: connected, but the request took longer
+  // than the operation timeout. Cut: the transfer ended early (short body, reset, nothing sent).
   // TooLarge: the body is over the caller's bound (the download was stopped there).
-  enum class Failure { None, Connect, Timeout, Cut, TooLarge, Other };
+  enum class Failure { None, Connect, ConnectTimeout, Timeout, Cut, TooLarge, Other };
   Failure failure = Failure::None;
   long status = 0;     // HTTP status when answered
   std::string body;    // GET
@@ -54,6 +55,7 @@ class HttpClient {
   std::string* download_ = nullptr;
   uint64_t download_limit_ = 0;
   bool over_limit_ = false;
+  char error_[256] = {};  // CURLOPT_ERRORBUFFER
 };
 
 // libcurl's global initialization, once per process (thread-safe).

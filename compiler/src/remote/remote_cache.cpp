@@ -3,6 +3,8 @@
 #include <curl/curl.h>
 #include <openssl/evp.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cstring>
 #include <stdexcept>
@@ -10,6 +12,8 @@
 #include "common/files.hpp"
 #include "common/parallel.hpp"
 #include "kiln/pack_format.hpp"
+#include "kiln/pack_reader.hpp"
+#include "pack/pack_writer.hpp"
 #include "pack/blob.hpp"
 
 namespace kiln {
@@ -19,7 +23,7 @@ namespace {
 constexpr char kRecordMagic[8] = {'K', 'I', 'L', 'N', 'R', 'M', 'T', 'C'};
 constexpr uint32_t kRemoteFormat = 1;
 constexpr size_t kRecordHeaderSize = 8 + 4 + 4 + 32 + 8 + 32;
-enum RecordKind : uint32_t { kResult = 1, kAlias = 2 };
+enum RecordKind : uint32_t { kResult = 1, kAlias = 2, kPack = 3 };
 // A module's record holds its reflection and messages: kiln's largest is a few KiB; this bounds what a hostile
 // server can make kiln download and decode.
 constexpr uint64_t kMaxRecordBytes = uint64_t{16} << 20;
@@ -252,9 +256,13 @@ bool RemoteCache::answered(const HttpResult& result, const std::string& what) {
     case HttpResult::Failure::Connect:
       problem(DiagId::RemoteUnreachable, "cannot reach the remote cache: " + result.detail);
       return false;
+    case HttpResult::Failure::ConnectTimeout:
+      problem(DiagId::RemoteTimeout, "could not connect to the remote cache within the connect timeout (" +
+                                         std::to_string(options_.connect_timeout.count()) + " ms)");
+      switched_off_ = true;  // like a refused connection: every other request would wait as long
+      return false;
     case HttpResult::Failure::Timeout:
-      problem(DiagId::RemoteTimeout, "no answer from the remote cache within the timeout (connect " +
-                                         std::to_string(options_.connect_timeout.count()) + " ms, request " +
+      problem(DiagId::RemoteTimeout, "no answer from the remote cache within the request timeout (" +
                                          std::to_string(options_.operation_timeout.count()) + " ms)");
       return false;
     case HttpResult::Failure::TooLarge:
@@ -334,19 +342,10 @@ std::optional<RemoteFetched> RemoteCache::fetch_one(HttpClient& client, const Re
     auto blob = output.blobs.find(target);
     if (blob == output.blobs.end() || size > kMaxBlobBytes || blob->second.raw_size > kMaxBlobBytes || size > blob->second.raw_size)
       return rejected("result record malformed", "ac/" + module.hex());
-    if (switched_off_) return std::nullopt;
-    HttpResult got = client.get(url("cas", digest), size);
-    if (!answered(got, "download")) return std::nullopt;
-    if (got.status == 404) return rejected("incomplete entry: a blob is missing", "cas/" + digest.hex());
-    if (got.status != 200) {
-      problem(DiagId::RemoteServerError, "the remote cache answered a download with HTTP " + std::to_string(got.status));
-      return std::nullopt;
-    }
-    success();
-    if (got.body.size() != size) return rejected("a blob has the wrong size", "cas/" + digest.hex());
-    if (sha256(got.body) != digest) return rejected("a blob's SHA-256 does not match its name", "cas/" + digest.hex());
+    std::optional<std::string> body = get_blob(client, digest, size);
+    if (!body) return std::nullopt;
     PackedBlob& packed = blob->second;
-    packed.stored = std::move(got.body);
+    packed.stored = std::move(*body);
     // The record's sizes and checksums are the server's word too: the blob must unpack to them.
     try {
       std::string raw = unpack_blob(packed);
@@ -443,6 +442,99 @@ void RemoteCache::upload(const std::vector<ModuleUpload>& modules, const std::ve
     }
     give_back(std::move(client));
   });
+}
+
+std::optional<std::string> RemoteCache::get_blob(HttpClient& client, const RemoteKey& digest, uint64_t size) {
+  if (switched_off_) return std::nullopt;
+  HttpResult got = client.get(url("cas", digest), size);
+  if (!answered(got, "download")) return std::nullopt;
+  auto rejected = [&](const std::string& why) -> std::optional<std::string> {
+    problem(DiagId::RemoteEntryRejected, "a remote cache entry failed verification: " + why, "at cas/" + digest.hex());
+    return std::nullopt;
+  };
+  if (got.status == 404) return rejected("incomplete entry: a blob is missing");
+  if (got.status != 200) {
+    problem(DiagId::RemoteServerError, "the remote cache answered a download with HTTP " + std::to_string(got.status));
+    return std::nullopt;
+  }
+  success();
+  if (got.body.size() != size) return rejected("a blob has the wrong size");
+  if (sha256(got.body) != digest) return rejected("a blob's SHA-256 does not match its name");
+  return std::move(got.body);
+}
+
+std::optional<std::string> RemoteCache::fetch_pack(const RemoteKey& key, const std::filesystem::path& directory,
+                                                   const std::string& pack_name) {
+  if (switched_off_) return std::nullopt;
+  std::unique_ptr<HttpClient> client = take_client();
+  std::string record;
+  const Found found = get_record(*client, key, kPack, record);
+  auto rejected = [&](const std::string& why) -> std::optional<std::string> {
+    problem(DiagId::RemoteEntryRejected, "a remote cache entry failed verification: " + why, "at ac/" + key.hex());
+    return std::nullopt;
+  };
+  std::optional<std::string> manifest, archive;
+  std::string archive_file;
+  if (found == Found::Yes) {
+    // Payload: archive file name (length, bytes), then manifest and archive each as SHA-256 and size.
+    if (record.size() < 4 || record.size() != 4 + uint64_t{get32(record, 0)} + 2 * 40) return rejected("pack record malformed");
+    archive_file = record.substr(4, get32(record, 0));
+    const size_t at = 4 + archive_file.size();
+    const uint64_t manifest_size = get64(record, at + 32), archive_size = get64(record, at + 72);
+    if (!is_archive_file_name(archive_file, pack_name) || manifest_size > kMaxManifestBytes || archive_size > kMaxArchiveBytes)
+      return rejected("pack record malformed");
+    manifest = get_blob(*client, get_key(record, at), manifest_size);
+    if (manifest) archive = get_blob(*client, get_key(record, at + 40), archive_size);
+  }
+  give_back(std::move(client));
+  if (!manifest || !archive) return std::nullopt;
+
+  // Opened whole by the reader (checksums, sizes, structure) in a scratch directory before it replaces anything.
+  std::string scratch = (directory / ".kiln-remote-XXXXXX").string();
+  if (!::mkdtemp(scratch.data())) return std::nullopt;
+  std::error_code ec;
+  bool good = write_file_atomic(std::filesystem::path(scratch) / archive_file, *archive).empty() &&
+              write_file_atomic(manifest_path(scratch, pack_name), *manifest).empty();
+  try {
+    good = good && PackReader::open(manifest_path(scratch, pack_name)).name() == pack_name;
+  } catch (const PackError& error) {
+    std::filesystem::remove_all(scratch, ec);
+    return rejected(std::string("the pack does not open: ") + error.what());
+  }
+  // Same switch as a build: the archive under its own name (already there: the same content), then the manifest's
+  // rename.
+  if (good && !std::filesystem::exists(directory / archive_file, ec))
+    std::filesystem::rename(std::filesystem::path(scratch) / archive_file, directory / archive_file, ec);
+  if (good && !ec) std::filesystem::rename(manifest_path(scratch, pack_name), manifest_path(directory, pack_name), ec);
+  std::filesystem::remove_all(scratch, ec);
+  if (!good || !std::filesystem::exists(manifest_path(directory, pack_name))) return std::nullopt;
+  std::lock_guard lock(mutex_);
+  report_.pack_fetched = true;
+  return archive_file;
+}
+
+void RemoteCache::upload_pack(const RemoteKey& key, const std::filesystem::path& directory, const std::string& pack_name,
+                              const std::string& archive_file) {
+  if (switched_off_ || !options_.upload) return;
+  auto manifest = read_binary_file(manifest_path(directory, pack_name));
+  auto archive = read_binary_file(directory / archive_file);
+  if (!manifest || !archive) return;
+  std::unique_ptr<HttpClient> client = take_client();
+  const RemoteKey manifest_digest = sha256(*manifest), archive_digest = sha256(*archive);
+  std::string payload;
+  put32(payload, static_cast<uint32_t>(archive_file.size()));
+  payload += archive_file;
+  put_key(payload, manifest_digest);
+  put64(payload, manifest->size());
+  put_key(payload, archive_digest);
+  put64(payload, archive->size());
+  if (put(*client, url("cas", archive_digest), *archive) && put(*client, url("cas", manifest_digest), *manifest) &&
+      put(*client, url("ac", key), make_record(kPack, key, payload))) {
+    std::lock_guard lock(mutex_);
+    ++report_.uploads;
+    report_.blobs_uploaded += 2;
+  }
+  give_back(std::move(client));
 }
 
 void RemoteCache::report_problems(DiagnosticSink& sink) {

@@ -90,6 +90,15 @@ class RemoteCache {
   // never finds a record whose blobs are missing. A module whose record is already there is not sent again.
   void upload(const std::vector<ModuleUpload>& modules, const std::vector<AliasUpload>& aliases);
 
+  // The pack-level entry: the finished pack (archive and manifest, as CAS blobs) under a key of the build's
+  // inputs, so an unchanged checkout another machine built costs a few requests. fetch_pack writes the pack
+  // into `directory` (archive first, then the manifest's rename, as a build does) only after PackReader opened
+  // it whole from a scratch directory beside it; returns the archive's file name.
+  std::optional<std::string> fetch_pack(const RemoteKey& key, const std::filesystem::path& directory,
+                                        const std::string& pack_name);
+  void upload_pack(const RemoteKey& key, const std::filesystem::path& directory, const std::string& pack_name,
+                   const std::string& archive_file);
+
   // Reports each kind of failure seen since the last call (once per build), errors when `required`.
   void report_problems(DiagnosticSink& sink);
   RemoteReport report() const;
@@ -110,6 +119,7 @@ class RemoteCache {
   Found get_record(HttpClient& client, const RemoteKey& key, uint32_t kind, std::string& payload);
   bool upload_module(HttpClient& client, const ModuleUpload& module);
   bool put(HttpClient& client, const std::string& target, std::string_view body);
+  std::optional<std::string> get_blob(HttpClient& client, const RemoteKey& digest, uint64_t size);
 
   RemoteCacheOptions options_;
   std::string base_;     // the URL with the instance, no trailing slash
