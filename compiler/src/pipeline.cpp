@@ -452,9 +452,9 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     add_inputs(key);
     pack_key = key.add(plan->pack.name).finish();
     std::optional<std::string> archive_file = remote->fetch_pack(*pack_key, options.output_dir, plan->pack.name);
-    remote->report_problems(sink);
-    report.remote = remote->report();
     if (archive_file) {
+      remote->report_problems(sink);
+      report.remote = remote->report();
       remove_orphaned_archives(options.output_dir, plan->pack.name, *archive_file);
       write_file_atomic(stamp_path(options.output_dir, plan->pack.name),
                         stamp_text(options.output_dir, plan->pack.name, *archive_file, inputs_hash));

@@ -323,7 +323,8 @@ struct AuthenticatedPut : Remote {
 TEST_F(AuthenticatedPut, WithoutCredentialsAnUploadIs401AndABuildStillSucceeds) {
   testing::Nginx server({location()});
   expect_survived(serial(server.url(), true),
-                  server.url() + ": warning[K1706]: the remote cache refused an upload with HTTP 401\n" + kNeverFails,
+                  server.url() + ": warning[K1706]: the remote cache refused an upload with HTTP 401\n" + kSwitchedOff +
+                      kNeverFails,
                   DiagId::RemoteUploadRefused);
 }
 
@@ -342,14 +343,16 @@ TEST_F(AuthenticatedPut, NetrcCredentialsUploadAndAnonymousClientsRead) {
 TEST_F(Remote, ForbiddenUploadIsOneWarning) {
   testing::Nginx server({"      limit_except GET HEAD { deny all; }"});
   expect_survived(serial(server.url(), true),
-                  server.url() + ": warning[K1706]: the remote cache refused an upload with HTTP 403\n" + kNeverFails,
+                  server.url() + ": warning[K1706]: the remote cache refused an upload with HTTP 403\n" + kSwitchedOff +
+                      kNeverFails,
                   DiagId::RemoteUploadRefused);
 }
 
 TEST_F(Remote, DiskFullOnTheServerIsOneWarning) {
   testing::Nginx server({"      if ($request_method = PUT) { return 507; }"});
   expect_survived(serial(server.url(), true),
-                  server.url() + ": warning[K1706]: the remote cache refused an upload with HTTP 507\n" + kNeverFails,
+                  server.url() + ": warning[K1706]: the remote cache refused an upload with HTTP 507\n" + kSwitchedOff +
+                      kNeverFails,
                   DiagId::RemoteUploadRefused);
 }
 
@@ -363,7 +366,8 @@ TEST_F(Remote, ABearerTokenAuthorizesUploadsAndIsNeverPrinted) {
   wrong.bearer_token = "wr0ng-t0ken";
   DiagnosticSink sink;
   EXPECT_TRUE(build(wrong, sink).ok);
-  EXPECT_EQ(text_of(sink), server.url() + ": warning[K1706]: the remote cache refused an upload with HTTP 401\n" + kNeverFails);
+  EXPECT_EQ(text_of(sink), server.url() + ": warning[K1706]: the remote cache refused an upload with HTTP 401\n" + kSwitchedOff +
+                      kNeverFails);
   EXPECT_EQ(text_of(sink).find("wr0ng"), std::string::npos);
 
   testing::TempDir secrets;

@@ -111,7 +111,7 @@ void HttpClient::reset_request() {
   upload_ = {};
 }
 
-HttpResult HttpClient::perform(HttpResult result) {
+void HttpClient::perform(HttpResult& result) {
   CURL* c = handle(curl_);
   error_[0] = 0;
   const CURLcode code = curl_easy_perform(c);
@@ -127,7 +127,6 @@ HttpResult HttpClient::perform(HttpResult result) {
     result.detail = curl_easy_strerror(code);
     result.body.clear();
   }
-  return result;
 }
 
 HttpResult HttpClient::get(const std::string& url, uint64_t max_bytes) {
@@ -138,7 +137,7 @@ HttpResult HttpClient::get(const std::string& url, uint64_t max_bytes) {
   HttpResult result;
   download_ = &result.body;
   download_limit_ = max_bytes;
-  result = perform(std::move(result));
+  perform(result);
   download_ = nullptr;
   result.bytes = result.body.size();
   if (result.status != 200) result.body.clear();  // an error page is not an entry
@@ -150,7 +149,9 @@ HttpResult HttpClient::head(const std::string& url) {
   CURL* c = handle(curl_);
   curl_easy_setopt(c, CURLOPT_URL, url.c_str());
   curl_easy_setopt(c, CURLOPT_NOBODY, 1L);
-  return perform(HttpResult{});
+  HttpResult result;
+  perform(result);
+  return result;
 }
 
 HttpResult HttpClient::put(const std::string& url, std::string_view body) {
@@ -160,7 +161,8 @@ HttpResult HttpClient::put(const std::string& url, std::string_view body) {
   curl_easy_setopt(c, CURLOPT_UPLOAD, 1L);  // PUT
   curl_easy_setopt(c, CURLOPT_INFILESIZE_LARGE, static_cast<curl_off_t>(body.size()));  // Content-Length, not chunked
   upload_ = body;
-  HttpResult result = perform(HttpResult{});
+  HttpResult result;
+  perform(result);
   if (result.failure == HttpResult::Failure::None) result.bytes = body.size();
   return result;
 }

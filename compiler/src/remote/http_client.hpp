@@ -46,7 +46,7 @@ class HttpClient {
 
  private:
   void reset_request();
-  HttpResult perform(HttpResult result);
+  void perform(HttpResult& result);  // fills `result` (GET: its body is being written)
 
   HttpSettings settings_;
   void* curl_ = nullptr;          // CURL*

@@ -28,8 +28,9 @@ enum RecordKind : uint32_t { kResult = 1, kAlias = 2, kPack = 3 };
 // server can make kiln download and decode.
 constexpr uint64_t kMaxRecordBytes = uint64_t{16} << 20;
 constexpr uint32_t kMaxBlobsPerResult = 16;
-// Three failed requests in a row switch the remote off (ccache does the same after one); a connection failure
-// switches it off at once.
+// Three failures in a row switch the remote off (ccache disables a failing backend for the rest of the run); a
+// connection failure or a connect timeout switches it off at once. Only an answered download resets the count:
+// a server that answers HEAD and refuses every PUT is switched off after three refused uploads.
 constexpr unsigned kErrorsBeforeSwitchingOff = 3;
 
 void put32(std::string& out, uint32_t v) {
