@@ -2,7 +2,8 @@
 # The remote cache on loopback (bench/REPORT.md, section 5): cold build; a second client warm from the remote
 # (per stage source, from a checkout at another path; and the pack-level entry, at the same path); the hit rate
 # after an include edit; the cost of a remote that is down (connection refused) on a build that is warm locally.
-# Runs are interleaved, medians reported. Usage: bench/remote_cache.sh <kiln> <source dir> <rounds> [workdir]
+# Runs are interleaved, medians reported; writes bench/results/remote_cache.json (bench/report.py renders it).
+# Usage: bench/remote_cache.sh <kiln> <source dir> <rounds> [workdir]
 set -euo pipefail
 kiln=$(realpath "$1"); source_dir=$(realpath "$2"); rounds=${3:-3}
 work=${4:-$(mktemp -d /tmp/kiln-remote-bench-XXXXXX)}
@@ -35,7 +36,7 @@ requests() { wc -l < "$server/access.log"; }
 
 echo "populating the server from checkout a (cold, --remote-upload)"
 (cd "$work/a" && seconds "$kiln" build $pack -o out-upload --cache cache-upload --remote "$url" --remote-upload) | tee "$work/upload.time"
-cat "$work/last.out"
+cp "$work/last.out" "$work/upload.out"; cat "$work/upload.out"
 declare -A times
 for r in $(seq "$rounds"); do
   # cold: no remote, empty local cache
@@ -43,12 +44,14 @@ for r in $(seq "$rounds"); do
   # warm from the remote, per stage source: checkout b, empty local cache
   before=$(requests)
   times[remote_sources]+=" $(cd "$work/b" && seconds "$kiln" build $pack -o out-remote-$r --cache cache-remote-$r --remote "$url")"
-  echo "per-source fetch: $(( $(requests) - before )) requests; $(grep 'remote cache' "$work/last.out")"
+  source_requests=$(( $(requests) - before )); source_line=$(grep 'remote cache' "$work/last.out")
+  echo "per-source fetch: $source_requests requests; $source_line"
   grep -q "compiled 0 " "$work/last.out" || { echo "expected 0 compiles"; cat "$work/last.out" "$work/last.err"; exit 1; }
   # warm from the remote, the pack-level entry: checkout a, empty local cache, new output directory
   before=$(requests)
   times[remote_pack]+=" $(cd "$work/a" && seconds "$kiln" build $pack -o out-pack-$r --cache cache-pack-$r --remote "$url")"
-  echo "pack-level fetch: $(( $(requests) - before )) requests; $(grep 'remote cache' "$work/last.out")"
+  pack_requests=$(( $(requests) - before )); pack_line=$(grep 'remote cache' "$work/last.out")
+  echo "pack-level fetch: $pack_requests requests; $pack_line"
   # warm locally (new output directory), without a remote and with a remote that refuses connections
   times[local_warm]+=" $(cd "$work/a" && seconds "$kiln" build $pack -o out-local-$r --cache cache-upload)"
   times[local_warm_remote_down]+=" $(cd "$work/a" && seconds "$kiln" build $pack -o out-down-$r --cache cache-upload --remote "$down")"
@@ -63,11 +66,27 @@ echo "packs: byte-identical (cold vs pack-level fetch: manifest and archive; col
 # An include edit: a constant in a file some variants include; checkout b (another path) reads the remote.
 sed -i '0,/1.44269504/s//1.4427/' "$work/b/shaderlib/Fog.hlsl"  # the fog falloff's constant: exponential fog only
 (cd "$work/b" && "$kiln" build $pack -o out-edit --cache cache-edit --remote "$url") > "$work/edit.out" 2>&1 || true
-echo "after an include edit: $(grep -E 'compiled|remote cache' "$work/edit.out" | tr -s ' ')"
+edit_line=$(grep -E 'compiled|remote cache' "$work/edit.out" | tr -s ' ' | tr '\n' ';')
+echo "after an include edit: $edit_line"
 
 median() { printf '%s\n' $1 | sort -g | awk '{a[NR]=$1} END {print (NR%2 ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2)}'; }
 echo "medians of $rounds interleaved runs (s):"
 for k in cold remote_sources remote_pack local_warm local_warm_remote_down; do
   printf '  %-24s %8.3f   (%s)\n' "$k" "$(median "${times[$k]}")" "${times[$k]# }"
 done
-echo "server: $(find "$server/data" -type f | wc -l) objects, $(du -sb "$server/data" | cut -f1) bytes"
+objects=$(find "$server/data" -type f | wc -l); bytes=$(du -sb "$server/data" | cut -f1)
+echo "server: $objects objects, $bytes bytes"
+upload_line=$(grep 'remote cache' "$work/upload.out" || true)
+python3 - "$source_dir/bench/results/remote_cache.json" <<PY
+import json, sys, datetime, statistics
+times = {k: [float(x) for x in v.split()] for k, v in {
+    "cold": "${times[cold]}", "remote_sources": "${times[remote_sources]}", "remote_pack": "${times[remote_pack]}",
+    "local_warm": "${times[local_warm]}", "local_warm_remote_down": "${times[local_warm_remote_down]}"}.items()}
+json.dump({"date": datetime.datetime.utcnow().strftime("%Y-%m-%d %H:%M UTC"), "rounds": $rounds,
+           "seconds": times, "medians": {k: statistics.median(v) for k, v in times.items()},
+           "upload": """$upload_line""".strip(), "per_source": {"requests": $source_requests, "summary": """$source_line""".strip()},
+           "pack_level": {"requests": $pack_requests, "summary": """$pack_line""".strip()},
+           "include_edit": """$edit_line""".strip(), "server": {"objects": $objects, "bytes": $bytes}},
+          open(sys.argv[1], "w"), indent=2)
+PY
+echo "wrote $source_dir/bench/results/remote_cache.json"

@@ -244,6 +244,17 @@ TEST_F(Remote, ADamagedPackEntryIsAMissAndTheSourcesAreFetchedInstead) {
   EXPECT_TRUE(pack_bytes(last_output) == wanted);
 }
 
+// Blobs first, then the record that names them, then the aliases: when no blob can be written, nothing is.
+TEST_F(Remote, ARecordIsNeverWrittenBeforeItsBlobs) {
+  testing::Nginx server({"      location /cas/ { if ($request_method = PUT) { return 507; } }"});
+  DiagnosticSink sink;
+  BuildReport report = build(serial(server.url(), true), sink);
+  EXPECT_TRUE(report.ok) << text_of(sink);
+  EXPECT_EQ(report.remote.uploads, 0u);
+  EXPECT_FALSE(std::filesystem::exists(server.data() / "ac"));
+  EXPECT_TRUE(sink.contains(DiagId::RemoteUploadRefused));
+}
+
 TEST_F(Remote, ReadOnlyUnlessUploadIsAsked) {
   testing::Nginx server;
   DiagnosticSink sink;
