@@ -449,6 +449,8 @@ def remote_cache_section(w, r):
     w("127.0.0.1, the default pack (`variants/lit.pack.json`), every build from an empty local cache and output directory")
     w(f"unless said otherwise; medians of {r['rounds']} interleaved runs (s). A second checkout at another path has another")
     w("inputs hash, so it reads the per-source entries; one at the same path reads the pack-level entry.")
+    if r.get("conditions"):
+        w(r["conditions"])
     w("")
     w("| build | median s | runs (s) | vs cold |")
     w("|---|---|---|---|")
@@ -461,8 +463,8 @@ def remote_cache_section(w, r):
     w("")
     w(f"- Upload (cold, `--remote-upload`): {r['upload']}")
     w(f"- Per-source fetch: {r['per_source']['requests']} requests; {r['per_source']['summary']}")
-    w(f"- Pack-level fetch: {r['pack_level']['requests']} requests; {r['pack_level']['summary']}")
-    w(f"- After an include edit (a constant of `Fog.hlsl`, read from the remote filled before it): {r['include_edit']}")
+    w(f"- Pack-level fetch: {r['pack_level']['requests']} requests; " + r['pack_level']['summary'].replace(chr(10), "; "))
+    w(f"- After an include edit (a constant of `Fog.hlsl`, read from the remote filled before it): {r['include_edit'].rstrip(';')}")
     w(f"- Server: {r['server']['objects']} objects, {r['server']['bytes']} bytes. A remote that is down costs "
       f"{m['local_warm_remote_down'] - m['local_warm']:+.2f} s here (refused at once); an unreachable host costs at most "
       "the connect timeout (1 s by default), once: then the remote is off for the build.")

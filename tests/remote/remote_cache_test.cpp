@@ -491,6 +491,17 @@ TEST_F(Tampered, ARecordWithACorruptByte) {
                   DiagId::RemoteEntryRejected);
 }
 
+// A whole, well-formed record served under another key (a server mixing up names): the key echo refuses it.
+TEST_F(Tampered, ARecordServedUnderAnotherKey) {
+  std::map<char, std::vector<std::filesystem::path>> by_kind;
+  for (const auto& record : stored(server, "ac")) by_kind[testing::read_file(record)[12]].push_back(record);
+  const std::vector<std::filesystem::path>& aliases = by_kind[2];
+  ASSERT_GE(aliases.size(), 2u);
+  overwrite(aliases[1], testing::read_file(aliases[0]));
+  expect_survived(serial(server.url()), rejected("record of another key", "ac/" + aliases[1].filename().string()),
+                  DiagId::RemoteEntryRejected);
+}
+
 // A record resealed by someone who can write the server (its checksum is right) that names another blob: the blob
 // is what its digest says, but not what the record says it is.
 TEST_F(Tampered, AResealedRecordWhoseBlobDigestNamesAnotherBlob) {

@@ -139,8 +139,8 @@ HttpResult HttpClient::get(const std::string& url, uint64_t max_bytes) {
   download_limit_ = max_bytes;
   perform(result);
   download_ = nullptr;
+  if (result.status != 200) result.body.clear();  // an error page is not an entry (nor counted)
   result.bytes = result.body.size();
-  if (result.status != 200) result.body.clear();  // an error page is not an entry
   return result;
 }
 
