@@ -244,15 +244,38 @@ TEST_F(Remote, ADamagedPackEntryIsAMissAndTheSourcesAreFetchedInstead) {
   EXPECT_TRUE(pack_bytes(last_output) == wanted);
 }
 
-// Blobs first, then the record that names them, then the aliases: when no blob can be written, nothing is.
+// Blobs first, then the record that names them, then the aliases: a blob the server refuses keeps its record (and
+// the aliases to it) off the server, and everything else is uploaded.
 TEST_F(Remote, ARecordIsNeverWrittenBeforeItsBlobs) {
-  testing::Nginx server({"      location /cas/ { if ($request_method = PUT) { return 507; } }"});
+  std::string refused;
+  {
+    testing::Nginx first;  // only to learn the name of one blob
+    populate(first);
+    refused = stored(first, "cas").front().filename().string();
+  }
+  testing::Nginx server({"      location = /cas/" + refused + " { if ($request_method = PUT) { return 507; } }"});
   DiagnosticSink sink;
   BuildReport report = build(serial(server.url(), true), sink);
   EXPECT_TRUE(report.ok) << text_of(sink);
-  EXPECT_EQ(report.remote.uploads, 0u);
-  EXPECT_FALSE(std::filesystem::exists(server.data() / "ac"));
   EXPECT_TRUE(sink.contains(DiagId::RemoteUploadRefused));
+  EXPECT_FALSE(std::filesystem::exists(server.data() / "cas" / refused));
+  EXPECT_GT(report.remote.uploads, 0u);
+  // Every record names only objects that are there: a result its blobs, an alias its result.
+  auto hex_at = [](const std::string& bytes, size_t at) {
+    RemoteKey key;
+    std::copy(bytes.begin() + static_cast<long>(at), bytes.begin() + static_cast<long>(at) + 32, key.bytes.begin());
+    return key.hex();
+  };
+  for (const auto& record : stored(server, "ac")) {
+    const std::string bytes = testing::read_file(record);
+    if (bytes[12] == 1) {
+      const size_t count = static_cast<unsigned char>(bytes[88]);
+      for (size_t i = 0; i < count; ++i)
+        EXPECT_TRUE(std::filesystem::exists(server.data() / "cas" / hex_at(bytes, 88 + 4 + i * 44 + 4))) << record;
+    } else if (bytes[12] == 2) {
+      EXPECT_TRUE(std::filesystem::exists(server.data() / "ac" / hex_at(bytes, 88))) << record;
+    }
+  }
 }
 
 TEST_F(Remote, ReadOnlyUnlessUploadIsAsked) {
