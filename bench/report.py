@@ -465,6 +465,12 @@ def remote_cache_section(w, r):
     w(f"- Per-source fetch: {r['per_source']['requests']} requests; {r['per_source']['summary']}")
     w(f"- Pack-level fetch: {r['pack_level']['requests']} requests; " + r['pack_level']['summary'].replace(chr(10), "; "))
     w(f"- After an include edit (a constant of `Fog.hlsl`, read from the remote filled before it): {r['include_edit'].rstrip(';')}")
+    if r.get("transfers"):
+        t = r["transfers"]
+        cells = ", ".join(f"{k}: {statistics.median(v['compile_stage']):.2f} s" for k, v in t["runs"].items())
+        w(f"- Parallel transfers (threads, one kept-alive libcurl handle each), per-source fetch of checkout b, median compile")
+        w(f"  stage (the lookups and verification; nothing is compiled) by `--remote-transfers`: {cells}; whole builds were too")
+        w(f"  noisy to rank ({t['date']}, {t['command']}).")
     w(f"- Server: {r['server']['objects']} objects, {r['server']['bytes']} bytes. A remote that is down costs "
       f"{m['local_warm_remote_down'] - m['local_warm']:+.2f} s here (refused at once); an unreachable host costs at most "
       "the connect timeout (1 s by default), once: then the remote is off for the build.")

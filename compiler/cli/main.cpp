@@ -334,6 +334,8 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   build->add_option("--remote-timeout", remote_timeout_s, "Seconds one remote request may take (default: 30)")
       ->check(CLI::PositiveNumber);
+  build->add_option("--remote-transfers", remote.parallel_transfers, "Remote requests in flight, one connection each (default: 8)")
+      ->check(CLI::Range(1u, 64u));
 
   CLI::App* list = app.add_subcommand("list", "List every variant a pack would contain, with the keywords each stage sees");
   list->add_option("pack", pack_file, "Pack definition")->required();
