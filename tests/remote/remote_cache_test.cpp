@@ -278,6 +278,22 @@ TEST_F(Remote, ARecordIsNeverWrittenBeforeItsBlobs) {
   }
 }
 
+// bazel-remote refuses chunked uploads; curl would also wait for "100 Continue" on large bodies. nginx refuses both
+// here, so a populated server shows every PUT had a Content-Length and no Expect header.
+TEST_F(Remote, UploadsSendAContentLengthNeverChunkedAndNoExpect) {
+  testing::Nginx server({"      if ($http_transfer_encoding) { return 411; }\n      if ($http_expect) { return 417; }"});
+  populate(server);
+}
+
+// A redirect is not followed (it could lead from https:// to http://, or anywhere): it is an error status.
+TEST_F(Remote, ARedirectIsNotFollowed) {
+  testing::Nginx server({"      return 302 http://127.0.0.1:9/elsewhere;"});
+  expect_survived(serial(server.url()),
+                  server.url() + ": warning[K1703]: the remote cache answered a download with HTTP 302\n" + kSwitchedOff +
+                      kNeverFails,
+                  DiagId::RemoteServerError);
+}
+
 TEST_F(Remote, ReadOnlyUnlessUploadIsAsked) {
   testing::Nginx server;
   DiagnosticSink sink;
