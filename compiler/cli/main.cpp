@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <optional>
 #include <sstream>
@@ -35,7 +36,15 @@ std::string format_ms(double ms) {
   return text;
 }
 
-void print_summary(const kiln::BuildReport& r, std::ostream& out) {
+void print_summary(const kiln::BuildReport& r, std::ostream& out, const std::string& shard) {
+  if (!shard.empty()) {
+    out << "kiln: shard " << shard << " of " << r.manifest.string() << ": compiled " << r.compiled << ", "
+        << r.shard_skipped << " left to the other shards (no pack written: a build without --shard writes it)\n";
+    if (r.remote.configured)
+      out << "  remote cache: hits " << r.remote.hits << ", uploads " << r.remote.uploads << " (" << r.remote.blobs_uploaded
+          << " blobs), " << r.remote.bytes_up << " bytes up, errors " << r.remote.errors << "\n";
+    return;
+  }
   const kiln::Funnel& f = r.funnel;
   const bool built = !r.up_to_date && !r.remote.pack_fetched;  // else nothing was compiled or looked up
   out << "kiln: " << (r.up_to_date ? "up to date: " : r.remote.pack_fetched ? "fetched from the remote cache: " : "wrote ")
@@ -137,6 +146,36 @@ int run_test(const std::string& pack_dir, const std::string& scene_file, const s
   }
 }
 
+// --shard I/N (0 <= I < N), or auto: Slurm job arrays (SLURM_ARRAY_TASK_ID with SLURM_ARRAY_TASK_COUNT, or with
+// SLURM_ARRAY_TASK_MIN/MAX), GitLab parallel jobs (CI_NODE_INDEX, 1-based, and CI_NODE_TOTAL). Empty, or the error.
+std::string parse_shard(const std::string& text, kiln::BuildOptions& options) {
+  auto number = [](const char* name) -> std::optional<long> {
+    const char* value = std::getenv(name);
+    if (!value || !*value) return std::nullopt;
+    char* end = nullptr;
+    long n = std::strtol(value, &end, 10);
+    return *end ? std::nullopt : std::optional<long>(n);
+  };
+  long index = -1, count = 0;
+  if (text == "auto") {
+    if (auto id = number("SLURM_ARRAY_TASK_ID")) {
+      if (auto n = number("SLURM_ARRAY_TASK_COUNT")) index = *id, count = *n;
+      auto min = number("SLURM_ARRAY_TASK_MIN"), max = number("SLURM_ARRAY_TASK_MAX");
+      if (min && max) index = *id - *min, count = *max - *min + 1;
+    } else if (auto node = number("CI_NODE_INDEX"), total = number("CI_NODE_TOTAL"); node && total) {
+      index = *node - 1, count = *total;
+    } else {
+      return "--shard auto found no SLURM_ARRAY_TASK_ID or CI_NODE_INDEX/CI_NODE_TOTAL in the environment";
+    }
+  } else if (unsigned i = 0, n = 0; std::sscanf(text.c_str(), "%u/%u", &i, &n) == 2) {
+    index = i, count = n;
+  }
+  if (count < 1 || index < 0 || index >= count) return "--shard wants I/N with I < N, or auto (got '" + text + "')";
+  options.shard_index = static_cast<unsigned>(index);
+  options.shard_count = static_cast<unsigned>(count);
+  return {};
+}
+
 int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cache_dir, bool quiet) {
   kiln::DiagnosticSink sink;
   if (!no_cache) options.cache_dir = cache_dir.empty() ? std::filesystem::path(".kiln-cache") : std::filesystem::path(cache_dir);
@@ -152,7 +191,8 @@ int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cach
   }
   kiln::BuildReport report = kiln::build_pack(options, sink);
   if (progress) progress->finish();
-  if (report.ok && !quiet) print_summary(report, std::cout);
+  const std::string shard = options.shard_count > 1 ? std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count) : "";
+  if (report.ok && !quiet) print_summary(report, std::cout, shard);
   int code = kiln::exit_code(sink, report.internal_errors);
   if (code != 0)
     std::cerr << "kiln: " << sink.error_count() << " error(s)"
@@ -334,6 +374,9 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   build->add_option("--remote-timeout", remote_timeout_s, "Seconds one remote request may take (default: 30)")
       ->check(CLI::PositiveNumber);
+  std::string shard_text;
+  build->add_option("--shard", shard_text, "I/N: compile only share I of N of the compile jobs, upload them, write no pack "
+                                           "(needs --remote); auto: from Slurm's or GitLab's environment");
   build->add_option("--remote-transfers", remote.parallel_transfers, "Remote requests in flight, one connection each (default: 8)")
       ->check(CLI::Range(1u, 64u));
 
@@ -437,6 +480,17 @@ int main(int argc, char** argv) {
     remote.ca_file = environment("KILN_REMOTE_CA_FILE");
     remote.connect_timeout = std::chrono::milliseconds(static_cast<long>(remote_connect_s * 1000));
     remote.operation_timeout = std::chrono::milliseconds(static_cast<long>(remote_timeout_s * 1000));
+    if (!shard_text.empty()) {
+      if (std::string error = parse_shard(shard_text, options); !error.empty()) {
+        std::cerr << "kiln: error: " << error << "\n";
+        return 1;
+      }
+      if (remote.url.empty()) {
+        std::cerr << "kiln: error: --shard needs a remote cache (--remote URL or KILN_REMOTE): the merge build reads the shards' work there\n";
+        return 1;
+      }
+      remote.upload = true;  // a shard's work is for the merge
+    }
     options.cache_max_mb = cache_max_mb;
     return run_build(options, no_cache, cache_dir, quiet);
   }

@@ -742,6 +742,10 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
         preprocess_failed(s, binaries[b].source);
         continue;
       }
+      if (options.shard_count > 1 && s.key->low % options.shard_count != options.shard_index) {
+        ++report.shard_skipped;  // another shard's
+        continue;
+      }
       binaries[b].key = *s.key;  // the text's own key, whatever a memo said
       CompileJob job;
       job.id = b;
@@ -1014,6 +1018,11 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     sink.report(g.id, g.at, g.text, notes);
   }
   if (sink.has_errors()) return finish();
+  // A shard stops here: its share is in the caches (and uploaded); the merge build writes the pack.
+  if (options.shard_count > 1) {
+    report.ok = true;
+    return finish();
+  }
 
   // Stage 7 (second half): every variant and stage of a pass must agree on the resource layout.
   std::vector<json> pass_layouts(plan->passes.size());

@@ -59,11 +59,14 @@ struct Remote : ::testing::Test {
     options.jobs = 2;
     options.worker_executable = KILN_WORKER_PATH;
     options.remote = std::move(remote);
+    options.shard_index = shard_index;
+    options.shard_count = shard_count;
     if (on_progress) options.progress = [&](size_t, size_t, size_t) { on_progress(); };
     last_output = options.output_dir;
     return build_pack(options, sink);
   }
   std::filesystem::path last_output;
+  unsigned shard_index = 0, shard_count = 1;
 
   std::pair<std::string, std::string> reference() {
     DiagnosticSink sink;
@@ -292,6 +295,44 @@ TEST_F(Remote, ARedirectIsNotFollowed) {
                   server.url() + ": warning[K1703]: the remote cache answered a download with HTTP 302\n" + kSwitchedOff +
                       kNeverFails,
                   DiagId::RemoteServerError);
+}
+
+// --shard I/N: each shard compiles a disjoint share of the misses (by key, so the share does not depend on the
+// order of the variant list) and writes no pack; the merge build compiles nothing and writes the same pack.
+TEST_F(Remote, ShardsCompileDisjointSharesAndTheMergeCompilesNothing) {
+  const auto wanted = reference();
+  shard_count = 3;
+  // Alone (each with a server of its own), the shares add up to every miss once.
+  size_t alone = 0;
+  for (shard_index = 0; shard_index < shard_count; ++shard_index) {
+    testing::Nginx own;
+    DiagnosticSink sink;
+    BuildReport report = build(serial(own.url(), true), sink);
+    ASSERT_TRUE(report.ok) << text_of(sink);
+    EXPECT_EQ(report.compiled + report.shard_skipped, 6u);
+    alone += report.compiled;
+  }
+  EXPECT_EQ(alone, 6u);
+  // Side by side on one server, then the merge.
+  testing::Nginx server;
+  size_t compiled = 0;
+  for (shard_index = 0; shard_index < shard_count; ++shard_index) {
+    DiagnosticSink sink;
+    BuildReport report = build(serial(server.url(), true), sink);
+    ASSERT_TRUE(report.ok) << text_of(sink);
+    EXPECT_EQ(report.compiled + report.shard_skipped + report.remote.hits, 6u);  // the earlier shards' work is found
+    EXPECT_FALSE(std::filesystem::exists(last_output / "p.manifest.json"));
+    compiled += report.compiled;
+  }
+  EXPECT_EQ(compiled, 6u);  // every miss compiled by exactly one shard
+  shard_count = 1;
+  DiagnosticSink sink;
+  BuildReport merge = build(serial(server.url()), sink);
+  ASSERT_TRUE(merge.ok) << text_of(sink);
+  EXPECT_EQ(merge.compiled, 0u);
+  EXPECT_EQ(merge.remote.hits, 6u);
+  EXPECT_EQ(text_of(sink), "");
+  EXPECT_TRUE(pack_bytes(last_output) == wanted);
 }
 
 TEST_F(Remote, ReadOnlyUnlessUploadIsAsked) {
@@ -637,6 +678,34 @@ TEST(RemoteCli, ASecondMachineCompilesNothingAndWritesTheSamePack) {
   EXPECT_NE(third.out.find("  remote cache: hits 6, misses 0, uploads 0 (0 blobs), "), std::string::npos) << third.out;
   EXPECT_EQ(testing::read_archive(root / "machineA/out/p.manifest.json"),
             testing::read_archive(root / "elsewhere/deeper/out/p.manifest.json"));
+}
+
+// --shard auto reads a Slurm job array's task index and count (GitLab's CI_NODE_INDEX is 1-based).
+TEST(RemoteCli, ShardAutoReadsSlurmsArrayTaskFromTheEnvironment) {
+  testing::Nginx server;
+  testing::TempDir root;
+  write_library(root, "ws");
+  ::setenv("SLURM_ARRAY_TASK_ID", "5", 1);
+  ::setenv("SLURM_ARRAY_TASK_MIN", "4", 1);
+  ::setenv("SLURM_ARRAY_TASK_MAX", "5", 1);
+  auto slurm = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "c1", "--remote", server.url(), "--shard", "auto"},
+                                 root / "ws");
+  for (const char* name : {"SLURM_ARRAY_TASK_ID", "SLURM_ARRAY_TASK_MIN", "SLURM_ARRAY_TASK_MAX"}) ::unsetenv(name);
+  EXPECT_EQ(slurm.exit_code, 0) << slurm.err;
+  EXPECT_EQ(slurm.out.rfind("kiln: shard 1/2 of out/p.manifest.json: compiled ", 0), 0u) << slurm.out;
+  ::setenv("CI_NODE_INDEX", "1", 1);
+  ::setenv("CI_NODE_TOTAL", "2", 1);
+  auto gitlab = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "c2", "--remote", server.url(), "--shard", "auto"},
+                                  root / "ws");
+  ::unsetenv("CI_NODE_INDEX");
+  ::unsetenv("CI_NODE_TOTAL");
+  EXPECT_EQ(gitlab.out.rfind("kiln: shard 0/2 of out/p.manifest.json: compiled ", 0), 0u) << gitlab.out;
+  auto merge = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "c3", "--remote", server.url()}, root / "ws");
+  EXPECT_NE(merge.out.find("  compiled 0 (back ends 0,"), std::string::npos) << merge.out;
+  auto alone = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--shard", "0/2"}, root / "ws");
+  EXPECT_EQ(alone.exit_code, 1);
+  EXPECT_EQ(alone.err, "kiln: error: --shard needs a remote cache (--remote URL or KILN_REMOTE): the merge build reads the "
+                       "shards' work there\n");
 }
 
 TEST(RemoteCli, RemoteRequiredMakesAnUnreachableServerAnError) {

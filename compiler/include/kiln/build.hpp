@@ -55,6 +55,10 @@ struct BuildOptions {
   std::vector<Target> targets;                      // empty: the pack definition's targets
   uint64_t max_file_bytes = 4u << 20;
   RemoteCacheOptions remote;
+  // --shard I/N: compile only the misses whose key falls in share I of N (a stable hash of the key, not the order of
+  // the variant list), keep them in the caches and write no pack: a build without a shard, the merge, writes it.
+  unsigned shard_index = 0;
+  unsigned shard_count = 1;
   std::function<void(size_t done, size_t total, size_t cache_hits)> progress;
 };
 
@@ -114,6 +118,7 @@ struct BuildReport {
   size_t cache_rejected = 0;
   unsigned workers_started = 0;
   RemoteReport remote;
+  size_t shard_skipped = 0;         // misses left to the other shards (--shard)
   std::filesystem::path manifest;
   std::vector<std::filesystem::path> dependencies;  // every input file read
 };
