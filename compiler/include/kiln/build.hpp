@@ -94,7 +94,7 @@ struct RemoteReport {
   bool switched_off = false;   // errors turned it off for the rest of the build (or it was never usable)
   bool pack_fetched = false;   // the finished pack of these inputs came from the remote (nothing else done)
   size_t hits = 0;             // stage sources fetched whole (nothing compiled)
-  size_t misses = 0;           // stage sources looked up and not found (or not looked up: the remote was off)
+  size_t misses = 0;           // stage sources asked for and not found (a failed request included)
   size_t uploads = 0;          // records written (results and aliases)
   size_t blobs_uploaded = 0;
   uint64_t bytes_down = 0;
