@@ -441,6 +441,42 @@ def frame_cost_section(w, f):
     w("")
 
 
+def remote_cache_section(w, r):
+    m = r["medians"]
+    w("## 5. The remote cache on loopback")
+    w("")
+    w(f"`bash bench/remote_cache.sh build/ci/compiler/kiln . {r['rounds']}` ({r['date']}): Debian's nginx with WebDAV PUT on")
+    w("127.0.0.1, the default pack (`variants/lit.pack.json`), every build from an empty local cache and output directory")
+    w(f"unless said otherwise; medians of {r['rounds']} interleaved runs (s). A second checkout at another path has another")
+    w("inputs hash, so it reads the per-source entries; one at the same path reads the pack-level entry.")
+    if r.get("conditions"):
+        w(r["conditions"])
+    w("")
+    w("| build | median s | runs (s) | vs cold |")
+    w("|---|---|---|---|")
+    names = {"cold": "cold (no remote)", "remote_sources": "second client, warm from the remote (per stage source)",
+             "remote_pack": "second client, same path (pack-level entry)", "local_warm": "warm local cache, no remote",
+             "local_warm_remote_down": "warm local cache, remote down (connection refused)"}
+    for key, label in names.items():
+        runs = ", ".join(f"{x:.2f}" for x in r["seconds"][key])
+        w(f"| {label} | {m[key]:.2f} | {runs} | {m['cold'] / m[key]:.1f}x |")
+    w("")
+    w(f"- Upload (cold, `--remote-upload`): {r['upload']}")
+    w(f"- Per-source fetch: {r['per_source']['requests']} requests; {r['per_source']['summary']}")
+    w(f"- Pack-level fetch: {r['pack_level']['requests']} requests; " + r['pack_level']['summary'].replace(chr(10), "; "))
+    w(f"- After an include edit (a constant of `Fog.hlsl`, read from the remote filled before it): {r['include_edit'].rstrip(';')}")
+    if r.get("transfers"):
+        t = r["transfers"]
+        cells = ", ".join(f"{k}: {statistics.median(v['compile_stage']):.2f} s" for k, v in t["runs"].items())
+        w(f"- Parallel transfers (threads, one kept-alive libcurl handle each), per-source fetch of checkout b, median compile")
+        w(f"  stage (the lookups and verification; nothing is compiled) by `--remote-transfers`: {cells}; whole builds were too")
+        w(f"  noisy to rank ({t['date']}, {t['command']}).")
+    w(f"- Server: {r['server']['objects']} objects, {r['server']['bytes']} bytes. A remote that is down costs "
+      f"{m['local_warm_remote_down'] - m['local_warm']:+.2f} s here (refused at once); an unreachable host costs at most "
+      "the connect timeout (1 s by default), once: then the remote is off for the build.")
+    w("")
+
+
 def main():
     os.makedirs(PLOTS, exist_ok=True)
     lines = []
@@ -450,6 +486,7 @@ def main():
     study = load("shading_study.json")
     stress = load("stress.json")
     frame_cost = load("frame_cost.json")
+    remote = load("remote_cache.json")
     w("# kiln benchmarks and evidence")
     w("")
     w("Regenerated from scratch by one command, `bash bench/run_all.sh` (about 60 minutes on 2 cores): it installs the")
@@ -475,6 +512,8 @@ def main():
         stress_section(w, stress)
     if frame_cost:
         frame_cost_section(w, frame_cost)
+    if remote:
+        remote_cache_section(w, remote)
     open(os.path.join(ROOT, "bench/REPORT.md"), "w").write("\n".join(lines) + "\n")
 
 

@@ -27,5 +27,6 @@ build/ci/bench/kiln-shading-study bench/results/shading_study.json
 build/ci/compiler/kiln build variants/lit.pack.json -o build/ci/packs/lit --cache build/ci/kiln-cache -q
 build/ci/compiler/kiln build variants/debug.pack.json -o build/ci/packs/debug --cache build/ci/kiln-cache -q
 build/ci/bench/kiln-frame-cost build/ci/packs/lit build/ci/packs/debug bench/results/frame_cost.json
+bash bench/remote_cache.sh build/ci/compiler/kiln . 3
 python3 bench/report.py
 echo "wrote bench/REPORT.md"

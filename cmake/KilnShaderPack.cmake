@@ -1,6 +1,7 @@
 # kiln_add_shader_pack(<target> PACK <pack.json> [NAME <pack name>] [SCENES <scene.json>...]
 #                      [TARGETS spirv glsl gles msl] [OUTPUT_DIR <dir>] [CACHE_DIR <dir>]
-#                      [DEFINES NAME[=VALUE]...] [OPTIONS <kiln build argument>...] [DEPENDS <file or target>...] [EXCLUDE_FROM_ALL])
+#                      [DEFINES NAME[=VALUE]...] [OPTIONS <kiln build argument>...] [DEPENDS <file or target>...] [EXCLUDE_FROM_ALL]
+#                      [REMOTE <url>] [REMOTE_UPLOAD])
 #
 # Adds a custom target <target> (built by ALL unless EXCLUDE_FROM_ALL) whose output is the variant pack of
 # <pack.json>. kiln writes a depfile listing every HLSL file it read, so editing any included file rebuilds the
@@ -18,6 +19,9 @@
 # The kiln that runs is the host tool: the KILN_EXECUTABLE cache variable when it is set, and it must be set
 # when CMAKE_CROSSCOMPILING (the imported kiln::kiln of a cross sysroot is built for the target); otherwise
 # kiln::kiln (the add_subdirectory'd or find_package'd kiln).
+#
+# REMOTE names a shared remote cache (docs/remote-cache.md; KILN_REMOTE in the environment does the same);
+# REMOTE_UPLOAD lets this build write to it. Tokens come from the environment, never from the build files.
 #
 # Target properties set on <target> for consumers:
 #   KILN_PACK_DIR       directory holding the pack
@@ -60,7 +64,7 @@ function(_kiln_host_executable out)
 endfunction()
 
 function(kiln_add_shader_pack target)
-  cmake_parse_arguments(PARSE_ARGV 1 ARG "EXCLUDE_FROM_ALL" "PACK;NAME;OUTPUT_DIR;CACHE_DIR" "SCENES;TARGETS;DEFINES;OPTIONS;DEPENDS")
+  cmake_parse_arguments(PARSE_ARGV 1 ARG "EXCLUDE_FROM_ALL;REMOTE_UPLOAD" "PACK;NAME;OUTPUT_DIR;CACHE_DIR;REMOTE" "SCENES;TARGETS;DEFINES;OPTIONS;DEPENDS")
   if(NOT ARG_PACK)
     message(FATAL_ERROR "kiln_add_shader_pack(${target}): PACK <pack.json> is required")
   endif()
@@ -133,12 +137,20 @@ function(kiln_add_shader_pack target)
     list(APPEND define_args -D "${define}")
   endforeach()
 
+  set(remote_args "")
+  if(ARG_REMOTE)
+    list(APPEND remote_args --remote "${ARG_REMOTE}")
+  endif()
+  if(ARG_REMOTE_UPLOAD)
+    list(APPEND remote_args --remote-upload)
+  endif()
+
   set(manifest "${output_dir}/${pack_name}.manifest.json")
   set(depfile "${output_dir}/${pack_name}.d")
   add_custom_command(
     OUTPUT "${manifest}"
     COMMAND "${kiln}" build "${pack}" -o "${output_dir}" --cache "${cache_dir}" --depfile "${depfile}"
-            ${scene_args} ${target_args} ${define_args} ${ARG_OPTIONS} -q
+            ${scene_args} ${target_args} ${define_args} ${remote_args} ${ARG_OPTIONS} -q
     DEPENDS "${pack}" ${scene_files} "${kiln}" ${ARG_DEPENDS}
     DEPFILE "${depfile}"
     COMMENT "kiln: building shader pack '${pack_name}'"

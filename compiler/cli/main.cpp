@@ -38,23 +38,39 @@ std::string format_ms(double ms) {
   return text;
 }
 
-void print_summary(const kiln::BuildReport& r, std::ostream& out) {
+void print_summary(const kiln::BuildReport& r, std::ostream& out, const std::string& shard) {
+  if (!shard.empty()) {
+    out << "kiln: shard " << shard << " of " << r.manifest.string() << ": compiled " << r.compiled << ", "
+        << r.shard_skipped << " left to the other shards (no pack written: a build without --shard writes it)\n";
+    if (r.remote.configured)
+      out << "  remote cache: hits " << r.remote.hits << ", uploads " << r.remote.uploads << " (" << r.remote.blobs_uploaded
+          << " blobs), " << r.remote.bytes_up << " bytes up, errors " << r.remote.errors << "\n";
+    return;
+  }
   const kiln::Funnel& f = r.funnel;
-  out << "kiln: " << (r.up_to_date ? "up to date: " : "wrote ") << r.manifest.string() << "\n";
+  const bool built = !r.up_to_date && !r.remote.pack_fetched;  // else nothing was compiled or looked up
+  out << "kiln: " << (r.up_to_date ? "up to date: " : r.remote.pack_fetched ? "fetched from the remote cache: " : "wrote ")
+      << r.manifest.string() << "\n";
   out << "  variants: " << (f.declared_saturated ? "more than " : "") << f.declared << " declared -> " << f.valid
       << " valid -> " << f.kept << " after stripping";
-  if (!r.up_to_date)
+  if (built)
     out << " -> " << f.stage_instances << " stage variants -> " << f.unique_preprocessed << " unique per stage -> "
         << f.unique_compiles << " compiles -> " << f.unique_modules << " modules -> " << f.unique_binaries
         << " unique binaries";
   out << "\n";
-  if (!r.up_to_date)
+  if (built)
     out << "  compiled " << r.compiled << " (back ends " << r.back_ends << ", full legalizations "
         << r.full_legalizations << ", cached back ends " << r.back_end_hits
         << "), cache hits " << r.cache_hits << " (not preprocessed " << r.preprocess_memo_hits << ")"
         << (r.cache_rejected ? ", rejected cache entries " + std::to_string(r.cache_rejected) : std::string())
         << ", workers " << r.workers_started << "\n";
-  if (!r.up_to_date && !r.strip_report.empty()) {
+  if (!r.up_to_date && r.remote.configured && r.remote.pack_fetched)
+    out << "  remote cache: the finished pack of these inputs, " << r.remote.bytes_down << " bytes down\n";
+  else if (built && r.remote.configured)
+    out << "  remote cache: hits " << r.remote.hits << ", misses " << r.remote.misses << ", uploads " << r.remote.uploads
+        << " (" << r.remote.blobs_uploaded << " blobs), " << r.remote.bytes_down << " bytes down, " << r.remote.bytes_up
+        << " bytes up, errors " << r.remote.errors << (r.remote.switched_off ? " (switched off)" : "") << "\n";
+  if (built && !r.strip_report.empty()) {
     out << "  strip report:\n";
     for (const kiln::StripLine& line : r.strip_report)
       out << "    " << line.pass << ": " << line.what << ": " << line.count
@@ -99,6 +115,36 @@ int run_verify(int argc, char** argv) {
   return 1;
 }
 
+// --shard I/N (0 <= I < N), or auto: Slurm job arrays (SLURM_ARRAY_TASK_ID with SLURM_ARRAY_TASK_COUNT, or with
+// SLURM_ARRAY_TASK_MIN/MAX), GitLab parallel jobs (CI_NODE_INDEX, 1-based, and CI_NODE_TOTAL). Empty, or the error.
+std::string parse_shard(const std::string& text, kiln::BuildOptions& options) {
+  auto number = [](const char* name) -> std::optional<long> {
+    const char* value = std::getenv(name);
+    if (!value || !*value) return std::nullopt;
+    char* end = nullptr;
+    long n = std::strtol(value, &end, 10);
+    return *end ? std::nullopt : std::optional<long>(n);
+  };
+  long index = -1, count = 0;
+  if (text == "auto") {
+    if (auto id = number("SLURM_ARRAY_TASK_ID")) {
+      if (auto n = number("SLURM_ARRAY_TASK_COUNT")) index = *id, count = *n;
+      auto min = number("SLURM_ARRAY_TASK_MIN"), max = number("SLURM_ARRAY_TASK_MAX");
+      if (min && max) index = *id - *min, count = *max - *min + 1;
+    } else if (auto node = number("CI_NODE_INDEX"), total = number("CI_NODE_TOTAL"); node && total) {
+      index = *node - 1, count = *total;
+    } else {
+      return "--shard auto found no SLURM_ARRAY_TASK_ID or CI_NODE_INDEX/CI_NODE_TOTAL in the environment";
+    }
+  } else if (unsigned i = 0, n = 0; std::sscanf(text.c_str(), "%u/%u", &i, &n) == 2) {
+    index = i, count = n;
+  }
+  if (count < 1 || index < 0 || index >= count) return "--shard wants I/N with I < N, or auto (got '" + text + "')";
+  options.shard_index = static_cast<unsigned>(index);
+  options.shard_count = static_cast<unsigned>(count);
+  return {};
+}
+
 int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cache_dir, bool quiet) {
   kiln::DiagnosticSink sink;
   if (!no_cache) options.cache_dir = cache_dir.empty() ? std::filesystem::path(".kiln-cache") : std::filesystem::path(cache_dir);
@@ -114,7 +160,8 @@ int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cach
   }
   kiln::BuildReport report = kiln::build_pack(options, sink);
   if (progress) progress->finish();
-  if (report.ok && !quiet) print_summary(report, std::cout);
+  const std::string shard = options.shard_count > 1 ? std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count) : "";
+  if (report.ok && !quiet) print_summary(report, std::cout, shard);
   int code = kiln::exit_code(sink, report.internal_errors);
   if (code != 0)
     std::cerr << "kiln: " << sink.error_count() << " error(s)"
@@ -346,6 +393,23 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember(kiln::frontend_names()));
   build->add_option("--worker-timeout", timeout_s, "Seconds one compile job may take before it is an internal error");
   build->add_flag("-q,--quiet", quiet, "Print only diagnostics");
+  // The remote cache (docs/remote-cache.md). Credentials come from the environment or netrc, never from arguments.
+  kiln::RemoteCacheOptions& remote = options.remote;
+  double remote_connect_s = remote.connect_timeout.count() / 1000.0, remote_timeout_s = remote.operation_timeout.count() / 1000.0;
+  build->add_option("--remote", remote.url, "Remote cache base URL, Bazel HTTP cache protocol (default: $KILN_REMOTE)");
+  build->add_flag("--remote-upload", remote.upload, "Upload what this build compiles (read-only otherwise)");
+  build->add_flag("--remote-required", remote.required, "Remote cache problems are errors, not warnings");
+  build->add_option("--remote-instance", remote.instance, "Path prefix under the remote URL (instance name)");
+  build->add_option("--remote-namespace", remote.key_namespace, "Mixed into every remote key: keeps caches apart on one server");
+  build->add_option("--remote-connect-timeout", remote_connect_s, "Seconds to connect to the remote cache (default: 1)")
+      ->check(CLI::PositiveNumber);
+  build->add_option("--remote-timeout", remote_timeout_s, "Seconds one remote request may take (default: 30)")
+      ->check(CLI::PositiveNumber);
+  std::string shard_text;
+  build->add_option("--shard", shard_text, "I/N: compile only share I of N of the compile jobs, upload them, write no pack "
+                                           "(needs --remote); auto: from Slurm's or GitLab's environment");
+  build->add_option("--remote-transfers", remote.parallel_transfers, "Remote requests in flight, one connection each (default: 8)")
+      ->check(CLI::Range(1u, 64u));
 
   CLI::App* list = app.add_subcommand("list", "List every variant a pack would contain, with the keywords each stage sees");
   list->add_option("pack", pack_file, "Pack definition")->required();
@@ -422,6 +486,25 @@ int main(int argc, char** argv) {
 
   if (*build) {
     options.output_dir = output;
+    // The remote's URL, token and CA file may come from the environment (KILN_REMOTE_TOKEN is never printed).
+    auto environment = [](const char* name) { const char* value = std::getenv(name); return value ? std::string(value) : std::string(); };
+    if (remote.url.empty()) remote.url = environment("KILN_REMOTE");
+    remote.bearer_token = environment("KILN_REMOTE_TOKEN");
+    remote.token_file = environment("KILN_REMOTE_TOKEN_FILE");
+    remote.ca_file = environment("KILN_REMOTE_CA_FILE");
+    remote.connect_timeout = std::chrono::milliseconds(static_cast<long>(remote_connect_s * 1000));
+    remote.operation_timeout = std::chrono::milliseconds(static_cast<long>(remote_timeout_s * 1000));
+    if (!shard_text.empty()) {
+      if (std::string error = parse_shard(shard_text, options); !error.empty()) {
+        std::cerr << "kiln: error: " << error << "\n";
+        return 1;
+      }
+      if (remote.url.empty()) {
+        std::cerr << "kiln: error: --shard needs a remote cache (--remote URL or KILN_REMOTE): the merge build reads the shards' work there\n";
+        return 1;
+      }
+      remote.upload = true;  // a shard's work is for the merge
+    }
     options.cache_max_mb = cache_max_mb;
     return run_build(options, no_cache, cache_dir, quiet);
   }

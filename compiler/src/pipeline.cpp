@@ -19,6 +19,7 @@
 #include "driver/messages.hpp"
 #include "driver/outputs.hpp"
 #include "driver/plan.hpp"
+#include "driver/remote.hpp"
 #include "driver/settings.hpp"
 #include "driver/stage_sources.hpp"
 #include "driver/stage_timer.hpp"
@@ -55,6 +56,29 @@ class OnDemandWorkers final : public JobRunner {
   const BuildOptions& options_;
   std::optional<WorkerPool> pool_;
 };
+
+// The pack in the output directory is the one these inputs make (its stamp says so): nothing to do.
+bool is_up_to_date(const BuildOptions& options, const Plan& plan, const std::string& inputs_hash, DiagnosticSink& sink,
+                   BuildReport& report) {
+  if (!options.emit.empty()) return false;  // --emit wants the stages' outputs
+  auto archive = current_archive(options.output_dir, plan.pack.name, inputs_hash);
+  if (!archive) return false;
+  // A build killed after writing its archive, before or after its manifest's rename, left an orphan.
+  remove_orphaned_archives(options.output_dir, plan.pack.name, *archive);
+  report.up_to_date = report.ok = true;
+  if (options.depfile) write_depfile(*options.depfile, report.manifest, report.dependencies, sink);
+  return true;
+}
+
+// The remote had the finished pack of these inputs (an unchanged checkout another machine built).
+bool fetched_from_remote(RemoteCache& remote, const RemoteKey& pack_key, const BuildOptions& options, const Plan& plan,
+                         const std::string& inputs_hash, DiagnosticSink& sink, BuildReport& report) {
+  if (!fetch_remote_pack(remote, pack_key, options, plan, inputs_hash, sink)) return false;
+  report_remote(remote, sink, report);
+  report.ok = !sink.has_errors();
+  if (options.depfile) write_depfile(*options.depfile, report.manifest, report.dependencies, sink);
+  return true;
+}
 
 void record_dependencies(const BuildOptions& options, const Plan& plan, BuildReport& report) {
   report.funnel = plan.funnel;
@@ -124,15 +148,13 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   if (!settings) return finish();
   const std::string inputs_hash = hash_inputs(*settings, *plan, options);
   report.manifest = manifest_path(options.output_dir, plan->pack.name);
-  auto archive = options.emit.empty() ? current_archive(options.output_dir, plan->pack.name, inputs_hash) : std::nullopt;
-  if (archive) {
-    // A build killed after writing its archive, before or after its manifest's rename, left an orphan.
-    remove_orphaned_archives(options.output_dir, plan->pack.name, *archive);
-    report.up_to_date = report.ok = true;
-    if (options.depfile) write_depfile(*options.depfile, report.manifest, report.dependencies, sink);
-    return finish();
+  if (is_up_to_date(options, *plan, inputs_hash, sink, report)) return finish();
+  std::unique_ptr<RemoteCache> remote = RemoteCache::open(options.remote, sink);
+  std::optional<RemoteKey> pack_key;
+  if (remote && remote->usable() && options.emit.empty()) {
+    pack_key = remote_pack_key(*remote, *settings, *plan, options);
+    if (fetched_from_remote(*remote, *pack_key, options, *plan, inputs_hash, sink, report)) return finish();
   }
-
   std::optional<Cache> cache;
   if (options.cache_dir) cache.emplace(*options.cache_dir, options.cache_max_mb << 20);
   Cache* memo_cache = cache && !options.emit.count("preprocessed") ? &*cache : nullptr;  // --emit wants the text
@@ -144,19 +166,30 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   StageSources sources = prepare_stage_sources(*plan, *settings, memo_cache, preprocessor, report);  // stage 4
   std::vector<Binary> binaries = dedupe_stage_sources(sources, *plan, locator, messages, sink, report);
   CompileResults compiled = compile_binaries(*plan, options, *settings, sources, binaries,  // stages 5-7
-                                             CompileServices{workers, cache ? &*cache : nullptr, preprocessor}, locator,
+                                             CompileServices{workers, cache ? &*cache : nullptr, preprocessor, remote.get()}, locator,
                                              messages, sink, report);
+  const bool input_errors = messages.has_errors();
   if (cache)
-    store_in_cache(*cache, memo_cache != nullptr, compiled, sources, binaries, messages.has_errors(), parallelism(options),
-                   sink, report);
+    store_in_cache(*cache, memo_cache != nullptr, compiled, sources, binaries, input_errors, parallelism(options), sink, report);
+  if (remote && options.remote.upload && !input_errors) upload_to_remote(*remote, compiled, binaries, report);
+  if (remote) report_remote(*remote, sink, report);
   messages.report(sink);
   bool ok = !sink.has_errors();
+  if (ok && options.shard_count > 1) {  // a shard's share is in the caches (and uploaded); the merge writes the pack
+    report.ok = true;
+    return finish();
+  }
   if (ok) {
     auto layouts = check_pass_layouts(*plan, locator, sources, binaries, sink, report);  // stage 7
-    ok = layouts && write_variant_pack(*plan, options, *settings, sources, binaries, *layouts, inputs_hash, sink, report);
+    std::optional<std::string> written;
+    if (layouts) written = write_variant_pack(*plan, options, *settings, sources, binaries, *layouts, inputs_hash, sink, report);
+    ok = written.has_value();
+    if (ok && remote && pack_key && options.remote.upload)  // after the pack's own entries: a reader finds them first
+      remote->upload_pack(*pack_key, options.output_dir, plan->pack.name, *written);
   }
   emit_dumps(*plan, sources, binaries, options, sink, report);  // failed builds too
   if (ok && options.depfile) write_depfile(*options.depfile, report.manifest, report.dependencies, sink);
+  if (remote) report_remote(*remote, sink, report);
   report.ok = ok && !sink.has_errors();
   return finish();
 }

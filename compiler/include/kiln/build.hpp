@@ -22,6 +22,22 @@ inline const std::set<std::string>& emit_stage_names() {
   return names;
 }
 
+// The shared remote cache under the local one (docs/remote-cache.md): the Bazel HTTP cache protocol.
+struct RemoteCacheOptions {
+  std::string url;                                  // http(s)://host[:port][/path]; empty: no remote
+  std::string instance;                             // path prefix under the URL (like Bazel's instance name)
+  std::string key_namespace;                        // mixed into every key: caches apart on one server
+  bool upload = false;                              // write what this build compiled (read-only otherwise)
+  bool required = false;                            // remote errors fail the build (CI shard jobs)
+  std::chrono::milliseconds connect_timeout{1'000};    // a server that is down costs at most this, once
+  std::chrono::milliseconds operation_timeout{30'000};  // one request, transfer included
+  std::string bearer_token;                         // sent as "Authorization: Bearer"; never printed
+  std::filesystem::path token_file;                 // read when bearer_token is empty
+  std::filesystem::path ca_file;                    // empty: the system's CAs
+  std::filesystem::path netrc_file;                 // basic auth; empty: libcurl's default (~/.netrc)
+  unsigned parallel_transfers = 8;                  // requests in flight (one kept-alive connection each)
+};
+
 struct BuildOptions {
   std::filesystem::path pack_file;
   std::vector<std::filesystem::path> scene_files;
@@ -40,6 +56,11 @@ struct BuildOptions {
   uint64_t max_file_bytes = 4u << 20;
   BindingOptions bindings;       // command line: overrides every pass's "bindings" field by field
   std::vector<Define> defines;   // command line (-D): added to every pass's, replacing a define of the same name
+  RemoteCacheOptions remote;
+  // --shard I/N: compile only the misses whose key falls in share I of N (a stable hash of the key, not the order of
+  // the variant list), keep them in the caches and write no pack: a build without a shard, the merge, writes it.
+  unsigned shard_index = 0;
+  unsigned shard_count = 1;
   std::function<void(size_t done, size_t total, size_t cache_hits)> progress;
   bool keep_plan = false;                           // fill BuildReport::plan (lint observes the build's plan)
 };
@@ -95,6 +116,20 @@ struct StageTiming {
   double milliseconds = 0;
 };
 
+// What the remote cache tier did; every count is of requests that were answered.
+struct RemoteReport {
+  bool configured = false;     // a remote was given
+  bool switched_off = false;   // errors turned it off for the rest of the build (or it was never usable)
+  bool pack_fetched = false;   // the finished pack of these inputs came from the remote (nothing else done)
+  size_t hits = 0;             // stage sources fetched whole (nothing compiled)
+  size_t misses = 0;           // stage sources asked for and not found (a failed request included)
+  size_t uploads = 0;          // records written (results and aliases)
+  size_t blobs_uploaded = 0;
+  uint64_t bytes_down = 0;
+  uint64_t bytes_up = 0;
+  size_t errors = 0;           // failed requests and entries that failed verification
+};
+
 struct BuildReport {
   bool ok = false;
   bool up_to_date = false;          // nothing changed: no work done
@@ -110,6 +145,8 @@ struct BuildReport {
   size_t preprocess_memo_hits = 0;  // stage sources not preprocessed: what they read is unchanged
   size_t cache_rejected = 0;
   unsigned workers_started = 0;
+  RemoteReport remote;
+  size_t shard_skipped = 0;         // misses left to the other shards (--shard)
   std::filesystem::path manifest;
   std::vector<std::filesystem::path> dependencies;  // every input file read
   std::optional<PlanListing> plan;                  // stages 0-3's result, with BuildOptions::keep_plan

@@ -6,6 +6,7 @@
 
 #include "common/files.hpp"
 #include "common/parallel.hpp"
+#include "driver/remote.hpp"
 #include "driver/stage_timer.hpp"
 
 namespace kiln {
@@ -44,13 +45,14 @@ class Scheduler {
     results_.module_of.resize(binaries.size());
     results_.front_messages.resize(binaries.size());
     results_.front_end_ran.assign(binaries.size(), false);
+    results_.remote_key_of.resize(binaries.size());
   }
 
   CompileResults run() {
     std::vector<size_t> misses = load_cached();
     queue_front_ends(misses);
     report_.compiled = jobs_.size();
-    done_ = report_.cache_hits;
+    done_ = report_.cache_hits + remote_hits_;
     if (options_.progress) options_.progress(done_, binaries_.size(), report_.cache_hits);
     if (!jobs_.empty()) {
       services_.runner.run(jobs_, [&](size_t j, WorkerOutcome outcome) {
@@ -93,10 +95,16 @@ class Scheduler {
     for (size_t b : misses)
       if (!sources_.list[binaries_[b].source].preprocessed) unpreprocessed.push_back(binaries_[b].source);
     services_.preprocessor.run(sources_, unpreprocessed);
+    fetch_from_remote(misses);
     for (size_t b : misses) {
+      if (binaries_[b].output) continue;  // from the remote cache
       const StageSource& s = sources_.list[binaries_[b].source];
       if (!s.ok) {  // the memo said it preprocessed; it does not now (it cannot, with the same files)
         report_preprocess_failure(s, binaries_[b].source, plan_, locator_, messages_, sink_, report_);
+        continue;
+      }
+      if (options_.shard_count > 1 && s.key->low % options_.shard_count != options_.shard_index) {
+        ++report_.shard_skipped;  // another shard's
         continue;
       }
       binaries_[b].key = *s.key;  // the text's own key, whatever a memo said
@@ -113,6 +121,36 @@ class Scheduler {
       jobs_.push_back(std::move(job));
       job_subject_.push_back(b);
     }
+  }
+
+  // The misses the remote has: not compiled. Their entries, verified by the remote tier, go into the local cache.
+  void fetch_from_remote(const std::vector<size_t>& misses) {
+    RemoteCache* remote = services_.remote;
+    if (!remote || !remote->usable()) return;
+    std::vector<size_t> asked;
+    std::vector<RemoteKey> keys;
+    for (size_t b : misses) {
+      const StageSource& s = sources_.list[binaries_[b].source];
+      if (!s.ok) continue;
+      results_.remote_key_of[b] = remote_source_key(*remote, settings_, plan_.pack.passes[s.pass], s.stage, s.text);
+      asked.push_back(b);
+      keys.push_back(*results_.remote_key_of[b]);
+    }
+    std::vector<std::optional<RemoteFetched>> fetched = remote->fetch(keys);
+    for (size_t i = 0; i < asked.size(); ++i) {
+      if (!fetched[i]) continue;
+      const size_t b = asked[i];
+      RemoteFetched& hit = *fetched[i];
+      if (services_.cache) {
+        services_.cache->store(hit.module, hit.module_output);
+        services_.cache->store_alias(*sources_.list[binaries_[b].source].key, hit.module, hit.front_messages);
+      }
+      hit.module_output.messages.insert(hit.module_output.messages.begin(), hit.front_messages.begin(), hit.front_messages.end());
+      binaries_[b].output = std::make_shared<const JobOutput>(std::move(hit.module_output));
+      results_.module_of[b] = hit.module;
+      ++remote_hits_;
+    }
+    remote->report_problems(sink_);  // here, so that a remote switched off is said before any compile message
   }
 
   // A finished job's input (its source text or its module) is not read again: free it now, not when the build
@@ -162,6 +200,8 @@ class Scheduler {
     if (inserted) {
       CompiledModule module;
       module.key = key;
+      if (services_.remote && options_.remote.upload)
+        module.remote_key = remote_module_key(*services_.remote, settings_, plan_.pack.passes[s.pass], binaries_[b].stage, spirv);
       if (services_.cache) {
         bool rejected = false;
         if (auto cached = services_.cache->load(key, rejected)) {
@@ -300,6 +340,7 @@ class Scheduler {
   std::vector<size_t> job_subject_;  // FrontEnd job -> binary, BackEnd job -> module
   std::map<Hash128, size_t> module_by_key_;
   size_t done_ = 0;
+  size_t remote_hits_ = 0;
 };
 
 }  // namespace

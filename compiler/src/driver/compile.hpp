@@ -17,6 +17,7 @@
 #include "driver/plan.hpp"
 #include "driver/settings.hpp"
 #include "driver/stage_sources.hpp"
+#include "remote/remote_cache.hpp"
 #include "workers/job_runner.hpp"
 
 namespace kiln {
@@ -29,6 +30,7 @@ struct CompiledModule {
   WorkerOutcome failure;                    // when settled and not good
   bool fresh = false;                       // compiled in this build: cached once the build is known good
   std::vector<size_t> waiting;              // binaries whose front end produced it, before it settled
+  std::optional<RemoteKey> remote_key;      // when this build uploads it (--remote-upload)
 };
 
 // What the cache store needs of a compile: the fresh modules, and each binary's module and front-end warnings.
@@ -37,16 +39,20 @@ struct CompileResults {
   std::vector<std::optional<Hash128>> module_of;              // per binary: its module's key, when known
   std::vector<std::vector<FrontendMessage>> front_messages;  // per binary, when its front end ran now
   std::vector<bool> front_end_ran;                            // per binary
+  std::vector<std::optional<RemoteKey>> remote_key_of;        // per binary: its source's remote key, when asked
 };
 
 struct CompileServices {
   JobRunner& runner;
   Cache* cache = nullptr;  // nothing: no cache
   Preprocessor& preprocessor;  // for cache misses known only through a memo
+  RemoteCache* remote = nullptr;  // asked for the local cache's misses before they are compiled
 };
 
 // Fills each binary's output (a shared, settled module's), or reports why it has none: compile errors are
 // grouped into `messages`, worker deaths are internal compiler errors with a reproducer in <output>/kiln-ice.
+// The local cache's misses are asked of the remote (verified entries go into the local cache too); with
+// --shard I/N, only the misses whose source key falls in share I are compiled.
 CompileResults compile_binaries(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
                                 StageSources& sources, std::vector<Binary>& binaries, CompileServices services,
                                 const SourceLocator& locator, MessageGroups& messages, DiagnosticSink& sink,

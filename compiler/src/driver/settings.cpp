@@ -9,15 +9,6 @@
 
 namespace kiln {
 
-// "binding model 1" marks keys made since kiln's own resolver assigns glslang's bindings (a resource without a
-// register was at binding 0 before): cache entries of older builds are not reused. It is not a
-// kCompileJobRevision bump because that revision is in the inputs hash, which the manifest records: packs whose
-// bindings did not change keep their bytes.
-Hasher& BuildSettings::add_compile_options(Hasher& hasher, const PassDefinition& pass, Stage stage) const {
-  return hasher.add(fingerprint).add(optimize ? 1 : 0).add(target_names).add(stage_name(stage))
-      .add(pass.entry_points[static_cast<size_t>(stage)]).add("binding model 1").add(pass.bindings.canonical());
-}
-
 std::optional<BuildSettings> choose_settings(const BuildOptions& options, const Plan& plan, DiagnosticSink& sink) {
   BuildSettings settings;
   settings.frontend = make_frontend(options.frontend);
@@ -42,14 +33,7 @@ std::optional<BuildSettings> choose_settings(const BuildOptions& options, const 
 
 std::string hash_inputs(const BuildSettings& settings, const Plan& plan, const BuildOptions& options) {
   Hasher inputs;
-  inputs.add(uint64_t{kPackFormatVersion});
-  inputs.add(settings.fingerprint).add(settings.optimize ? 1 : 0).add(settings.target_names).add(plan.pack.text);
-  for (const SceneProfile& scene : plan.scenes) inputs.add(scene.text);
-  // The pack's own bindings and defines are in its text; the command line's are added when given (a build
-  // without them keeps the inputs hash, and so the manifest, it always had).
-  if (!options.bindings.canonical().empty()) inputs.add("bindings").add(options.bindings.canonical());
-  for (const Define& define : options.defines) inputs.add("define").add(define.name).add(define.value);
-  for (const auto& [path, file] : plan.sources.files) inputs.add(path.string()).add(file.text);
+  add_build_inputs(inputs, settings, plan, options);
   return inputs.finish().hex();
 }
 

@@ -12,6 +12,7 @@
 #include "driver/plan.hpp"
 #include "frontend/frontend.hpp"
 #include "kiln/build.hpp"
+#include "kiln/pack_format.hpp"
 
 namespace kiln {
 
@@ -23,9 +24,31 @@ struct BuildSettings {
   bool optimize = true;
 
   // The start of every compile's cache key: what its output depends on besides its input (the pass gives the
-  // entry point and the binding options).
-  Hasher& add_compile_options(Hasher& hasher, const PassDefinition& pass, Stage stage) const;
+  // entry point and the binding options). A Hasher for local keys, a RemoteKeyHasher for remote ones: the same
+  // fields. "binding model 1" marks keys made since kiln's own resolver assigns glslang's bindings (a resource
+  // without a register was at binding 0 before): cache entries of older builds are not reused. It is not a
+  // kCompileJobRevision bump because that revision is in the inputs hash, which the manifest records: packs
+  // whose bindings did not change keep their bytes.
+  template <typename KeyHasher>
+  KeyHasher& add_compile_options(KeyHasher& hasher, const PassDefinition& pass, Stage stage) const {
+    return hasher.add(fingerprint).add(optimize ? 1 : 0).add(target_names).add(stage_name(stage))
+        .add(pass.entry_points[static_cast<size_t>(stage)]).add("binding model 1").add(pass.bindings.canonical());
+  }
 };
+
+// What the inputs hash covers: the tools, options, pack format (a pack another format version wrote is rebuilt),
+// the command line's bindings and defines, and the bytes of every file read. Also the remote's pack-level key.
+template <typename KeyHasher>
+void add_build_inputs(KeyHasher& hasher, const BuildSettings& settings, const Plan& plan, const BuildOptions& options) {
+  hasher.add(uint64_t{kPackFormatVersion});
+  hasher.add(settings.fingerprint).add(settings.optimize ? 1 : 0).add(settings.target_names).add(plan.pack.text);
+  for (const SceneProfile& scene : plan.scenes) hasher.add(scene.text);
+  // The pack's own bindings and defines are in its text; the command line's are added when given (a build
+  // without them keeps the inputs hash, and so the manifest, it always had).
+  if (!options.bindings.canonical().empty()) hasher.add("bindings").add(options.bindings.canonical());
+  for (const Define& define : options.defines) hasher.add("define").add(define.name).add(define.value);
+  for (const auto& [path, file] : plan.sources.files) hasher.add(path.string()).add(file.text);
+}
 
 // Nothing when the front end is unknown (reported).
 std::optional<BuildSettings> choose_settings(const BuildOptions& options, const Plan& plan, DiagnosticSink& sink);

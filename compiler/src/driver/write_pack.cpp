@@ -55,7 +55,7 @@ void add_pass_settings_json(json& pass_json, const PassDefinition& pass) {
 
 }  // namespace
 
-bool write_variant_pack(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
+std::optional<std::string> write_variant_pack(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
                         const StageSources& sources, const std::vector<Binary>& binaries,
                         const std::vector<nlohmann::json>& layouts, const std::string& inputs_hash, DiagnosticSink& sink,
                         BuildReport& report) {
@@ -147,15 +147,15 @@ bool write_variant_pack(const Plan& plan, const BuildOptions& options, const Bui
   WrittenPack written = write_pack(options.output_dir, plan.pack.name, archive, manifest);
   if (!written.error.empty()) {
     sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, written.error);
-    return false;
+    return std::nullopt;
   }
   // Last: the stamp that lets the next build with the same inputs skip everything. Without it the next build
   // only works again; the pack is whole.
   if (std::string error = write_stamp(options.output_dir, plan.pack.name, written.archive_file, inputs_hash); !error.empty()) {
     sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, error);
-    return false;
+    return std::nullopt;
   }
-  return true;
+  return written.archive_file;
 }
 
 }  // namespace kiln

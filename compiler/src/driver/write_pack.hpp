@@ -2,6 +2,7 @@
 // stamp that lets the next build with the same inputs skip everything.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -13,9 +14,9 @@
 
 namespace kiln {
 
-// False when a file could not be written (reported). Binaries and blobs are numbered in (pass, variant, stage)
-// order: the same bytes for any -j.
-[[nodiscard]] bool write_variant_pack(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
+// The archive's file name; nothing when a file could not be written (reported). Binaries and blobs are numbered in
+// (pass, variant, stage) order: the same bytes for any -j.
+[[nodiscard]] std::optional<std::string> write_variant_pack(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
                                       const StageSources& sources, const std::vector<Binary>& binaries,
                                       const std::vector<nlohmann::json>& layouts, const std::string& inputs_hash,
                                       DiagnosticSink& sink, BuildReport& report);

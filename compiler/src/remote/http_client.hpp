@@ -1,0 +1,64 @@
+// One kept-alive HTTP(S) connection through libcurl, for the remote cache tier: GET with a size bound, HEAD,
+// and PUT with a Content-Length (never chunked: bazel-remote refuses chunked uploads). Not thread-safe: one
+// client per thread. TLS is always verified (system CAs or a given CA file), redirects are not followed, and
+// an https:// base never talks plain HTTP.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+namespace kiln {
+
+struct HttpSettings {
+  std::chrono::milliseconds connect_timeout{1'000};
+  std::chrono::milliseconds operation_timeout{30'000};
+  std::string bearer_token;  // empty: none; never logged
+  std::string ca_file;       // empty: the system's CA store
+  std::string netrc_file;    // empty: libcurl's default (~/.netrc); basic auth from a matching machine line
+  bool https_only = false;   // the base URL is https: refuse anything else
+};
+
+struct HttpResult {
+  // Connect: no connection (refused, name not resolved, TLS handshake or certificate verification failed).
+  // ConnectTimeout: no connection within the connect timeout. Timeout: connected, but the request took longer
+  // than the operation timeout. Cut: the transfer ended early (short body, reset, nothing sent).
+  // TooLarge: the body is over the caller's bound (the download was stopped there).
+  enum class Failure { None, Connect, ConnectTimeout, Timeout, Cut, TooLarge, Other };
+  Failure failure = Failure::None;
+  long status = 0;     // HTTP status when answered
+  std::string body;    // GET
+  std::string detail;  // libcurl's description of `failure` (fixed text per error: no timings, no addresses)
+  uint64_t bytes = 0;  // body bytes received or sent
+};
+
+class HttpClient {
+ public:
+  explicit HttpClient(HttpSettings settings);
+  ~HttpClient();
+  HttpClient(const HttpClient&) = delete;
+  HttpClient& operator=(const HttpClient&) = delete;
+
+  HttpResult get(const std::string& url, uint64_t max_bytes);
+  HttpResult head(const std::string& url);
+  HttpResult put(const std::string& url, std::string_view body);
+
+ private:
+  void reset_request();
+  void perform(HttpResult& result);  // fills `result` (GET: its body is being written)
+
+  HttpSettings settings_;
+  void* curl_ = nullptr;          // CURL*
+  void* headers_ = nullptr;       // curl_slist*: the request headers every request sends
+  std::string_view upload_;       // PUT: what is left to send
+  std::string* download_ = nullptr;
+  uint64_t download_limit_ = 0;
+  bool over_limit_ = false;
+  char error_[256] = {};  // CURLOPT_ERRORBUFFER
+};
+
+// libcurl's global initialization, once per process (thread-safe).
+void initialize_http();
+
+}  // namespace kiln

@@ -1,0 +1,138 @@
+// The remote cache tier, under the local cache: the Bazel HTTP cache protocol (GET/PUT/HEAD on
+// {base}[/instance]/ac/<sha256> and {base}[/instance]/cas/<sha256>), as bazel-remote and any WebDAV server
+// (nginx `dav_methods PUT`) speak it. See docs/remote-cache.md.
+//
+// Entries mirror the local cache's two levels. A module's result is an AC record (the outputs' reflection and
+// messages, and for each output the SHA-256 and size of its packed blob) plus one CAS blob per output; a stage
+// source's key holds an alias record naming its module's result. Keys are SHA-256 over a domain tag, the format
+// version, the namespace and the same fields as the local keys.
+//
+// Nothing from the server is trusted until checked: a record's magic, format, kind, key echo, size and SHA-256,
+// then every blob's size and SHA-256, and that the blob unpacks to the size and checksum the record gives. A
+// failed check is a miss (K1705). Failures never fail a build unless `required`: each kind is one warning per
+// build, and a connection failure, or three errors in a row, switches the remote off for the rest of the build.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/hash.hpp"
+#include "kiln/build.hpp"
+#include "kiln/diagnostics.hpp"
+#include "remote/http_client.hpp"
+#include "common/compile_result.hpp"
+
+namespace kiln {
+
+struct RemoteKey {
+  std::array<unsigned char, 32> bytes{};
+  std::string hex() const;
+  friend bool operator==(const RemoteKey&, const RemoteKey&) = default;
+  friend auto operator<=>(const RemoteKey&, const RemoteKey&) = default;
+};
+
+// SHA-256 of the bytes.
+RemoteKey sha256(std::string_view bytes);
+
+// Streams fields into a SHA-256 key the way Hasher streams them into a local key (each field length-prefixed),
+// so a remote key covers exactly what the local key it shadows covers.
+class RemoteKeyHasher {
+ public:
+  RemoteKeyHasher();
+  ~RemoteKeyHasher();
+  RemoteKeyHasher(const RemoteKeyHasher&) = delete;
+  RemoteKeyHasher& operator=(const RemoteKeyHasher&) = delete;
+  RemoteKeyHasher& add(std::string_view field);
+  RemoteKeyHasher& add(uint64_t value);
+  RemoteKey finish();
+
+ private:
+  void* context_;  // EVP_MD_CTX*
+};
+
+// What a source key's alias and its module's result gave: the build uses it as a local cache hit would.
+struct RemoteFetched {
+  Hash128 module;                                // the module's local key (for the local cache and the funnel)
+  std::vector<FrontendMessage> front_messages;   // the alias's
+  JobOutput module_output;                       // the result, its blobs verified
+};
+
+class RemoteCache {
+ public:
+  // Nothing when `options.url` is empty. When the settings cannot be used (a bad URL, an unreadable token file, a
+  // token over plain HTTP to another host) reports K1707 and returns a remote that is already switched off.
+  static std::unique_ptr<RemoteCache> open(const RemoteCacheOptions& options, DiagnosticSink& sink);
+  ~RemoteCache();
+
+  // A key hasher started with the domain tag, the format version, the namespace and `kind` ("source", "module").
+  void start_key(RemoteKeyHasher& hasher, std::string_view kind) const;
+
+  // One slot per key: the entry, or nothing (a miss, or a failure, which is counted and warned about).
+  std::vector<std::optional<RemoteFetched>> fetch(const std::vector<RemoteKey>& source_keys);
+
+  struct ModuleUpload {
+    RemoteKey key;
+    const JobOutput* output;
+  };
+  struct AliasUpload {
+    RemoteKey key;
+    size_t module;  // index into the modules given with it
+    Hash128 module_local;
+    const std::vector<FrontendMessage>* messages;
+  };
+  // Blobs first, then each module's record, then the aliases of the modules now on the server, so a reader
+  // never finds a record whose blobs are missing. A module whose record is already there is not sent again.
+  void upload(const std::vector<ModuleUpload>& modules, const std::vector<AliasUpload>& aliases);
+
+  // The pack-level entry: the finished pack (archive and manifest, as CAS blobs) under a key of the build's
+  // inputs, so an unchanged checkout another machine built costs a few requests. fetch_pack writes the pack
+  // into `directory` (archive first, then the manifest's rename, as a build does) only after PackReader opened
+  // it whole from a scratch directory beside it; returns the archive's file name.
+  std::optional<std::string> fetch_pack(const RemoteKey& key, const std::filesystem::path& directory,
+                                        const std::string& pack_name);
+  void upload_pack(const RemoteKey& key, const std::filesystem::path& directory, const std::string& pack_name,
+                   const std::string& archive_file);
+
+  // Reports each kind of failure seen since the last call (once per build), errors when `required`.
+  void report_problems(DiagnosticSink& sink);
+  RemoteReport report() const;
+  bool usable() const { return !switched_off_; }
+
+ private:
+  explicit RemoteCache(const RemoteCacheOptions& options);
+  std::string configure();  // empty, or why the settings cannot be used
+  std::unique_ptr<HttpClient> take_client();
+  void give_back(std::unique_ptr<HttpClient> client);
+  std::string url(std::string_view kind, const RemoteKey& key) const;
+  // Counts a request's outcome: true when it was answered (any status). Failures are recorded by kind.
+  bool answered(const HttpResult& result, const std::string& what);
+  void problem(DiagId id, const std::string& message, const std::string& note = {});
+  void success();
+  std::optional<RemoteFetched> fetch_one(HttpClient& client, const RemoteKey& key);
+  enum class Found { Yes, No, Failed };
+  Found get_record(HttpClient& client, const RemoteKey& key, uint32_t kind, std::string& payload);
+  bool upload_module(HttpClient& client, const ModuleUpload& module);
+  bool put(HttpClient& client, const std::string& target, std::string_view body);
+  std::optional<std::string> get_blob(HttpClient& client, const RemoteKey& digest, uint64_t size);
+
+  RemoteCacheOptions options_;
+  std::string base_;     // the URL with the instance, no trailing slash
+  std::string display_;  // the URL as diagnostics show it: no user name or password
+  HttpSettings http_;
+  std::atomic<bool> switched_off_{false};
+  mutable std::mutex mutex_;
+  std::vector<std::unique_ptr<HttpClient>> idle_;
+  RemoteReport report_;
+  unsigned consecutive_errors_ = 0;
+  // Per diagnostic: the messages seen (ordered, so the one reported does not depend on thread timing).
+  std::map<DiagId, std::vector<std::pair<std::string, std::string>>> problems_;  // message, note
+  std::map<DiagId, bool> reported_;
+};
+
+}  // namespace kiln

@@ -1,0 +1,725 @@
+// The remote cache tier against a real nginx (WebDAV PUT) on loopback: two clients sharing one server, and each
+// fault a build must survive with the same pack and one warning (an error with --remote-required).
+// No test depends on timing: a timeout is a server that never answers, and the outcome is asserted, not the time.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+
+#include "kiln/build.hpp"
+#include "remote/remote_cache.hpp"
+#include "servers.hpp"
+#include "test_support.hpp"
+
+namespace kiln {
+namespace {
+
+// Two keyword groups: 2 vertex and 4 fragment stage sources, 5 modules.
+void write_library(const testing::TempDir& dir, const std::string& root = ".") {
+  dir.write(root + "/lib/Shadows.hlsl", "#pragma once\nfloat ShadowTerm(float x) { return saturate(x * 0.5); }\n");
+  dir.write(root + "/lib/Fog.hlsl", "#pragma once\nfloat FogTerm(float x) { return exp2(-x); }\n");
+  dir.write(root + "/S.hlsl",
+            "#pragma multi_compile _ SHADOWS\n#pragma multi_compile_fragment _ FOG\n"
+            "#include \"Shadows.hlsl\"\n#ifdef FOG\n#include \"Fog.hlsl\"\n#endif\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "float4 F(float4 p : SV_Position) : SV_Target {\n  float c = 1.0;\n"
+            "#ifdef SHADOWS\n  c *= ShadowTerm(p.x);\n#endif\n#ifdef FOG\n  c *= FogTerm(p.y);\n#endif\n"
+            "  return float4(c, c, c, 1.0);\n}\n");
+  dir.write(root + "/p.pack.json", R"({"name": "p", "include_dirs": ["lib"],
+      "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+}
+
+void overwrite(const std::filesystem::path& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+}
+
+std::string text_of(const DiagnosticSink& sink) {
+  std::string text;
+  for (const Diagnostic& d : sink.diagnostics()) text += format_diagnostic(d);
+  return text;
+}
+
+// The pack's two files, as bytes.
+std::pair<std::string, std::string> pack_bytes(const std::filesystem::path& out) {
+  return {testing::read_file(out / "p.manifest.json"), testing::read_archive(out / "p.manifest.json")};
+}
+
+struct Remote : ::testing::Test {
+  testing::TempDir dir;
+  int builds = 0;
+  void SetUp() override { write_library(dir); }
+
+  // A build with its own output and local cache directories: one "machine" each.
+  BuildReport build(RemoteCacheOptions remote, DiagnosticSink& sink, const std::function<void()>& on_progress = {}) {
+    BuildOptions options;
+    options.pack_file = dir / "p.pack.json";
+    const std::string name = "build" + std::to_string(builds++);
+    options.output_dir = dir / (name + "/out");
+    options.cache_dir = dir / (name + "/cache");
+    options.jobs = 2;
+    options.worker_executable = KILN_WORKER_PATH;
+    options.remote = std::move(remote);
+    options.shard_index = shard_index;
+    options.shard_count = shard_count;
+    if (on_progress) options.progress = [&](size_t, size_t, size_t) { on_progress(); };
+    last_output = options.output_dir;
+    return build_pack(options, sink);
+  }
+  std::filesystem::path last_output;
+  unsigned shard_index = 0, shard_count = 1;
+
+  std::pair<std::string, std::string> reference() {
+    DiagnosticSink sink;
+    EXPECT_TRUE(build({}, sink).ok) << text_of(sink);
+    return pack_bytes(last_output);
+  }
+
+  // One request at a time: which request fails first, and whether the remote is switched off, are then the same
+  // in every run, so the warnings' exact text can be asserted.
+  static RemoteCacheOptions serial(const std::string& url, bool upload = false) {
+    RemoteCacheOptions remote;
+    remote.url = url;
+    remote.upload = upload;
+    remote.parallel_transfers = 1;
+    return remote;
+  }
+
+  // Fills the server from a build that uploads: 5 results, 6 aliases and the pack-level entry. Unless `keep_pack`,
+  // the pack-level entry is then removed from the server, so that the next builds use the per-source entries.
+  void populate(const testing::Nginx& server, RemoteCacheOptions remote = {}, bool keep_pack = false) {
+    if (remote.url.empty()) remote = serial(server.url(), true);
+    remote.upload = true;
+    DiagnosticSink sink;
+    BuildReport report = build(remote, sink);
+    ASSERT_TRUE(report.ok) << text_of(sink);
+    ASSERT_EQ(sink.warning_count(), 0) << text_of(sink);
+    ASSERT_EQ(report.remote.uploads, 5u + 6u + 1u);
+    if (!keep_pack) forget_pack(server);
+  }
+
+  // The pack-level record (kind 3) and the two blobs it names (manifest, archive), by their names on disk.
+  struct PackEntry {
+    std::filesystem::path record, manifest, archive;
+  };
+  static PackEntry pack_entry(const testing::Nginx& server) {
+    for (const auto& record : stored(server, "ac")) {
+      const std::string bytes = testing::read_file(record);
+      if (bytes.size() < 92 || bytes[12] != 3) continue;
+      const size_t name = static_cast<unsigned char>(bytes[88]), at = 92 + name;
+      auto blob = [&](size_t offset) {
+        RemoteKey key;
+        std::copy(bytes.begin() + static_cast<long>(offset), bytes.begin() + static_cast<long>(offset) + 32, key.bytes.begin());
+        return server.data() / "cas" / key.hex();
+      };
+      return {record, blob(at), blob(at + 40)};
+    }
+    return {};
+  }
+  static void forget_pack(const testing::Nginx& server) {
+    PackEntry entry = pack_entry(server);
+    ASSERT_FALSE(entry.record.empty());
+    for (const auto& file : {entry.record, entry.manifest, entry.archive}) ASSERT_TRUE(std::filesystem::remove(file)) << file;
+  }
+
+  // The fault's warning is exactly `expected` (its location is the server's URL) and the pack is the reference's;
+  // with --remote-required the same problem is an error and the build fails.
+  void expect_survived(RemoteCacheOptions remote, const std::string& expected, DiagId id) {
+    const auto wanted = reference();
+    DiagnosticSink sink;
+    BuildReport report = build(remote, sink);
+    EXPECT_TRUE(report.ok) << text_of(sink);
+    EXPECT_EQ(text_of(sink), expected);
+    EXPECT_TRUE(pack_bytes(last_output) == wanted) << "the pack differs from a build without the remote";
+    EXPECT_GE(report.remote.errors, 1u);
+
+    remote.required = true;
+    DiagnosticSink strict;
+    BuildReport failed = build(remote, strict);
+    EXPECT_FALSE(failed.ok);
+    bool found = false;
+    for (const Diagnostic& d : strict.diagnostics()) found |= d.id == id && d.severity == Severity::Error;
+    EXPECT_TRUE(found) << text_of(strict);
+    EXPECT_FALSE(std::filesystem::exists(last_output / "p.manifest.json"));
+  }
+
+  // Every file nginx stores under data/<kind>/, by name.
+  static std::vector<std::filesystem::path> stored(const testing::Nginx& server, const std::string& kind) {
+    std::vector<std::filesystem::path> files;
+    for (const auto& entry : std::filesystem::directory_iterator(server.data() / kind)) files.push_back(entry.path());
+    std::sort(files.begin(), files.end());
+    return files;
+  }
+};
+
+const std::string kNeverFails = "  note: a remote cache problem never fails a build; --remote-required makes it an error\n";
+const std::string kSwitchedOff = "  note: the remote cache is off for the rest of this build\n";
+
+TEST_F(Remote, ASecondClientWithItsOwnLocalCacheCompilesNothingAndWritesTheSamePack) {
+  testing::Nginx server;
+  const auto wanted = reference();
+  RemoteCacheOptions remote;
+  remote.url = server.url();
+  remote.upload = true;
+  DiagnosticSink first_sink;
+  BuildReport first = build(remote, first_sink);
+  ASSERT_TRUE(first.ok) << text_of(first_sink);
+  EXPECT_EQ(first.compiled, 6u);
+  EXPECT_EQ(first.remote.misses, 6u);
+  EXPECT_EQ(first.remote.uploads, 12u);
+  EXPECT_EQ(first.remote.errors, 0u);
+  EXPECT_EQ(stored(server, "ac").size(), 12u);  // 5 results, 6 aliases, the pack
+  EXPECT_TRUE(pack_bytes(last_output) == wanted);
+  forget_pack(server);  // the per-source entries, here
+
+  remote.upload = false;
+  DiagnosticSink second_sink;
+  BuildReport second = build(remote, second_sink);
+  ASSERT_TRUE(second.ok) << text_of(second_sink);
+  EXPECT_EQ(second.compiled, 0u);
+  EXPECT_EQ(second.back_ends, 0u);
+  EXPECT_EQ(second.remote.hits, 6u);
+  EXPECT_EQ(second.remote.errors, 0u);
+  EXPECT_GT(second.remote.bytes_down, 0u);
+  EXPECT_EQ(text_of(second_sink), "");
+  EXPECT_TRUE(pack_bytes(last_output) == wanted) << "the pack differs from a build that compiled";
+  // What came from the remote went into that client's local cache: its next build is all local hits.
+  BuildOptions again;
+  again.pack_file = dir / "p.pack.json";
+  again.output_dir = dir / "again";
+  again.cache_dir = dir / "build2/cache";
+  again.worker_executable = KILN_WORKER_PATH;
+  server.stop();
+  DiagnosticSink again_sink;
+  BuildReport third = build_pack(again, again_sink);
+  ASSERT_TRUE(third.ok);
+  EXPECT_EQ(third.cache_hits, 6u);
+  EXPECT_TRUE(pack_bytes(dir / "again") == wanted);
+}
+
+// The pack-level entry: an unchanged checkout fetches the finished pack in three requests (record, manifest,
+// archive), and its next build is up to date.
+TEST_F(Remote, AnUnchangedCheckoutFetchesTheFinishedPackInThreeRequests) {
+  testing::Nginx server;
+  const auto wanted = reference();
+  populate(server, {}, true);
+  const auto requests = [&] {
+    const std::string log = testing::read_file(server.directory() / "access.log");
+    return std::count(log.begin(), log.end(), '\n');
+  };
+  const auto before = requests();
+  BuildOptions options;
+  options.pack_file = dir / "p.pack.json";
+  options.output_dir = dir / "fetched";
+  options.cache_dir = dir / "fetched-cache";
+  options.worker_executable = KILN_WORKER_PATH;
+  options.remote = serial(server.url());
+  DiagnosticSink sink;
+  BuildReport report = build_pack(options, sink);
+  ASSERT_TRUE(report.ok) << text_of(sink);
+  EXPECT_TRUE(report.remote.pack_fetched);
+  EXPECT_EQ(report.compiled, 0u);
+  EXPECT_EQ(report.workers_started, 0u);
+  EXPECT_EQ(requests() - before, 3);
+  EXPECT_EQ(text_of(sink), "");
+  EXPECT_TRUE(pack_bytes(dir / "fetched") == wanted);
+  BuildReport again = build_pack(options, sink);
+  EXPECT_TRUE(again.up_to_date);
+  EXPECT_EQ(requests() - before, 3);
+}
+
+TEST_F(Remote, ADamagedPackEntryIsAMissAndTheSourcesAreFetchedInstead) {
+  testing::Nginx server;
+  const auto wanted = reference();
+  populate(server, {}, true);
+  const PackEntry entry = pack_entry(server);
+  std::string bytes = testing::read_file(entry.archive);
+  bytes[bytes.size() / 2] ^= 0x10;
+  overwrite(entry.archive, bytes);
+  DiagnosticSink sink;
+  BuildReport report = build(serial(server.url()), sink);
+  ASSERT_TRUE(report.ok) << text_of(sink);
+  EXPECT_FALSE(report.remote.pack_fetched);
+  EXPECT_EQ(report.remote.hits, 6u);
+  EXPECT_EQ(report.compiled, 0u);
+  EXPECT_EQ(text_of(sink), server.url() + ": warning[K1705]: a remote cache entry failed verification: a blob's SHA-256 "
+                                          "does not match its name\n  note: at cas/" + entry.archive.filename().string() +
+                               "\n" + kNeverFails);
+  EXPECT_TRUE(pack_bytes(last_output) == wanted);
+}
+
+// Blobs first, then the record that names them, then the aliases: a blob the server refuses keeps its record (and
+// the aliases to it) off the server, and everything else is uploaded.
+TEST_F(Remote, ARecordIsNeverWrittenBeforeItsBlobs) {
+  std::string refused;
+  {
+    testing::Nginx first;  // only to learn the name of one blob
+    populate(first);
+    refused = stored(first, "cas").front().filename().string();
+  }
+  testing::Nginx server({"      location = /cas/" + refused + " { if ($request_method = PUT) { return 507; } }"});
+  DiagnosticSink sink;
+  BuildReport report = build(serial(server.url(), true), sink);
+  EXPECT_TRUE(report.ok) << text_of(sink);
+  EXPECT_TRUE(sink.contains(DiagId::RemoteUploadRefused));
+  EXPECT_FALSE(std::filesystem::exists(server.data() / "cas" / refused));
+  EXPECT_GT(report.remote.uploads, 0u);
+  // Every record names only objects that are there: a result its blobs, an alias its result.
+  auto hex_at = [](const std::string& bytes, size_t at) {
+    RemoteKey key;
+    std::copy(bytes.begin() + static_cast<long>(at), bytes.begin() + static_cast<long>(at) + 32, key.bytes.begin());
+    return key.hex();
+  };
+  for (const auto& record : stored(server, "ac")) {
+    const std::string bytes = testing::read_file(record);
+    if (bytes[12] == 1) {
+      const size_t count = static_cast<unsigned char>(bytes[88]);
+      for (size_t i = 0; i < count; ++i)
+        EXPECT_TRUE(std::filesystem::exists(server.data() / "cas" / hex_at(bytes, 88 + 4 + i * 44 + 4))) << record;
+    } else if (bytes[12] == 2) {
+      EXPECT_TRUE(std::filesystem::exists(server.data() / "ac" / hex_at(bytes, 88))) << record;
+    }
+  }
+}
+
+// bazel-remote refuses chunked uploads; curl would also wait for "100 Continue" on large bodies. nginx refuses both
+// here, so a populated server shows every PUT had a Content-Length and no Expect header.
+TEST_F(Remote, UploadsSendAContentLengthNeverChunkedAndNoExpect) {
+  testing::Nginx server({"      if ($http_transfer_encoding) { return 411; }\n      if ($http_expect) { return 417; }"});
+  populate(server);
+}
+
+// A redirect is not followed (it could lead from https:// to http://, or anywhere): it is an error status.
+TEST_F(Remote, ARedirectIsNotFollowed) {
+  testing::Nginx server({"      return 302 http://127.0.0.1:9/elsewhere;"});
+  expect_survived(serial(server.url()),
+                  server.url() + ": warning[K1703]: the remote cache answered a download with HTTP 302\n" + kSwitchedOff +
+                      kNeverFails,
+                  DiagId::RemoteServerError);
+}
+
+// --shard I/N: each shard compiles a disjoint share of the misses (by key, so the share does not depend on the
+// order of the variant list) and writes no pack; the merge build compiles nothing and writes the same pack.
+TEST_F(Remote, ShardsCompileDisjointSharesAndTheMergeCompilesNothing) {
+  const auto wanted = reference();
+  shard_count = 3;
+  // Alone (each with a server of its own), the shares add up to every miss once.
+  size_t alone = 0;
+  for (shard_index = 0; shard_index < shard_count; ++shard_index) {
+    testing::Nginx own;
+    DiagnosticSink sink;
+    BuildReport report = build(serial(own.url(), true), sink);
+    ASSERT_TRUE(report.ok) << text_of(sink);
+    EXPECT_EQ(report.compiled + report.shard_skipped, 6u);
+    alone += report.compiled;
+  }
+  EXPECT_EQ(alone, 6u);
+  // Side by side on one server, then the merge.
+  testing::Nginx server;
+  size_t compiled = 0;
+  for (shard_index = 0; shard_index < shard_count; ++shard_index) {
+    DiagnosticSink sink;
+    BuildReport report = build(serial(server.url(), true), sink);
+    ASSERT_TRUE(report.ok) << text_of(sink);
+    EXPECT_EQ(report.compiled + report.shard_skipped + report.remote.hits, 6u);  // the earlier shards' work is found
+    EXPECT_FALSE(std::filesystem::exists(last_output / "p.manifest.json"));
+    compiled += report.compiled;
+  }
+  EXPECT_EQ(compiled, 6u);  // every miss compiled by exactly one shard
+  shard_count = 1;
+  DiagnosticSink sink;
+  BuildReport merge = build(serial(server.url()), sink);
+  ASSERT_TRUE(merge.ok) << text_of(sink);
+  EXPECT_EQ(merge.compiled, 0u);
+  EXPECT_EQ(merge.remote.hits, 6u);
+  EXPECT_EQ(text_of(sink), "");
+  EXPECT_TRUE(pack_bytes(last_output) == wanted);
+}
+
+TEST_F(Remote, ReadOnlyUnlessUploadIsAsked) {
+  testing::Nginx server;
+  DiagnosticSink sink;
+  BuildReport report = build(serial(server.url()), sink);
+  ASSERT_TRUE(report.ok) << text_of(sink);
+  EXPECT_EQ(report.remote.uploads, 0u);
+  EXPECT_FALSE(std::filesystem::exists(server.data() / "ac"));
+}
+
+TEST_F(Remote, NamespacesAndInstancesKeepCachesApartOnOneServer) {
+  testing::Nginx server;
+  RemoteCacheOptions main = serial(server.url(), true);
+  main.key_namespace = "main";
+  populate(server, main);
+  RemoteCacheOptions pull_request = serial(server.url());
+  pull_request.key_namespace = "pr";
+  DiagnosticSink sink;
+  EXPECT_EQ(build(pull_request, sink).remote.hits, 0u);
+  main.upload = false;
+  EXPECT_EQ(build(main, sink).remote.hits, 6u);
+  RemoteCacheOptions instance = main;
+  instance.instance = "team/shaders";
+  EXPECT_EQ(build(instance, sink).remote.hits, 0u);
+  instance.upload = true;
+  build(instance, sink);
+  EXPECT_TRUE(std::filesystem::exists(server.data() / "team/shaders/ac"));
+  EXPECT_EQ(sink.warning_count(), 0) << text_of(sink);
+}
+
+TEST_F(Remote, ServerDownIsOneWarningAndTheRemoteIsSwitchedOff) {
+  const std::string url = "http://127.0.0.1:" + std::to_string(testing::free_port());
+  expect_survived(serial(url), url + ": warning[K1701]: cannot reach the remote cache: Couldn't connect to server\n" +
+                                   kSwitchedOff + kNeverFails,
+                  DiagId::RemoteUnreachable);
+}
+
+TEST_F(Remote, ConnectionRefusedMidBuildIsOneWarning) {
+  testing::Nginx server;
+  const auto wanted = reference();
+  // The lookups are done when the first compile finishes; the server goes away before the upload.
+  DiagnosticSink sink;
+  BuildReport report = build(serial(server.url(), true), sink, [&] { server.stop(); });
+  EXPECT_TRUE(report.ok) << text_of(sink);
+  EXPECT_EQ(report.remote.misses, 6u);
+  EXPECT_EQ(text_of(sink), server.url() + ": warning[K1701]: cannot reach the remote cache: Couldn't connect to server\n" +
+                               kSwitchedOff + kNeverFails);
+  EXPECT_TRUE(pack_bytes(last_output) == wanted);
+}
+
+TEST_F(Remote, ServerErrorsAreMissesWithOneWarning) {
+  testing::Nginx server({"      return 500;"});
+  expect_survived(serial(server.url()),
+                  server.url() + ": warning[K1703]: the remote cache answered a download with HTTP 500\n" + kSwitchedOff +
+                      kNeverFails,
+                  DiagId::RemoteServerError);
+}
+
+TEST_F(Remote, TooManyRequestsIsAServerErrorToo) {
+  testing::Nginx server({"      return 429;"});
+  expect_survived(serial(server.url()),
+                  server.url() + ": warning[K1703]: the remote cache answered a download with HTTP 429\n" + kSwitchedOff +
+                      kNeverFails,
+                  DiagId::RemoteServerError);
+}
+
+// Anonymous reads, authenticated writes (auth_basic with an htpasswd file made by openssl passwd -apr1).
+struct AuthenticatedPut : Remote {
+  testing::TempDir secrets;
+  std::string location() {
+    testing::RunResult hashed = testing::run({"/usr/bin/openssl", "passwd", "-apr1", "s3cret-password"}, secrets.path());
+    secrets.write("htpasswd", "builder:" + hashed.out);
+    secrets.write("netrc", "machine 127.0.0.1 login builder password s3cret-password\n");
+    return "      limit_except GET HEAD { auth_basic \"kiln\"; auth_basic_user_file " + (secrets / "htpasswd").string() + "; }";
+  }
+};
+
+TEST_F(AuthenticatedPut, WithoutCredentialsAnUploadIs401AndABuildStillSucceeds) {
+  testing::Nginx server({location()});
+  expect_survived(serial(server.url(), true),
+                  server.url() + ": warning[K1706]: the remote cache refused an upload with HTTP 401\n" + kSwitchedOff +
+                      kNeverFails,
+                  DiagId::RemoteUploadRefused);
+}
+
+TEST_F(AuthenticatedPut, NetrcCredentialsUploadAndAnonymousClientsRead) {
+  testing::Nginx server({location()});
+  RemoteCacheOptions writer = serial(server.url(), true);
+  writer.netrc_file = secrets / "netrc";
+  populate(server, writer);
+  DiagnosticSink sink;
+  BuildReport reader = build(serial(server.url()), sink);
+  EXPECT_EQ(reader.remote.hits, 6u);
+  EXPECT_EQ(reader.compiled, 0u);
+  EXPECT_EQ(text_of(sink), "");
+}
+
+TEST_F(Remote, ForbiddenUploadIsOneWarning) {
+  testing::Nginx server({"      limit_except GET HEAD { deny all; }"});
+  expect_survived(serial(server.url(), true),
+                  server.url() + ": warning[K1706]: the remote cache refused an upload with HTTP 403\n" + kSwitchedOff +
+                      kNeverFails,
+                  DiagId::RemoteUploadRefused);
+}
+
+TEST_F(Remote, DiskFullOnTheServerIsOneWarning) {
+  testing::Nginx server({"      if ($request_method = PUT) { return 507; }"});
+  expect_survived(serial(server.url(), true),
+                  server.url() + ": warning[K1706]: the remote cache refused an upload with HTTP 507\n" + kSwitchedOff +
+                      kNeverFails,
+                  DiagId::RemoteUploadRefused);
+}
+
+// A bearer token is checked by nginx on writes; kiln never prints it.
+TEST_F(Remote, ABearerTokenAuthorizesUploadsAndIsNeverPrinted) {
+  testing::Nginx server({"      set $refused \"\";\n"
+                         "      if ($request_method = PUT) { set $refused \"put\"; }\n"
+                         "      if ($http_authorization = \"Bearer t0ken-abc\") { set $refused \"\"; }\n"
+                         "      if ($refused) { return 401; }"});
+  RemoteCacheOptions wrong = serial(server.url(), true);
+  wrong.bearer_token = "wr0ng-t0ken";
+  DiagnosticSink sink;
+  EXPECT_TRUE(build(wrong, sink).ok);
+  EXPECT_EQ(text_of(sink), server.url() + ": warning[K1706]: the remote cache refused an upload with HTTP 401\n" + kSwitchedOff +
+                      kNeverFails);
+  EXPECT_EQ(text_of(sink).find("wr0ng"), std::string::npos);
+
+  testing::TempDir secrets;
+  RemoteCacheOptions right = serial(server.url(), true);
+  right.token_file = secrets.write("token", "t0ken-abc\n");
+  populate(server, right);
+}
+
+TEST_F(Remote, ATokenIsNeverSentOverPlainHttpToAnotherHost) {
+  RemoteCacheOptions remote = serial("http://user:hunter2@cache.example.invalid:8080/base/");
+  remote.bearer_token = "t0ken-abc";
+  const auto wanted = reference();
+  DiagnosticSink sink;
+  BuildReport report = build(remote, sink);
+  EXPECT_TRUE(report.ok);
+  EXPECT_EQ(text_of(sink), "http://cache.example.invalid:8080/base: warning[K1707]: refusing to send the remote cache token "
+                           "over plain HTTP to 'cache.example.invalid': use https://\n"
+                           "  note: the build goes on without the remote cache\n" + kNeverFails);
+  EXPECT_TRUE(pack_bytes(last_output) == wanted);
+}
+
+TEST_F(Remote, AnUnreadableTokenFileIsAConfigurationWarning) {
+  RemoteCacheOptions remote = serial("https://127.0.0.1:9");
+  remote.token_file = dir / "no-such-token";
+  DiagnosticSink sink;
+  EXPECT_TRUE(build(remote, sink).ok);
+  EXPECT_EQ(text_of(sink), "https://127.0.0.1:9: warning[K1707]: the token file '" + (dir / "no-such-token").string() +
+                               "' cannot be read (or is over 4 KiB)\n"
+                               "  note: the build goes on without the remote cache\n" + kNeverFails);
+}
+
+TEST_F(Remote, AResponseThatNeverComesTimesOut) {
+  testing::FaultServer silent(testing::FaultServer::Mode::Silent);
+  RemoteCacheOptions remote = serial(silent.url());
+  remote.operation_timeout = std::chrono::milliseconds(100);
+  expect_survived(remote,
+                  silent.url() + ": warning[K1702]: no answer from the remote cache within the request timeout (100 ms)\n" +
+                      kSwitchedOff + kNeverFails,
+                  DiagId::RemoteTimeout);
+}
+
+// A server whose accept queue is full drops the connection attempt: no connection within the connect timeout
+// switches the remote off at once (every other request would wait as long).
+TEST_F(Remote, AConnectionThatNeverCompletesTimesOutAndSwitchesTheRemoteOff) {
+  testing::FaultServer full(testing::FaultServer::Mode::Backlogged);
+  RemoteCacheOptions remote = serial(full.url());
+  remote.connect_timeout = std::chrono::milliseconds(100);
+  expect_survived(remote,
+                  full.url() + ": warning[K1702]: could not connect to the remote cache within the connect timeout (100 ms)\n" +
+                      kSwitchedOff + kNeverFails,
+                  DiagId::RemoteTimeout);
+}
+
+TEST_F(Remote, ABodyCutShortOfItsLengthIsAMiss) {
+  testing::FaultServer truncated(testing::FaultServer::Mode::Truncated);
+  expect_survived(serial(truncated.url()),
+                  truncated.url() + ": warning[K1704]: a download from the remote cache was cut short: Transferred a "
+                                    "partial file\n" + kSwitchedOff + kNeverFails,
+                  DiagId::RemoteTransferCut);
+}
+
+// Entries damaged on the server's disk: each is a miss, compiled again, and named.
+struct Tampered : Remote {
+  testing::Nginx server;
+  void SetUp() override {
+    Remote::SetUp();
+    populate(server);
+  }
+  std::string rejected(const std::string& why, const std::string& where) {
+    return server.url() + ": warning[K1705]: a remote cache entry failed verification: " + why + "\n  note: at " + where +
+           "\n" + kNeverFails;
+  }
+};
+
+TEST_F(Tampered, ABlobWhoseBytesNoLongerMatchItsDigest) {
+  const std::filesystem::path blob = stored(server, "cas").front();
+  std::string bytes = testing::read_file(blob);
+  bytes[bytes.size() / 2] ^= 0x20;
+  overwrite(blob, bytes);
+  expect_survived(serial(server.url()),
+                  rejected("a blob's SHA-256 does not match its name", "cas/" + blob.filename().string()),
+                  DiagId::RemoteEntryRejected);
+}
+
+TEST_F(Tampered, ABlobReplacedByAnotherBlob) {
+  const auto blobs = stored(server, "cas");
+  const std::filesystem::path victim = blobs.front(), other = blobs.back();
+  const std::string replacement = testing::read_file(other);
+  const bool same_size = replacement.size() == std::filesystem::file_size(victim);
+  overwrite(victim, replacement);
+  expect_survived(serial(server.url()),
+                  rejected(same_size ? "a blob's SHA-256 does not match its name" : "a blob has the wrong size",
+                           "cas/" + victim.filename().string()),
+                  DiagId::RemoteEntryRejected);
+}
+
+TEST_F(Tampered, APartialUploadWhoseBlobIsMissing) {
+  const std::filesystem::path blob = stored(server, "cas").front();
+  std::filesystem::remove(blob);
+  expect_survived(serial(server.url()), rejected("incomplete entry: a blob is missing", "cas/" + blob.filename().string()),
+                  DiagId::RemoteEntryRejected);
+}
+
+TEST_F(Tampered, ARecordWithACorruptByte) {
+  const std::filesystem::path record = stored(server, "ac").front();
+  std::string bytes = testing::read_file(record);
+  bytes.back() ^= 0x01;
+  overwrite(record, bytes);
+  expect_survived(serial(server.url()), rejected("record checksum does not match", "ac/" + record.filename().string()),
+                  DiagId::RemoteEntryRejected);
+}
+
+// A whole, well-formed record served under another key (a server mixing up names): the key echo refuses it.
+TEST_F(Tampered, ARecordServedUnderAnotherKey) {
+  std::map<char, std::vector<std::filesystem::path>> by_kind;
+  for (const auto& record : stored(server, "ac")) by_kind[testing::read_file(record)[12]].push_back(record);
+  const std::vector<std::filesystem::path>& aliases = by_kind[2];
+  ASSERT_GE(aliases.size(), 2u);
+  overwrite(aliases[1], testing::read_file(aliases[0]));
+  expect_survived(serial(server.url()), rejected("record of another key", "ac/" + aliases[1].filename().string()),
+                  DiagId::RemoteEntryRejected);
+}
+
+// A record resealed by someone who can write the server (its checksum is right) that names another blob: the blob
+// is what its digest says, but not what the record says it is.
+TEST_F(Tampered, AResealedRecordWhoseBlobDigestNamesAnotherBlob) {
+  std::filesystem::path result;
+  std::string bytes;
+  for (const auto& record : stored(server, "ac")) {
+    bytes = testing::read_file(record);
+    if (bytes.size() > 92 && bytes[12] == 1) {  // a result record (kind 1) with its blob list
+      result = record;
+      break;
+    }
+  }
+  ASSERT_FALSE(result.empty());
+  // Header: magic 8, format 4, kind 4, key 32, payload size 8, payload SHA-256 32; payload: count 4, then per blob
+  // target 4, digest 32, size 8. The first blob's digest and size become those of a blob of another entry.
+  constexpr size_t header = 88, first_digest = header + 4 + 4, first_size = first_digest + 32;
+  const std::string first = std::string(bytes, first_digest, 32);
+  std::filesystem::path other;
+  for (const auto& blob : stored(server, "cas")) {
+    const RemoteKey name = sha256(testing::read_file(blob));
+    if (std::string(reinterpret_cast<const char*>(name.bytes.data()), 32) != first &&
+        std::filesystem::file_size(blob) > 64) {
+      other = blob;
+      break;
+    }
+  }
+  ASSERT_FALSE(other.empty());
+  const std::string other_bytes = testing::read_file(other);
+  const RemoteKey digest = sha256(other_bytes);
+  bytes.replace(first_digest, 32, reinterpret_cast<const char*>(digest.bytes.data()), 32);
+  for (int i = 0; i < 8; ++i) bytes[first_size + i] = static_cast<char>(uint64_t{other_bytes.size()} >> (8 * i));
+  const RemoteKey resealed = sha256(std::string_view(bytes).substr(header));
+  bytes.replace(56, 32, reinterpret_cast<const char*>(resealed.bytes.data()), 32);
+  overwrite(result, bytes);
+  expect_survived(serial(server.url()),
+                  rejected("a blob does not unpack to the record's size and checksum", "cas/" + other.filename().string()),
+                  DiagId::RemoteEntryRejected);
+}
+
+struct Https : Remote {};
+
+TEST_F(Https, WithTheTestCaTheRemoteWorksAndWithoutItNothingIsSentInClear) {
+  testing::Nginx server({"", true});
+  RemoteCacheOptions trusted = serial(server.url(), true);
+  trusted.ca_file = server.ca_file();
+  populate(server, trusted);
+  trusted.upload = false;
+  DiagnosticSink sink;
+  BuildReport hit = build(trusted, sink);
+  EXPECT_EQ(hit.remote.hits, 6u);
+  EXPECT_EQ(text_of(sink), "");
+  // The system's CAs do not know the test CA: verification fails, and kiln neither skips it nor tries http://.
+  expect_survived(serial(server.url()),
+                  server.url() + ": warning[K1701]: cannot reach the remote cache: SSL peer certificate or SSH remote key "
+                                 "was not OK\n" + kSwitchedOff + kNeverFails,
+                  DiagId::RemoteUnreachable);
+}
+
+}  // namespace
+}  // namespace kiln
+
+namespace kiln {
+namespace {
+
+// Two machines through the CLI: each a checkout with its own local cache, one nginx between them. At the same
+// path (CI workspaces) the second fetches the finished pack, byte for byte; elsewhere (the inputs hash covers
+// the files' absolute paths) it fetches every stage source and writes the same archive. It compiles nothing.
+TEST(RemoteCli, ASecondMachineCompilesNothingAndWritesTheSamePack) {
+  testing::Nginx server;
+  testing::TempDir root;
+  write_library(root, "ws");
+  ::setenv("KILN_REMOTE", server.url().c_str(), 1);
+  auto first = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "../cacheA", "--remote-upload"}, root / "ws");
+  ::unsetenv("KILN_REMOTE");
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  EXPECT_EQ(first.err, "");
+  EXPECT_NE(first.out.find("  remote cache: hits 0, misses 6, uploads 12 ("), std::string::npos) << first.out;
+  std::filesystem::rename(root / "ws", root / "machineA");
+
+  write_library(root, "ws");
+  auto second = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "../cacheB", "--remote", server.url()},
+                                  root / "ws");
+  ASSERT_EQ(second.exit_code, 0) << second.err;
+  EXPECT_EQ(second.err, "");
+  EXPECT_EQ(second.out.rfind("kiln: fetched from the remote cache: out/p.manifest.json\n", 0), 0u) << second.out;
+  EXPECT_NE(second.out.find("  remote cache: the finished pack of these inputs, "), std::string::npos) << second.out;
+  EXPECT_TRUE(pack_bytes(root / "machineA/out") == pack_bytes(root / "ws/out"));
+
+  write_library(root, "elsewhere/deeper");
+  auto third = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "../cacheC", "--remote", server.url()},
+                                 root / "elsewhere/deeper");
+  ASSERT_EQ(third.exit_code, 0) << third.err;
+  EXPECT_NE(third.out.find("  compiled 0 (back ends 0,"), std::string::npos) << third.out;
+  EXPECT_NE(third.out.find("  remote cache: hits 6, misses 0, uploads 0 (0 blobs), "), std::string::npos) << third.out;
+  EXPECT_EQ(testing::read_archive(root / "machineA/out/p.manifest.json"),
+            testing::read_archive(root / "elsewhere/deeper/out/p.manifest.json"));
+}
+
+// --shard auto reads a Slurm job array's task index and count (GitLab's CI_NODE_INDEX is 1-based).
+TEST(RemoteCli, ShardAutoReadsSlurmsArrayTaskFromTheEnvironment) {
+  testing::Nginx server;
+  testing::TempDir root;
+  write_library(root, "ws");
+  ::setenv("SLURM_ARRAY_TASK_ID", "5", 1);
+  ::setenv("SLURM_ARRAY_TASK_MIN", "4", 1);
+  ::setenv("SLURM_ARRAY_TASK_MAX", "5", 1);
+  auto slurm = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "c1", "--remote", server.url(), "--shard", "auto"},
+                                 root / "ws");
+  for (const char* name : {"SLURM_ARRAY_TASK_ID", "SLURM_ARRAY_TASK_MIN", "SLURM_ARRAY_TASK_MAX"}) ::unsetenv(name);
+  EXPECT_EQ(slurm.exit_code, 0) << slurm.err;
+  EXPECT_EQ(slurm.out.rfind("kiln: shard 1/2 of out/p.manifest.json: compiled ", 0), 0u) << slurm.out;
+  ::setenv("CI_NODE_INDEX", "1", 1);
+  ::setenv("CI_NODE_TOTAL", "2", 1);
+  auto gitlab = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "c2", "--remote", server.url(), "--shard", "auto"},
+                                  root / "ws");
+  ::unsetenv("CI_NODE_INDEX");
+  ::unsetenv("CI_NODE_TOTAL");
+  EXPECT_EQ(gitlab.out.rfind("kiln: shard 0/2 of out/p.manifest.json: compiled ", 0), 0u) << gitlab.out;
+  auto merge = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "c3", "--remote", server.url()}, root / "ws");
+  EXPECT_NE(merge.out.find("  compiled 0 (back ends 0,"), std::string::npos) << merge.out;
+  auto alone = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--shard", "0/2"}, root / "ws");
+  EXPECT_EQ(alone.exit_code, 1);
+  EXPECT_EQ(alone.err, "kiln: error: --shard needs a remote cache (--remote URL or KILN_REMOTE): the merge build reads the "
+                       "shards' work there\n");
+}
+
+TEST(RemoteCli, RemoteRequiredMakesAnUnreachableServerAnError) {
+  testing::TempDir root;
+  write_library(root, "ws");
+  const std::string url = "http://127.0.0.1:" + std::to_string(testing::free_port());
+  auto run = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "cache", "--remote", url, "--remote-required",
+                                "-q"}, root / "ws");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.err, url + ": error[K1701]: cannot reach the remote cache: Couldn't connect to server\n"
+                           "  note: the remote cache is off for the rest of this build\n"
+                           "kiln: 1 error(s)\n");
+  EXPECT_FALSE(std::filesystem::exists(root / "ws/out/p.manifest.json"));
+}
+
+}  // namespace
+}  // namespace kiln
