@@ -36,8 +36,9 @@ if [ "$mode" = subdirectory ]; then
   echo "== add_subdirectory(kiln): nothing of kiln installed, no verify/ (Vulkan, EGL, PNG, OpenEXR) configured or built"
   others=$(cd "$work/installed" && find . -type f ! -path './share/kiln_consumer/*')
   [ -z "$others" ] || { echo "FAIL: kiln installed into the consumer's tree: $others"; exit 1; }
-  ! grep -q "kiln-verify\|kiln_verify\|Vulkan_LIBRARY\|OpenEXR_DIR" "$work/build/CMakeCache.txt" "$work/build1.log" ||
-    { echo "FAIL: add_subdirectory(kiln) configured or built verify/"; exit 1; }
+  ! grep -q "^KILN_BUILD_VERIFY:BOOL=ON\|^Vulkan_LIBRARY\|^OpenEXR_DIR" "$work/build/CMakeCache.txt" ||
+    { echo "FAIL: add_subdirectory(kiln) configured verify/"; exit 1; }
+  ! grep -q "kiln_verify\|kiln-verify" "$work/build1.log" || { echo "FAIL: add_subdirectory(kiln) built verify/"; exit 1; }
 fi
 
 stamp() { stat -c %Y.%y "$manifest"; }
