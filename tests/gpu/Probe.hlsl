@@ -113,6 +113,26 @@ float4 Evaluate(ProbeInput p)
     return float4(DistanceAttenuation(p.c.x, p.c.y), SpotAttenuation(L, float3(0.0, 0.0, 1.0), SpotScaleOffset(p.c.z, p.c.w)),
                   SpotLightLumensToCandela(p.d.z, p.c.w), temperature.x + temperature.y + temperature.z);
 }
+#elif defined(PROBE_LIGHTS_MORE)
+// The light functions PROBE_LIGHTS leaves out, and the mobile BRDF's exponent: c and d as PROBE_LIGHTS, d.w =
+// perceptual roughness. PointLightLumensToCandela(d.z), DistanceAttenuation_UE4, DistanceAttenuation_InverseSquare,
+// RoughnessToSpecularPower(d.w).
+float4 Evaluate(ProbeInput p)
+{
+    return float4(PointLightLumensToCandela(p.d.z), DistanceAttenuation_UE4(p.c.x, p.c.y),
+                  DistanceAttenuation_InverseSquare(p.c.x), RoughnessToSpecularPower((real)p.d.w));
+}
+#elif defined(PROBE_SH9)
+// SampleSH9 at the normal a.xyz with coefficient k = (s_k, s_k / 2, -s_k) (b.xyzw, c.xyzw, d.x hold s_0..s_8),
+// so that the three channels exercise positive, halved and negated (clamped at 0) sums.
+float4 Evaluate(ProbeInput p)
+{
+    float s[9] = { p.b.x, p.b.y, p.b.z, p.b.w, p.c.x, p.c.y, p.c.z, p.c.w, p.d.x };
+    float4 sh[9];
+    for (int k = 0; k < 9; ++k)
+        sh[k] = float4(s[k], 0.5 * s[k], -s[k], 0.0);
+    return float4(SampleSH9(sh, p.a.xyz), 0.0);
+}
 #elif defined(PROBE_IBL)
 // EnvBRDFApprox at f0, EnergyCompensation and SpecularDFG with dfg = c.xy, ACESFitted of (d.x, d.y, d.z) (green).
 float4 Evaluate(ProbeInput p)

@@ -241,6 +241,25 @@ double SpotLightLumensToCandela(double lumens, double cosOuter) {
   return lumens / std::max(2.0 * kPi * (1.0 - cosOuter), 1e-6);
 }
 
+double PointLightLumensToCandela(double lumens) { return lumens / (4.0 * kPi); }
+
+double DistanceAttenuation_UE4(double distanceSquared, double inverseRangeSquared) {
+  return DistanceWindow(distanceSquared, inverseRangeSquared) / (distanceSquared + 1.0);
+}
+
+double DistanceAttenuation_InverseSquare(double distanceSquared) { return 1.0 / std::max(distanceSquared, 1e-4); }
+
+double RoughnessToSpecularPower(double perceptualRoughness) {
+  double m = perceptualRoughness * perceptualRoughness;
+  return std::max(2.0 / std::max(1e-4, m * m) - 2.0, 1e-4);
+}
+
+double SampleSH9(const std::array<double, 9>& sh, Vec3 n) {
+  double r = sh[0] + sh[1] * n.y + sh[2] * n.z + sh[3] * n.x + sh[4] * (n.x * n.y) + sh[5] * (n.y * n.z) +
+             sh[6] * (3.0 * n.z * n.z - 1.0) + sh[7] * (n.x * n.z) + sh[8] * (n.x * n.x - n.y * n.y);
+  return std::max(r, 0.0);
+}
+
 double AlbedoAtAlphaOne(double mu) { return 1.0 - mu * std::log(1.0 + 1.0 / mu); }
 
 double AverageSchlickFresnel(double f0) { return (1.0 + 20.0 * f0) / 21.0; }

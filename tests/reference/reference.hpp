@@ -82,6 +82,12 @@ std::array<double, 2> DFGQuadrature(double NoV, double alpha, int nx, int nphi);
 // Unity's mobile BRDF visibility term as the shader returns it: 1 / V = LoH^2 (1 - r) + r^2 (BRDF.hlsl).
 double V_Kelemen_UnityMobile(double LoH, double perceptualRoughness);
 double SpotLightLumensToCandela(double lumens, double cosOuter);
+double PointLightLumensToCandela(double lumens);
+double DistanceAttenuation_UE4(double distanceSquared, double inverseRangeSquared);
+double DistanceAttenuation_InverseSquare(double distanceSquared);
+double RoughnessToSpecularPower(double perceptualRoughness);  // Unity's Blinn-Phong exponent (BRDF.hlsl)
+// L2 spherical harmonics as SampleSH9 evaluates them (bare polynomials, coefficients pre-convolved), clamped at 0.
+double SampleSH9(const std::array<double, 9>& sh, Vec3 n);
 
 // Closed forms used as oracles.
 double AlbedoAtAlphaOne(double NoV);          // 1 - mu ln(1 + 1/mu): GGX at alpha = 1, F = 1
