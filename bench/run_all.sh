@@ -22,7 +22,8 @@ build/ci/bench/kiln-compile-steps "$(ls -S "$steps_dir"/emit/Forward/vertex/*.hl
   --json bench/results/compile_steps_vertex.json
 rm -rf "$steps_dir"
 python3 bench/scaling.py --kiln build/ci/compiler/kiln
-KILN_STRESS_REPORT="$PWD/bench/results/stress.json" build/ci/tests/kiln_tests_stress
+KILN_STRESS_REPORT="$PWD/bench/results/stress.json" KILN_ACCURACY_REPORT="$PWD/bench/results/accuracy.json" \
+  build/ci/tests/kiln_tests_stress
 build/ci/bench/kiln-shading-study bench/results/shading_study.json
 build/ci/compiler/kiln build variants/lit.pack.json -o build/ci/packs/lit --cache build/ci/kiln-cache -q
 build/ci/compiler/kiln build variants/debug.pack.json -o build/ci/packs/debug --cache build/ci/kiln-cache -q

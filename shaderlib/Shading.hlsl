@@ -118,12 +118,19 @@ float SpecularDV(ShadingData s, float3 L, float3 H, real NoL, real NoH)
 #endif
 }
 
-// Reflected radiance per unit incident radiance from L: BRDF * NoL (NoL inside, as seed 000 does).
-real3 DirectBRDF(ShadingData s, float3 L)
+// Reflected radiance per unit illuminance from L: BRDF * NoL (NoL inside, as seed 000 does).
+// Returned as fp32 in every variant: BRDF * NoL per unit illuminance is not bounded by the fp16 range. A smooth
+// lobe seen at grazing angles peaks above it (roughness 0.089, NoV = NoL = 1e-3: D * V * NoL = 1.6e5), and
+// clamping D * V * F at 65504 before NoL scaled it down lost up to 69% of the directional albedo (issue 23).
+// So the specular product and NoL are multiplied in fp32 and nothing is clamped: AccumulateLight applies the
+// light's illuminance in fp32 too, and the Forward pass sums lights in fp32.
+float3 DirectBRDF(ShadingData s, float3 L)
 {
-    real NoL = (real)saturate(dot(s.N, L));
+    // NoL in fp32 for the fp32 product below; the real copy feeds the fp16 terms.
+    float NoLFull = saturate(dot(s.N, L));
+    real NoL = (real)NoLFull;
     if (NoL <= (real)0.0)
-        return (real3)0.0;
+        return (float3)0.0;
     // L = -V has no half vector; any unit vector works there because NoL or NoV is then ~0.
     float3 H = SafeNormalize(L + s.V, s.N);
     real NoH = (real)saturate(dot(s.N, H));
@@ -139,17 +146,17 @@ real3 DirectBRDF(ShadingData s, float3 L)
 #if defined(_SPECULARHIGHLIGHTS_OFF)
     specular = (real)0.0;
 #endif
-    return (s.diffuseColor + specular * s.f0) * ((real)INV_PI * NoL);
+    return (float3)(s.diffuseColor + specular * s.f0) * (INV_PI * NoLFull);
 #else
     real3 F = F_Schlick(s.f0, (real)1.0, LoH);
     real3 diffuse = s.diffuseColor * DiffuseLobe(s, NoL, LoH) * ((real3)1.0 - F);
 #if defined(_SPECULARHIGHLIGHTS_OFF)
-    real3 specular = (real3)0.0;
+    float3 specular = (float3)0.0;
 #else
-    real3 specular = (real3)min(SpecularDV(s, L, H, NoL, NoH) * (float3)(F * s.energyCompensation), (float3)REAL_MAX);
+    // D * V (fp32, see SpecularDV) * F * energy compensation, all in fp32: no intermediate clamp.
+    float3 specular = SpecularDV(s, L, H, NoL, NoH) * (float3)(F * s.energyCompensation);
 #endif
-    // In fp16 D * V * F can still overflow before NoL scales it down (ARCHITECTURE.md): clamp the lobe.
-    return (diffuse + saturateMediump3(specular)) * NoL;
+    return ((float3)diffuse + specular) * NoLFull;
 #endif
 }
 

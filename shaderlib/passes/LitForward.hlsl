@@ -112,8 +112,9 @@ float4 LitFragment(Varyings input, bool frontFace : SV_IsFrontFace) : SV_Target
 {
     SurfaceData surface = InitializeSurface(input, frontFace);
     real NoVForTable = (real)max(dot(surface.normalWS, surface.viewWS), MIN_N_DOT_V);
-    // Tables and mips are indexed by the authored roughness: clamping belongs to BRDF evaluation only (seed 000).
-    real2 dfg = SampleDFG(_DFG, sampler_LinearClamp, NoVForTable, (real)saturate(surface.perceptualRoughness));
+    // The DFG table describes the lobe the BRDF evaluates, so it is indexed by the clamped roughness (IBL.hlsl);
+    // the prefiltered mips stay indexed by the authored one (seed 000).
+    real2 dfg = SampleDFG(_DFG, sampler_LinearClamp, NoVForTable, ClampedPerceptualRoughness(surface.perceptualRoughness));
     ShadingData s = PrepareShading(surface, dfg);
 
     // Main light.
@@ -122,9 +123,9 @@ float4 LitFragment(Varyings input, bool frontFace : SV_IsFrontFace) : SV_Target
 #else
     float3 vertexShadowCoord = float3(0.0, 0.0, 0.0);
 #endif
-    // Radiance is summed in fp32 even in _HALF_PRECISION variants: each light's term is clamped to the fp16
-    // range, but a sum of several can still exceed it (the stress gate found Inf there).
-    float3 color = (float3)AccumulateLight(s, GetMainLight(input.positionWS, vertexShadowCoord));
+    // Radiance is summed in fp32 even in _HALF_PRECISION variants: one light's term can exceed the fp16 range,
+    // and so can a sum of several (the stress gate found Inf there).
+    float3 color = AccumulateLight(s, GetMainLight(input.positionWS, vertexShadowCoord));
 
     // Additional lights.
 #if defined(_ADDITIONAL_LIGHTS)

@@ -113,6 +113,26 @@ float4 Evaluate(ProbeInput p)
     return float4(DistanceAttenuation(p.c.x, p.c.y), SpotAttenuation(L, float3(0.0, 0.0, 1.0), SpotScaleOffset(p.c.z, p.c.w)),
                   SpotLightLumensToCandela(p.d.z, p.c.w), temperature.x + temperature.y + temperature.z);
 }
+#elif defined(PROBE_LIGHTS_MORE)
+// The light functions PROBE_LIGHTS leaves out, and the mobile BRDF's exponent: c and d as PROBE_LIGHTS, d.w =
+// perceptual roughness. PointLightLumensToCandela(d.z), DistanceAttenuation_UE4, DistanceAttenuation_InverseSquare,
+// RoughnessToSpecularPower(d.w).
+float4 Evaluate(ProbeInput p)
+{
+    return float4(PointLightLumensToCandela(p.d.z), DistanceAttenuation_UE4(p.c.x, p.c.y),
+                  DistanceAttenuation_InverseSquare(p.c.x), RoughnessToSpecularPower((real)p.d.w));
+}
+#elif defined(PROBE_SH9)
+// SampleSH9 at the normal a.xyz with coefficient k = (s_k, s_k / 2, -s_k) (b.xyzw, c.xyzw, d.x hold s_0..s_8),
+// so that the three channels exercise positive, halved and negated (clamped at 0) sums.
+float4 Evaluate(ProbeInput p)
+{
+    float s[9] = { p.b.x, p.b.y, p.b.z, p.b.w, p.c.x, p.c.y, p.c.z, p.c.w, p.d.x };
+    float4 sh[9];
+    for (int k = 0; k < 9; ++k)
+        sh[k] = float4(s[k], 0.5 * s[k], -s[k], 0.0);
+    return float4(SampleSH9(sh, p.a.xyz), 0.0);
+}
 #elif defined(PROBE_IBL)
 // EnvBRDFApprox at f0, EnergyCompensation and SpecularDFG with dfg = c.xy, ACESFitted of (d.x, d.y, d.z) (green).
 float4 Evaluate(ProbeInput p)
@@ -151,9 +171,37 @@ float4 Evaluate(ProbeInput p)
     else
         light = PunctualLight(p.d.xyz, (float3)intensity, 1.0 / 100.0, float4(0.0, -1.0, 0.0, p.d.w > 1.5 ? 1.0 : 0.0),
                               SpotScaleOffset(0.9, 0.9));
-    float3 radiance = (float3)AccumulateLight(s, light);  // summed in fp32, as LitFragment does
+    float3 radiance = AccumulateLight(s, light);  // fp32, as LitFragment sums it
     radiance += (float3)IndirectLighting(s, (float3)(intensity * 0.01), (float3)(intensity * 0.01));
     return float4(radiance.r, radiance.g, radiance.b, ACESFitted(radiance).g);
+}
+#elif defined(PROBE_DIRECT)
+// DirectBRDF (BRDF * NoL per unit illuminance) and AccumulateLight in the frame N = +Z, V = (sin, 0, NoV), for
+// the energy of the direct specular lobe (tests/stress/accuracy_test.cpp integrates it over L).
+// a = (perceptual roughness, NoV, dfg.x, dfg.y), b = (L, -), c = (V, -) with V.z = NoV (unit within fp32 rounding).
+// x: white metal (f0 = 1, no diffuse), y: grey dielectric (base 0.5, reflectance 0.5),
+// z: AccumulateLight of the white metal under a directional light of illuminance 1 along L, w: 0.
+ShadingData ProbeShading(ProbeInput p, real3 baseColor, real metallic)
+{
+    SurfaceData surface;
+    surface.baseColor = baseColor;
+    surface.metallic = metallic;
+    surface.perceptualRoughness = (real)p.a.x;
+    surface.reflectance = (real)0.5;
+    surface.anisotropy = (real)0.0;
+    surface.normalWS = float3(0.0, 0.0, 1.0);
+    surface.tangentWS = float3(1.0, 0.0, 0.0);
+    surface.bitangentWS = float3(0.0, 1.0, 0.0);
+    surface.viewWS = p.c.xyz;
+    return PrepareShading(surface, (real2)p.a.zw);
+}
+float4 Evaluate(ProbeInput p)
+{
+    ShadingData metal = ProbeShading(p, (real3)1.0, (real)1.0);
+    ShadingData dielectric = ProbeShading(p, (real3)0.5, (real)0.0);
+    float3 L = p.b.xyz;
+    return float4(DirectBRDF(metal, L).x, DirectBRDF(dielectric, L).x,
+                  AccumulateLight(metal, DirectionalLight(L, (float3)1.0)).x, 0.0);
 }
 #elif defined(PROBE_TEXTBOOK)
 // The unguarded textbook Cook-Torrance kernel (no roughness clamp, no NoV floor, no saturation):
@@ -177,7 +225,7 @@ float4 Evaluate(ProbeInput p)
 float4 Evaluate(ProbeInput p)
 {
     real NoV = (real)max(p.a.y, MIN_N_DOT_V);
-    real2 dfg = SampleDFG(gProbeTable, gProbeSampler, NoV, (real)saturate(p.a.x));
+    real2 dfg = SampleDFG(gProbeTable, gProbeSampler, NoV, ClampedPerceptualRoughness((real)p.a.x));
     real3 approxBias = EnvBRDFApprox((real3)0.0, ClampedPerceptualRoughness((real)p.a.x), NoV);
     real3 approxOne = EnvBRDFApprox((real3)1.0, ClampedPerceptualRoughness((real)p.a.x), NoV);
     return float4(dfg.x, dfg.y, approxOne.x - approxBias.x, approxBias.x);
@@ -211,11 +259,11 @@ float4 Evaluate(ProbeInput p)
 #elif defined(TERM_FD_RENORMALIZED_BURLEY)
     value = Fd_RenormalizedBurley(t.NoV, t.NoL, t.LoH, t.perceptualRoughness);
 #elif defined(TERM_ENV_TABLE)
-    value = SpecularDFG(SampleDFG(gProbeTable, gProbeSampler, t.NoV, (real)saturate(p.a.x)), (real3)t.f0).x;
+    value = SpecularDFG(SampleDFG(gProbeTable, gProbeSampler, t.NoV, t.perceptualRoughness), (real3)t.f0).x;
 #elif defined(TERM_ENV_APPROX)
     value = EnvBRDFApprox((real3)t.f0, t.perceptualRoughness, t.NoV).x;
 #elif defined(TERM_ENERGY_COMPENSATION)
-    value = EnergyCompensation(SampleDFG(gProbeTable, gProbeSampler, t.NoV, (real)saturate(p.a.x)), (real3)t.f0).x;
+    value = EnergyCompensation(SampleDFG(gProbeTable, gProbeSampler, t.NoV, t.perceptualRoughness), (real3)t.f0).x;
 #elif defined(TERM_FALLOFF_WINDOWED)
     value = DistanceAttenuation(p.b.z, p.b.w);
 #elif defined(TERM_FALLOFF_UE4)

@@ -27,7 +27,7 @@ const float kOneMinusUlp = std::nextafter(1.0f, 0.0f);
 
 // The special values of the issue, on every axis they apply to.
 const std::vector<float> kRoughness = {0.0f, 1e-8f, 1e-4f, 0.01f, 0.045f, 0.089f, 0.1f, 0.25f, 0.5f, 0.75f, 1.0f};
-const std::vector<float> kCosine = {0.0f, 1e-8f, 1e-4f, 0.01f, 0.1f, 0.5f, 0.9f, 1.0f};
+const std::vector<float> kCosine = {0.0f, 1e-8f, 1e-4f, 1e-3f, 3e-3f, 0.01f, 0.1f, 0.5f, 0.9f, 1.0f};
 const std::vector<float> kNoH = {0.0f, 0.5f, 0.9f, 0.999f, kOneMinusUlp, 1.0f};
 const std::vector<float> kF0 = {0.0f, 0.04f, 1.0f};
 const std::vector<float> kLoH = {0.0f, 1e-8f, 0.5f, kOneMinusUlp, 1.0f};
@@ -65,7 +65,8 @@ Grid term_grid() {
             float tone = kToneMapInput[i % kToneMapInput.size()];
             p[12] = tone, p[13] = tone * 0.5f, p[14] = -tone * 0.25f;
             grid.points.push_back(p);
-            grid.safe.push_back(above_fp16_roughness_floor(r, p[6]) && nov >= 0.01f && nol >= 0.01f);
+            // fp16's domain (issue 23): NoV and NoL down to 1e-3, grazing included.
+            grid.safe.push_back(above_fp16_roughness_floor(r, p[6]) && nov >= 1e-3f && nol >= 1e-3f);
             ++i;
           }
   return grid;
@@ -127,6 +128,36 @@ Grid lit_grid() {
                                 p[7] > 0.1f && p[11] > 0.1f);
             ++i;
           }
+  return grid;
+}
+
+// a = (roughness, NoV, dfg.x, dfg.y), b = (towards the light, -), c = (towards the eye, -): DirectBRDF in the
+// frame N = +Z, V in the x-z plane.
+// The light directions: around the mirror direction (where a smooth lobe peaks), grazing (NoL 1e-3 and 1e-8),
+// along N, behind the surface, and L = -V (no half vector).
+Grid direct_grid() {
+  Grid grid;
+  size_t i = 0;
+  for (float r : kRoughness)
+    for (float nov : kCosine) {
+      const float sinV = std::sqrt(std::max(0.0f, 1.0f - nov * nov));
+      std::vector<std::array<float, 3>> lights = {{-sinV, 0, nov}, {0, 0, 1}, {0, 0, -1}, {-sinV, 0, -nov}};
+      for (float nol : {1e-8f, 1e-3f, 3e-3f, 0.01f, 0.1f, 0.5f}) {
+        const float sinL = std::sqrt(1.0f - nol * nol);
+        lights.push_back({-sinL, 0, nol});                        // mirror azimuth
+        lights.push_back({-sinL * 0.99955f, sinL * 0.03f, nol});  // 1.7 degrees off it
+        lights.push_back({0, sinL, nol});                         // 90 degrees off it
+      }
+      for (const auto& l : lights) {
+        ProbeInput p{};
+        p[0] = r, p[1] = nov, p[2] = kDfg[i % kDfg.size()], p[3] = kDfg[(i / 4) % kDfg.size()];
+        p[4] = l[0], p[5] = l[1], p[6] = l[2];
+        p[8] = sinV, p[10] = nov;
+        grid.points.push_back(p);
+        grid.safe.push_back(above_fp16_roughness_floor(r, 0) && nov >= 1e-3f && l[2] >= 1e-3f && p[3] > 0.1f);
+        ++i;
+      }
+    }
   return grid;
 }
 
@@ -295,6 +326,12 @@ TEST_F(Stress, LightFunctionsHaveNoNanInfOrNegative) {
 
 TEST_F(Stress, IblAndToneMappingHaveNoNanInfOrNegative) {
   gate("PROBE_IBL", {}, term_grid(), {"EnvBRDFApprox", "EnergyCompensation", "SpecularDFG", "ACESFitted"});
+}
+
+TEST_F(Stress, DirectLightingOfOneLightHasNoNanInfOrNegative) {
+  EXPECT_GE(direct_grid().points.size(), 2000u);
+  for (std::vector<std::string> keywords : std::vector<std::vector<std::string>>{{}, {"_MULTISCATTER"}})
+    gate("PROBE_DIRECT", keywords, direct_grid(), {"DirectBRDF (metal)", "DirectBRDF (dielectric)", "AccumulateLight (metal, 1 lux)", "-"});
 }
 
 TEST_F(Stress, FullLitShadingHasNoNanInfOrNegativeInEveryShadingModel) {

@@ -64,6 +64,36 @@ TEST(Reference, ImportanceSamplingAgreesWithBruteForceQuadrature) {
   }
 }
 
+// DFGQuadrature is the accuracy gate's truth for the DFG table (tests/stress/accuracy_test.cpp): its own check
+// is the closed form at alpha = 1, grazing angles included, and its convergence where the lobe is narrow.
+TEST(Reference, HalfVectorQuadratureMatchesTheClosedFormAtAlphaOneDownToGrazingAngles) {
+  for (double mu : {0.001, 0.005, 0.01, 0.05, 0.2, 0.5, 1.0}) {
+    double closed = AlbedoAtAlphaOne(mu);
+    // 1e-4: a fiftieth of the 0.005 the accuracy gate holds the DFG table to (measured: 2.8e-5 at mu = 0.01).
+    EXPECT_NEAR(DFGQuadrature(mu, 1.0, 1024, 64)[1], closed, 1e-4) << "mu " << mu;
+  }
+  // At F = Schlick's average over the lobe, x is not closed-form; at mu = 1, alpha = 1 the integrand is simple
+  // enough that the importance sampler (a different method) agrees to 1e-4.
+  EXPECT_NEAR(DFGQuadrature(1.0, 1.0, 1024, 64)[0], DFG(1.0, 1.0, 1 << 18)[0], 1e-4);
+}
+
+TEST(Reference, HalfVectorQuadratureConvergesForNarrowLobesAndAgreesWithImportanceSampling) {
+  for (double roughness : {0.045, 0.1, 0.3, 0.7}) {
+    double alpha = roughness * roughness;
+    for (double mu : {0.005, 0.02, 0.3, 1.0}) {
+      auto coarse = DFGQuadrature(mu, alpha, 1024, 64);
+      auto fine = DFGQuadrature(mu, alpha, 4096, 128);
+      EXPECT_NEAR(coarse[1], fine[1], 3e-4) << "roughness " << roughness << " mu " << mu;
+      EXPECT_NEAR(coarse[0], fine[0], 3e-4) << "roughness " << roughness << " mu " << mu;
+      // The table's generator, with many samples, away from the grazing angles where it converges slowly.
+      if (mu >= 0.02) {
+        auto sampled = DFG(mu, roughness, 1 << 18);
+        EXPECT_NEAR(sampled[1], fine[1], 1e-3) << "roughness " << roughness << " mu " << mu;
+      }
+    }
+  }
+}
+
 TEST(Reference, SingleScatteringLosesAboutSixtyNinePercentAtRoughnessOne) {
   // ARCHITECTURE.md: single-scatter GGX at f0 = 1 loses ~69% of energy at roughness 1, normal incidence.
   double E = DFG(1.0, 1.0, 1 << 16)[1];
@@ -103,9 +133,12 @@ TEST(Reference, DfgTableRoundTripsAndItsTexelsSitOnTheDomainEdges) {
   DfgTable table = make_dfg_table(8, 8, 1024);
   DfgTable decoded = decode_dfg_table(encode_dfg_table(table, 1024));
   EXPECT_EQ(decoded.rg, table.rg);
-  // Texel (i, j) is at NoV = i / 7, roughness = j / 7, including the corners (1, 1) and (0, 0); the NoV = 0
-  // column holds NoV = 1e-4, the shaders' floor.
-  for (auto [nov, roughness] : {std::pair{2.0 / 7, 5.0 / 7}, std::pair{1.0, 1.0}, std::pair{0.0, 0.0}}) {
+  // Texel (i, j) is at cbrt(NoV) = i / 7, sqrt((roughness - 0.045) / 0.955) = j / 7, including the corners
+  // (1, 1) and (0, 0.045); the NoV = 0 column holds NoV = 1e-4, the shaders' floor.
+  for (auto [nov, roughness] : {std::pair{8.0 / 343, 0.045 + 0.955 * 25.0 / 49}, std::pair{1.0, 1.0}, std::pair{0.0, 0.045}}) {
+    auto coordinates = DfgTableCoordinates(nov, roughness);
+    EXPECT_NEAR(coordinates[0] * 7, std::round(coordinates[0] * 7), 1e-9);
+    EXPECT_NEAR(coordinates[1] * 7, std::round(coordinates[1] * 7), 1e-9);
     auto direct = DFG(std::max(nov, 1e-4), roughness, 1024);
     auto sampled = table.sample(nov, roughness);
     EXPECT_NEAR(sampled[0], direct[0], 1e-6) << nov << " " << roughness;
@@ -121,7 +154,7 @@ TEST(Reference, CheckedInDfgTableMatchesTheReference) {
   std::memcpy(&samples, bytes.data() + 16, 4);
   for (int j : {0, 17, 40, 63})
     for (int i : {0, 9, 31, 63}) {
-      auto expected = DFG(std::max(i / 63.0, 1e-4), j / 63.0, samples);
+      auto expected = DFG(std::max(DfgColumnNoV(i / 63.0), 1e-4), DfgRowPerceptualRoughness(j / 63.0), samples);
       EXPECT_FLOAT_EQ(table.rg[(j * 64 + i) * 2], static_cast<float>(expected[0]));
       EXPECT_FLOAT_EQ(table.rg[(j * 64 + i) * 2 + 1], static_cast<float>(expected[1]));
     }

@@ -196,6 +196,70 @@ double SpecularAlbedoQuadrature(double NoV, double alpha, double f0, int n) {
   return sum * (1.0 / n) * (2.0 * kPi / n);
 }
 
+namespace {
+// Smith's Lambda for GGX (Heitz 2014, eq. 72): (-1 + sqrt(1 + alpha^2 tan^2(theta))) / 2.
+double smith_lambda(double cosTheta, double alpha) {
+  double tan2 = (1.0 - cosTheta * cosTheta) / (cosTheta * cosTheta);
+  return 0.5 * (-1.0 + std::sqrt(1.0 + alpha * alpha * tan2));
+}
+}  // namespace
+
+std::array<double, 2> DFGQuadrature(double NoV, double alpha, int nx, int nphi) {
+  // E = ∫ D(h) G2(V, L) F(VoH) VoH / NoV dω_h over the half vectors with VoH > 0 and NoL > 0
+  // (f NoL dω_L = D G2 F / (4 NoV NoL) NoL 4 VoH dω_h). V lies in the x-z plane, so the integrand is even in
+  // φ: integrate φ over [0, π] and double.
+  const double sinV = std::sqrt(std::max(0.0, 1.0 - NoV * NoV));
+  const double lambdaV = smith_lambda(NoV, alpha);
+  double x_sum = 0, y_sum = 0;
+  for (int i = 0; i < nx; ++i) {
+    double s = std::tan(0.5 * kPi * (i + 0.5) / nx);
+    double tanTheta = alpha * s;
+    double cosTheta = 1.0 / std::sqrt(1.0 + tanTheta * tanTheta);
+    double sinTheta = tanTheta * cosTheta;
+    double weight = s / (2.0 * cosTheta * (1.0 + s * s));  // D(h) dω_h per dx dφ
+    for (int j = 0; j < nphi; ++j) {
+      double phi = kPi * (j + 0.5) / nphi;
+      double VoH = sinV * sinTheta * std::cos(phi) + NoV * cosTheta;
+      if (VoH <= 0.0) continue;
+      double NoL = 2.0 * VoH * cosTheta - NoV;
+      if (NoL <= 0.0) continue;
+      double f = weight * VoH / (NoV * (1.0 + lambdaV + smith_lambda(NoL, alpha)));
+      double Fc = std::pow(1.0 - VoH, 5.0);
+      x_sum += f * Fc;
+      y_sum += f;
+    }
+  }
+  const double cell = (1.0 / nx) * (kPi / nphi) * 2.0;
+  return {x_sum * cell, y_sum * cell};
+}
+
+double V_Kelemen_UnityMobile(double LoH, double perceptualRoughness) {
+  return LoH * LoH * (1.0 - perceptualRoughness) + perceptualRoughness * perceptualRoughness;
+}
+
+double SpotLightLumensToCandela(double lumens, double cosOuter) {
+  return lumens / std::max(2.0 * kPi * (1.0 - cosOuter), 1e-6);
+}
+
+double PointLightLumensToCandela(double lumens) { return lumens / (4.0 * kPi); }
+
+double DistanceAttenuation_UE4(double distanceSquared, double inverseRangeSquared) {
+  return DistanceWindow(distanceSquared, inverseRangeSquared) / (distanceSquared + 1.0);
+}
+
+double DistanceAttenuation_InverseSquare(double distanceSquared) { return 1.0 / std::max(distanceSquared, 1e-4); }
+
+double RoughnessToSpecularPower(double perceptualRoughness) {
+  double m = perceptualRoughness * perceptualRoughness;
+  return std::max(2.0 / std::max(1e-4, m * m) - 2.0, 1e-4);
+}
+
+double SampleSH9(const std::array<double, 9>& sh, Vec3 n) {
+  double r = sh[0] + sh[1] * n.y + sh[2] * n.z + sh[3] * n.x + sh[4] * (n.x * n.y) + sh[5] * (n.y * n.z) +
+             sh[6] * (3.0 * n.z * n.z - 1.0) + sh[7] * (n.x * n.z) + sh[8] * (n.x * n.x - n.y * n.y);
+  return std::max(r, 0.0);
+}
+
 double AlbedoAtAlphaOne(double mu) { return 1.0 - mu * std::log(1.0 + 1.0 / mu); }
 
 double AverageSchlickFresnel(double f0) { return (1.0 + 20.0 * f0) / 21.0; }
@@ -203,11 +267,21 @@ double AverageSchlickFresnel(double f0) { return (1.0 + 20.0 * f0) / 21.0; }
 // The shaders' NoV floor (MIN_N_DOT_V in shaderlib/Common.hlsl): the table's NoV = 0 column holds NoV = 1e-4.
 constexpr double kDfgMinNoV = 1e-4;
 
+std::array<double, 2> DfgTableCoordinates(double NoV, double perceptualRoughness) {
+  double row = std::clamp((perceptualRoughness - kDfgMinPerceptualRoughness) / (1.0 - kDfgMinPerceptualRoughness), 0.0, 1.0);
+  return {std::cbrt(std::clamp(NoV, 0.0, 1.0)), std::sqrt(row)};
+}
+double DfgColumnNoV(double column) { return column * column * column; }
+double DfgRowPerceptualRoughness(double row) {
+  return kDfgMinPerceptualRoughness + (1.0 - kDfgMinPerceptualRoughness) * row * row;
+}
+
 DfgTable make_dfg_table(int width, int height, uint32_t samples) {
   DfgTable table{width, height, std::vector<float>(static_cast<size_t>(width) * height * 2)};
   for (int j = 0; j < height; ++j)
     for (int i = 0; i < width; ++i) {
-      auto dfg = DFG(std::max(double(i) / (width - 1), kDfgMinNoV), double(j) / (height - 1), samples);
+      auto dfg = DFG(std::max(DfgColumnNoV(double(i) / (width - 1)), kDfgMinNoV),
+                     DfgRowPerceptualRoughness(double(j) / (height - 1)), samples);
       table.rg[(static_cast<size_t>(j) * width + i) * 2] = static_cast<float>(dfg[0]);
       table.rg[(static_cast<size_t>(j) * width + i) * 2 + 1] = static_cast<float>(dfg[1]);
     }
@@ -215,8 +289,9 @@ DfgTable make_dfg_table(int width, int height, uint32_t samples) {
 }
 
 std::array<double, 2> DfgTable::sample(double NoV, double perceptualRoughness) const {
-  double x = std::clamp(NoV, 0.0, 1.0) * (width - 1);
-  double y = std::clamp(perceptualRoughness, 0.0, 1.0) * (height - 1);
+  auto coordinates = DfgTableCoordinates(NoV, perceptualRoughness);
+  double x = coordinates[0] * (width - 1);
+  double y = coordinates[1] * (height - 1);
   int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
   int x1 = std::min(x0 + 1, width - 1), y1 = std::min(y0 + 1, height - 1);
   double fx = x - x0, fy = y - y0;
@@ -231,7 +306,7 @@ std::array<double, 2> DfgTable::sample(double NoV, double perceptualRoughness) c
 std::string encode_dfg_table(const DfgTable& table, uint32_t samples) {
   std::string bytes = "KDFG";
   auto put = [&](uint32_t v) { bytes.append(reinterpret_cast<const char*>(&v), 4); };
-  put(2);
+  put(kDfgVersion);
   put(static_cast<uint32_t>(table.width));
   put(static_cast<uint32_t>(table.height));
   put(samples);
@@ -243,7 +318,7 @@ DfgTable decode_dfg_table(const std::string& bytes) {
   if (bytes.size() < 20 || bytes.compare(0, 4, "KDFG") != 0) throw std::runtime_error("not a KDFG table");
   uint32_t header[4];
   std::memcpy(header, bytes.data() + 4, 16);
-  if (header[0] != 2) throw std::runtime_error("unsupported KDFG version (regenerate with kiln-reference dfg)");
+  if (header[0] != kDfgVersion) throw std::runtime_error("unsupported KDFG version (regenerate with kiln-reference dfg)");
   DfgTable table{static_cast<int>(header[1]), static_cast<int>(header[2]), {}};
   size_t count = static_cast<size_t>(table.width) * table.height * 2;
   if (bytes.size() != 20 + count * sizeof(float)) throw std::runtime_error("KDFG table has the wrong size");

@@ -69,23 +69,55 @@ double SpecularAlbedo(double NoV, double alpha, double f0, uint32_t samples);
 // The same by brute-force midpoint quadrature over the hemisphere of L (n x n cells): the check.
 double SpecularAlbedoQuadrature(double NoV, double alpha, double f0, int n);
 
+// The DFG terms again, by a method that shares nothing with DFG(): a deterministic midpoint product rule over
+// the half-vector hemisphere instead of Hammersley GGX importance sampling, with Smith's Lambda form of the
+// height-correlated masking (G2 = 1 / (1 + Lambda(V) + Lambda(L))) instead of V_SmithGGXCorrelated, and no
+// D_GGX call: the polar angle is mapped by tan(theta_h) = alpha tan(pi x / 2), under which D(h) dω_h is the
+// smooth weight s / (2 cos(theta_h) (1 + s^2)) dx dφ (s = tan(pi x / 2)), so narrow lobes are resolved without
+// sampling them. Checked against the closed form at alpha = 1 (tests/unit/reference_test.cpp). Accuracy:
+// about 1e-5 away from grazing; at NoV <= 0.01 the visibility cut-off converges as about 1/n^1.5 (5e-4 at
+// nx = 512, 3e-5 at nx = 2048, measured at roughness 0.3). Takes alpha, unclamped.
+std::array<double, 2> DFGQuadrature(double NoV, double alpha, int nx, int nphi);
+
+// Unity's mobile BRDF visibility term as the shader returns it: 1 / V = LoH^2 (1 - r) + r^2 (BRDF.hlsl).
+double V_Kelemen_UnityMobile(double LoH, double perceptualRoughness);
+double SpotLightLumensToCandela(double lumens, double cosOuter);
+double PointLightLumensToCandela(double lumens);
+double DistanceAttenuation_UE4(double distanceSquared, double inverseRangeSquared);
+double DistanceAttenuation_InverseSquare(double distanceSquared);
+double RoughnessToSpecularPower(double perceptualRoughness);  // Unity's Blinn-Phong exponent (BRDF.hlsl)
+// L2 spherical harmonics as SampleSH9 evaluates them (bare polynomials, coefficients pre-convolved), clamped at 0.
+double SampleSH9(const std::array<double, 9>& sh, Vec3 n);
+
 // Closed forms used as oracles.
 double AlbedoAtAlphaOne(double NoV);          // 1 - mu ln(1 + 1/mu): GGX at alpha = 1, F = 1
 double AverageSchlickFresnel(double f0);     // (1 + 20 f0) / 21
 
-// The DFG table as shipped to shaders: width x height texels, texel (i, j) at NoV = max(i / (width - 1), 1e-4)
-// and perceptual roughness = j / (height - 1): the outer texels sit on the edges of the domain, so bilinear
-// filtering never extrapolates (a texel-centred table loses 3% of the white furnace at roughness 1, measured
-// in bench/REPORT.md); shaders map (NoV, roughness) to (x (n - 1) + 0.5) / n. NoV is floored at 1e-4 as
-// the shaders floor it. rg interleaved, row-major, rows by roughness.
+// The DFG table as shipped to shaders: width x height texels; texel (i, j) at the table coordinates
+// (i / (width - 1), j / (height - 1)), i.e. NoV = (i / (width - 1))^3 (floored at 1e-4 as the shaders floor it)
+// and perceptual roughness = 0.045 + (1 - 0.045) (j / (height - 1))^2. The coordinates are not linear because a
+// smooth lobe's albedo dips between NoV = 1e-4 and 0.016 and the dip moves with alpha, which a table linear in
+// NoV and roughness cannot follow (issue 23; shaderlib/IBL.hlsl says more). Rows start at the fp32 roughness
+// floor: the table is looked up at the clamped roughness. The outer texels sit on the edges of the domain, so
+// bilinear filtering never extrapolates (a texel-centred table loses 3% of the white furnace at roughness 1,
+// measured in bench/REPORT.md); shaders map a coordinate c to (c (n - 1) + 0.5) / n. rg interleaved,
+// row-major, rows by roughness.
+inline constexpr double kDfgMinPerceptualRoughness = 0.045;
+std::array<double, 2> DfgTableCoordinates(double NoV, double perceptualRoughness);  // as shaderlib/IBL.hlsl
+double DfgColumnNoV(double column);                // inverse of the column coordinate
+double DfgRowPerceptualRoughness(double row);      // inverse of the row coordinate
 struct DfgTable {
   int width = 0;
   int height = 0;
   std::vector<float> rg;
-  std::array<double, 2> sample(double NoV, double perceptualRoughness) const;  // bilinear, clamped
+  // Bilinear, clamped to the edges; perceptualRoughness is the clamped one, as the shaders pass it.
+  std::array<double, 2> sample(double NoV, double perceptualRoughness) const;
 };
 DfgTable make_dfg_table(int width, int height, uint32_t samples);
-// Binary file: "KDFG", u32 version 2 (endpoint-aligned texels; version 1 was texel-centred), u32 width, u32 height, u32 samples, then float32 rg (little-endian).
+// Binary file: "KDFG", u32 version 3 (the coordinates above; version 2 was linear in NoV and roughness, version 1
+// texel-centred),
+// u32 width, u32 height, u32 samples, then float32 rg (little-endian).
+inline constexpr uint32_t kDfgVersion = 3;
 std::string encode_dfg_table(const DfgTable& table, uint32_t samples);
 DfgTable decode_dfg_table(const std::string& bytes);
 

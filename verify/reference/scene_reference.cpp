@@ -353,7 +353,8 @@ render::Image shade_image(const ReferenceInputs& in, const std::vector<std::stri
       s.at = std::max(s.alpha * (1 + anisotropy), min_roughness * min_roughness);
       s.ab = std::max(s.alpha * (1 - anisotropy), min_roughness * min_roughness);
       s.NoV = std::max(dot(s.N, s.V), 1e-4);
-      auto dfg = in.dfg->sample(s.NoV, saturate(authored_roughness));
+      // The DFG table holds the lobe the BRDF evaluates: looked up at the clamped roughness (shaderlib/IBL.hlsl).
+      auto dfg = in.dfg->sample(s.NoV, s.perceptual_roughness);
       auto approx = EnvBRDFApprox(s.perceptual_roughness, s.NoV);
       for (int c = 0; c < 3; ++c) {
         s.diffuse_color[c] = base[c] * (1 - metallic);

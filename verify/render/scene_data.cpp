@@ -22,7 +22,8 @@ DfgTable load_dfg(const std::filesystem::path& path) {
   uint32_t header[4];
   if (bytes.size() < 20 || bytes.compare(0, 4, "KDFG") != 0) render_error(path.string() + " is not a KDFG table");
   std::memcpy(header, bytes.data() + 4, 16);
-  if (header[0] != 2) render_error(path.string() + ": KDFG version " + std::to_string(header[0]) + " (expected 2)");
+  // Version 3: columns spaced in cbrt(NoV) (verify/reference/reference.hpp); the renderers only upload the texels.
+  if (header[0] != 3) render_error(path.string() + ": KDFG version " + std::to_string(header[0]) + " (expected 3)");
   DfgTable t{header[1], header[2], {}};
   t.rg.resize(size_t(t.width) * t.height * 2);
   if (bytes.size() != 20 + t.rg.size() * 4) render_error(path.string() + ": truncated KDFG table");

@@ -23,7 +23,7 @@ using Bytes = std::vector<uint8_t>;
 // Throws std::runtime_error("kiln render: error: " + message).
 [[noreturn]] void render_error(const std::string& message);
 
-// The DFG table shipped with the shader library (KDFG v2, see verify/reference/reference.hpp): RG float32.
+// The DFG table shipped with the shader library (KDFG v3, see verify/reference/reference.hpp): RG float32.
 struct DfgTable {
   uint32_t width = 0, height = 0;
   std::vector<float> rg;

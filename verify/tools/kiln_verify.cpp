@@ -51,7 +51,7 @@ int run_render(const std::string& pack_dir, const std::string& keywords, const s
     bool linear = std::find(variant.keywords.begin(), variant.keywords.end(), "_LINEAR_OUTPUT") != variant.keywords.end();
     kiln::render::write_png(png_out, image.width, image.height, kiln::render::encode_srgb8(image, linear));
     if (!exr_out.empty()) {
-      // .kimg: kiln's raw float image (render/image.hpp), read by tests without an EXR library.
+      // .kimg: kiln's raw float image (scene/image.hpp), read by tests without an EXR library.
       if (exr_out.ends_with(".kimg")) kiln::render::write_kimg(exr_out, image);
       else kiln::render::write_exr(exr_out, image);
     }
