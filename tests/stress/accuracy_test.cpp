@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "common/parallel.hpp"
+#include "lavapipe_suite.hpp"
 #include "probe/lavapipe.hpp"
 #include "reference/reference.hpp"
 
@@ -57,26 +58,12 @@ std::vector<double> log_spaced(double from, double to, int count) {
   return v;
 }
 
-class Accuracy : public testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    std::string error;
-    gpu_ = Lavapipe::open(error).release();
-    open_error_ = error;
-  }
-  static void TearDownTestSuite() {
-    delete gpu_;
-    gpu_ = nullptr;
-    report_["device"] = device_;
-    const char* path = std::getenv("KILN_ACCURACY_REPORT");
-    std::ofstream(path ? path : KILN_ACCURACY_REPORT_PATH) << report_.dump(2) << "\n";
-  }
-  void SetUp() override {
-    ASSERT_NE(gpu_, nullptr) << open_error_;
-    ASSERT_TRUE(gpu_->supports_float16()) << "lavapipe without shaderFloat16 cannot run the fp16 variants";
-    device_ = gpu_->device_name() + " (" + gpu_->driver_info() + ")";
-  }
+class Accuracy : public LavapipeSuite<Accuracy> {
+ public:
+  static constexpr const char* kReportEnvironment = "KILN_ACCURACY_REPORT";  // bench/run_all.sh points it into bench/results/
+  static constexpr const char* kReportPath = KILN_ACCURACY_REPORT_PATH;
 
+ protected:
   std::vector<ProbeOutput> run(std::vector<std::string> defines, const std::vector<ProbeInput>& inputs,
                                const std::optional<ProbeTexture>& texture = std::nullopt) {
     std::string error;
@@ -88,16 +75,8 @@ class Accuracy : public testing::Test {
     return out;
   }
 
-  static Lavapipe* gpu_;
-  static std::string open_error_;
-  static std::string device_;
-  static nlohmann::json report_;
 };
 
-Lavapipe* Accuracy::gpu_ = nullptr;
-std::string Accuracy::open_error_;
-std::string Accuracy::device_;
-nlohmann::json Accuracy::report_;
 
 //------------------------------------------------------------------------------------------------------------
 // Issue 23, item 7: every public term against the double reference, on a dense grid of its valid domain.

@@ -15,6 +15,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
+#include "lavapipe_suite.hpp"
 #include "probe/lavapipe.hpp"
 
 namespace kiln::gpu {
@@ -229,27 +230,12 @@ Fp16Loss fp16_loss(const Grid& grid, const std::vector<ProbeOutput>& full, const
   return loss;
 }
 
-class Stress : public testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    std::string error;
-    gpu_ = Lavapipe::open(error).release();
-    open_error_ = error;
-  }
-  static void TearDownTestSuite() {
-    delete gpu_;
-    gpu_ = nullptr;
-    report_["device"] = device_;
-    // bench/run_all.sh points KILN_STRESS_REPORT into bench/results/ for bench/REPORT.md.
-    const char* path = std::getenv("KILN_STRESS_REPORT");
-    std::ofstream(path ? path : KILN_STRESS_REPORT_PATH) << report_.dump(2) << "\n";
-  }
-  void SetUp() override {
-    ASSERT_NE(gpu_, nullptr) << open_error_;
-    ASSERT_TRUE(gpu_->supports_float16()) << "lavapipe without shaderFloat16 cannot run the fp16 variants";
-    device_ = gpu_->device_name() + " (" + gpu_->driver_info() + ")";
-  }
+class Stress : public LavapipeSuite<Stress> {
+ public:
+  static constexpr const char* kReportEnvironment = "KILN_STRESS_REPORT";  // bench/run_all.sh points it into bench/results/
+  static constexpr const char* kReportPath = KILN_STRESS_REPORT_PATH;
 
+ protected:
   std::vector<ProbeOutput> run(const std::string& probe, std::vector<std::string> defines, const Grid& grid) {
     defines.push_back(probe);
     std::string error;
@@ -289,16 +275,8 @@ class Stress : public testing::Test {
     report_["gates"].push_back(entry);
   }
 
-  static Lavapipe* gpu_;
-  static std::string open_error_;
-  static std::string device_;
-  static nlohmann::json report_;
 };
 
-Lavapipe* Stress::gpu_ = nullptr;
-std::string Stress::open_error_;
-std::string Stress::device_;
-nlohmann::json Stress::report_;
 
 TEST_F(Stress, GridsCoverTheSpecialCasesWithAtLeast5000Points) {
   EXPECT_GE(term_grid().points.size(), 5000u);

@@ -10,6 +10,7 @@
 #include <functional>
 #include <set>
 
+#include "common/bytes.hpp"
 #include "common/files.hpp"
 
 namespace kiln {
@@ -31,22 +32,6 @@ constexpr size_t kSegmentHeaderSize = 8 + 4 + 4 + 8 + 8;
 constexpr size_t kIndexEntrySize = 16 + 8 + 8;
 constexpr const char* kSegmentExtension = ".kseg";
 
-void put32(std::string& out, uint32_t v) {
-  for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>(v >> (8 * i)));
-}
-void put64(std::string& out, uint64_t v) {
-  for (int i = 0; i < 8; ++i) out.push_back(static_cast<char>(v >> (8 * i)));
-}
-uint32_t get32(std::string_view in, size_t at) {
-  uint32_t v = 0;
-  for (int i = 0; i < 4; ++i) v |= static_cast<uint32_t>(static_cast<unsigned char>(in[at + i])) << (8 * i);
-  return v;
-}
-uint64_t get64(std::string_view in, size_t at) {
-  uint64_t v = 0;
-  for (int i = 0; i < 8; ++i) v |= static_cast<uint64_t>(static_cast<unsigned char>(in[at + i])) << (8 * i);
-  return v;
-}
 
 bool read_exactly(int fd, uint64_t offset, std::string& out, uint64_t size) {
   out.resize(size);

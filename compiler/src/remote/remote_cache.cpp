@@ -9,6 +9,7 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "common/bytes.hpp"
 #include "common/files.hpp"
 #include "common/parallel.hpp"
 #include "kiln/pack_format.hpp"
@@ -33,22 +34,6 @@ constexpr uint32_t kMaxBlobsPerResult = 16;
 // a server that answers HEAD and refuses every PUT is switched off after three refused uploads.
 constexpr unsigned kErrorsBeforeSwitchingOff = 3;
 
-void put32(std::string& out, uint32_t v) {
-  for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>(v >> (8 * i)));
-}
-void put64(std::string& out, uint64_t v) {
-  for (int i = 0; i < 8; ++i) out.push_back(static_cast<char>(v >> (8 * i)));
-}
-uint32_t get32(std::string_view in, size_t at) {
-  uint32_t v = 0;
-  for (int i = 0; i < 4; ++i) v |= static_cast<uint32_t>(static_cast<unsigned char>(in[at + i])) << (8 * i);
-  return v;
-}
-uint64_t get64(std::string_view in, size_t at) {
-  uint64_t v = 0;
-  for (int i = 0; i < 8; ++i) v |= static_cast<uint64_t>(static_cast<unsigned char>(in[at + i])) << (8 * i);
-  return v;
-}
 void put_key(std::string& out, const RemoteKey& key) { out.append(reinterpret_cast<const char*>(key.bytes.data()), 32); }
 RemoteKey get_key(std::string_view in, size_t at) {
   RemoteKey key;
