@@ -13,7 +13,7 @@
 
 #include "probe/lavapipe.hpp"
 
-namespace kiln {
+namespace kiln::gpu {
 
 template <typename Suite>
 class LavapipeSuite : public testing::Test {
@@ -42,4 +42,4 @@ class LavapipeSuite : public testing::Test {
   static inline nlohmann::json report_;
 };
 
-}  // namespace kiln
+}  // namespace kiln::gpu
