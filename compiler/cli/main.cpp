@@ -16,11 +16,13 @@
 #include "allocator.hpp"
 #include "progress_line.hpp"
 #include "common/files.hpp"
+#include "cross/cross_compile.hpp"
 #include "definition/definition.hpp"
 #include "frontend/frontend.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
 #include "lint/lint.hpp"
+#include "optimize/spirv_tools.hpp"
 #include "tools/pack_tools.hpp"
 
 namespace {
@@ -319,12 +321,22 @@ int run_diff_packs(const std::string& a, const std::string& b, bool as_json) {
 
 }  // namespace
 
+// kiln's version and every tool it was built with, as its cache keys and manifests name them (what a bug report needs).
+std::string version_text() {
+  std::string text = std::string("kiln ") + kiln::kKilnVersion + "\n";
+  for (const std::string& name : kiln::frontend_names())
+    if (auto frontend = kiln::make_frontend(name)) text += "front end: " + frontend->name() + " " + frontend->version() + "\n";
+  text += "SPIRV-Tools: " + kiln::spirv_tools_version() + "\n";
+  text += "SPIRV-Cross: " + kiln::spirv_cross_version() + "\n";
+  return text + "allocator: " + kiln::allocator_description();
+}
+
 int main(int argc, char** argv) {
   for (const auto& [verb, description] : kVerifyVerbs)
     if (argc > 1 && std::strcmp(argv[1], verb) == 0) return run_verify(argc, argv);
   CLI::App app{"kiln: shader permutation compiler (HLSL -> SPIR-V, GLSL, GLSL ES, MSL variant packs)"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", std::string("kiln ") + kiln::kKilnVersion + "\nallocator: " + kiln::allocator_description());
+  app.set_version_flag("--version", version_text());
 
   kiln::BuildOptions options;
   std::string pack_file, output, cache_dir, depfile;

@@ -11,6 +11,10 @@
 #include <nlohmann/json.hpp>
 
 #include "cache/cache.hpp"
+#include "cross/cross_compile.hpp"
+#include "frontend/frontend.hpp"
+#include "kiln/build.hpp"
+#include "optimize/spirv_tools.hpp"
 #include "test_support.hpp"
 
 namespace kiln {
@@ -44,6 +48,16 @@ struct Cli : ::testing::Test {
     EXPECT_TRUE(testing::files_below(dir / "cache").empty()) << "cache entries left behind";
   }
 };
+
+// A bug report needs every tool's version: --version names them as the cache keys and manifests do.
+TEST_F(Cli, VersionNamesEveryToolKilnWasBuiltWith) {
+  auto r = testing::run_kiln({"--version"}, dir.path());
+  EXPECT_EQ(r.exit_code, 0);
+  const std::string expected = std::string("kiln ") + kKilnVersion + "\nfront end: glslang " + make_frontend("glslang")->version() +
+                               "\nSPIRV-Tools: " + spirv_tools_version() + "\nSPIRV-Cross: " + spirv_cross_version() + "\nallocator: ";
+  EXPECT_EQ(r.out.substr(0, expected.size()), expected) << r.out;
+  EXPECT_NE(spirv_cross_version().find("libraries sha256 "), std::string::npos);
+}
 
 TEST_F(Cli, SyntaxErrorIsReportedAtItsLineDespiteThePreamble) {
   dir.write("S.hlsl", "#pragma multi_compile _ A\n\nfloat4 V(float4 p : POSITION) : SV_Position { return p; }\n"
