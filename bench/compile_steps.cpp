@@ -78,7 +78,7 @@ nlohmann::json run_steps(kiln::Frontend& frontend, const std::string& path, kiln
   timed(i++, "validate", [&] { return kiln::validate_spirv(legal.spirv).ok; });
   timed(i++, "optimize (-O)", [&] { return (optimized = kiln::optimize_spirv(legal.spirv)).ok; });
   timed(i++, "validate again", [&] { return kiln::validate_spirv(optimized.spirv).ok; });
-  timed(i++, "reflect", [&] { return !kiln::reflect_spirv(optimized.spirv).is_null(); });
+  timed(i++, "reflect", [&] { return !kiln::reflect_spirv(optimized.spirv).outputs.empty(); });
   // As in a worker: the GL module (16-bit floats widened) is made once, inside the first GL step.
   kiln::CrossCompiler cross(optimized.spirv);
   timed(i++, "SPIRV-Cross GLSL 450", [&] { return cross.compile(kiln::Target::Glsl).ok; });

@@ -167,15 +167,15 @@ double median(std::vector<double> v) {
 
 // PerFrame (with _LightCounts at the offset the probe's reflection gives), _AdditionalLights, _TileLightIndices.
 std::vector<ProbeBuffer> light_buffers(const kiln::gpu::ProbeProgram& program, const LightScene& scene) {
-  nlohmann::json reflection = kiln::reflect_spirv(program.fragment);
+  const kiln::Reflection reflection = kiln::reflect_spirv(program.fragment);
   ProbeBuffer frame{0, true, {}};
-  for (const auto& r : reflection["resources"]) {
-    if (r.value("name", "") != "PerFrame") continue;
-    frame.bytes.assign(r["size"].get<size_t>(), 0);
-    for (const auto& m : r["members"])
-      if (m["name"] == "_LightCounts") {
+  for (const kiln::Resource& r : reflection.resources) {
+    if (r.name != "PerFrame") continue;
+    frame.bytes.assign(r.size, 0);
+    for (const kiln::BlockMember& m : r.members)
+      if (m.name == "_LightCounts") {
         uint32_t counts[4] = {uint32_t(scene.lights.size()), LightScene::kTilePixels, LightScene::kTiles, 0};
-        std::memcpy(frame.bytes.data() + m["offset"].get<size_t>(), counts, sizeof counts);
+        std::memcpy(frame.bytes.data() + m.offset, counts, sizeof counts);
       }
   }
   if (frame.bytes.empty()) {

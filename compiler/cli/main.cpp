@@ -203,25 +203,18 @@ int run_list(kiln::BuildOptions options, bool as_json) {
   return 0;
 }
 
-const json& manifest_pass(const json& manifest, const std::string& name) {
-  static const json none = json::object();
-  for (const json& pass : manifest.at("passes"))
-    if (pass.at("name") == name) return pass;
-  return none;
-}
-
 int run_inspect(const std::string& pack_dir, bool as_json, const std::string& extract) {
   try {
     kiln::PackReader pack = kiln::PackReader::open(pack_dir);
+    const kiln::Manifest& manifest = pack.manifest();
     if (!extract.empty()) {
       std::filesystem::create_directories(extract);
-      const json& binaries = pack.manifest().at("binaries");
-      for (size_t b = 0; b < binaries.size(); ++b) {
-        for (auto& [target, id] : binaries[b].at("blobs").items()) {
-          auto t = kiln::parse_target(target);
-          std::string name = "binary" + std::to_string(b) + "." + binaries[b].at("stage").get<std::string>() +
-                             std::string(t ? kiln::target_extension(*t) : ".bin");
-          if (auto error = kiln::write_file_atomic(std::filesystem::path(extract) / name, std::string(pack.blob(id.get<uint32_t>())));
+      for (size_t b = 0; b < manifest.binaries.size(); ++b) {
+        const kiln::ManifestBinary& binary = manifest.binaries[b];
+        for (const auto& [target, id] : binary.blobs) {
+          std::string name = "binary" + std::to_string(b) + "." + std::string(kiln::stage_name(binary.stage)) +
+                             std::string(kiln::target_extension(target));
+          if (auto error = kiln::write_file_atomic(std::filesystem::path(extract) / name, std::string(pack.blob(id)));
               !error.empty()) {
             std::cerr << "kiln: error: " << error << "\n";
             return 1;
@@ -230,35 +223,30 @@ int run_inspect(const std::string& pack_dir, bool as_json, const std::string& ex
       }
     }
     if (as_json) {
-      json out{{"name", pack.name()}, {"archive", pack.manifest().at("archive").at("file")},
-               {"tools", pack.manifest().at("tools")}, {"passes", json::array()}};
-      for (const std::string& pass : pack.passes()) {
+      json out{{"name", pack.name()}, {"archive", manifest.archive.file}, {"tools", manifest.tools}, {"passes", json::array()}};
+      for (const kiln::ManifestPass& pass : manifest.passes) {
         json variants = json::array();
-        for (size_t i = 0; i < pack.variant_count(pass); ++i) variants.push_back(pack.variant(pass, i).keywords);
-        json entry{{"name", pass}, {"variants", variants}};
+        for (const kiln::ManifestVariant& variant : pass.variants) variants.push_back(variant.keywords);
+        json entry{{"name", pass.name}, {"variants", variants}, {"layout", pass.layout}};
         // The bindings chosen (docs/bindings.md): the options, defines and resulting layout of the pass.
-        const json& recorded = manifest_pass(pack.manifest(), pass);
-        for (const char* field : {"bindings", "defines", "layout"})
-          if (recorded.contains(field)) entry[field] = recorded.at(field);
+        if (!pass.bindings.empty()) entry["bindings"] = pass.bindings;
+        if (!pass.defines.empty()) entry["defines"] = pass.defines;
         out["passes"].push_back(std::move(entry));
       }
       std::cout << out.dump(2) << "\n";
     } else {
-      std::cout << "pack '" << pack.name() << "', format " << pack.manifest().at("format_version") << ", "
-                << pack.manifest().at("binaries").size() << " binaries, " << pack.manifest().at("archive").at("blobs")
-                << " blobs, " << pack.manifest().at("archive").at("size") << " bytes in "
-                << pack.manifest().at("archive").at("file").get<std::string>() << "\n";
-      for (const std::string& pass : pack.passes()) {
-        std::cout << "  pass " << pass << ": " << pack.variant_count(pass) << " variants\n";
-        const json& recorded = manifest_pass(pack.manifest(), pass);
-        if (recorded.contains("bindings")) std::cout << "    bindings: " << recorded.at("bindings").get<std::string>() << "\n";
-        if (recorded.contains("defines")) std::cout << "    defines: " << recorded.at("defines").dump() << "\n";
-        if (recorded.contains("layout") && recorded.at("layout").is_object())
-          for (const json& r : recorded.at("layout").at("resources"))
-            std::cout << "    set " << r.at("set") << " binding " << r.at("binding") << ": " << r.at("name").get<std::string>()
-                      << " (" << r.at("kind").get<std::string>() << ")\n";
-        for (size_t i = 0; i < pack.variant_count(pass); ++i)
-          std::cout << "    [" << kiln::join_keywords(pack.variant(pass, i).keywords) << "]\n";
+      std::cout << "pack '" << pack.name() << "', format " << manifest.format_version << ", " << manifest.binaries.size()
+                << " binaries, " << manifest.archive.blobs << " blobs, " << manifest.archive.size << " bytes in "
+                << manifest.archive.file << "\n";
+      for (const kiln::ManifestPass& pass : manifest.passes) {
+        std::cout << "  pass " << pass.name << ": " << pass.variants.size() << " variants\n";
+        if (!pass.bindings.empty()) std::cout << "    bindings: " << pass.bindings << "\n";
+        if (!pass.defines.empty()) std::cout << "    defines: " << json(pass.defines).dump() << "\n";
+        for (const kiln::Resource& r : pass.layout.resources)
+          std::cout << "    set " << r.set << " binding " << r.binding << ": " << r.name << " ("
+                    << kiln::resource_kind_name(r.kind) << ")\n";
+        for (const kiln::ManifestVariant& variant : pass.variants)
+          std::cout << "    [" << kiln::join_keywords(variant.keywords) << "]\n";
       }
     }
     return 0;

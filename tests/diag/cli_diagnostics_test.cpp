@@ -844,7 +844,7 @@ TEST_F(Cli, InspectNamesTheFileOfEachPackError) {
        "out/p.manifest.json: error: the manifest has no checksum (\"manifest_xxh3_64\")\n"},
       // Edited and resealed: the checks behind the checksum.
       {testing::resealed_manifest(replaced("\"name\": \"p\"", "\"title\": \"p\"")),
-       "out/p.manifest.json: error: malformed manifest: key 'name' not found\n"},
+       "out/p.manifest.json: error: malformed manifest: top level: has no \"name\"\n"},
       // A hostile manifest names a file outside the pack: refused before any file is opened.
       {testing::resealed_manifest(replaced("\"file\": \"p.", "\"file\": \"../p.")),
        "out/p.manifest.json: error: malformed manifest: /archive/file: \"../p." + archive_hash +

@@ -480,18 +480,19 @@ TEST_F(SmallLibrary, GlAndMslBindingRecordsNameEveryResourceAndMatchTheSource) {
   PackReader pack = PackReader::open(dir / "out");
   const StageView* fragment = pack.variant("P", 0).stage("fragment");
   ASSERT_TRUE(fragment && fragment->reflection);
-  const nlohmann::json& reflection = *fragment->reflection;
-  ASSERT_EQ(reflection["glsl"]["blocks"].size(), 1u);
-  EXPECT_EQ(reflection["glsl"]["blocks"][0]["name"], "Constants");
-  EXPECT_EQ(reflection["glsl"]["blocks"][0]["binding"], 0);
+  const Reflection& reflection = *fragment->reflection;
+  ASSERT_TRUE(reflection.glsl && reflection.msl);
+  ASSERT_EQ(reflection.glsl->blocks.size(), 1u);
+  EXPECT_EQ(reflection.glsl->blocks[0].name, "Constants");
+  EXPECT_EQ(reflection.glsl->blocks[0].binding, 0u);
   EXPECT_NE(fragment->glsl.find("uniform Constants"), std::string_view::npos) << fragment->glsl;
-  std::map<std::string, std::string> expected = {{"buffer", "buffer"}, {"texture", "texture"}, {"sampler", "sampler"}};
-  ASSERT_EQ(reflection["msl"]["resources"].size(), 3u);
-  for (const auto& resource : reflection["msl"]["resources"]) {
-    std::string name = resource["name"];
+  const std::map<MslResourceKind, std::string> expected = {
+      {MslResourceKind::Buffer, "buffer"}, {MslResourceKind::Texture, "texture"}, {MslResourceKind::Sampler, "sampler"}};
+  ASSERT_EQ(reflection.msl->resources.size(), 3u);
+  for (const MslResource& resource : reflection.msl->resources) {
+    const std::string& name = resource.name;
     EXPECT_FALSE(name.empty());
-    std::string attribute = "[[" + expected.at(resource["kind"].get<std::string>()) + "(" +
-                            std::to_string(resource["index"].get<int>()) + ")]]";
+    std::string attribute = "[[" + expected.at(resource.kind) + "(" + std::to_string(resource.index) + ")]]";
     EXPECT_NE(fragment->msl.find(attribute), std::string_view::npos) << name << " " << attribute << "\n" << fragment->msl;
   }
 }
@@ -551,11 +552,13 @@ std::vector<std::string> msl_record_problems(const StageView& stage) {
     }
   }
   std::set<std::string> declared;
-  for (const auto& r : stage.reflection->value("resources", nlohmann::json::array())) declared.insert(r["name"]);
+  for (const Resource& r : stage.reflection->resources) declared.insert(r.name);
   size_t records = 0;
-  for (const auto& r : stage.reflection->at("msl").at("resources")) {
+  if (!stage.reflection->msl) return {"the stage has no MSL records"};
+  for (const MslResource& r : stage.reflection->msl->resources) {
     ++records;
-    const std::string name = r["name"], key = r["kind"].get<std::string>() + "(" + std::to_string(r["index"].get<int>()) + ")";
+    static const char* const kKinds[] = {"buffer", "texture", "sampler"};
+    const std::string name = r.name, key = kKinds[static_cast<size_t>(r.kind)] + ("(" + std::to_string(r.index) + ")");
     auto found = arguments.find(key);
     if (found == arguments.end()) {
       problems.push_back(name + ": the MSL entry point has no [[" + key + "]] argument");
@@ -604,15 +607,13 @@ TEST(BundledLibrary, DefaultPackBuildsWithoutWarningsAndEveryVariantIsSelectable
 
   // Every keyword changes the compiled code of a stage it is declared for: some pair of variants that
   // differ only in that keyword (against the group's off value) has a different binary in such a stage.
-  for (const auto& pass : pack.manifest().at("passes")) {
-    const auto& groups = pass.at("keyword_groups");
+  for (const ManifestPass& pass : pack.manifest().passes) {
     std::map<std::vector<std::string>, size_t> by_keywords;
-    const auto& all = pass.at("variants");
-    for (size_t i = 0; i < all.size(); ++i) by_keywords[all[i].at("keywords").get<std::vector<std::string>>()] = i;
-    for (const auto& group : groups) {
-      std::vector<std::string> values = group.at("values").get<std::vector<std::string>>();
-      for (const std::string& keyword : values) {
-        if (keyword == "_") continue;
+    const std::vector<ManifestVariant>& all = pass.variants;
+    for (size_t i = 0; i < all.size(); ++i) by_keywords[all[i].keywords] = i;
+    for (const ManifestKeywordGroup& group : pass.keyword_groups) {
+      for (const std::string& keyword : group.values) {
+        if (keyword.empty()) continue;
         bool changes = false, compared = false;
         for (const auto& [keywords, index] : by_keywords) {
           if (std::find(keywords.begin(), keywords.end(), keyword) == keywords.end()) continue;
@@ -622,16 +623,16 @@ TEST(BundledLibrary, DefaultPackBuildsWithoutWarningsAndEveryVariantIsSelectable
           auto other = by_keywords.find(without);
           if (other == by_keywords.end()) continue;
           compared = true;
-          for (const auto& stage : group.at("stages")) {
-            const std::string name = stage.get<std::string>();
-            if (all[index].at("binaries").contains(name) &&
-                all[index].at("binaries").at(name) != all[other->second].at("binaries").at(name))
-              changes = true;
+          for (Stage stage : kAllStages) {
+            if (!(group.stages & stage_bit(stage))) continue;
+            const auto& mine = all[index].binaries;
+            const auto& theirs = all[other->second].binaries;
+            if (mine.count(stage) && mine.at(stage) != theirs.at(stage)) changes = true;
           }
           if (changes) break;
         }
         if (compared) {
-          EXPECT_TRUE(changes) << pass.at("name") << ": keyword " << keyword << " changes no code of its stages";
+          EXPECT_TRUE(changes) << pass.name << ": keyword " << keyword << " changes no code of its stages";
         }
       }
     }

@@ -14,7 +14,7 @@ JobOutput sample_output(const std::string& text = "void main() {}") {
   out.ok = true;
   out.blobs[Target::Spirv] = pack_spirv({0x07230203, 1, 2, 3});
   out.blobs[Target::Glsl] = pack_blob("#version 450\n" + text + "\n");
-  out.reflection = {{"resources", nlohmann::json::array()}};
+  out.reflection.outputs.push_back({"color", 0, "float4"});
   return out;
 }
 

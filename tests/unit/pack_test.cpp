@@ -37,20 +37,17 @@ std::filesystem::path write_sample_pack(const testing::TempDir& dir) {
   EXPECT_EQ(spv, same);  // deduplicated
   uint32_t glsl = archive.add("#version 450\n");
   uint32_t msl = archive.add(kCompressedMsl);  // stored as a zstd frame
-  json binaries = json::array();
-  binaries.push_back({{"stage", "fragment"}, {"entry", "F"}, {"blobs", {{"spirv", spv}, {"glsl", glsl}, {"msl", msl}}},
-                      {"reflection", 0}});
-  json variants = json::array();
+  Manifest manifest;
+  manifest.format_version = kPackFormatVersion;
+  manifest.name = "sample";
+  manifest.binaries.push_back({Stage::Fragment, "F", {{Target::Spirv, spv}, {Target::Glsl, glsl}, {Target::Msl, msl}}, 0});
+  manifest.reflections.emplace_back();
+  ManifestPass& pass = manifest.passes.emplace_back();
+  pass.name = "P";
+  pass.entry_points[Stage::Fragment] = "F";
+  pass.keyword_groups = {{"multi_compile", {"", "A", "B"}, kAllStageBits}, {"multi_compile", {"", "C"}, kAllStageBits}};
   for (auto keywords : std::vector<std::vector<std::string>>{{}, {"A"}, {"B"}, {"C"}, {"A", "C"}})
-    variants.push_back({{"keywords", keywords}, {"binaries", {{"fragment", 0}}}});
-  json manifest{{"format", kManifestFormat},
-                {"format_version", kPackFormatVersion},
-                {"name", "sample"},
-                {"passes", json::array({{{"name", "P"},
-                                         {"keyword_groups", json::array({{{"values", {"_", "A", "B"}}}, {{"values", {"_", "C"}}}})},
-                                         {"variants", variants}}})},
-                {"binaries", binaries},
-                {"reflections", json::array({json::object()})}};
+    pass.variants.push_back({keywords, {{Stage::Fragment, 0}}});
   EXPECT_EQ(write_pack(dir.path(), "sample", archive, manifest).error, "");
   return dir / "sample.manifest.json";
 }
@@ -349,8 +346,9 @@ TEST(HostilePack, AFrameClaimingMoreThanItsBytesCanHoldIsRefusedAtOpen) {
   blob.stored = frame;
   blob.raw_size = claimed;
   archive.add(blob);
-  json manifest{{"format", kManifestFormat}, {"format_version", kPackFormatVersion}, {"name", "sample"},
-                {"passes", json::array()}, {"binaries", json::array()}, {"reflections", json::array()}};
+  Manifest manifest;
+  manifest.format_version = kPackFormatVersion;
+  manifest.name = "sample";
   ASSERT_EQ(write_pack(dir.path(), "sample", archive, manifest).error, "");
   try {
     PackReader::open(dir / "sample.manifest.json");

@@ -13,7 +13,6 @@
 namespace kiln::render {
 namespace {
 
-using nlohmann::json;
 
 struct GlMesh {
   GLuint vertices = 0, indices = 0;
@@ -47,13 +46,12 @@ GlBindings manifest_bindings(const SelectedVariant& variant, bool gles) {
   };
   for (const StageView& stage : variant.stages) {
     if (!stage.reflection) continue;
-    const json& records = stage.reflection->value(gles ? "gles" : "glsl", json::object());
-    for (const json& r : records.value("blocks", json::array()))
-      if (add(r["name"], r["binding"]))
-        b.blocks.push_back({r["name"], r["kind"] == "storage_buffer", r["binding"].get<GLuint>()});
-    for (const json& r : records.value("combined_image_samplers", json::array()))
-      if (add(r["name"], r["binding"]))
-        b.samplers.push_back({r["name"], r["texture"], r["sampler"], r["binding"].get<GLuint>()});
+    const kiln::GlBindings* records = stage.reflection->gl(gles);
+    if (!records) continue;
+    for (const kiln::GlBlock& r : records->blocks)
+      if (add(r.name, r.binding)) b.blocks.push_back({r.name, r.kind == kiln::ResourceKind::StorageBuffer, r.binding});
+    for (const kiln::GlCombinedSampler& r : records->combined_image_samplers)
+      if (add(r.name, r.binding)) b.samplers.push_back({r.name, r.texture, r.sampler, r.binding});
   }
   for (size_t i = 0; i < b.samplers.size(); ++i)
     for (size_t j = 0; j < i; ++j)

@@ -49,17 +49,19 @@ struct Target {
 
 // One descriptor-set layout built from a pass's reflected layout (every resource, both stages).
 struct PassLayout {
-  const json* resources = nullptr;
+  const std::vector<Resource>* resources = nullptr;
   VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
   VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
 };
 
-VkDescriptorType descriptor_type(const std::string& kind) {
-  if (kind == "uniform_buffer") return VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
-  if (kind == "storage_buffer") return VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-  if (kind == "texture") return VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE;
-  if (kind == "sampler") return VK_DESCRIPTOR_TYPE_SAMPLER;
-  fail("reflected resource kind '" + kind + "' is not supported by the renderer");
+VkDescriptorType descriptor_type(ResourceKind kind) {
+  switch (kind) {
+    case ResourceKind::UniformBuffer: return VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    case ResourceKind::StorageBuffer: return VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    case ResourceKind::Texture: return VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE;
+    case ResourceKind::Sampler: return VK_DESCRIPTOR_TYPE_SAMPLER;
+    default: fail("reflected resource kind '" + std::string(resource_kind_name(kind)) + "' is not supported by the renderer");
+  }
 }
 
 }  // namespace
@@ -241,14 +243,13 @@ Target make_target(VulkanContext& context, VulkanObjects& objects, uint32_t widt
   return t;
 }
 
-PassLayout make_pass_layout(VulkanContext& context, VulkanObjects& objects, const json& pass) {
+PassLayout make_pass_layout(VulkanContext& context, VulkanObjects& objects, const ManifestPass& pass) {
   PassLayout layout;
-  layout.resources = &pass["layout"]["resources"];
+  layout.resources = &pass.layout.resources;
   std::vector<VkDescriptorSetLayoutBinding> bindings;
-  for (const json& r : *layout.resources) {
-    if (r.value("set", 0) != 0) fail("resource " + r.value("name", "") + " is in set " + std::to_string(r.value("set", 0)) + "; the renderer binds set 0 only");
-    bindings.push_back({r["binding"].get<uint32_t>(), descriptor_type(r["kind"].get<std::string>()),
-                        r.value("count", 1u), VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, nullptr});
+  for (const Resource& r : *layout.resources) {
+    if (r.set != 0) fail("resource " + r.name + " is in set " + std::to_string(r.set) + "; the renderer binds set 0 only");
+    bindings.push_back({r.binding, descriptor_type(r.kind), r.count, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, nullptr});
   }
   VkDescriptorSetLayoutCreateInfo set_info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
   set_info.bindingCount = static_cast<uint32_t>(bindings.size());
@@ -398,13 +399,13 @@ void write_set(VkDevice device, VkDescriptorSet set, const PassLayout& layout,
   std::vector<VkWriteDescriptorSet> writes;
   std::vector<std::unique_ptr<VkDescriptorBufferInfo>> buffers;
   std::vector<std::unique_ptr<VkDescriptorImageInfo>> images;
-  for (const json& r : *layout.resources) {
+  for (const Resource& r : *layout.resources) {
     VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
     w.dstSet = set;
-    w.dstBinding = r["binding"].get<uint32_t>();
+    w.dstBinding = r.binding;
     w.descriptorCount = 1;
-    w.descriptorType = descriptor_type(r["kind"].get<std::string>());
-    const std::string name = r.value("name", "");
+    w.descriptorType = descriptor_type(r.kind);
+    const std::string& name = r.name;
     if (w.descriptorType == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER || w.descriptorType == VK_DESCRIPTOR_TYPE_STORAGE_BUFFER) {
       buffers.push_back(std::make_unique<VkDescriptorBufferInfo>(buffer(name)));
       w.pBufferInfo = buffers.back().get();
@@ -644,7 +645,7 @@ GBuffer SceneRenderer::render_gbuffer(const PackReader& debug_pack) {
   State::Frame& f = s.frames[1];
   VkDevice device = s.context.device();
   VulkanObjects local(s.context);
-  const json& pass = find_pass(debug_pack, "GBuffer");
+  const ManifestPass& pass = find_pass(debug_pack, "GBuffer");
   PassLayout layout = make_pass_layout(s.context, local, pass);
   Target target = make_target(s.context, local, width_, height_, kGBufferTargets, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL);
   VkPipeline pipeline = make_pipeline(s.context, local, debug_pack.select("GBuffer", {}), target.pass, kGBufferTargets,

@@ -9,7 +9,6 @@
 
 namespace kiln::render {
 
-using nlohmann::json;
 
 void render_error(const std::string& message) { throw std::runtime_error("kiln render: error: " + message); }
 
@@ -31,19 +30,18 @@ DfgTable load_dfg(const std::filesystem::path& path) {
   return t;
 }
 
-const json& find_pass(const PackReader& pack, const std::string& name) {
-  for (const json& p : pack.manifest()["passes"])
-    if (p["name"] == name) return p;
+const ManifestPass& find_pass(const PackReader& pack, const std::string& name) {
+  if (const ManifestPass* pass = pack.manifest().pass(name)) return *pass;
   render_error("pack '" + pack.name() + "' has no " + name + " pass");
 }
 
-const json* find_resource(const json& pass, const std::string& name) {
-  for (const json& r : pass["layout"]["resources"])
-    if (r.value("name", "") == name) return &r;
+const Resource* find_resource(const ManifestPass& pass, const std::string& name) {
+  for (const Resource& r : pass.layout.resources)
+    if (r.name == name) return &r;
   return nullptr;
 }
 
-BlockWriter::BlockWriter(const json& block) : block_(block), bytes_(block["size"].get<size_t>(), 0) {}
+BlockWriter::BlockWriter(const Resource& block) : block_(block), bytes_(block.size, 0) {}
 
 void BlockWriter::floats(const std::string& member, std::initializer_list<double> values, size_t element) {
   std::vector<float> f(values.begin(), values.end());
@@ -63,10 +61,10 @@ void BlockWriter::matrix(const std::string& member, const Mat4& m, size_t elemen
 }
 
 void BlockWriter::write(const std::string& member, const void* data, size_t size, size_t element) {
-  for (const json& m : block_.value("members", json::array())) {
-    if (m.value("name", "") != member) continue;
-    size_t offset = m["offset"].get<size_t>() + element * m.value("array_stride", size_t(0));
-    if (offset + size > bytes_.size()) render_error("member " + member + " overruns block " + block_.value("name", ""));
+  for (const BlockMember& m : block_.members) {
+    if (m.name != member) continue;
+    size_t offset = m.offset + element * m.array_stride.value_or(0);
+    if (offset + size > bytes_.size()) render_error("member " + member + " overruns block " + block_.name);
     std::memcpy(bytes_.data() + offset, data, size);
     return;
   }
@@ -101,29 +99,28 @@ bool is_provided_resource(const std::string& name) { return provided_resources()
 std::vector<MeshAttribute> mesh_attributes(const StageView& vertex) {
   std::vector<MeshAttribute> attributes;
   if (!vertex.reflection) return attributes;
-  for (const json& input : vertex.reflection->value("inputs", json::array())) {
-    std::string name = input.value("name", "");
-    name = name.substr(name.rfind('.') + 1);
-    uint32_t location = input["location"].get<uint32_t>();
+  for (const StageVariable& input : vertex.reflection->inputs) {
+    std::string name = input.name.substr(input.name.rfind('.') + 1);
+    const uint32_t location = input.location;
     if (name == "positionOS") attributes.push_back({location, 3, 0});
     else if (name == "normalOS") attributes.push_back({location, 3, 12});
     else if (name == "tangentOS") attributes.push_back({location, 4, 24});
     else if (name == "uv") attributes.push_back({location, 2, 40});
-    else render_error("vertex input '" + input.value("name", "") + "' has no mesh attribute (POSITION, NORMAL, TANGENT, TEXCOORD0)");
+    else render_error("vertex input '" + input.name + "' has no mesh attribute (POSITION, NORMAL, TANGENT, TEXCOORD0)");
   }
   return attributes;
 }
 
 SceneData::SceneData(const PackReader& pack, const Scene& scene)
     : pack_(pack), scene_(scene), forward_(find_pass(pack, "Forward")), shadow_(find_pass(pack, "ShadowCaster")) {
-  for (const json& r : forward_["layout"]["resources"])
-    if (!is_provided_resource(r.value("name", "")))
-      render_error("the Forward pass binds '" + r.value("name", "") + "', which the renderer does not provide");
+  for (const Resource& r : forward_.layout.resources)
+    if (!is_provided_resource(r.name))
+      render_error("the Forward pass binds '" + r.name + "', which the renderer does not provide");
   environment_ = load_environment(scene_.environment);
   dfg_ = load_dfg(scene_.dfg);
 
-  const json* material_block = find_resource(forward_, "PerMaterial");
-  const json* object_block = find_resource(forward_, "PerObject");
+  const Resource* material_block = find_resource(forward_, "PerMaterial");
+  const Resource* object_block = find_resource(forward_, "PerObject");
   if (!material_block || !object_block) render_error("the Forward pass has no PerMaterial/PerObject constant buffer");
   for (const Object& o : scene_.objects) {
     BlockWriter mw(*material_block);
@@ -176,7 +173,7 @@ const SceneData::Frame& SceneData::frame(int cascades) {
   if (found != frames_.end()) return found->second;
   Frame f;
   f.setup = setup_frame(scene_, cascades);
-  const json* block = find_resource(forward_, "PerFrame");
+  const Resource* block = find_resource(forward_, "PerFrame");
   if (!block) render_error("the Forward pass has no PerFrame constant buffer");
   BlockWriter w(*block);
   const Scene& sc = scene_;
@@ -218,7 +215,7 @@ const Bytes& SceneData::buffer(const std::string& name, size_t object, const Fra
 }
 
 Bytes SceneData::caster_constants(const ShadowView& view) const {
-  const json* block = find_resource(shadow_, "ShadowCaster");
+  const Resource* block = find_resource(shadow_, "ShadowCaster");
   if (!block) render_error("the ShadowCaster pass has no ShadowCaster constant buffer");
   BlockWriter w(*block);
   w.matrix("_ShadowViewProjection", view.view_projection);

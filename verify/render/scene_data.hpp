@@ -31,15 +31,15 @@ struct DfgTable {
 DfgTable load_dfg(const std::filesystem::path& path);
 
 // A pass of the pack by name; throws if the pack has no such pass.
-const nlohmann::json& find_pass(const PackReader& pack, const std::string& name);
+const ManifestPass& find_pass(const PackReader& pack, const std::string& name);
 // A resource of a pass's reflected layout by name, or null.
-const nlohmann::json* find_resource(const nlohmann::json& pass, const std::string& name);
+const Resource* find_resource(const ManifestPass& pass, const std::string& name);
 
 // Fills a constant or storage buffer at the offsets a reflected block records. A member the reflection does
 // not list (no variant of the pass reads it) is skipped.
 class BlockWriter {
  public:
-  explicit BlockWriter(const nlohmann::json& block);
+  explicit BlockWriter(const Resource& block);
   void floats(const std::string& member, std::initializer_list<double> values, size_t element = 0);
   void uints(const std::string& member, std::initializer_list<uint32_t> values);
   // HLSL float4x4 in a constant buffer is column-major: column c of M is stored at offset 16 c.
@@ -48,7 +48,7 @@ class BlockWriter {
 
  private:
   void write(const std::string& member, const void* data, size_t size, size_t element);
-  const nlohmann::json& block_;
+  const Resource& block_;
   Bytes bytes_;
 };
 
@@ -59,8 +59,8 @@ class SceneData {
   SceneData(const PackReader& pack, const Scene& scene);
 
   const Scene& scene() const { return scene_; }
-  const nlohmann::json& forward_pass() const { return forward_; }
-  const nlohmann::json& shadow_pass() const { return shadow_; }
+  const ManifestPass& forward_pass() const { return forward_; }
+  const ManifestPass& shadow_pass() const { return shadow_; }
   const Environment& environment() const { return environment_; }
   const DfgTable& dfg() const { return dfg_; }
 
@@ -83,8 +83,8 @@ class SceneData {
  private:
   const PackReader& pack_;
   Scene scene_;
-  const nlohmann::json& forward_;
-  const nlohmann::json& shadow_;
+  const ManifestPass& forward_;
+  const ManifestPass& shadow_;
   Environment environment_;
   DfgTable dfg_;
   std::vector<Bytes> per_material_, per_object_;

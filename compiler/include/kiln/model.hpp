@@ -12,23 +12,9 @@
 #include <vector>
 
 #include "kiln/diagnostics.hpp"
+#include "kiln/stage_target.hpp"
 
 namespace kiln {
-
-enum class Stage : uint8_t { Vertex, Fragment };
-inline constexpr int kStageCount = 2;
-inline constexpr std::array<Stage, kStageCount> kAllStages{Stage::Vertex, Stage::Fragment};
-using StageMask = uint8_t;
-inline constexpr StageMask stage_bit(Stage s) { return static_cast<StageMask>(1u << static_cast<unsigned>(s)); }
-inline constexpr StageMask kAllStageBits = 0x3;
-std::string_view stage_name(Stage stage);  // "vertex", "fragment"
-std::optional<Stage> parse_stage(std::string_view name);
-
-enum class Target : uint8_t { Spirv, Glsl, Gles, Msl };
-inline constexpr int kTargetCount = 4;
-std::string_view target_name(Target target);  // "spirv", "glsl", "gles", "msl"
-std::string_view target_extension(Target target);  // ".spv", ".glsl", ".es.glsl", ".metal"
-std::optional<Target> parse_target(std::string_view name);
 
 // One `#pragma multi_compile ...` line: exactly one of `values` is chosen per variant.
 // The "none" value (`_` in the pragma) is stored as the empty string.

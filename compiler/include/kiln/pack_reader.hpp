@@ -23,7 +23,7 @@
 #include <string_view>
 #include <vector>
 
-#include <nlohmann/json.hpp>
+#include "kiln/manifest.hpp"
 
 namespace kiln {
 
@@ -49,7 +49,7 @@ struct StageView {
   std::string_view glsl;
   std::string_view gles;
   std::string_view msl;
-  const nlohmann::json* reflection = nullptr;
+  const Reflection* reflection = nullptr;
 };
 
 struct SelectedVariant {
@@ -66,7 +66,7 @@ class PackReader {
   static PackReader open(const std::filesystem::path& path);
 
   const std::string& name() const { return name_; }
-  const nlohmann::json& manifest() const { return manifest_; }
+  const Manifest& manifest() const { return manifest_; }
   std::vector<std::string> passes() const;
   size_t variant_count(std::string_view pass) const;
   // Keywords declared by the pass, by group.
@@ -78,7 +78,7 @@ class PackReader {
 
  private:
   struct Pass {
-    const nlohmann::json* json = nullptr;
+    const ManifestPass* manifest = nullptr;
     std::vector<std::vector<std::string>> groups;  // "" is the off value
     std::map<std::string, size_t> by_key;          // joined sorted keywords -> variant index
   };
@@ -91,7 +91,7 @@ class PackReader {
     uint64_t hash = 0;  // XXH3-64 of the raw bytes
   };
   std::string name_;
-  nlohmann::json manifest_;
+  Manifest manifest_;
   std::string archive_;
   std::string archive_file_;  // its path, for errors found when a blob is first decompressed
   std::vector<Blob> blobs_;

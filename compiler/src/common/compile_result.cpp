@@ -26,7 +26,8 @@ std::vector<uint8_t> encode_output(const JobOutput& output) {
     blobs[std::string(target_name(target))] = {json::binary(std::vector<uint8_t>(blob.stored.begin(), blob.stored.end())),
                                                blob.raw_size, blob.checksum, blob.key.low, blob.key.high};
   j["blobs"] = blobs;
-  j["reflection"] = output.reflection;
+  // Front-end and preprocessing outputs have none (null, as before the reflection was typed).
+  j["reflection"] = output.reflection == Reflection{} ? json() : json(output.reflection);
   j["full_legalization"] = output.full_legalization;
   if (!output.preprocessed.empty() || !output.files_read.empty()) {
     j["preprocessed"] = output.preprocessed;
@@ -58,7 +59,7 @@ JobOutput decode_output(const std::vector<uint8_t>& bytes) {
     if (blob.stored.size() > blob.raw_size) throw std::runtime_error("malformed output blob");
     out.blobs[*target] = std::move(blob);
   }
-  out.reflection = std::move(j.at("reflection"));
+  if (const json& reflection = j.at("reflection"); !reflection.is_null()) out.reflection = reflection.get<Reflection>();
   out.full_legalization = j.at("full_legalization").get<bool>();
   if (j.contains("preprocessed")) {
     out.preprocessed = j.at("preprocessed").get<std::string>();

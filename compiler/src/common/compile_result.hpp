@@ -12,6 +12,7 @@
 #include "common/blob.hpp"
 #include "common/compile_step.hpp"
 #include "kiln/diagnostics.hpp"
+#include "kiln/manifest.hpp"
 #include "kiln/model.hpp"
 
 namespace kiln {
@@ -31,7 +32,7 @@ struct JobOutput {
   std::vector<FrontendMessage> messages;
   std::vector<uint32_t> spirv;            // FrontEnd: the front end's module (not legal SPIR-V yet)
   std::map<Target, PackedBlob> blobs;     // BackEnd, Full: every output, the optimized SPIR-V included
-  nlohmann::json reflection;               // reflect_spirv + "gl" / "msl" bindings
+  Reflection reflection;                   // BackEnd, Full: reflect_spirv + each target's binding records
   bool full_legalization = false;          // legalized by SPIRV-Tools' full recipe (the core one was not enough)
   std::string preprocessed;                // Preprocess: the text
   std::vector<std::string> files_read;     // Preprocess: the names of the files it read, the entry included

@@ -5,34 +5,6 @@
 
 namespace kiln {
 
-std::string_view stage_name(Stage stage) { return stage == Stage::Vertex ? "vertex" : "fragment"; }
-
-std::optional<Stage> parse_stage(std::string_view name) {
-  if (name == "vertex") return Stage::Vertex;
-  if (name == "fragment") return Stage::Fragment;
-  return std::nullopt;
-}
-
-std::string_view target_name(Target target) {
-  switch (target) {
-    case Target::Spirv: return "spirv";
-    case Target::Glsl: return "glsl";
-    case Target::Gles: return "gles";
-    case Target::Msl: return "msl";
-  }
-  return "spirv";
-}
-
-std::string_view target_extension(Target target) {
-  switch (target) {
-    case Target::Spirv: return ".spv";
-    case Target::Glsl: return ".glsl";
-    case Target::Gles: return ".es.glsl";
-    case Target::Msl: return ".metal";
-  }
-  return ".bin";
-}
-
 char register_class_letter(RegisterClass register_class) { return "btsu"[static_cast<size_t>(register_class)]; }
 
 std::optional<RegisterClass> parse_register_class(std::string_view letter) {
@@ -82,12 +54,6 @@ std::optional<Define> parse_define(std::string_view text) {
   // A value is one line of the preamble: a newline would end the #define and start another directive.
   if (!is_identifier(define.name) || define.value.find_first_of("\r\n") != std::string::npos) return std::nullopt;
   return define;
-}
-
-std::optional<Target> parse_target(std::string_view name) {
-  for (Target t : {Target::Spirv, Target::Glsl, Target::Gles, Target::Msl})
-    if (target_name(t) == name) return t;
-  return std::nullopt;
 }
 
 bool KeywordGroup::has_none() const { return index_of("") >= 0; }

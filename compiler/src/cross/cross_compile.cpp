@@ -16,8 +16,6 @@
 namespace kiln {
 namespace {
 
-using nlohmann::json;
-
 // `spirv`: the module with its 16-bit floats already widened for GL.
 CrossResult to_glsl(const std::vector<uint32_t>& spirv, bool es) {
   CrossResult result;
@@ -39,7 +37,7 @@ CrossResult to_glsl(const std::vector<uint32_t>& spirv, bool es) {
   if (uint32_t dummy = compiler.build_dummy_sampler_for_combined_images(); dummy != 0)
     compiler.set_name(dummy, "kiln_no_sampler");
   compiler.build_combined_image_samplers();
-  json combined = json::array();
+  GlBindings& records = result.gl.emplace();
   for (const spirv_cross::CombinedImageSampler& pair : compiler.get_combined_image_samplers()) {
     const std::string texture = compiler.get_name(pair.image_id);
     const std::string sampler = compiler.get_name(pair.sampler_id);
@@ -47,21 +45,17 @@ CrossResult to_glsl(const std::vector<uint32_t>& spirv, bool es) {
     const std::string name = texture + "_" + sampler;
     compiler.set_name(pair.combined_id, name);
     compiler.set_decoration(pair.combined_id, spv::DecorationBinding, binding);
-    combined.push_back({{"name", name}, {"texture", texture}, {"sampler", sampler}, {"binding", binding}});
+    records.combined_image_samplers.push_back({name, texture, sampler, binding});
   }
   result.source = compiler.compile();
-  std::sort(combined.begin(), combined.end(), [](const json& a, const json& b) { return a["name"] < b["name"]; });
-  result.bindings["combined_image_samplers"] = combined;
-  json blocks = json::array();
+  std::sort(records.combined_image_samplers.begin(), records.combined_image_samplers.end(),
+            [](const GlCombinedSampler& a, const GlCombinedSampler& b) { return a.name < b.name; });
   spirv_cross::ShaderResources resources = compiler.get_shader_resources();
   // Blocks by their interface name (what GL's glGetUniformBlockIndex takes), not the unnamed HLSL instance.
   for (const auto& buffer : resources.uniform_buffers)
-    blocks.push_back({{"name", buffer.name}, {"kind", "uniform_buffer"},
-                      {"binding", compiler.get_decoration(buffer.id, spv::DecorationBinding)}});
+    records.blocks.push_back({buffer.name, ResourceKind::UniformBuffer, compiler.get_decoration(buffer.id, spv::DecorationBinding)});
   for (const auto& buffer : resources.storage_buffers)
-    blocks.push_back({{"name", buffer.name}, {"kind", "storage_buffer"},
-                      {"binding", compiler.get_decoration(buffer.id, spv::DecorationBinding)}});
-  result.bindings["blocks"] = blocks;
+    records.blocks.push_back({buffer.name, ResourceKind::StorageBuffer, compiler.get_decoration(buffer.id, spv::DecorationBinding)});
   result.ok = true;
   return result;
 }
@@ -83,21 +77,20 @@ CrossResult to_msl(const std::vector<uint32_t>& spirv) {
                            &resources.separate_samplers, &resources.sampled_images})
     for (const auto& resource : *list) declared[resource.id] = resource.name;
   result.source = compiler.compile();
-  json indices = json::array();
-  auto record = [&](const spirv_cross::SmallVector<spirv_cross::Resource>& list, const char* kind) {
+  std::vector<MslResource>& indices = result.msl.emplace().resources;
+  auto record = [&](const spirv_cross::SmallVector<spirv_cross::Resource>& list, MslResourceKind kind) {
     for (const auto& resource : list) {
       uint32_t index = compiler.get_automatic_msl_resource_binding(resource.id);
       if (index == uint32_t(-1)) continue;  // not used by the entry point
-      indices.push_back({{"name", declared.at(resource.id)}, {"kind", kind}, {"index", index}});
+      indices.push_back({declared.at(resource.id), kind, index});
     }
   };
-  record(resources.uniform_buffers, "buffer");
-  record(resources.storage_buffers, "buffer");
-  record(resources.separate_images, "texture");
-  record(resources.separate_samplers, "sampler");
-  record(resources.sampled_images, "texture");
-  std::sort(indices.begin(), indices.end(), [](const json& a, const json& b) { return a["name"] < b["name"]; });
-  result.bindings["resources"] = indices;
+  record(resources.uniform_buffers, MslResourceKind::Buffer);
+  record(resources.storage_buffers, MslResourceKind::Buffer);
+  record(resources.separate_images, MslResourceKind::Texture);
+  record(resources.separate_samplers, MslResourceKind::Sampler);
+  record(resources.sampled_images, MslResourceKind::Texture);
+  std::sort(indices.begin(), indices.end(), [](const MslResource& a, const MslResource& b) { return a.name < b.name; });
   result.ok = true;
   return result;
 }

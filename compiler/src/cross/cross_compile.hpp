@@ -3,11 +3,11 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
+#include "kiln/manifest.hpp"
 #include "kiln/model.hpp"
 
 namespace kiln {
@@ -16,8 +16,9 @@ struct CrossResult {
   bool ok = false;
   std::string error;
   std::string source;
-  // Target-specific bindings: GL combined image-samplers, MSL resource indices.
-  nlohmann::json bindings = nlohmann::json::object();
+  // The target's binding records: GL combined image-samplers and blocks, MSL resource indices.
+  std::optional<GlBindings> gl;
+  std::optional<MslBindings> msl;
 };
 
 // One module to every target. The GL targets compile the module with its 16-bit floats widened to mediump

@@ -40,7 +40,7 @@ void emit_dumps(const Plan& plan, const StageSources& sources, const std::vector
     put_blob("glsl", Target::Glsl, ".glsl");
     put_blob("glsl", Target::Gles, ".es.glsl");
     put_blob("msl", Target::Msl, ".metal");
-    if (options.emit.count("reflection")) put(base.string() + ".reflection.json", out.reflection.dump(2) + "\n");
+    if (options.emit.count("reflection")) put(base.string() + ".reflection.json", nlohmann::json(out.reflection).dump(2) + "\n");
   }
 }
 

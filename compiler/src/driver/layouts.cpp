@@ -36,15 +36,16 @@ PassLayoutInput layout_input(const Plan& plan, const SourceLocator& locator, uin
 
 }  // namespace
 
-std::optional<std::vector<nlohmann::json>> check_pass_layouts(const Plan& plan, const SourceLocator& locator,
+std::optional<std::vector<PassLayout>> check_pass_layouts(const Plan& plan, const SourceLocator& locator,
                                                               const StageSources& sources,
                                                               const std::vector<Binary>& binaries, DiagnosticSink& sink,
                                                               BuildReport& report) {
   StageTimer timer(report, "reflect");
   const int errors_before = sink.error_count();
-  std::vector<nlohmann::json> layouts(plan.passes.size());
+  std::vector<PassLayout> layouts(plan.passes.size());
   for (uint32_t p = 0; p < plan.passes.size(); ++p)
-    layouts[p] = check_pass_layout(layout_input(plan, locator, p, sources, binaries), sink);
+    if (std::optional<PassLayout> layout = check_pass_layout(layout_input(plan, locator, p, sources, binaries), sink))
+      layouts[p] = std::move(*layout);
   if (sink.error_count() != errors_before) return std::nullopt;
   return layouts;
 }

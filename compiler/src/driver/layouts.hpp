@@ -4,8 +4,7 @@
 #include <optional>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
+#include "kiln/manifest.hpp"
 #include "driver/messages.hpp"
 #include "driver/plan.hpp"
 #include "driver/stage_sources.hpp"
@@ -13,7 +12,7 @@
 namespace kiln {
 
 // Each pass's merged layout; nothing when a pass's binaries disagree (reported).
-std::optional<std::vector<nlohmann::json>> check_pass_layouts(const Plan& plan, const SourceLocator& locator,
+std::optional<std::vector<PassLayout>> check_pass_layouts(const Plan& plan, const SourceLocator& locator,
                                                               const StageSources& sources,
                                                               const std::vector<Binary>& binaries, DiagnosticSink& sink,
                                                               BuildReport& report);

@@ -11,74 +11,66 @@
 namespace kiln {
 namespace {
 
-using nlohmann::json;
-
-json keyword_group_json(const KeywordGroup& group) {
-  json values = json::array();
-  for (const std::string& v : group.values) values.push_back(v.empty() ? "_" : v);
-  json stages = json::array();
-  for (Stage s : kAllStages)
-    if (group.stages & stage_bit(s)) stages.push_back(stage_name(s));
-  return {{"pragma", group.pragma}, {"values", values}, {"stages", stages}};
+ManifestKeywordGroup keyword_group_record(const KeywordGroup& group) {
+  return {group.pragma, group.values, group.stages};
 }
 
 // Recorded in the manifest so that tools (check-scene) can reason about a built pack on its own.
-json constraints_json(const PackDefinition& pack) {
-  json out = json::array();
-  for (const Constraint& c : pack.constraints) {
-    json item{{"keyword", c.keyword}};
-    if (!c.requires_all.empty()) item["requires"] = c.requires_all;
-    if (!c.requires_any.empty()) item["requires_any"] = c.requires_any;
-    if (!c.excludes.empty()) item["excludes"] = c.excludes;
-    if (!c.reason.empty()) item["reason"] = c.reason;
-    out.push_back(item);
-  }
+std::vector<ManifestConstraint> constraint_records(const PackDefinition& pack) {
+  std::vector<ManifestConstraint> out;
+  for (const Constraint& c : pack.constraints) out.push_back({c.keyword, c.requires_all, c.requires_any, c.excludes, c.reason});
   return out;
 }
 
-json materials_json(const PackDefinition& pack) {
-  json out = json::array();
-  for (const MaterialPreset& m : pack.materials) out.push_back({{"name", m.name}, {"keywords", m.keywords}});
+std::vector<ManifestMaterial> material_records(const PackDefinition& pack) {
+  std::vector<ManifestMaterial> out;
+  for (const MaterialPreset& m : pack.materials) out.push_back({m.name, m.keywords});
   return out;
 }
 
-// The binding options and defines a pass was built with, when not the defaults (docs/bindings.md): absent
-// fields keep the manifests of packs that use neither as they were.
-void add_pass_settings_json(json& pass_json, const PassDefinition& pass) {
-  if (!pass.bindings.canonical().empty()) pass_json["bindings"] = pass.bindings.canonical();
-  if (!pass.defines.empty()) {
-    json defines = json::object();
-    for (const Define& define : pass.defines) defines[define.name] = define.value;
-    pass_json["defines"] = defines;
-  }
+// The binding options and defines a pass was built with, when not the defaults (docs/bindings.md): empty fields
+// are left out of the file, which keeps the manifests of packs that use neither as they were.
+void add_pass_settings(ManifestPass& record, const PassDefinition& pass) {
+  record.bindings = pass.bindings.canonical();
+  for (const Define& define : pass.defines) record.defines[define.name] = define.value;
+}
+
+ManifestOptions option_records(const BuildOptions& options, const BuildSettings& settings) {
+  ManifestOptions out;
+  out.optimize = options.optimize;
+  out.targets = settings.targets;
+  out.spirv_env = kTargetEnvironment.spirv_env;
+  out.glsl_version = kTargetEnvironment.glsl_version;
+  out.gles_version = kTargetEnvironment.gles_version;
+  out.msl_version = kTargetEnvironment.msl_version;
+  out.gl_clip_space_fixup = kTargetEnvironment.gl_clip_space_fixup;
+  return out;
 }
 
 }  // namespace
 
 std::optional<std::string> write_variant_pack(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
                         const StageSources& sources, const std::vector<Binary>& binaries,
-                        const std::vector<nlohmann::json>& layouts, const std::string& inputs_hash, DiagnosticSink& sink,
+                        const std::vector<PassLayout>& layouts, const std::string& inputs_hash, DiagnosticSink& sink,
                         BuildReport& report) {
   StageTimer timer(report, "pack");
   ArchiveBuilder archive;
-  std::map<size_t, size_t> binary_order;         // compile index -> manifest binary index
-  std::map<Hash128, size_t> binary_by_output;    // identical outputs from different sources are stored once
-  std::map<Hash128, size_t> reflection_by_hash;  // most binaries of a pass share one reflection
-  json binaries_json = json::array();
-  json reflections_json = json::array();
-  json passes_json = json::array();
+  Manifest manifest;
+  std::map<size_t, uint32_t> binary_order;       // compile index -> manifest binary index
+  std::map<Hash128, uint32_t> binary_by_output;  // identical outputs from different sources are stored once
+  std::map<Hash128, uint32_t> reflection_by_hash;  // most binaries of a pass share one reflection
   for (uint32_t p = 0; p < plan.passes.size(); ++p) {
     const PassDefinition& def = plan.pack.passes[p];
-    json stages = json::object();
+    ManifestPass& pass = manifest.passes.emplace_back();
+    pass.name = def.name;
     for (Stage s : kAllStages)
-      if (!def.entry_points[static_cast<size_t>(s)].empty())
-        stages[std::string(stage_name(s))] = def.entry_points[static_cast<size_t>(s)];
-    json groups = json::array();
-    for (const KeywordGroup& g : plan.passes[p].groups) groups.push_back(keyword_group_json(g));
-    json variants = json::array();
+      if (!def.entry_points[static_cast<size_t>(s)].empty()) pass.entry_points[s] = def.entry_points[static_cast<size_t>(s)];
+    for (const KeywordGroup& g : plan.passes[p].groups) pass.keyword_groups.push_back(keyword_group_record(g));
+    pass.layout = layouts[p];
     const auto& expansion = plan.expansions[p];
     for (size_t v = 0; v < expansion.variants.size(); ++v) {
-      json stage_binaries = json::object();
+      ManifestVariant& variant = pass.variants.emplace_back();
+      variant.keywords = enabled_keywords(plan.passes[p].groups, expansion.variants[v]);
       for (Stage s : kAllStages) {
         int source = sources.variant_source[p][v][static_cast<size_t>(s)];
         if (source < 0) continue;
@@ -89,62 +81,40 @@ std::optional<std::string> write_variant_pack(const Plan& plan, const BuildOptio
           const Hash128 spirv = out.blobs.at(Target::Spirv).key;
           Hash128 output_key =
               Hasher().add(stage_name(binaries[b].stage)).add(binaries[b].entry_point).add(spirv.low).add(spirv.high).finish();
-          auto [by_output, fresh] = binary_by_output.emplace(output_key, binaries_json.size());
+          const auto binary_index = static_cast<uint32_t>(manifest.binaries.size());
+          auto [by_output, fresh] = binary_by_output.emplace(output_key, binary_index);
           if (fresh) {
-            json blobs = json::object();
-            for (const auto& [target, blob] : out.blobs) blobs[std::string(target_name(target))] = archive.add(blob);
-            std::string reflection_text = out.reflection.dump();
-            auto [reflection, new_reflection] = reflection_by_hash.emplace(hash128(reflection_text), reflections_json.size());
-            if (new_reflection) reflections_json.push_back(out.reflection);
-            binaries_json.push_back({{"stage", stage_name(binaries[b].stage)},
-                                     {"entry", binaries[b].entry_point},
-                                     {"blobs", blobs},
-                                     {"reflection", reflection->second}});
+            ManifestBinary& record = manifest.binaries.emplace_back();
+            record.stage = binaries[b].stage;
+            record.entry = binaries[b].entry_point;
+            for (const auto& [target, blob] : out.blobs) record.blobs[target] = archive.add(blob);
+            const auto reflection_index = static_cast<uint32_t>(manifest.reflections.size());
+            auto [reflection, new_reflection] =
+                reflection_by_hash.emplace(hash128(nlohmann::json(out.reflection).dump()), reflection_index);
+            if (new_reflection) manifest.reflections.push_back(out.reflection);
+            record.reflection = reflection->second;
           }
           known = binary_order.emplace(b, by_output->second).first;
         }
-        stage_binaries[std::string(stage_name(s))] = known->second;
+        variant.binaries[s] = known->second;
       }
-      variants.push_back({{"keywords", enabled_keywords(plan.passes[p].groups, expansion.variants[v])},
-                          {"binaries", stage_binaries}});
     }
-    json pass_json{{"name", def.name},
-                   {"stages", stages},
-                   {"keyword_groups", groups},
-                   {"layout", layouts[p]},
-                   {"variants", variants}};
-    add_pass_settings_json(pass_json, def);
-    passes_json.push_back(std::move(pass_json));
+    add_pass_settings(pass, def);
   }
-  json target_list_json = json::array();
-  for (Target t : settings.targets) target_list_json.push_back(target_name(t));
-  report.funnel.unique_binaries = binaries_json.size();
+  report.funnel.unique_binaries = manifest.binaries.size();
   const Funnel& f = report.funnel;
-  json manifest{{"format", kManifestFormat},
-                {"format_version", kPackFormatVersion},
-                {"name", plan.pack.name},
-                {"kiln_version", kKilnVersion},
-                {"tools", {{"frontend", settings.frontend->name() + " " + settings.frontend->version()},
-                           {"spirv_tools", spirv_tools_version()},
-                           {"spirv_cross", spirv_cross_version()}}},
-                {"options", {{"optimize", options.optimize}, {"targets", target_list_json},
-                             {"spirv_env", kTargetEnvironment.spirv_env},
-                             {"glsl_version", kTargetEnvironment.glsl_version}, {"gles_version", kTargetEnvironment.gles_version},
-                             {"msl_version", kTargetEnvironment.msl_version},
-                             {"gl_clip_space_fixup", kTargetEnvironment.gl_clip_space_fixup}}},
-                {"inputs_hash", inputs_hash},
-                {"funnel", {{"declared", f.declared}, {"valid", f.valid}, {"kept", f.kept},
-                            {"stage_instances", f.stage_instances}, {"unique_preprocessed", f.unique_preprocessed},
-                            {"unique_compiles", f.unique_compiles}, {"unique_modules", f.unique_modules},
-                            {"unique_binaries", f.unique_binaries}}},
-                {"constraints", constraints_json(plan.pack)},
-                {"materials", materials_json(plan.pack)},
-                {"scene_features", plan.pack.scene_features_json.empty() ? json::object()
-                                                                        : json::parse(plan.pack.scene_features_json)},
-                {"passes", passes_json},
-                {"binaries", binaries_json},
-                {"reflections", reflections_json}};
-  WrittenPack written = write_pack(options.output_dir, plan.pack.name, archive, manifest);
+  manifest.format_version = kPackFormatVersion;
+  manifest.name = plan.pack.name;
+  manifest.kiln_version = kKilnVersion;
+  manifest.tools = {settings.frontend->name() + " " + settings.frontend->version(), spirv_tools_version(), spirv_cross_version()};
+  manifest.options = option_records(options, settings);
+  manifest.inputs_hash = inputs_hash;
+  manifest.funnel = {f.declared,        f.valid,           f.kept,           f.stage_instances,
+                     f.unique_preprocessed, f.unique_compiles, f.unique_modules, f.unique_binaries};
+  manifest.constraints = constraint_records(plan.pack);
+  manifest.materials = material_records(plan.pack);
+  if (!plan.pack.scene_features_json.empty()) manifest.scene_features = nlohmann::json::parse(plan.pack.scene_features_json);
+  WrittenPack written = write_pack(options.output_dir, plan.pack.name, archive, std::move(manifest));
   if (!written.error.empty()) {
     sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, written.error);
     return std::nullopt;

@@ -6,11 +6,10 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "driver/plan.hpp"
 #include "driver/settings.hpp"
 #include "driver/stage_sources.hpp"
+#include "kiln/manifest.hpp"
 
 namespace kiln {
 
@@ -18,7 +17,7 @@ namespace kiln {
 // (pass, variant, stage) order: the same bytes for any -j.
 [[nodiscard]] std::optional<std::string> write_variant_pack(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
                                       const StageSources& sources, const std::vector<Binary>& binaries,
-                                      const std::vector<nlohmann::json>& layouts, const std::string& inputs_hash,
+                                      const std::vector<PassLayout>& layouts, const std::string& inputs_hash,
                                       DiagnosticSink& sink, BuildReport& report);
 
 }  // namespace kiln

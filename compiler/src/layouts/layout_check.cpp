@@ -8,27 +8,27 @@
 namespace kiln {
 namespace {
 
-using nlohmann::json;
-
 // The D3D register class a reflected resource comes from ('t' or 'u' for a storage buffer: read-only
 // StructuredBuffer and ByteAddressBuffer are t, their RW forms u).
-std::string register_classes(const json& resource) {
-  const std::string kind = resource["kind"];
-  if (kind == "uniform_buffer") return "b";
-  if (kind == "sampler") return "s";
-  if (kind == "storage_image") return "u";
-  if (kind == "storage_buffer") return "tu";
+std::string register_classes(const Resource& resource) {
+  switch (resource.kind) {
+    case ResourceKind::UniformBuffer: return "b";
+    case ResourceKind::Sampler: return "s";
+    case ResourceKind::StorageImage: return "u";
+    case ResourceKind::StorageBuffer: return "tu";
+    case ResourceKind::Texture:
+    case ResourceKind::CombinedImageSampler: return "t";
+  }
   return "t";
 }
 
-std::string describe(const json& resource) {
-  const std::string name = resource["name"];
-  if (name == "$Global") return "the implicit $Global uniform block (global variables outside any cbuffer)";
-  return "'" + name + "' (" + resource["kind"].get<std::string>() + ")";
+std::string describe(const Resource& resource) {
+  if (resource.name == "$Global") return "the implicit $Global uniform block (global variables outside any cbuffer)";
+  return "'" + resource.name + "' (" + std::string(resource_kind_name(resource.kind)) + ")";
 }
 
-std::string slot_text(const json& resource) {
-  return "set " + resource["set"].dump() + " binding " + resource["binding"].dump();
+std::string slot_text(const Resource& resource) {
+  return "set " + std::to_string(resource.set) + " binding " + std::to_string(resource.binding);
 }
 
 std::string count_text(size_t n) { return std::to_string(n) + (n == 1 ? " variant" : " variants"); }
@@ -43,8 +43,8 @@ class Checker {
                    {"every stage and variant of a pass must declare the same push constant block"});
       return;
     }
-    const json& a = clash.first;
-    const json& b = clash.second;
+    const Resource& a = clash.first;
+    const Resource& b = clash.second;
     const std::vector<size_t> holding_a = holders(a), holding_b = holders(b);
     // Variants in which some binary holds `a` and another (or the same) holds `b`.
     std::vector<size_t> together;
@@ -63,7 +63,7 @@ class Checker {
     }
     std::string message = "pass '" + in_.pass + "': ";
     std::vector<std::string> notes;
-    if (clash.kind == LayoutClash::Kind::SharedSlot && a["name"] == b["name"]) {
+    if (clash.kind == LayoutClash::Kind::SharedSlot && a.name == b.name) {
       message += describe(a) + " has a different layout in different variants (" + slot_text(a) + ")";
       notes.push_back("in " + first_variants(holding_a) + "; and another layout in " + first_variants(holding_b));
       notes.push_back("a resource's type and block members must not depend on keywords: give each layout its own name and binding");
@@ -83,7 +83,7 @@ class Checker {
       if (!together.empty()) notes.push_back("first in variant [" + in_.variant_names[together.front()] + "]");
       notes.push_back(fix_for_shared_slot(a, b));
     } else {
-      message += "'" + a["name"].get<std::string>() + "' is at " + slot_text(a) + " in " + first_variants(holding_a) + " and at " +
+      message += "'" + a.name + "' is at " + slot_text(a) + " in " + first_variants(holding_a) + " and at " +
                  slot_text(b) + " in " + first_variants(holding_b);
       notes.push_back("a resource must have one binding in every stage and variant of a pass; one declared without a register "
                       "is bound automatically in declaration order, so a keyword that removes a declaration before it moves "
@@ -91,18 +91,18 @@ class Checker {
     }
     SourceLocation at = locate(a);
     sink_.report(DiagId::LayoutMismatch, at, message, notes);
-    if (a["name"] != b["name"] && in_.locate) {
-      SourceLocation other = in_.locate(b["name"].get<std::string>());
+    if (a.name != b.name && in_.locate) {
+      SourceLocation other = in_.locate(b.name);
       if (other.line > 0)
         sink_.report(Diagnostic{DiagId::LayoutMismatch, Severity::Note, other, describe(b) + " is declared here", {}});
     }
   }
 
  private:
-  std::vector<size_t> holders(const json& resource) const {
+  std::vector<size_t> holders(const Resource& resource) const {
     std::vector<size_t> out;
     for (size_t i = 0; i < in_.binaries.size(); ++i)
-      if (holds_resource(*in_.binaries[i].reflection, resource)) out.push_back(i);
+      if (in_.binaries[i].reflection->holds(resource)) out.push_back(i);
     return out;
   }
   bool uses(size_t binary, size_t variant) const {
@@ -121,12 +121,12 @@ class Checker {
     if (variants.empty()) return "no variant";
     return count_text(variants.size()) + (variants.size() == 1 ? " [" : ", the first [") + in_.variant_names[*variants.begin()] + "]";
   }
-  SourceLocation locate(const json& resource) const {
-    SourceLocation at = in_.locate ? in_.locate(resource["name"].get<std::string>()) : SourceLocation{};
+  SourceLocation locate(const Resource& resource) const {
+    SourceLocation at = in_.locate ? in_.locate(resource.name) : SourceLocation{};
     return at.line > 0 ? at : in_.pass_location;
   }
   // The shift (a later class moves: b < t < s < u) or attribute that separates the two.
-  std::string fix_for_shared_slot(const json& a, const json& b) const {
+  std::string fix_for_shared_slot(const Resource& a, const Resource& b) const {
     const std::string ca = register_classes(a), cb = register_classes(b);
     const bool texture_and_sampler = (ca == "t" && cb == "s") || (ca == "s" && cb == "t");
     std::string fix;
@@ -134,15 +134,15 @@ class Checker {
       const char moved = std::max(ca.back(), cb.back(), [](char x, char y) { return std::string("btsu").find(x) < std::string("btsu").find(y); });
       uint32_t highest = 0;
       for (const auto& binary : in_.binaries)
-        for (const json& r : (*binary.reflection)["resources"]) highest = std::max(highest, r["binding"].get<uint32_t>());
+        for (const Resource& r : binary.reflection->resources) highest = std::max(highest, r.binding);
       const uint32_t shift = (highest / 16 + 1) * 16;
-      const std::string letter(1, moved), space = a["set"].dump();
+      const std::string letter(1, moved), space = std::to_string(a.set);
       fix = "registers of different classes share a number: shift one class, e.g. \"bindings\": {\"shifts\": [{\"register\": \"" +
             letter + "\", \"shift\": " + std::to_string(shift) + ", \"space\": " + space + "}]} in the pack definition or --fvk-" +
             letter + "-shift " + std::to_string(shift) + " " + space + " (DXC's -fvk-" + letter + "-shift), or give one of them [[vk::binding(N, " +
             space + ")]]";
     } else {
-      fix = "give one of them another register, or [[vk::binding(N, " + a["set"].dump() + ")]]";
+      fix = "give one of them another register, or [[vk::binding(N, " + std::to_string(a.set) + ")]]";
     }
     if (texture_and_sampler)
       fix += "; or, if the texture and the sampler are meant as one combined image sampler, set \"combined_image_samplers\": true "
@@ -156,8 +156,8 @@ class Checker {
 
 }  // namespace
 
-json check_pass_layout(const PassLayoutInput& input, DiagnosticSink& sink) {
-  std::vector<const json*> reflections;
+std::optional<PassLayout> check_pass_layout(const PassLayoutInput& input, DiagnosticSink& sink) {
+  std::vector<const Reflection*> reflections;
   for (const auto& binary : input.binaries) reflections.push_back(binary.reflection);
   MergedLayout merged = merge_layouts(reflections);
   Checker checker(input, sink);
@@ -165,13 +165,14 @@ json check_pass_layout(const PassLayoutInput& input, DiagnosticSink& sink) {
   // took look shared too: the move is the root cause, reported alone.
   std::set<std::string> moved;
   for (const LayoutClash& clash : merged.clashes)
-    if (clash.kind == LayoutClash::Kind::MovedResource) moved.insert(clash.first["name"].get<std::string>());
+    if (clash.kind == LayoutClash::Kind::MovedResource) moved.insert(clash.first.name);
   for (const LayoutClash& clash : merged.clashes) {
-    const bool consequence = clash.kind == LayoutClash::Kind::SharedSlot && clash.first["name"] != clash.second["name"] &&
-                             (moved.count(clash.first["name"]) || moved.count(clash.second["name"]));
+    const bool consequence = clash.kind == LayoutClash::Kind::SharedSlot && clash.first.name != clash.second.name &&
+                             (moved.count(clash.first.name) || moved.count(clash.second.name));
     if (!consequence) checker.report(clash);
   }
-  return merged.clashes.empty() ? merged.layout : json();
+  if (!merged.clashes.empty()) return std::nullopt;
+  return std::move(merged.layout);
 }
 
 }  // namespace kiln

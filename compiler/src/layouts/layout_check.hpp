@@ -7,9 +7,10 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
+#include <optional>
 
 #include "kiln/diagnostics.hpp"
+#include "kiln/manifest.hpp"
 #include "kiln/model.hpp"
 
 namespace kiln {
@@ -20,7 +21,7 @@ struct PassLayoutInput {
   std::vector<std::string> variant_names;  // per variant of the pass: its keywords, "A B" or "<none>"
   struct Binary {
     Stage stage = Stage::Vertex;
-    const nlohmann::json* reflection = nullptr;
+    const Reflection* reflection = nullptr;
     std::vector<size_t> variants;  // the variants (indices into variant_names) that use this binary
   };
   std::vector<Binary> binaries;
@@ -28,7 +29,7 @@ struct PassLayoutInput {
   std::function<SourceLocation(const std::string& name)> locate;
 };
 
-// The pass's merged layout; null JSON when it has clashes (each reported to `sink`).
-nlohmann::json check_pass_layout(const PassLayoutInput& input, DiagnosticSink& sink);
+// The pass's merged layout; nothing when it has clashes (each reported to `sink`).
+std::optional<PassLayout> check_pass_layout(const PassLayoutInput& input, DiagnosticSink& sink);
 
 }  // namespace kiln

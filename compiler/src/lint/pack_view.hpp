@@ -1,6 +1,6 @@
-// What lint reads of a built pack, typed: the variants of each pass with the binary each stage uses, and the
-// stage interfaces of each binary. Read from the manifest in one place (pack_view.cpp), so no rule walks the
-// manifest by string keys.
+// What lint reads of a built pack: the variants of each pass with the binary each stage uses, and the stage
+// interfaces of each binary, indexed the way the rules look them up. Made from the typed manifest
+// (kiln/manifest.hpp) in one place, pack_view.cpp.
 #pragma once
 
 #include <map>
@@ -34,7 +34,6 @@ struct PackView {
   std::vector<Binary> binaries;
 };
 
-// Throws PackError when the manifest lacks what lint reads.
 PackView read_pack_view(const PackReader& pack);
 
 }  // namespace kiln

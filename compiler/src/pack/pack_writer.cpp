@@ -71,7 +71,7 @@ std::filesystem::path manifest_path(const std::filesystem::path& directory, cons
 }
 
 WrittenPack write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
-                       nlohmann::json manifest) {
+                       Manifest manifest) {
   WrittenPack written;
   for (const PackedBlob& blob : archive.blobs())
     if (blob.raw_size > kMaxBlobBytes) {
@@ -87,11 +87,11 @@ WrittenPack write_pack(const std::filesystem::path& directory, const std::string
   }
   const std::string archive_hash = hex64(hash64(bytes));
   written.archive_file = archive_file_name(name, archive_hash);
-  manifest["archive"] = {{"file", written.archive_file}, {"size", bytes.size()}, {"xxh3_64", archive_hash},
-                         {"blobs", archive.size()}};
-  manifest["manifest_xxh3_64"] = std::string(kManifestChecksumDigits, '0');
+  manifest.archive = {written.archive_file, bytes.size(), archive_hash, archive.size()};
+  nlohmann::json file = manifest;
+  file["manifest_xxh3_64"] = std::string(kManifestChecksumDigits, '0');
   // Indented one level per nesting would make the manifest ~3x larger; one line per binary is still diffable.
-  std::string text = manifest.dump(1) + "\n";
+  std::string text = file.dump(1) + "\n";
   if (text.size() > kMaxManifestBytes) {
     written.error = "the manifest would be " + std::to_string(text.size()) + " bytes, over the pack format's limit of " +
                     std::to_string(kMaxManifestBytes) + " bytes";

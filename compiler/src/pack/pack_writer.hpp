@@ -8,10 +8,9 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "common/hash.hpp"
 #include "common/blob.hpp"
+#include "kiln/manifest.hpp"
 
 namespace kiln {
 
@@ -36,10 +35,10 @@ struct WrittenPack {
 };
 
 // Writes the archive under its content's name, then `<dir>/<name>.manifest.json` naming it (the rename that
-// switches the pack), then removes the pack's archives the manifest no longer names; fills manifest["archive"].
+// switches the pack), then removes the pack's archives the manifest no longer names; fills manifest.archive.
 // One output directory serves one build at a time: a concurrent build of the same pack could lose its archive.
 [[nodiscard]] WrittenPack write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
-                       nlohmann::json manifest);
+                       Manifest manifest);
 
 // Removes the archives of pack `name` in `directory` other than `keep`: those a build killed before its
 // manifest's rename, or before the removal itself, left behind (and `<name>.kpack`, from format version 2).

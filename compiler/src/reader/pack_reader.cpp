@@ -139,65 +139,6 @@ void check_manifest_checksum(std::string text, const std::string& manifest_name)
                     manifest_name);
 }
 
-// Checks the parts of the manifest that selection reads, so that select() and variant() fail only with
-// PackError, never with a JSON exception or an out-of-range index. `where` is a JSON pointer.
-struct ManifestShape {
-  const std::string& manifest_name;
-  size_t blob_count;
-
-  [[noreturn]] void fail(const std::string& where, const std::string& what) const {
-    throw PackError(PackError::Code::Format, "malformed manifest: " + (where.empty() ? "top level" : where) + ": " + what,
-                    manifest_name);
-  }
-  const json& field(const json& object, const std::string& where, const char* key, json::value_t type) const {
-    if (!object.is_object()) fail(where, "is not an object");
-    auto it = object.find(key);
-    if (it == object.end()) fail(where, std::string("has no \"") + key + "\"");
-    if (it->type() != type) fail(where + "/" + key, std::string("is not ") + json(type).type_name());
-    return *it;
-  }
-  void index(const json& value, const std::string& where, uint64_t count, const char* of) const {
-    if (!value.is_number_unsigned()) fail(where, "is not an index");
-    if (value.get<uint64_t>() >= count)
-      fail(where, "index " + value.dump() + " is out of range (" + std::to_string(count) + " " + of + ")");
-  }
-  void strings(const json& list, const std::string& where) const {
-    for (size_t i = 0; i < list.size(); ++i)
-      if (!list[i].is_string()) fail(where + "/" + std::to_string(i), "is not a string");
-  }
-
-  void check(const json& m) const {
-    const json& binaries = field(m, "", "binaries", json::value_t::array);
-    const json& reflections = field(m, "", "reflections", json::value_t::array);
-    for (size_t b = 0; b < binaries.size(); ++b) {
-      const std::string at = "/binaries/" + std::to_string(b);
-      field(binaries[b], at, "stage", json::value_t::string);
-      field(binaries[b], at, "entry", json::value_t::string);
-      for (const auto& [target, id] : field(binaries[b], at, "blobs", json::value_t::object).items())
-        index(id, at + "/blobs/" + target, blob_count, "blobs");
-      if (!binaries[b].contains("reflection")) fail(at, "has no \"reflection\"");
-      index(binaries[b]["reflection"], at + "/reflection", reflections.size(), "reflections");
-    }
-    const json& passes = field(m, "", "passes", json::value_t::array);
-    for (size_t p = 0; p < passes.size(); ++p) {
-      const std::string at = "/passes/" + std::to_string(p);
-      field(passes[p], at, "name", json::value_t::string);
-      const json& groups = field(passes[p], at, "keyword_groups", json::value_t::array);
-      for (size_t g = 0; g < groups.size(); ++g) {
-        const std::string group_at = at + "/keyword_groups/" + std::to_string(g);
-        strings(field(groups[g], group_at, "values", json::value_t::array), group_at + "/values");
-      }
-      const json& variants = field(passes[p], at, "variants", json::value_t::array);
-      for (size_t v = 0; v < variants.size(); ++v) {
-        const std::string variant_at = at + "/variants/" + std::to_string(v);
-        strings(field(variants[v], variant_at, "keywords", json::value_t::array), variant_at + "/keywords");
-        for (const auto& [stage, id] : field(variants[v], variant_at, "binaries", json::value_t::object).items())
-          index(id, variant_at + "/binaries/" + stage, binaries.size(), "binaries");
-      }
-    }
-  }
-};
-
 }  // namespace
 
 PackReader PackReader::open(const std::filesystem::path& path) {
@@ -216,8 +157,9 @@ PackReader PackReader::open(const std::filesystem::path& path) {
   PackReader reader;
   const std::string manifest_name = manifest_file.string();
   std::string text = read_pack_file(manifest_name, "the manifest", kMaxManifestBytes);
+  json m;
   try {
-    reader.manifest_ = json::parse(text);
+    m = json::parse(text);
   } catch (const json::parse_error& error) {
     throw PackError(PackError::Code::Format, "not a kiln manifest: invalid JSON: " + reason_of(error),
                     location_of(manifest_file, text, error.byte > 0 ? error.byte - 1 : 0));
@@ -225,7 +167,6 @@ PackReader PackReader::open(const std::filesystem::path& path) {
     // Found by fuzzing: a number too large for a double ("1e999") is an out_of_range error, not a parse_error.
     throw PackError(PackError::Code::Format, "not a kiln manifest: invalid JSON: " + reason_of(error), manifest_name);
   }
-  const json& m = reader.manifest_;
   const json no_value;
   auto top = [&](const char* key) -> const json& {
     if (!m.is_object()) return no_value;
@@ -244,103 +185,101 @@ PackReader PackReader::open(const std::filesystem::path& path) {
                         " (this reader reads version " + std::to_string(kPackFormatVersion) + ")",
                     manifest_name);
   check_manifest_checksum(std::move(text), manifest_name);
+  auto malformed = [&](const std::string& what) {
+    return PackError(PackError::Code::Format, "malformed manifest: " + what, manifest_name);
+  };
   try {
-    reader.name_ = m.at("name").get<std::string>();
-    const json& archive = m.at("archive");
-    // The manifest names the archive; a name of any other shape ("../x", "/etc/passwd") is refused before any
-    // file is opened, so a hostile manifest can make the reader read nothing but this pack's own archive.
-    if (reader.name_.empty() || reader.name_.find_first_not_of(kPackNameCharacters) != std::string::npos)
-      throw PackError(PackError::Code::Format,
-                      "malformed manifest: /name: " + json(reader.name_).dump() +
-                          " is not a pack name (letters, digits, '_', '-' and '.')",
-                      manifest_name);
-    const std::string archive_name = archive.at("file").get<std::string>();
-    const std::string expected_name = archive_file_name(reader.name_, archive.at("xxh3_64").get<std::string>());
-    if (archive_name != expected_name || !is_archive_file_name(archive_name, reader.name_))
-      throw PackError(PackError::Code::Format,
-                      "malformed manifest: /archive/file: " + json(archive_name).dump() +
-                          " is not the archive's name, <name>.<xxh3_64>" + std::string(kArchiveExtension),
-                      manifest_name);
-    const json& recorded_size = archive.at("size");
-    if (!recorded_size.is_number_unsigned())
-      throw PackError(PackError::Code::Format, "malformed manifest: /archive/size: is not a size", manifest_name);
-    reader.archive_file_ = (manifest_file.parent_path() / archive_name).string();
-    reader.archive_ = read_pack_file(reader.archive_file_, "archive of pack '" + reader.name_ + "'", kMaxArchiveBytes,
-                                     recorded_size.get<uint64_t>());
-    const std::string& bytes = reader.archive_;
-    auto fail = [&](PackError::Code code, const std::string& message) { throw PackError(code, message, reader.archive_file_); };
-    if (bytes.size() < kPackHeaderSize || std::memcmp(bytes.data(), kPackMagic, 8) != 0)
-      fail(PackError::Code::Format, "archive of pack '" + reader.name_ + "' has no KILNPACK header");
-    uint32_t version = 0, count = 0;
-    std::memcpy(&version, bytes.data() + 8, 4);
-    std::memcpy(&count, bytes.data() + 12, 4);
-    if (version != kPackFormatVersion)
-      fail(PackError::Code::Version, "archive format version " + std::to_string(version) + " is not supported");
-    if (get64(bytes, 24) != bytes.size())
-      fail(PackError::Code::Checksum, "archive of pack '" + reader.name_ + "' is truncated or has the wrong size");
-    if (XXH3_64bits(bytes.data() + kPackHeaderSize, bytes.size() - kPackHeaderSize) != get64(bytes, 16) ||
-        hex64(XXH3_64bits(bytes.data(), bytes.size())) != archive.at("xxh3_64").get<std::string>())
-      fail(PackError::Code::Checksum, "archive of pack '" + reader.name_ + "' fails its checksum");
-    if (kPackHeaderSize + kPackBlobEntrySize * uint64_t{count} > bytes.size())
-      fail(PackError::Code::Format, "archive blob table is out of bounds");
-    reader.blobs_.reserve(count);
-    for (uint32_t i = 0; i < count; ++i) {
-      size_t at = kPackHeaderSize + kPackBlobEntrySize * i;
-      Blob blob{get64(bytes, at), get64(bytes, at + 8), get64(bytes, at + 16), get64(bytes, at + 24)};
-      const std::string which = "blob " + std::to_string(i);
-      if (blob.offset > bytes.size() || blob.stored_size > bytes.size() - blob.offset)
-        fail(PackError::Code::Format, which + " is out of bounds");
-      if (blob.raw_size > kMaxBlobBytes)
-        fail(PackError::Code::Format, which + ": raw size " + std::to_string(blob.raw_size) +
-                                          " is over the pack format's limit of " + std::to_string(kMaxBlobBytes) + " bytes");
-      if (blob.stored_size > blob.raw_size)
-        fail(PackError::Code::Format, which + ": stored size " + std::to_string(blob.stored_size) +
-                                          " is larger than its raw size " + std::to_string(blob.raw_size));
-      const char* stored = bytes.data() + blob.offset;
-      if (blob.stored_size == blob.raw_size) {
-        if (XXH3_64bits(stored, blob.stored_size) != blob.hash) fail(PackError::Code::Checksum, which + " fails its checksum");
-      } else {
-        // A frame is decompressed (and its checksum checked) when it is first read; its sizes are checked now, so
-        // that the buffer made then is only as large as the frame can fill.
-        const size_t frame_size = ZSTD_findFrameCompressedSize(stored, blob.stored_size);
-        if (ZSTD_isError(frame_size) || frame_size != blob.stored_size) fail(PackError::Code::Format, which + " is not one zstd frame");
-        const unsigned long long content_size = ZSTD_getFrameContentSize(stored, blob.stored_size);
-        if (content_size == ZSTD_CONTENTSIZE_UNKNOWN || content_size == ZSTD_CONTENTSIZE_ERROR)
-          fail(PackError::Code::Format, which + ": its zstd frame does not record its size");
-        if (content_size != blob.raw_size)
-          fail(PackError::Code::Format, which + ": its zstd frame holds " + std::to_string(content_size) +
-                                            " bytes, the blob table records " + std::to_string(blob.raw_size));
-        // A frame's header may claim any size; no frame fills more than one 128 KiB block per 4 of its bytes
-        // (a 3-byte block header and 1 byte repeated), so a larger claim is refused before it is allocated.
-        if (blob.raw_size / ZSTD_BLOCKSIZE_MAX > blob.stored_size / 4)
-          fail(PackError::Code::Format, which + ": a zstd frame of " + std::to_string(blob.stored_size) +
-                                            " bytes cannot hold " + std::to_string(blob.raw_size));
-      }
-      reader.blobs_.push_back(blob);
+    reader.manifest_ = m.get<Manifest>();
+  } catch (const ManifestError& error) {
+    throw malformed(error.what());
+  }
+  m = json();  // the typed manifest is all that is kept
+  const Manifest& manifest = reader.manifest_;
+  reader.name_ = manifest.name;
+  // The manifest names the archive; a name of any other shape ("../x", "/etc/passwd") is refused before any
+  // file is opened, so a hostile manifest can make the reader read nothing but this pack's own archive.
+  if (reader.name_.empty() || reader.name_.find_first_not_of(kPackNameCharacters) != std::string::npos)
+    throw malformed("/name: " + json(reader.name_).dump() + " is not a pack name (letters, digits, '_', '-' and '.')");
+  const std::string& archive_name = manifest.archive.file;
+  if (archive_name != archive_file_name(reader.name_, manifest.archive.xxh3_64) || !is_archive_file_name(archive_name, reader.name_))
+    throw malformed("/archive/file: " + json(archive_name).dump() + " is not the archive's name, <name>.<xxh3_64>" +
+                    std::string(kArchiveExtension));
+  reader.archive_file_ = (manifest_file.parent_path() / archive_name).string();
+  reader.archive_ = read_pack_file(reader.archive_file_, "archive of pack '" + reader.name_ + "'", kMaxArchiveBytes,
+                                   manifest.archive.size);
+  const std::string& bytes = reader.archive_;
+  auto fail = [&](PackError::Code code, const std::string& message) { throw PackError(code, message, reader.archive_file_); };
+  if (bytes.size() < kPackHeaderSize || std::memcmp(bytes.data(), kPackMagic, 8) != 0)
+    fail(PackError::Code::Format, "archive of pack '" + reader.name_ + "' has no KILNPACK header");
+  uint32_t version = 0, count = 0;
+  std::memcpy(&version, bytes.data() + 8, 4);
+  std::memcpy(&count, bytes.data() + 12, 4);
+  if (version != kPackFormatVersion)
+    fail(PackError::Code::Version, "archive format version " + std::to_string(version) + " is not supported");
+  if (get64(bytes, 24) != bytes.size())
+    fail(PackError::Code::Checksum, "archive of pack '" + reader.name_ + "' is truncated or has the wrong size");
+  if (XXH3_64bits(bytes.data() + kPackHeaderSize, bytes.size() - kPackHeaderSize) != get64(bytes, 16) ||
+      hex64(XXH3_64bits(bytes.data(), bytes.size())) != manifest.archive.xxh3_64)
+    fail(PackError::Code::Checksum, "archive of pack '" + reader.name_ + "' fails its checksum");
+  if (kPackHeaderSize + kPackBlobEntrySize * uint64_t{count} > bytes.size())
+    fail(PackError::Code::Format, "archive blob table is out of bounds");
+  if (count != manifest.archive.blobs)
+    throw malformed("/archive/blobs: " + std::to_string(manifest.archive.blobs) + " blobs, the archive holds " +
+                    std::to_string(count));
+  reader.blobs_.reserve(count);
+  for (uint32_t i = 0; i < count; ++i) {
+    size_t at = kPackHeaderSize + kPackBlobEntrySize * i;
+    Blob blob{get64(bytes, at), get64(bytes, at + 8), get64(bytes, at + 16), get64(bytes, at + 24)};
+    const std::string which = "blob " + std::to_string(i);
+    if (blob.offset > bytes.size() || blob.stored_size > bytes.size() - blob.offset)
+      fail(PackError::Code::Format, which + " is out of bounds");
+    if (blob.raw_size > kMaxBlobBytes)
+      fail(PackError::Code::Format, which + ": raw size " + std::to_string(blob.raw_size) +
+                                        " is over the pack format's limit of " + std::to_string(kMaxBlobBytes) + " bytes");
+    if (blob.stored_size > blob.raw_size)
+      fail(PackError::Code::Format, which + ": stored size " + std::to_string(blob.stored_size) +
+                                        " is larger than its raw size " + std::to_string(blob.raw_size));
+    const char* stored = bytes.data() + blob.offset;
+    if (blob.stored_size == blob.raw_size) {
+      if (XXH3_64bits(stored, blob.stored_size) != blob.hash) fail(PackError::Code::Checksum, which + " fails its checksum");
+    } else {
+      // A frame is decompressed (and its checksum checked) when it is first read; its sizes are checked now, so
+      // that the buffer made then is only as large as the frame can fill.
+      const size_t frame_size = ZSTD_findFrameCompressedSize(stored, blob.stored_size);
+      if (ZSTD_isError(frame_size) || frame_size != blob.stored_size) fail(PackError::Code::Format, which + " is not one zstd frame");
+      const unsigned long long content_size = ZSTD_getFrameContentSize(stored, blob.stored_size);
+      if (content_size == ZSTD_CONTENTSIZE_UNKNOWN || content_size == ZSTD_CONTENTSIZE_ERROR)
+        fail(PackError::Code::Format, which + ": its zstd frame does not record its size");
+      if (content_size != blob.raw_size)
+        fail(PackError::Code::Format, which + ": its zstd frame holds " + std::to_string(content_size) +
+                                          " bytes, the blob table records " + std::to_string(blob.raw_size));
+      // A frame's header may claim any size; no frame fills more than one 128 KiB block per 4 of its bytes
+      // (a 3-byte block header and 1 byte repeated), so a larger claim is refused before it is allocated.
+      if (blob.raw_size / ZSTD_BLOCKSIZE_MAX > blob.stored_size / 4)
+        fail(PackError::Code::Format, which + ": a zstd frame of " + std::to_string(blob.stored_size) +
+                                          " bytes cannot hold " + std::to_string(blob.raw_size));
     }
-    ManifestShape{manifest_name, reader.blobs_.size()}.check(m);
-    for (const json& pass : m.at("passes")) {
-      Pass entry;
-      entry.json = &pass;
-      for (const json& group : pass.at("keyword_groups")) {
-        std::vector<std::string> values;
-        for (const json& v : group.at("values")) values.push_back(v == "_" ? "" : v.get<std::string>());
-        entry.groups.push_back(std::move(values));
-      }
-      const json& variants = pass.at("variants");
-      for (size_t i = 0; i < variants.size(); ++i)
-        entry.by_key[join(variants[i].at("keywords").get<std::vector<std::string>>())] = i;
-      reader.passes_[pass.at("name").get<std::string>()] = std::move(entry);
-    }
-  } catch (const json::exception& error) {
-    throw PackError(PackError::Code::Format, "malformed manifest: " + reason_of(error), manifest_name);
+    reader.blobs_.push_back(blob);
+  }
+  try {
+    manifest.check_indices();
+  } catch (const ManifestError& error) {
+    throw malformed(error.what());
+  }
+  for (const ManifestPass& pass : manifest.passes) {
+    Pass entry;
+    entry.manifest = &pass;
+    for (const ManifestKeywordGroup& group : pass.keyword_groups) entry.groups.push_back(group.values);
+    for (size_t i = 0; i < pass.variants.size(); ++i) entry.by_key[join(pass.variants[i].keywords)] = i;
+    if (!reader.passes_.emplace(pass.name, std::move(entry)).second)
+      throw malformed("/passes: two passes are named " + json(pass.name).dump());
   }
   return reader;
 }
 
 std::vector<std::string> PackReader::passes() const {
   std::vector<std::string> names;
-  for (const json& pass : manifest_.at("passes")) names.push_back(pass.at("name").get<std::string>());
+  for (const ManifestPass& pass : manifest_.passes) names.push_back(pass.name);
   return names;
 }
 
@@ -351,7 +290,7 @@ const PackReader::Pass& PackReader::find_pass(std::string_view name) const {
   return it->second;
 }
 
-size_t PackReader::variant_count(std::string_view pass) const { return find_pass(pass).json->at("variants").size(); }
+size_t PackReader::variant_count(std::string_view pass) const { return find_pass(pass).manifest->variants.size(); }
 
 std::vector<std::vector<std::string>> PackReader::keyword_groups(std::string_view pass) const {
   return find_pass(pass).groups;
@@ -378,28 +317,27 @@ std::string_view PackReader::blob(uint32_t id) const {
 
 SelectedVariant PackReader::variant(std::string_view pass_name, size_t index) const {
   const Pass& pass = find_pass(pass_name);
-  const json& variants = pass.json->at("variants");
+  const std::vector<ManifestVariant>& variants = pass.manifest->variants;
   if (index >= variants.size()) throw PackError(PackError::Code::Format, "variant index out of range");
-  const json& v = variants[index];
+  const ManifestVariant& v = variants[index];
   SelectedVariant selected;
   selected.pass = std::string(pass_name);
   selected.index = index;
-  selected.keywords = v.at("keywords").get<std::vector<std::string>>();
-  const json& binaries = manifest_.at("binaries");
-  for (auto& [stage, binary_id] : v.at("binaries").items()) {
-    const json& binary = binaries.at(binary_id.get<size_t>());
+  selected.keywords = v.keywords;
+  for (const auto& [stage, binary_id] : v.binaries) {
+    const ManifestBinary& binary = manifest_.binaries[binary_id];  // in range: check_indices
     StageView view;
-    view.stage = stage;
-    view.entry_point = binary.at("entry").get<std::string>();
-    const json& blobs = binary.at("blobs");
-    auto get = [&](const char* target) -> std::string_view {
-      return blobs.contains(target) ? blob(blobs.at(target).get<uint32_t>()) : std::string_view{};
+    view.stage = std::string(stage_name(stage));
+    view.entry_point = binary.entry;
+    auto get = [&](Target target) -> std::string_view {
+      auto it = binary.blobs.find(target);
+      return it == binary.blobs.end() ? std::string_view{} : blob(it->second);
     };
-    view.spirv = get("spirv");
-    view.glsl = get("glsl");
-    view.gles = get("gles");
-    view.msl = get("msl");
-    view.reflection = &manifest_.at("reflections").at(binary.at("reflection").get<size_t>());
+    view.spirv = get(Target::Spirv);
+    view.glsl = get(Target::Glsl);
+    view.gles = get(Target::Gles);
+    view.msl = get(Target::Msl);
+    view.reflection = &manifest_.reflections[binary.reflection];
     selected.stages.push_back(view);
   }
   return selected;
@@ -447,7 +385,7 @@ SelectedVariant PackReader::select(std::string_view pass_name, const std::vector
   for (const std::string& keyword : chosen) {
     bool anywhere = false;
     for (const auto& [key, index] : pass.by_key) {
-      const auto& kw = pass.json->at("variants")[index].at("keywords");
+      const std::vector<std::string>& kw = pass.manifest->variants[index].keywords;
       if (std::find(kw.begin(), kw.end(), keyword) != kw.end()) anywhere = true;
     }
     if (!anywhere) missing.push_back(keyword);
@@ -455,7 +393,7 @@ SelectedVariant PackReader::select(std::string_view pass_name, const std::vector
   // Nearest existing variants by symmetric difference, as hints only.
   std::vector<std::pair<size_t, std::string>> nearest;
   for (const auto& [key, index] : pass.by_key) {
-    auto kw = pass.json->at("variants")[index].at("keywords").get<std::vector<std::string>>();
+    const std::vector<std::string>& kw = pass.manifest->variants[index].keywords;
     std::vector<std::string> diff;
     std::set_symmetric_difference(kw.begin(), kw.end(), chosen.begin(), chosen.end(), std::back_inserter(diff));
     nearest.emplace_back(diff.size(), key);

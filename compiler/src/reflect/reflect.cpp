@@ -9,8 +9,6 @@
 namespace kiln {
 namespace {
 
-using nlohmann::json;
-
 std::string type_name(const spirv_cross::SPIRType& type) {
   std::string base;
   switch (type.basetype) {
@@ -77,117 +75,105 @@ uint64_t checked_block_size(const spirv_cross::Compiler& compiler, const spirv_c
   return size;
 }
 
-json block_members(const spirv_cross::Compiler& compiler, const spirv_cross::SPIRType& type) {
-  json members = json::array();
+std::vector<BlockMember> block_members(const spirv_cross::Compiler& compiler, const spirv_cross::SPIRType& type) {
+  std::vector<BlockMember> members;
   for (uint32_t i = 0; i < type.member_types.size(); ++i) {
     const auto& member_type = compiler.get_type(type.member_types[i]);
-    json member{{"name", compiler.get_member_name(type.self, i)},
-                {"offset", compiler.type_struct_member_offset(type, i)},
-                {"size", declared_member_size(compiler, type, i)},
-                {"type", type_name(member_type)}};
-    if (!member_type.array.empty()) member["array_stride"] = compiler.type_struct_member_array_stride(type, i);
-    members.push_back(member);
+    BlockMember& member = members.emplace_back();
+    member.name = compiler.get_member_name(type.self, i);
+    member.offset = compiler.type_struct_member_offset(type, i);
+    member.size = declared_member_size(compiler, type, i);
+    member.type = type_name(member_type);
+    if (!member_type.array.empty()) member.array_stride = compiler.type_struct_member_array_stride(type, i);
   }
   return members;
 }
 
 }  // namespace
 
-json reflect_spirv(const std::vector<uint32_t>& spirv) {
+Reflection reflect_spirv(const std::vector<uint32_t>& spirv) {
   spirv_cross::Compiler compiler(spirv);
   spirv_cross::ShaderResources resources = compiler.get_shader_resources();
-  json out = json::object();
-  json list = json::array();
-  auto add = [&](const spirv_cross::SmallVector<spirv_cross::Resource>& items, const char* kind, bool block) {
-    for (const auto& resource : items) {
-      const auto& type = compiler.get_type(resource.type_id);
-      const auto& base_type = compiler.get_type(resource.base_type_id);
-      std::string name = compiler.get_name(resource.id);
-      if (name.empty()) name = resource.name;
-      json entry{{"name", name},
-                 {"kind", kind},
-                 {"set", compiler.get_decoration(resource.id, spv::DecorationDescriptorSet)},
-                 {"binding", compiler.get_decoration(resource.id, spv::DecorationBinding)},
-                 {"count", type.array.empty() ? 1u : type.array[0]}};
-      if (block) {
-        entry["size"] = checked_block_size(compiler, base_type, name);
-        entry["members"] = block_members(compiler, base_type);
-      } else if (base_type.basetype == spirv_cross::SPIRType::Image ||
-                 base_type.basetype == spirv_cross::SPIRType::SampledImage) {
-        entry["dimension"] = image_dimension(base_type);
-        if (base_type.image.depth) entry["depth"] = true;
+  Reflection out;
+  auto add = [&](const spirv_cross::SmallVector<spirv_cross::Resource>& items, ResourceKind kind) {
+    for (const auto& item : items) {
+      const auto& type = compiler.get_type(item.type_id);
+      const auto& base_type = compiler.get_type(item.base_type_id);
+      Resource& resource = out.resources.emplace_back();
+      resource.name = compiler.get_name(item.id);
+      if (resource.name.empty()) resource.name = item.name;
+      resource.kind = kind;
+      resource.set = compiler.get_decoration(item.id, spv::DecorationDescriptorSet);
+      resource.binding = compiler.get_decoration(item.id, spv::DecorationBinding);
+      resource.count = type.array.empty() ? 1u : type.array[0];
+      if (is_block(kind)) {
+        resource.size = checked_block_size(compiler, base_type, resource.name);
+        resource.members = block_members(compiler, base_type);
+      } else if (is_image(kind)) {
+        resource.dimension = image_dimension(base_type);
+        resource.depth = base_type.image.depth;
       }
-      list.push_back(entry);
     }
   };
-  add(resources.uniform_buffers, "uniform_buffer", true);
-  add(resources.storage_buffers, "storage_buffer", true);
-  add(resources.separate_images, "texture", false);
-  add(resources.separate_samplers, "sampler", false);
-  add(resources.sampled_images, "combined_image_sampler", false);
-  add(resources.storage_images, "storage_image", false);
-  std::sort(list.begin(), list.end(), [](const json& a, const json& b) {
-    return std::tie(a["set"], a["binding"], a["name"]) < std::tie(b["set"], b["binding"], b["name"]);
+  add(resources.uniform_buffers, ResourceKind::UniformBuffer);
+  add(resources.storage_buffers, ResourceKind::StorageBuffer);
+  add(resources.separate_images, ResourceKind::Texture);
+  add(resources.separate_samplers, ResourceKind::Sampler);
+  add(resources.sampled_images, ResourceKind::CombinedImageSampler);
+  add(resources.storage_images, ResourceKind::StorageImage);
+  std::sort(out.resources.begin(), out.resources.end(), [](const Resource& a, const Resource& b) {
+    return std::tie(a.set, a.binding, a.name) < std::tie(b.set, b.binding, b.name);
   });
-  out["resources"] = list;
 
-  json push = json::array();
-  for (const auto& resource : resources.push_constant_buffers) {
-    const auto& type = compiler.get_type(resource.base_type_id);
-    push.push_back({{"name", compiler.get_name(resource.id)},
-                    {"size", checked_block_size(compiler, type, compiler.get_name(resource.id))},
-                    {"members", block_members(compiler, type)}});
+  for (const auto& item : resources.push_constant_buffers) {
+    const auto& type = compiler.get_type(item.base_type_id);
+    PushConstantBlock& block = out.push_constants.emplace_back();
+    block.name = compiler.get_name(item.id);
+    block.size = checked_block_size(compiler, type, block.name);
+    block.members = block_members(compiler, type);
   }
-  out["push_constants"] = push;
 
   auto interface = [&](const spirv_cross::SmallVector<spirv_cross::Resource>& items) {
-    json vars = json::array();
-    for (const auto& resource : items) {
-      vars.push_back({{"name", compiler.get_name(resource.id)},
-                      {"location", compiler.get_decoration(resource.id, spv::DecorationLocation)},
-                      {"type", type_name(compiler.get_type(resource.type_id))}});
-    }
-    std::sort(vars.begin(), vars.end(), [](const json& a, const json& b) { return a["location"] < b["location"]; });
-    return vars;
+    std::vector<StageVariable> variables;
+    for (const auto& item : items)
+      variables.push_back({compiler.get_name(item.id), compiler.get_decoration(item.id, spv::DecorationLocation),
+                           type_name(compiler.get_type(item.type_id))});
+    std::sort(variables.begin(), variables.end(),
+                     [](const StageVariable& a, const StageVariable& b) { return a.location < b.location; });
+    return variables;
   };
-  out["inputs"] = interface(resources.stage_inputs);
-  out["outputs"] = interface(resources.stage_outputs);
+  out.inputs = interface(resources.stage_inputs);
+  out.outputs = interface(resources.stage_outputs);
   return out;
 }
 
-MergedLayout merge_layouts(const std::vector<const json*>& reflections) {
+MergedLayout merge_layouts(const std::vector<const Reflection*>& reflections) {
   MergedLayout out;
-  std::map<std::pair<uint32_t, uint32_t>, json> by_slot;  // (set, binding) -> first resource seen there
-  std::map<std::string, json> by_name;
-  json push_constants = json::array();
+  std::map<std::pair<uint32_t, uint32_t>, const Resource*> by_slot;  // (set, binding) -> first resource seen there
+  std::map<std::string, const Resource*> by_name;
+  const std::vector<PushConstantBlock>* push_constants = nullptr;
   std::set<std::pair<std::string, std::string>> reported;
-  auto clash = [&](LayoutClash::Kind kind, const json& first, const json& second) {
-    if (reported.emplace(first.dump(), second.dump()).second) out.clashes.push_back({kind, first, second});
+  auto clash = [&](LayoutClash::Kind kind, const Resource& first, const Resource& second) {
+    if (reported.emplace(nlohmann::json(first).dump(), nlohmann::json(second).dump()).second)
+      out.clashes.push_back({kind, first, second});
   };
-  for (const json* reflection : reflections) {
-    for (const json& resource : (*reflection)["resources"]) {
-      auto slot = std::make_pair(resource["set"].get<uint32_t>(), resource["binding"].get<uint32_t>());
-      auto [at_slot, new_slot] = by_slot.emplace(slot, resource);
-      if (!new_slot && at_slot->second != resource) clash(LayoutClash::Kind::SharedSlot, at_slot->second, resource);
-      auto [named, new_name] = by_name.emplace(resource["name"].get<std::string>(), resource);
-      if (!new_name && (named->second["set"] != resource["set"] || named->second["binding"] != resource["binding"]))
-        clash(LayoutClash::Kind::MovedResource, named->second, resource);
+  for (const Reflection* reflection : reflections) {
+    for (const Resource& resource : reflection->resources) {
+      auto [at_slot, new_slot] = by_slot.emplace(std::make_pair(resource.set, resource.binding), &resource);
+      if (!new_slot && *at_slot->second != resource) clash(LayoutClash::Kind::SharedSlot, *at_slot->second, resource);
+      auto [named, new_name] = by_name.emplace(resource.name, &resource);
+      if (!new_name && (named->second->set != resource.set || named->second->binding != resource.binding))
+        clash(LayoutClash::Kind::MovedResource, *named->second, resource);
     }
-    const json& push = (*reflection)["push_constants"];
+    const std::vector<PushConstantBlock>& push = reflection->push_constants;
     if (push.empty()) continue;
-    if (push_constants.empty()) push_constants = push;
-    else if (push != push_constants) clash(LayoutClash::Kind::PushConstants, push_constants, push);
+    if (!push_constants) push_constants = &push;
+    else if (push != *push_constants && reported.emplace("push constants", "").second)
+      out.clashes.push_back({LayoutClash::Kind::PushConstants, {}, {}});
   }
-  json resources = json::array();
-  for (auto& [slot, resource] : by_slot) resources.push_back(resource);
-  out.layout = {{"resources", resources}, {"push_constants", push_constants}};
+  for (const auto& [slot, resource] : by_slot) out.layout.resources.push_back(*resource);
+  if (push_constants) out.layout.push_constants = *push_constants;
   return out;
-}
-
-bool holds_resource(const json& reflection, const json& resource) {
-  for (const json& r : reflection["resources"])
-    if (r == resource) return true;
-  return false;
 }
 
 }  // namespace kiln

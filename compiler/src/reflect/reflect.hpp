@@ -7,9 +7,8 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "kiln/diagnostics.hpp"
+#include "kiln/manifest.hpp"
 
 namespace kiln {
 
@@ -18,27 +17,25 @@ struct ReflectionError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// {"resources": [...], "push_constants": [...], "inputs": [...], "outputs": [...]}, sorted, deterministic.
-// Throws ReflectionError.
-nlohmann::json reflect_spirv(const std::vector<uint32_t>& spirv);
+// Resources, push constants, inputs and outputs, sorted, deterministic (the targets' binding records are the
+// cross stage's). Throws ReflectionError.
+Reflection reflect_spirv(const std::vector<uint32_t>& spirv);
 
 // Two things a pass's binaries disagree on: the resources `first` and `second` at one (set, binding)
 // (SharedSlot), one resource name at two slots (MovedResource), or two push constant blocks (PushConstants).
 // Each distinct pair once, in the order first met.
 struct LayoutClash {
   enum class Kind { SharedSlot, MovedResource, PushConstants } kind = Kind::SharedSlot;
-  nlohmann::json first, second;
+  // The resources (SharedSlot, MovedResource), or each side's first push constant block (PushConstants).
+  Resource first, second;
 };
 
 struct MergedLayout {
-  nlohmann::json layout;  // {"resources": [...], "push_constants": [...]}
+  PassLayout layout;
   std::vector<LayoutClash> clashes;
 };
 
 // Merges the reflections of all binaries of a pass into one layout.
-MergedLayout merge_layouts(const std::vector<const nlohmann::json*>& reflections);
-
-// Whether a binary's reflection holds `resource` (same name, kind, set, binding and shape).
-bool holds_resource(const nlohmann::json& reflection, const nlohmann::json& resource);
+MergedLayout merge_layouts(const std::vector<const Reflection*>& reflections);
 
 }  // namespace kiln

@@ -12,24 +12,20 @@
 namespace kiln {
 namespace {
 
-using nlohmann::json;
-
 // Rebuilds the keyword groups, constraints and materials recorded in a manifest.
 struct RecordedPass {
   PassDefinition definition;
   std::vector<KeywordGroup> groups;
 };
 
-std::vector<KeywordGroup> recorded_groups(const json& pass) {
+std::vector<KeywordGroup> recorded_groups(const ManifestPass& pass) {
   std::vector<KeywordGroup> groups;
-  for (const json& g : pass.at("keyword_groups")) {
+  for (const ManifestKeywordGroup& g : pass.keyword_groups) {
     KeywordGroup group;
-    group.pragma = g.value("pragma", "multi_compile");
+    group.pragma = g.pragma;
     group.material_feature = is_material_feature_pragma(group.pragma);
-    group.stages = 0;
-    for (const json& s : g.value("stages", json::array({"vertex", "fragment"})))
-      if (auto stage = parse_stage(s.get<std::string>())) group.stages |= stage_bit(*stage);
-    for (const json& v : g.at("values")) group.values.push_back(v == "_" ? "" : v.get<std::string>());
+    group.stages = g.stages;
+    group.values = g.values;
     groups.push_back(std::move(group));
   }
   return groups;
@@ -38,12 +34,13 @@ std::vector<KeywordGroup> recorded_groups(const json& pass) {
 std::string join_key(const std::vector<std::string>& keywords) { return join_keywords(keywords); }
 
 // Binary blob ids of a variant, to compare two packs' variants by content.
-std::string variant_content(const PackReader& pack, const json& variant) {
+std::string variant_content(const PackReader& pack, const ManifestVariant& variant) {
   std::string content;
-  const json& binaries = pack.manifest().at("binaries");
-  for (auto& [stage, index] : variant.at("binaries").items()) {
-    std::string_view spirv = pack.blob(binaries.at(index.get<size_t>()).at("blobs").at("spirv").get<uint32_t>());
-    content += stage + ":" + std::to_string(std::hash<std::string_view>{}(spirv)) + ";";
+  for (const auto& [stage, index] : variant.binaries) {
+    const auto& blobs = pack.manifest().binaries[index].blobs;  // in range: the reader checked
+    auto spirv = blobs.find(Target::Spirv);
+    const std::string_view bytes = spirv == blobs.end() ? std::string_view{} : pack.blob(spirv->second);
+    content += std::string(stage_name(stage)) + ":" + std::to_string(std::hash<std::string_view>{}(bytes)) + ";";
   }
   return content;
 }
@@ -53,29 +50,24 @@ std::string variant_content(const PackReader& pack, const json& variant) {
 std::optional<SceneCheck> check_scene(const PackReader& pack, const std::filesystem::path& scene_file, DiagnosticSink& sink) {
   auto scene = load_scene_profile(scene_file, ReadLimits{}, sink);
   if (!scene) return std::nullopt;
-  const json& manifest = pack.manifest();
+  const Manifest& manifest = pack.manifest();
   PackDefinition definition;
   definition.name = pack.name();
-  for (const json& c : manifest.value("constraints", json::array())) {
+  for (const ManifestConstraint& c : manifest.constraints) {
     Constraint constraint;
-    constraint.keyword = c.at("keyword").get<std::string>();
-    constraint.requires_all = c.value("requires", std::vector<std::string>{});
-    constraint.requires_any = c.value("requires_any", std::vector<std::string>{});
-    constraint.excludes = c.value("excludes", std::vector<std::string>{});
+    constraint.keyword = c.keyword;
+    constraint.requires_all = c.requires_all;
+    constraint.requires_any = c.requires_any;
+    constraint.excludes = c.excludes;
     definition.constraints.push_back(std::move(constraint));
   }
-  for (const json& m : manifest.value("materials", json::array())) {
-    MaterialPreset material;
-    material.name = m.at("name").get<std::string>();
-    for (const json& k : m.at("keywords")) material.keywords.insert(k.get<std::string>());
-    definition.materials.push_back(std::move(material));
-  }
-  for (const json& pass : manifest.at("passes")) definition.passes.push_back(PassDefinition{pass.at("name"), {}, {}, {}});
-  std::string features = manifest.contains("scene_features") ? manifest.at("scene_features").dump() : std::string();
+  for (const ManifestMaterial& m : manifest.materials) definition.materials.push_back(MaterialPreset{m.name, m.keywords, {}});
+  for (const ManifestPass& pass : manifest.passes) definition.passes.push_back(PassDefinition{pass.name, {}, {}, {}});
+  std::string features = manifest.scene_features.dump();
   if (!resolve_scene_profile(*scene, features, definition.materials, sink)) return std::nullopt;
   std::vector<PassKeywords> passes;
   for (size_t p = 0; p < definition.passes.size(); ++p)
-    passes.push_back(PassKeywords{&definition.passes[p], recorded_groups(manifest.at("passes")[p])});
+    passes.push_back(PassKeywords{&definition.passes[p], recorded_groups(manifest.passes[p])});
 
   // What the scene can request: the scene's keywords, limited by the same constraints and materials the
   // pack was built with, but by no budget.
@@ -104,11 +96,8 @@ PackDiff diff_packs(const PackReader& a, const PackReader& b) {
   PackDiff diff;
   auto index = [](const PackReader& pack) {
     std::map<std::pair<std::string, std::string>, std::pair<std::vector<std::string>, std::string>> out;
-    for (const json& pass : pack.manifest().at("passes"))
-      for (const json& v : pass.at("variants")) {
-        auto keywords = v.at("keywords").get<std::vector<std::string>>();
-        out[{pass.at("name").get<std::string>(), join_key(keywords)}] = {keywords, variant_content(pack, v)};
-      }
+    for (const ManifestPass& pass : pack.manifest().passes)
+      for (const ManifestVariant& v : pass.variants) out[{pass.name, join_key(v.keywords)}] = {v.keywords, variant_content(pack, v)};
     return out;
   };
   auto in_a = index(a), in_b = index(b);

@@ -66,7 +66,12 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
       return out;
     }
     out.blobs[target] = pack_blob(cross.source);
-    out.reflection[std::string(target_name(target))] = std::move(cross.bindings);
+    switch (target) {
+      case Target::Glsl: out.reflection.glsl = std::move(cross.gl); break;
+      case Target::Gles: out.reflection.gles = std::move(cross.gl); break;
+      case Target::Msl: out.reflection.msl = std::move(cross.msl); break;
+      case Target::Spirv: break;
+    }
   }
   out.blobs[Target::Spirv] = pack_spirv(spirv.spirv);  // whatever the targets: every binary keeps its SPIR-V
   out.ok = true;

@@ -1,0 +1,214 @@
+// The back-end stages on their own, in process, on modules glslang makes from small HLSL: optimize
+// (legalize, validate, optimize), reflect (and the pass layout merge), and the 16-bit widening for GL.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "cross/widen_float16.hpp"
+#include "frontend/frontend.hpp"
+#include "optimize/spirv_tools.hpp"
+#include "reflect/reflect.hpp"
+
+namespace kiln {
+namespace {
+
+// The front end's module (not legal yet).
+std::vector<uint32_t> front_end(const std::string& source, Stage stage, const std::string& entry) {
+  std::unique_ptr<Frontend> frontend = make_glslang_frontend();
+  CompileResult compiled = frontend->compile({stage, entry, "test.hlsl", source, BindingOptions{}});
+  EXPECT_TRUE(compiled.ok) << source << (compiled.messages.empty() ? "" : compiled.messages.front().text);
+  return compiled.spirv;
+}
+
+std::vector<uint32_t> optimized(const std::string& source, Stage stage = Stage::Fragment, const std::string& entry = "F") {
+  SpirvStepResult result = legalize_validate_optimize(front_end(source, stage, entry), true);
+  EXPECT_TRUE(result.ok) << (result.messages.empty() ? "" : result.messages.front());
+  return result.spirv;
+}
+
+size_t count_opcode(const std::vector<uint32_t>& spirv, uint32_t opcode) {
+  size_t n = 0;
+  for (size_t i = 5; i < spirv.size() && (spirv[i] >> 16) > 0; i += spirv[i] >> 16)
+    if ((spirv[i] & 0xffff) == opcode) ++n;
+  return n;
+}
+
+// ---- optimize -------------------------------------------------------------------------------------------------
+
+const char* kLoopy = R"(
+cbuffer C : register(b0) { float4 tint; int count; };
+float4 Scale(float4 v, float s) { return v * s; }
+float4 F() : SV_Target {
+  float4 sum = 0;
+  [unroll] for (int i = 0; i < 4; ++i) sum += Scale(tint, 0.25);
+  float unused = tint.x * 3.0;
+  return sum;
+}
+)";
+
+TEST(Optimize, LegalizesValidatesAndOptimizesDeterministically) {
+  const std::vector<uint32_t> module = front_end(kLoopy, Stage::Fragment, "F");
+  SpirvStepResult plain = legalize_validate_optimize(module, false);
+  SpirvStepResult fast = legalize_validate_optimize(module, true);
+  ASSERT_TRUE(plain.ok && fast.ok);
+  EXPECT_FALSE(fast.full_legalization);  // kiln's core recipe suffices for plain HLSL
+  // The performance recipe inlined Scale and removed the dead code: fewer functions and instructions.
+  constexpr uint32_t kOpFunction = 54;
+  EXPECT_EQ(count_opcode(fast.spirv, kOpFunction), 1u);
+  EXPECT_LT(fast.spirv.size(), plain.spirv.size());
+  EXPECT_TRUE(validate_spirv(fast.spirv).ok);
+  EXPECT_EQ(legalize_validate_optimize(module, true).spirv, fast.spirv);  // the same bytes every time
+}
+
+TEST(Optimize, NamesTheStepThatFailed) {
+  std::vector<uint32_t> module = front_end(kLoopy, Stage::Fragment, "F");
+  module[0] = 0xdeadbeef;  // not SPIR-V
+  SpirvStepResult result = legalize_validate_optimize(module, true);
+  EXPECT_FALSE(result.ok);
+  EXPECT_EQ(result.step, CompileStep::Legalize);
+  EXPECT_FALSE(result.messages.empty());
+
+  // A module that parses but is invalid fails validation, not the optimizer.
+  SpirvStepResult invalid = validate_spirv({0x07230203, 0x00010300, 0, 1, 0});
+  EXPECT_FALSE(invalid.ok);
+  EXPECT_FALSE(invalid.messages.empty());
+}
+
+// ---- reflect --------------------------------------------------------------------------------------------------
+
+const char* kResources = R"(
+cbuffer PerFrame : register(b1) { float4x4 viewProj; float4 colors[3]; float scale; };
+Texture2D albedo : register(t2);
+TextureCube sky : register(t3);
+Texture2DArray<float> shadows : register(t4);
+SamplerState linearClamp : register(s5);
+SamplerComparisonState shadowCompare : register(s6);
+StructuredBuffer<float4> lights : register(t7);
+RWTexture2D<float4> output : register(u0, space1);
+struct PC { float4 offset; };
+[[vk::push_constant]] ConstantBuffer<PC> push;
+float4 F(float4 position : SV_Position, float2 uv : TEXCOORD1, float3 normal : NORMAL) : SV_Target {
+  float4 c = albedo.Sample(linearClamp, uv) + sky.Sample(linearClamp, normal) * colors[2] * scale;
+  c += shadows.SampleCmp(shadowCompare, float3(uv, 0), 0.5) + lights[1] + mul(viewProj, push.offset);
+  output[uint2(position.xy)] = c;
+  return c;
+}
+)";
+
+TEST(Reflect, ListsResourcesBlocksAndInterfacesInOrder) {
+  const Reflection r = reflect_spirv(optimized(kResources));
+  std::vector<std::string> order;
+  for (const Resource& resource : r.resources)
+    order.push_back(std::to_string(resource.set) + "." + std::to_string(resource.binding) + " " + resource.name + " " +
+                    std::string(resource_kind_name(resource.kind)) + (resource.dimension.empty() ? "" : " " + resource.dimension));
+  EXPECT_EQ(order, (std::vector<std::string>{"0.1 PerFrame uniform_buffer", "0.2 albedo texture 2D", "0.3 sky texture Cube",
+                                             "0.4 shadows texture 2DArray", "0.5 linearClamp sampler",
+                                             "0.6 shadowCompare sampler", "0.7 lights storage_buffer", "1.0 output storage_image 2D"}));
+  const Resource& frame = r.resources[0];
+  EXPECT_EQ(frame.size, 64u + 3 * 16 + 4);
+  ASSERT_EQ(frame.members.size(), 3u);
+  EXPECT_EQ(frame.members[0].name, "viewProj");
+  EXPECT_EQ(frame.members[0].type, "float4x4");
+  EXPECT_EQ(frame.members[0].size, 64u);
+  EXPECT_EQ(frame.members[1].name, "colors");
+  EXPECT_EQ(frame.members[1].offset, 64u);
+  EXPECT_EQ(frame.members[1].array_stride, 16u);
+  EXPECT_EQ(frame.members[1].size, 48u);
+  EXPECT_EQ(frame.members[2].offset, 112u);
+  EXPECT_EQ(frame.members[2].array_stride, std::nullopt);
+  ASSERT_EQ(r.push_constants.size(), 1u);
+  EXPECT_EQ(r.push_constants[0].size, 16u);
+  // Inputs by location (glslang numbers them in declaration order; SV_Position is a built-in, not listed).
+  ASSERT_EQ(r.inputs.size(), 2u);
+  EXPECT_EQ(r.inputs[0].name, "uv");
+  EXPECT_EQ(r.inputs[1].name, "normal");
+  EXPECT_EQ(r.inputs[0].type, "float2");
+  EXPECT_LT(r.inputs[0].location, r.inputs[1].location);
+  ASSERT_EQ(r.outputs.size(), 1u);
+  EXPECT_EQ(r.outputs[0].type, "float4");
+  EXPECT_FALSE(r.glsl || r.gles || r.msl);  // the targets' records are the cross stage's
+}
+
+TEST(Reflect, MergesAPassLayoutAndFindsEachKindOfClash) {
+  const Reflection a = reflect_spirv(optimized("Texture2D t : register(t0); SamplerState s : register(s1);\n"
+                                               "float4 F(float2 uv : TEXCOORD0) : SV_Target { return t.Sample(s, uv); }\n"));
+  const Reflection b = reflect_spirv(optimized("cbuffer K : register(b2) { float4 k; };\n"
+                                               "float4 F() : SV_Target { return k; }\n"));
+  MergedLayout merged = merge_layouts({&a, &b, &a});
+  EXPECT_TRUE(merged.clashes.empty());
+  ASSERT_EQ(merged.layout.resources.size(), 3u);
+  EXPECT_EQ(merged.layout.resources[2].name, "K");
+  EXPECT_TRUE(a.holds(merged.layout.resources[0]));
+  EXPECT_FALSE(a.holds(merged.layout.resources[2]));
+
+  // Another resource at t's slot, and t itself moved: one clash each, each pair once.
+  const Reflection shared = reflect_spirv(optimized("Texture2D u : register(t0); SamplerState s : register(s1);\n"
+                                                    "float4 F(float2 uv : TEXCOORD0) : SV_Target { return u.Sample(s, uv); }\n"));
+  const Reflection moved = reflect_spirv(optimized("Texture2D t : register(t9); SamplerState s : register(s1);\n"
+                                                   "float4 F(float2 uv : TEXCOORD0) : SV_Target { return t.Sample(s, uv); }\n"));
+  merged = merge_layouts({&a, &shared, &shared, &moved});
+  ASSERT_EQ(merged.clashes.size(), 2u);
+  EXPECT_EQ(merged.clashes[0].kind, LayoutClash::Kind::SharedSlot);
+  EXPECT_EQ(merged.clashes[0].first.name, "t");
+  EXPECT_EQ(merged.clashes[0].second.name, "u");
+  EXPECT_EQ(merged.clashes[1].kind, LayoutClash::Kind::MovedResource);
+  EXPECT_EQ(merged.clashes[1].second.binding, 9u);
+
+  Reflection other_push = b;
+  other_push.push_constants = {{"P", 4, {}}};
+  Reflection push = b;
+  push.push_constants = {{"P", 8, {}}};
+  merged = merge_layouts({&push, &other_push});
+  ASSERT_EQ(merged.clashes.size(), 1u);
+  EXPECT_EQ(merged.clashes[0].kind, LayoutClash::Kind::PushConstants);
+}
+
+// ---- widen_float16 --------------------------------------------------------------------------------------------
+
+constexpr uint32_t kOpTypeFloat = 22, kOpDecorate = 71, kDecorationRelaxedPrecision = 0;
+
+bool has_float16(const std::vector<uint32_t>& spirv) {
+  for (size_t i = 5; i < spirv.size() && (spirv[i] >> 16) > 0; i += spirv[i] >> 16)
+    if ((spirv[i] & 0xffff) == kOpTypeFloat && spirv[i + 2] == 16) return true;
+  return false;
+}
+
+size_t relaxed_decorations(const std::vector<uint32_t>& spirv) {
+  size_t n = 0;
+  for (size_t i = 5; i < spirv.size() && (spirv[i] >> 16) > 0; i += spirv[i] >> 16)
+    if ((spirv[i] & 0xffff) == kOpDecorate && spirv[i + 2] == kDecorationRelaxedPrecision) ++n;
+  return n;
+}
+
+TEST(WidenFloat16, WidensHalfMathToRelaxedFloatAndStaysValid) {
+  const std::vector<uint32_t> module = optimized(R"(
+cbuffer C : register(b0) { float exposure; };
+half3 Tonemap(half3 c) { return c / (half3(1.0, 1.0, 1.0) + c); }
+float4 F(float4 color : COLOR0) : SV_Target { return float4(Tonemap(half3(color.rgb) * (half)exposure), 1); }
+)");
+  ASSERT_TRUE(has_float16(module));
+  WidenResult widened = widen_float16_for_gl(module);
+  ASSERT_TRUE(widened.ok) << widened.reason;
+  EXPECT_TRUE(widened.changed);
+  EXPECT_FALSE(has_float16(widened.spirv));
+  EXPECT_GT(relaxed_decorations(widened.spirv), 0u);
+  EXPECT_TRUE(validate_spirv(widened.spirv).ok) << validate_spirv(widened.spirv).messages.front();
+}
+
+TEST(WidenFloat16, LeavesModulesWithoutHalfOrWithHalfStorageAlone) {
+  const std::vector<uint32_t> plain = optimized("float4 F(float4 c : COLOR0) : SV_Target { return c * 2; }\n");
+  WidenResult unchanged = widen_float16_for_gl(plain);
+  EXPECT_TRUE(unchanged.ok);
+  EXPECT_FALSE(unchanged.changed);
+  EXPECT_EQ(unchanged.spirv.empty() ? plain : unchanged.spirv, plain);
+
+  // A 16-bit stage interface: widening would change what the other stage reads.
+  const std::vector<uint32_t> interface = optimized("half4 F(half4 c : COLOR0) : SV_Target { return c * (half)2.0; }\n");
+  ASSERT_TRUE(has_float16(interface));
+  WidenResult kept = widen_float16_for_gl(interface);
+  EXPECT_FALSE(kept.changed);
+  EXPECT_FALSE(kept.reason.empty());
+}
+
+}  // namespace
+}  // namespace kiln

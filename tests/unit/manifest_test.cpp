@@ -1,0 +1,199 @@
+// The typed manifest (kiln/manifest.hpp): what to_json writes, that from_json reads it back whole, and that
+// from_json refuses what kiln does not write with the place of the mistake.
+#include <gtest/gtest.h>
+
+#include "kiln/manifest.hpp"
+
+namespace kiln {
+namespace {
+
+using nlohmann::json;
+
+Reflection sample_reflection() {
+  Reflection r;
+  Resource block;
+  block.name = "PerFrame";
+  block.kind = ResourceKind::UniformBuffer;
+  block.binding = 0;
+  block.size = 80;
+  block.members = {{"viewProj", 0, 64, "float4x4", std::nullopt}, {"tint", 64, 16, "float4[1]", 16}};
+  Resource texture;
+  texture.name = "_Shadow";
+  texture.kind = ResourceKind::Texture;
+  texture.binding = 3;
+  texture.dimension = "2DArray";
+  texture.depth = true;
+  Resource sampler;
+  sampler.name = "sampler_Linear";
+  sampler.kind = ResourceKind::Sampler;
+  sampler.set = 1;
+  sampler.binding = 4;
+  sampler.count = 2;
+  r.resources = {block, texture, sampler};
+  r.push_constants = {{"Push", 16, {{"scale", 0, 16, "float4", std::nullopt}}}};
+  r.inputs = {{"in.var.POSITION", 0, "float3"}, {"in.var.NORMAL", 1, "float3"}};
+  r.outputs = {{"out.var.SV_Target", 0, "float4"}};
+  r.glsl = GlBindings{{{"_Shadow_sampler_Linear", "_Shadow", "sampler_Linear", 3}}, {{"PerFrame", ResourceKind::UniformBuffer, 0}}};
+  r.msl = MslBindings{{{"PerFrame", MslResourceKind::Buffer, 0}, {"_Shadow", MslResourceKind::Texture, 0}}};
+  return r;
+}
+
+Manifest sample_manifest() {
+  Manifest m;
+  m.format_version = 3;
+  m.name = "p";
+  m.kiln_version = "0.1.0";
+  m.tools = {"glslang 12", "SPIRV-Tools v2023.2", "C API 0.54.0"};
+  m.options.targets = {Target::Spirv, Target::Msl};
+  m.options.spirv_env = "vulkan1.1";
+  m.options.glsl_version = 450;
+  m.options.gles_version = 310;
+  m.options.msl_version = "2.1";
+  m.inputs_hash = "00ff";
+  m.funnel = {4, 3, 2, 4, 2, 2, 2, 2};
+  m.constraints = {{"B", {"A"}, {}, {"C"}, "B needs A"}};
+  m.materials = {{"glossy", {"A", "B"}}};
+  m.scene_features = {{"fog", {{"true", {"FOG"}}}}};
+  ManifestPass& pass = m.passes.emplace_back();
+  pass.name = "P";
+  pass.entry_points = {{Stage::Vertex, "V"}, {Stage::Fragment, "F"}};
+  pass.keyword_groups = {{"multi_compile", {"", "A"}, kAllStageBits}, {"shader_feature_fragment", {"B"}, stage_bit(Stage::Fragment)}};
+  pass.layout = {sample_reflection().resources, {}};
+  pass.variants = {{{"B"}, {{Stage::Vertex, 0}, {Stage::Fragment, 1}}}, {{"A", "B"}, {{Stage::Vertex, 0}, {Stage::Fragment, 1}}}};
+  pass.bindings = "-fvk-t-shift 16 all";
+  pass.defines = {{"QUALITY", "2"}};
+  m.binaries = {{Stage::Vertex, "V", {{Target::Spirv, 0}, {Target::Msl, 1}}, 0},
+                {Stage::Fragment, "F", {{Target::Spirv, 2}, {Target::Msl, 3}}, 0}};
+  m.reflections = {sample_reflection()};
+  m.archive = {"p.0123456789abcdef.kpack", 1000, "0123456789abcdef", 4};
+  return m;
+}
+
+// The file format, field by field, for a small reflection: names, optional fields, the off value, stage and
+// target keys.
+TEST(Manifest, WritesTheFileFormat) {
+  const json reflection = sample_reflection();
+  EXPECT_EQ(reflection.at("resources").at(0).dump(),
+            R"({"binding":0,"count":1,"kind":"uniform_buffer","members":[{"name":"viewProj","offset":0,"size":64,"type":"float4x4"},)"
+            R"({"array_stride":16,"name":"tint","offset":64,"size":16,"type":"float4[1]"}],"name":"PerFrame","set":0,"size":80})");
+  EXPECT_EQ(reflection.at("resources").at(1).dump(),
+            R"({"binding":3,"count":1,"depth":true,"dimension":"2DArray","kind":"texture","name":"_Shadow","set":0})");
+  EXPECT_EQ(reflection.at("resources").at(2).dump(), R"({"binding":4,"count":2,"kind":"sampler","name":"sampler_Linear","set":1})");
+  EXPECT_EQ(reflection.at("glsl").dump(),
+            R"({"blocks":[{"binding":0,"kind":"uniform_buffer","name":"PerFrame"}],"combined_image_samplers":)"
+            R"([{"binding":3,"name":"_Shadow_sampler_Linear","sampler":"sampler_Linear","texture":"_Shadow"}]})");
+  EXPECT_FALSE(reflection.contains("gles"));
+  EXPECT_EQ(reflection.at("msl").at("resources").at(1).dump(), R"({"index":0,"kind":"texture","name":"_Shadow"})");
+
+  const json manifest = sample_manifest();
+  EXPECT_EQ(manifest.at("format"), "kiln-pack-manifest");
+  const json& pass = manifest.at("passes").at(0);
+  EXPECT_EQ(pass.at("keyword_groups").dump(),
+            R"([{"pragma":"multi_compile","stages":["vertex","fragment"],"values":["_","A"]},)"
+            R"({"pragma":"shader_feature_fragment","stages":["fragment"],"values":["B"]}])");
+  EXPECT_EQ(pass.at("stages").dump(), R"({"fragment":"F","vertex":"V"})");
+  EXPECT_EQ(pass.at("variants").at(1).dump(), R"({"binaries":{"fragment":1,"vertex":0},"keywords":["A","B"]})");
+  EXPECT_EQ(pass.at("defines").dump(), R"({"QUALITY":"2"})");
+  EXPECT_EQ(manifest.at("binaries").at(1).dump(), R"({"blobs":{"msl":3,"spirv":2},"entry":"F","reflection":0,"stage":"fragment"})");
+  EXPECT_EQ(manifest.at("constraints").dump(), R"([{"excludes":["C"],"keyword":"B","reason":"B needs A","requires":["A"]}])");
+  EXPECT_EQ(manifest.at("options").at("targets").dump(), R"(["spirv","msl"])");
+
+  // Empty optional fields are left out, so packs that use none keep their bytes.
+  ManifestPass plain;
+  const json plain_json = plain;
+  EXPECT_FALSE(plain_json.contains("bindings"));
+  EXPECT_FALSE(plain_json.contains("defines"));
+  EXPECT_EQ(json(ManifestConstraint{"K", {}, {}, {}, ""}).dump(), R"({"keyword":"K"})");
+}
+
+TEST(Manifest, ReadsBackWhatItWrites) {
+  const Manifest m = sample_manifest();
+  const json text = json::parse(json(m).dump(1));
+  const Manifest back = text.get<Manifest>();
+  EXPECT_EQ(back.passes, m.passes);
+  EXPECT_EQ(back.binaries, m.binaries);
+  EXPECT_EQ(back.reflections, m.reflections);
+  EXPECT_EQ(back.constraints, m.constraints);
+  EXPECT_EQ(back.materials, m.materials);
+  EXPECT_EQ(back.options, m.options);
+  EXPECT_EQ(back.funnel, m.funnel);
+  EXPECT_EQ(back.tools, m.tools);
+  EXPECT_EQ(back.archive, m.archive);
+  EXPECT_EQ(back.scene_features, m.scene_features);
+  EXPECT_EQ(json(back), json(m));
+  ASSERT_NE(back.pass("P"), nullptr);
+  EXPECT_EQ(back.pass("Q"), nullptr);
+  EXPECT_NO_THROW(back.check_indices());
+}
+
+std::string error_reading(const json& j) {
+  try {
+    (void)j.get<Manifest>();
+  } catch (const ManifestError& e) {
+    return e.what();
+  }
+  return "(read)";
+}
+
+// Each mistake is named by its JSON pointer, and none escapes as a JSON library exception.
+TEST(Manifest, RefusesWhatKilnDoesNotWriteAndSaysWhere) {
+  const json good = sample_manifest();
+  struct Case {
+    std::string pointer;
+    json value;  // null: remove the field
+    std::string error;
+  };
+  const Case cases[] = {
+      {"/name", nullptr, "top level: has no \"name\""},
+      {"/binaries/1/stage", "compute", "/binaries/1/stage: \"compute\" is not a stage"},
+      {"/binaries/0/blobs/hlsl", 7, "/binaries/0/blobs/hlsl: \"hlsl\" is not a target"},
+      {"/binaries/0/reflection", -1, "/binaries/0/reflection: is not an unsigned integer"},
+      {"/binaries/0/reflection", uint64_t{4294967296}, "/binaries/0/reflection: 4294967296 is out of range"},
+      {"/reflections/0/resources/1/kind", "texel_buffer", "/reflections/0/resources/1/kind: \"texel_buffer\" is not a resource kind"},
+      {"/reflections/0/resources/0/members/1/offset", "64", "/reflections/0/resources/0/members/1/offset: is not an unsigned integer"},
+      {"/reflections/0/resources/0/members", nullptr, "/reflections/0/resources/0: has no \"members\""},
+      {"/reflections/0/glsl/blocks/0/kind", "texture", "/reflections/0/glsl/blocks/0/kind: is not a block kind"},
+      {"/passes/0/variants/1/keywords/0", 5, "/passes/0/variants/1/keywords/0: is not a string"},
+      {"/passes/0/keyword_groups/0/stages/0", "geometry", "/passes/0/keyword_groups/0/stages/0: \"geometry\" is not a stage"},
+      {"/passes/0/layout", json::array(), "/passes/0/layout: is not an object"},
+      {"/options/gl_clip_space_fixup", 1, "/options/gl_clip_space_fixup: is not a boolean"},
+      {"/scene_features", json::array(), "/scene_features: is not an object"},
+  };
+  for (const Case& c : cases) {
+    json bad = good;
+    const json::json_pointer at(c.pointer);
+    if (c.value.is_null()) bad[at.parent_pointer()].erase(at.back());
+    else bad[at] = c.value;
+    EXPECT_EQ(error_reading(bad), c.error) << c.pointer;
+  }
+  EXPECT_EQ(error_reading(json::array()), "top level: is not an object");
+}
+
+TEST(Manifest, ChecksIndicesBetweenRecords) {
+  Manifest m = sample_manifest();
+  m.passes[0].variants[1].binaries[Stage::Fragment] = 2;
+  try {
+    m.check_indices();
+    FAIL() << "accepted";
+  } catch (const ManifestError& e) {
+    EXPECT_EQ(std::string(e.what()), "/passes/0/variants/1/binaries/fragment: index 2 is out of range (2 binaries)");
+  }
+  m = sample_manifest();
+  m.binaries[1].blobs[Target::Msl] = 4;
+  EXPECT_THROW(m.check_indices(), ManifestError);
+  m = sample_manifest();
+  m.binaries[0].reflection = 1;
+  EXPECT_THROW(m.check_indices(), ManifestError);
+}
+
+TEST(Manifest, NamesEveryResourceKindBothWays) {
+  for (ResourceKind kind : {ResourceKind::UniformBuffer, ResourceKind::StorageBuffer, ResourceKind::Texture, ResourceKind::Sampler,
+                            ResourceKind::CombinedImageSampler, ResourceKind::StorageImage})
+    EXPECT_EQ(parse_resource_kind(resource_kind_name(kind)), kind);
+  EXPECT_EQ(parse_resource_kind("buffer"), std::nullopt);
+  for (const TargetName& t : kTargetNames) EXPECT_EQ(parse_target(t.name), t.target);
+  for (Stage s : kAllStages) EXPECT_EQ(parse_stage(stage_name(s)), s);
+}
+
+}  // namespace
+}  // namespace kiln
