@@ -23,7 +23,7 @@
 
 #include "../compiler/cli/allocator.hpp"
 #include "common/hash.hpp"
-#include "cross/cross_compile.hpp"
+#include "cross/targets.hpp"
 #include "frontend/frontend.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "reflect/reflect.hpp"
@@ -80,10 +80,12 @@ nlohmann::json run_steps(kiln::Frontend& frontend, const std::string& path, kiln
   timed(i++, "validate again", [&] { return kiln::validate_spirv(optimized.spirv).ok; });
   timed(i++, "reflect", [&] { return !kiln::reflect_spirv(optimized.spirv).outputs.empty(); });
   // As in a worker: the GL module (16-bit floats widened) is made once, inside the first GL step.
-  kiln::CrossCompiler cross(optimized.spirv);
-  timed(i++, "SPIRV-Cross GLSL 450", [&] { return cross.compile(kiln::Target::Glsl).ok; });
-  timed(i++, "SPIRV-Cross GLSL ES 310", [&] { return cross.compile(kiln::Target::Gles).ok; });
-  timed(i++, "SPIRV-Cross MSL", [&] { return cross.compile(kiln::Target::Msl).ok; });
+  kiln::CrossModules modules(optimized.spirv);
+  kiln::Reflection records;
+  auto cross = [&](kiln::Target target) { return kiln::cross_compile(*kiln::target_backend(target), modules, records).ok; };
+  timed(i++, "SPIRV-Cross GLSL 450", [&] { return cross(kiln::Target::Glsl); });
+  timed(i++, "SPIRV-Cross GLSL ES 310", [&] { return cross(kiln::Target::Gles); });
+  timed(i++, "SPIRV-Cross MSL", [&] { return cross(kiln::Target::Msl); });
   return {{"front_end", front.spirv.size()}, {"legalized", legal.spirv.size()}, {"optimized", optimized.spirv.size()}};
 }
 

@@ -16,7 +16,7 @@
 #include "allocator.hpp"
 #include "progress_line.hpp"
 #include "common/files.hpp"
-#include "cross/cross_compile.hpp"
+#include "cross/targets.hpp"
 #include "definition/definition.hpp"
 #include "frontend/frontend.hpp"
 #include "kiln/build.hpp"
@@ -385,9 +385,10 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember(kiln::emit_stage_names()))
       ->delimiter(',');
   build->add_option("--depfile", depfile, "Write a Makefile-style depfile listing every input read");
-  std::vector<std::string> target_names;
-  build->add_option("--targets", target_names, "Override the pack's targets: spirv, glsl, gles, msl (comma-separated)")
-      ->check(CLI::IsMember({"spirv", "glsl", "gles", "msl"}))
+  std::vector<std::string> target_names, known_targets;
+  for (const kiln::TargetName& target : kiln::kTargetNames) known_targets.emplace_back(target.name);
+  build->add_option("--targets", target_names, "Override the pack's targets: " + kiln::target_name_list() + " (comma-separated)")
+      ->check(CLI::IsMember(known_targets))
       ->delimiter(',');
   build->add_option("--frontend", options.frontend, "HLSL front end (default: glslang)")
       ->check(CLI::IsMember(kiln::frontend_names()));

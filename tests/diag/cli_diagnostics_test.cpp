@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cache/cache.hpp"
-#include "cross/cross_compile.hpp"
+#include "cross/targets.hpp"
 #include "frontend/frontend.hpp"
 #include "kiln/build.hpp"
 #include "optimize/spirv_tools.hpp"

@@ -4,7 +4,9 @@
 
 #include <algorithm>
 
+#include "cross/targets.hpp"
 #include "cross/widen_float16.hpp"
+#include "kiln/build.hpp"
 #include "frontend/frontend.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "reflect/reflect.hpp"
@@ -208,6 +210,43 @@ TEST(WidenFloat16, LeavesModulesWithoutHalfOrWithHalfStorageAlone) {
   WidenResult kept = widen_float16_for_gl(interface);
   EXPECT_FALSE(kept.changed);
   EXPECT_FALSE(kept.reason.empty());
+}
+
+// ---- the target registry ---------------------------------------------------------------------------------------
+
+TEST(Targets, EveryTargetButSpirvHasOneBackEndThatTranslatesAndRecords) {
+  EXPECT_EQ(target_backend(Target::Spirv), nullptr);
+  ManifestOptions options;
+  for (const TargetName& name : kTargetNames) {
+    if (name.target == Target::Spirv) continue;
+    const TargetBackend* backend = target_backend(name.target);
+    ASSERT_NE(backend, nullptr) << name.name;
+    EXPECT_EQ(backend->target, name.target);
+    EXPECT_TRUE(emit_stage_names().count(std::string(backend->emit))) << backend->emit;
+    EXPECT_EQ(step_name(backend->step).substr(0, 6), "cross-") << name.name;
+    backend->record_options(options);
+  }
+  EXPECT_EQ(target_backends().size(), kTargetNames.size() - 1);
+  EXPECT_EQ(options.glsl_version, 450u);
+  EXPECT_EQ(options.gles_version, 310u);
+  EXPECT_EQ(options.msl_version, "2.1");
+
+  const std::vector<uint32_t> module = optimized("Texture2D t : register(t0); SamplerState s : register(s1);\n"
+                                                 "cbuffer K : register(b2) { float4 k; };\n"
+                                                 "float4 F(float2 uv : TEXCOORD0) : SV_Target { return t.Sample(s, uv) * k; }\n");
+  CrossModules modules(module);
+  Reflection reflection;
+  for (const TargetBackend& backend : target_backends()) {
+    CrossResult result = cross_compile(backend, modules, reflection);
+    ASSERT_TRUE(result.ok) << backend.language << ": " << result.error;
+    EXPECT_FALSE(result.source.empty());
+  }
+  ASSERT_TRUE(reflection.glsl && reflection.gles && reflection.msl);
+  ASSERT_EQ(reflection.glsl->combined_image_samplers.size(), 1u);
+  EXPECT_EQ(reflection.glsl->combined_image_samplers[0].name, "t_s");
+  EXPECT_EQ(reflection.glsl->combined_image_samplers[0].binding, 0u);
+  EXPECT_EQ(reflection.gles->blocks.at(0).name, "K");
+  EXPECT_EQ(reflection.msl->resources.size(), 3u);
 }
 
 }  // namespace

@@ -4,7 +4,7 @@
 
 #include <regex>
 
-#include "cross/cross_compile.hpp"
+#include "cross/targets.hpp"
 #include "frontend/frontend.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "workers/worker_pool.hpp"

@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <string_view>
 
 namespace kiln {
@@ -47,6 +48,14 @@ constexpr std::optional<Target> parse_target(std::string_view name) {
   for (const TargetName& t : kTargetNames)
     if (t.name == name) return t.target;
   return std::nullopt;
+}
+
+// "spirv, glsl, gles or msl", for messages.
+inline std::string target_name_list() {
+  std::string out;
+  for (size_t i = 0; i < kTargetNames.size(); ++i)
+    out += (i == 0 ? "" : i + 1 == kTargetNames.size() ? " or " : ", ") + std::string(kTargetNames[i].name);
+  return out;
 }
 
 static_assert([] {

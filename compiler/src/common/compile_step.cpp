@@ -38,14 +38,5 @@ std::optional<CompileStep> parse_step(std::string_view name) {
   return std::nullopt;
 }
 
-CompileStep cross_step(Target target) {
-  switch (target) {
-    case Target::Glsl: return CompileStep::CrossGlsl;
-    case Target::Gles: return CompileStep::CrossGles;
-    case Target::Msl: return CompileStep::CrossMsl;
-    case Target::Spirv: break;
-  }
-  return CompileStep::None;
-}
 
 }  // namespace kiln

@@ -30,7 +30,5 @@ enum class CompileStep {
 // "validate-optimized", "cross-msl", ... ("" for None).
 std::string_view step_name(CompileStep step);
 std::optional<CompileStep> parse_step(std::string_view name);
-// The cross-compile step of a target (not SPIR-V).
-CompileStep cross_step(Target target);
 
 }  // namespace kiln

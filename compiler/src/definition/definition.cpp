@@ -214,13 +214,14 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
   for (const std::string& dir : fields.strings(*root, "include_dirs")) pack.include_dirs.push_back(base / dir);
 
   std::vector<std::string> target_names = fields.strings(*root, "targets");
-  if (!root->contains("targets")) target_names = {"spirv", "glsl", "gles", "msl"};
+  if (!root->contains("targets"))
+    for (const TargetName& target : kTargetNames) target_names.emplace_back(target.name);
   for (const std::string& name : target_names) {
     if (auto target = parse_target(name)) {
       if (std::find(pack.targets.begin(), pack.targets.end(), *target) == pack.targets.end())
         pack.targets.push_back(*target);
     } else {
-      fields.fail(name, "unknown target '" + name + "' (expected spirv, glsl, gles or msl)");
+      fields.fail(name, "unknown target '" + name + "' (expected " + target_name_list() + ")");
     }
   }
   if (std::find(pack.targets.begin(), pack.targets.end(), Target::Spirv) == pack.targets.end())

@@ -6,6 +6,7 @@
 #include "driver/stage_timer.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "common/blob.hpp"
+#include "cross/targets.hpp"
 
 namespace kiln {
 
@@ -33,13 +34,10 @@ void emit_dumps(const Plan& plan, const StageSources& sources, const std::vector
     if (options.emit.count("preprocessed") && s.preprocessed && s.ok) put(base.string() + ".hlsl", s.text);
     if (s.binary < 0 || !binaries[static_cast<size_t>(s.binary)].output) continue;  // did not compile
     const JobOutput& out = *binaries[static_cast<size_t>(s.binary)].output;
-    auto put_blob = [&](const char* stage, Target target, const char* extension) {
-      if (options.emit.count(stage) && out.blobs.count(target)) put(base.string() + extension, unpack_blob(out.blobs.at(target)));
-    };
     if (options.emit.count("spvasm")) put(base.string() + ".spvasm", disassemble_spirv(unpack_spirv(out.blobs.at(Target::Spirv))));
-    put_blob("glsl", Target::Glsl, ".glsl");
-    put_blob("glsl", Target::Gles, ".es.glsl");
-    put_blob("msl", Target::Msl, ".metal");
+    for (const TargetBackend& backend : target_backends())
+      if (options.emit.count(std::string(backend.emit)) && out.blobs.count(backend.target))
+        put(base.string() + std::string(target_extension(backend.target)), unpack_blob(out.blobs.at(backend.target)));
     if (options.emit.count("reflection")) put(base.string() + ".reflection.json", nlohmann::json(out.reflection).dump(2) + "\n");
   }
 }

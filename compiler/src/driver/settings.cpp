@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "cross/cross_compile.hpp"
+#include "cross/targets.hpp"
 #include "kiln/pack_format.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "workers/compile_job.hpp"

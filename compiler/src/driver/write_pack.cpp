@@ -1,7 +1,7 @@
 #include "common/target_environment.hpp"
 #include "driver/write_pack.hpp"
 
-#include "cross/cross_compile.hpp"
+#include "cross/targets.hpp"
 #include "driver/outputs.hpp"
 #include "driver/stage_timer.hpp"
 #include "kiln/pack_format.hpp"
@@ -40,10 +40,7 @@ ManifestOptions option_records(const BuildOptions& options, const BuildSettings&
   out.optimize = options.optimize;
   out.targets = settings.targets;
   out.spirv_env = kTargetEnvironment.spirv_env;
-  out.glsl_version = kTargetEnvironment.glsl_version;
-  out.gles_version = kTargetEnvironment.gles_version;
-  out.msl_version = kTargetEnvironment.msl_version;
-  out.gl_clip_space_fixup = kTargetEnvironment.gl_clip_space_fixup;
+  for (const TargetBackend& backend : target_backends()) backend.record_options(out);
   return out;
 }
 

@@ -1,6 +1,6 @@
 #include "workers/compile_job.hpp"
 
-#include "cross/cross_compile.hpp"
+#include "cross/targets.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "reflect/reflect.hpp"
 
@@ -55,23 +55,18 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
     out.messages.push_back({Severity::Error, "", 0, error.what()});
     return out;
   }
-  CrossCompiler cross_compiler(spirv.spirv);
+  CrossModules modules(spirv.spirv);
   for (Target target : job.targets) {
-    if (target == Target::Spirv) continue;
-    CrossResult cross = cross_compiler.compile(target);
+    const TargetBackend* backend = target_backend(target);
+    if (!backend) continue;  // SPIR-V: the optimized module itself
+    CrossResult cross = cross_compile(*backend, modules, out.reflection);
     if (!cross.ok) {
-      out.failed_step = cross_step(target);
+      out.failed_step = backend->step;
       out.messages.push_back({Severity::Error, "", 0, cross.error});
       out.blobs.clear();
       return out;
     }
     out.blobs[target] = pack_blob(cross.source);
-    switch (target) {
-      case Target::Glsl: out.reflection.glsl = std::move(cross.gl); break;
-      case Target::Gles: out.reflection.gles = std::move(cross.gl); break;
-      case Target::Msl: out.reflection.msl = std::move(cross.msl); break;
-      case Target::Spirv: break;
-    }
   }
   out.blobs[Target::Spirv] = pack_spirv(spirv.spirv);  // whatever the targets: every binary keeps its SPIR-V
   out.ok = true;

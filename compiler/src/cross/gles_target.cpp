@@ -1,0 +1,24 @@
+// GLSL ES 310: the GL translation (gl_translate.hpp) of the module with its 16-bit floats widened.
+#include "common/target_environment.hpp"
+#include "cross/gl_translate.hpp"
+#include "cross/targets.hpp"
+
+namespace kiln {
+namespace {
+
+constexpr GlslOptions kOptions{kTargetEnvironment.gles_version, true, kTargetEnvironment.gl_clip_space_fixup};
+
+std::string translate(CrossModules& modules, Reflection& reflection) {
+  return translate_to_glsl(modules.gl_spirv(), kOptions, reflection.gles.emplace());
+}
+
+void record_options(ManifestOptions& options) {
+  options.gles_version = kOptions.version;
+  options.gl_clip_space_fixup = kOptions.clip_space_fixup;
+}
+
+}  // namespace
+
+extern const TargetBackend kGlesTarget{Target::Gles, "GLSL ES 310", "glsl", CompileStep::CrossGles, record_options, translate};
+
+}  // namespace kiln

@@ -1,0 +1,24 @@
+// GLSL 450: the GL translation (gl_translate.hpp) of the module with its 16-bit floats widened.
+#include "common/target_environment.hpp"
+#include "cross/gl_translate.hpp"
+#include "cross/targets.hpp"
+
+namespace kiln {
+namespace {
+
+constexpr GlslOptions kOptions{kTargetEnvironment.glsl_version, false, kTargetEnvironment.gl_clip_space_fixup};
+
+std::string translate(CrossModules& modules, Reflection& reflection) {
+  return translate_to_glsl(modules.gl_spirv(), kOptions, reflection.glsl.emplace());
+}
+
+void record_options(ManifestOptions& options) {
+  options.glsl_version = kOptions.version;
+  options.gl_clip_space_fixup = kOptions.clip_space_fixup;
+}
+
+}  // namespace
+
+extern const TargetBackend kGlslTarget{Target::Glsl, "GLSL 450", "glsl", CompileStep::CrossGlsl, record_options, translate};
+
+}  // namespace kiln

@@ -1,0 +1,52 @@
+// MSL 2.1 for macOS, with the [[buffer]], [[texture]] and [[sampler]] index of each resource recorded.
+#include "common/target_environment.hpp"
+#include "cross/targets.hpp"
+
+#include <spirv_cross/spirv_msl.hpp>
+
+#include <algorithm>
+#include <map>
+
+namespace kiln {
+namespace {
+
+std::string translate(CrossModules& modules, Reflection& reflection) {
+  spirv_cross::CompilerMSL compiler(modules.spirv());
+  spirv_cross::CompilerMSL::Options options;
+  options.platform = spirv_cross::CompilerMSL::Options::macOS;
+  options.set_msl_version(kTargetEnvironment.msl_major, kTargetEnvironment.msl_minor);
+  compiler.set_msl_options(options);
+  // Names as the HLSL declares them (and as the SPIR-V reflection and the GL records name them), taken before
+  // compile(): SPIRV-Cross renames a StructuredBuffer's variable that collides with its block's name
+  // ("_AdditionalLights" becomes "_AdditionalLights_1" in the MSL), and a user binds by the declared name.
+  // For an HLSL cbuffer (an unnamed block instance) the name is the block's, e.g. "PerFrame".
+  spirv_cross::ShaderResources resources = compiler.get_shader_resources();
+  std::map<uint32_t, std::string> declared;
+  for (const auto* list : {&resources.uniform_buffers, &resources.storage_buffers, &resources.separate_images,
+                           &resources.separate_samplers, &resources.sampled_images})
+    for (const auto& resource : *list) declared[resource.id] = resource.name;
+  std::string source = compiler.compile();
+  std::vector<MslResource>& indices = reflection.msl.emplace().resources;
+  auto record = [&](const spirv_cross::SmallVector<spirv_cross::Resource>& list, MslResourceKind kind) {
+    for (const auto& resource : list) {
+      uint32_t index = compiler.get_automatic_msl_resource_binding(resource.id);
+      if (index == uint32_t(-1)) continue;  // not used by the entry point
+      indices.push_back({declared.at(resource.id), kind, index});
+    }
+  };
+  record(resources.uniform_buffers, MslResourceKind::Buffer);
+  record(resources.storage_buffers, MslResourceKind::Buffer);
+  record(resources.separate_images, MslResourceKind::Texture);
+  record(resources.separate_samplers, MslResourceKind::Sampler);
+  record(resources.sampled_images, MslResourceKind::Texture);
+  std::sort(indices.begin(), indices.end(), [](const MslResource& a, const MslResource& b) { return a.name < b.name; });
+  return source;
+}
+
+void record_options(ManifestOptions& options) { options.msl_version = kTargetEnvironment.msl_version; }
+
+}  // namespace
+
+extern const TargetBackend kMslTarget{Target::Msl, "MSL 2.1 (macOS)", "msl", CompileStep::CrossMsl, record_options, translate};
+
+}  // namespace kiln

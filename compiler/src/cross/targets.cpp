@@ -1,0 +1,71 @@
+#include "cross/targets.hpp"
+
+#include <spirv_cross/spirv_cross_c.h>
+
+#include <stdexcept>
+
+#include "cross/widen_float16.hpp"
+#include "optimize/spirv_tools.hpp"
+#include "spirv_cross_fingerprint.hpp"  // generated: KILN_SPIRV_CROSS_LIBRARIES_SHA256
+
+namespace kiln {
+
+// One file each (glsl_target.cpp, ...).
+extern const TargetBackend kGlslTarget, kGlesTarget, kMslTarget;
+
+namespace {
+
+const TargetBackend* const kBackends[] = {&kGlslTarget, &kGlesTarget, &kMslTarget};
+
+}  // namespace
+
+std::span<const TargetBackend> target_backends() {
+  static const std::vector<TargetBackend> backends = [] {
+    std::vector<TargetBackend> list;
+    for (const TargetBackend* backend : kBackends) list.push_back(*backend);
+    return list;
+  }();
+  return backends;
+}
+
+const TargetBackend* target_backend(Target target) {
+  for (const TargetBackend& backend : target_backends())
+    if (backend.target == target) return &backend;
+  return nullptr;
+}
+
+const std::vector<uint32_t>& CrossModules::gl_spirv() {
+  if (!gl_ready_) {
+    gl_ready_ = true;
+    // Explicit 16-bit floats become mediump 32-bit floats for GL (see widen_float16.hpp).
+    WidenResult widened = widen_float16_for_gl(spirv_);
+    if (!widened.ok) {
+      gl_error_ = "widening 16-bit floats for GL: " + widened.reason;
+    } else if (widened.changed) {
+      SpirvStepResult valid = validate_spirv(widened.spirv);
+      if (!valid.ok) {
+        gl_error_ = "widening 16-bit floats for GL produced invalid SPIR-V:";
+        for (const auto& m : valid.messages) gl_error_ += " " + m;
+      }
+    }
+    gl_spirv_ = std::move(widened.spirv);
+  }
+  if (!gl_error_.empty()) throw std::runtime_error(gl_error_);
+  return gl_spirv_;
+}
+
+CrossResult cross_compile(const TargetBackend& backend, CrossModules& modules, Reflection& reflection) {
+  try {
+    return CrossResult{true, {}, backend.translate(modules, reflection)};
+  } catch (const std::exception& error) {
+    return CrossResult{false, error.what(), {}};
+  }
+}
+
+std::string spirv_cross_version() {
+  return "C API " + std::to_string(SPVC_C_API_VERSION_MAJOR) + "." + std::to_string(SPVC_C_API_VERSION_MINOR) + "." +
+         std::to_string(SPVC_C_API_VERSION_PATCH) + ", libraries sha256 " +
+         std::string(KILN_SPIRV_CROSS_LIBRARIES_SHA256).substr(0, 16);
+}
+
+}  // namespace kiln
