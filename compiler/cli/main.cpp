@@ -29,8 +29,20 @@ namespace {
 
 using nlohmann::json;
 
+// Diagnostics in colour (--color: auto, always, never). Auto: when stderr is a terminal and TERM is set and not
+// "dumb", unless NO_COLOR is set to anything (no-color.org); always and never win over NO_COLOR.
+bool g_colour = false;
+
+bool colour_for(const std::string& mode) {
+  if (mode == "always") return true;
+  if (mode == "never") return false;
+  const char* no_colour = std::getenv("NO_COLOR");
+  const char* term = std::getenv("TERM");
+  return !(no_colour && *no_colour) && ::isatty(2) && term && *term && std::string_view(term) != "dumb";
+}
+
 void print_diagnostics_as_they_come(kiln::DiagnosticSink& sink) {
-  sink.set_listener([](const kiln::Diagnostic& d) { std::cerr << kiln::format_diagnostic(d); });
+  sink.set_listener([](const kiln::Diagnostic& d) { std::cerr << kiln::format_diagnostic(d, g_colour); });
 }
 
 std::string format_ms(double ms) {
@@ -82,6 +94,45 @@ void print_summary(const kiln::BuildReport& r, std::ostream& out, const std::str
   for (size_t i = 0; i < r.timings.size(); ++i)
     out << (i ? ", " : " ") << r.timings[i].stage << " " << format_ms(r.timings[i].milliseconds);
   out << "\n";
+}
+
+// `kiln build --summary-json FILE`: what the summary says, for CI dashboards; written whether the build
+// succeeded or not (docs/ci.md lists the fields).
+json summary_json(const kiln::BuildReport& r, const kiln::DiagnosticSink& sink, int exit_code, const kiln::BuildOptions& options) {
+  const kiln::Funnel& f = r.funnel;
+  json timings = json::array();
+  for (const kiln::StageTiming& t : r.timings) timings.push_back({{"stage", t.stage}, {"milliseconds", t.milliseconds}});
+  json strip = json::array();
+  for (const kiln::StripLine& line : r.strip_report)
+    strip.push_back({{"pass", line.pass}, {"what", line.what}, {"count", line.count}, {"reason", line.reason}});
+  json out{{"ok", r.ok},
+           {"exit_code", exit_code},
+           {"errors", sink.error_count()},
+           {"warnings", sink.warning_count()},
+           {"internal_errors", r.internal_errors},
+           {"up_to_date", r.up_to_date},
+           {"manifest", r.ok ? json(r.manifest.string()) : json()},
+           {"funnel", {{"declared", f.declared}, {"declared_saturated", f.declared_saturated}, {"valid", f.valid},
+                       {"kept", f.kept}, {"stage_instances", f.stage_instances},
+                       {"unique_preprocessed", f.unique_preprocessed}, {"unique_compiles", f.unique_compiles},
+                       {"unique_modules", f.unique_modules}, {"unique_binaries", f.unique_binaries}}},
+           {"compiled", r.compiled},
+           {"back_ends", r.back_ends},
+           {"back_end_cache_hits", r.back_end_hits},
+           {"full_legalizations", r.full_legalizations},
+           {"cache_hits", r.cache_hits},
+           {"preprocess_memo_hits", r.preprocess_memo_hits},
+           {"cache_rejected", r.cache_rejected},
+           {"workers", r.workers_started},
+           {"remote", {{"configured", r.remote.configured}, {"switched_off", r.remote.switched_off},
+                       {"pack_fetched", r.remote.pack_fetched}, {"hits", r.remote.hits}, {"misses", r.remote.misses},
+                       {"uploads", r.remote.uploads}, {"blobs_uploaded", r.remote.blobs_uploaded},
+                       {"bytes_down", r.remote.bytes_down}, {"bytes_up", r.remote.bytes_up}, {"errors", r.remote.errors}}},
+           {"timings", timings},
+           {"strip_report", strip}};
+  if (options.shard_count > 1)
+    out["shard"] = {{"index", options.shard_index}, {"count", options.shard_count}, {"left_to_other_shards", r.shard_skipped}};
+  return out;
 }
 
 // Rendering and golden tests: verbs of kiln-verify, found like kiln-worker ($KILN_VERIFY, next to kiln, then
@@ -147,14 +198,14 @@ std::string parse_shard(const std::string& text, kiln::BuildOptions& options) {
   return {};
 }
 
-int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cache_dir, bool quiet) {
+int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cache_dir, bool quiet, const std::string& summary_file) {
   kiln::DiagnosticSink sink;
   if (!no_cache) options.cache_dir = cache_dir.empty() ? std::filesystem::path(".kiln-cache") : std::filesystem::path(cache_dir);
   std::optional<kiln::cli::ProgressLine> progress;
   if (!quiet && kiln::cli::is_interactive_terminal(2)) progress.emplace(stderr, kiln::cli::terminal_columns(2));
   if (progress) {
     sink.set_listener([&progress](const kiln::Diagnostic& d) {
-      progress->print_above([&] { std::cerr << kiln::format_diagnostic(d) << std::flush; });
+      progress->print_above([&] { std::cerr << kiln::format_diagnostic(d, g_colour) << std::flush; });
     });
     options.progress = [&progress](size_t done, size_t total, size_t hits) { progress->update(done, total, hits); };
   } else {
@@ -165,6 +216,12 @@ int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cach
   const std::string shard = options.shard_count > 1 ? std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count) : "";
   if (report.ok && !quiet) print_summary(report, std::cout, shard);
   int code = kiln::exit_code(sink, report.internal_errors);
+  if (!summary_file.empty())
+    if (std::string error = kiln::write_file_atomic(summary_file, summary_json(report, sink, code, options).dump(2) + "\n");
+        !error.empty()) {
+      std::cerr << "kiln: error: --summary-json: " << error << "\n";
+      code = std::max(code, 1);
+    }
   if (code != 0)
     std::cerr << "kiln: " << sink.error_count() << " error(s)"
               << (report.internal_errors ? ", including internal compiler errors" : "") << "\n";
@@ -327,7 +384,10 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", version_text());
 
   kiln::BuildOptions options;
-  std::string pack_file, output, cache_dir, depfile;
+  std::string pack_file, output, cache_dir, depfile, summary_file, colour_mode = "auto";
+  app.add_option("--color", colour_mode, "Colour diagnostics: auto (on a terminal, unless NO_COLOR is set), always, never")
+      ->check(CLI::IsMember({"auto", "always", "never"}));
+  app.fallthrough();  // --color also after the verb
   std::vector<std::string> scenes, emit;
   bool no_cache = false, quiet = false, as_json = false;
   unsigned jobs = 0;
@@ -394,6 +454,8 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember(kiln::frontend_names()));
   build->add_option("--worker-timeout", timeout_s, "Seconds one compile job may take before it is an internal error");
   build->add_flag("-q,--quiet", quiet, "Print only diagnostics");
+  build->add_option("--summary-json", summary_file, "Also write the build summary as JSON (funnel, cache and remote counts, "
+                                                    "timings, diagnostics), whether the build succeeds or not");
   // The remote cache (docs/remote-cache.md). Credentials come from the environment or netrc, never from arguments.
   kiln::RemoteCacheOptions& remote = options.remote;
   double remote_connect_s = remote.connect_timeout.count() / 1000.0, remote_timeout_s = remote.operation_timeout.count() / 1000.0;
@@ -473,6 +535,7 @@ int main(int argc, char** argv) {
     // --help and --version end here with 0; any other argument error is the user's: exit code 1, not CLI11's 100+.
     return app.exit(error) == 0 ? 0 : 1;
   }
+  g_colour = colour_for(colour_mode);
   if (*check) return run_check_scene(pack_dir, scene_file, as_json);
   if (*diff) return run_diff_packs(pack_dir, other_dir, as_json);
 
@@ -507,7 +570,7 @@ int main(int argc, char** argv) {
       remote.upload = true;  // a shard's work is for the merge
     }
     options.cache_max_mb = cache_max_mb;
-    return run_build(options, no_cache, cache_dir, quiet);
+    return run_build(options, no_cache, cache_dir, quiet, summary_file);
   }
   if (*list) return run_list(options, as_json);
   if (*inspect) return run_inspect(pack_dir, as_json, extract);

@@ -491,6 +491,81 @@ TEST_F(Cli, WithoutATerminalABuildPrintsTheFunnelAndStageTimesOnceAndNoProgressL
   EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 4) << r.out;
 }
 
+// A diagnostic in colour is the same text with ANSI colours: location and message bold, the severity red,
+// notes cyan, the caret green. Auto colours a terminal only, and NO_COLOR or TERM=dumb turn it off.
+TEST_F(Cli, DiagnosticsAreColouredOnATerminalUnlessNoColorAndOnRequest) {
+  dir.write("S.hlsl", "#pragma multi_compile _ A\n#pragma multi_compile _ A\n" + std::string(kEntries));
+  const auto plain = build({"--color=never"});
+  ASSERT_EQ(plain.exit_code, 1);
+  ASSERT_NE(plain.err.find("error[K"), std::string::npos) << plain.err;
+  EXPECT_EQ(plain.err.find('\033'), std::string::npos);
+  EXPECT_EQ(build().err, plain.err);  // auto: stderr is a file here
+  const auto coloured = build({"--color=always"});
+  EXPECT_EQ(coloured.exit_code, 1);
+  EXPECT_NE(coloured.err.find("\033[1mS.hlsl:2:"), std::string::npos) << coloured.err;
+  EXPECT_NE(coloured.err.find("\033[1;31merror[K"), std::string::npos) << coloured.err;
+  EXPECT_NE(coloured.err.find("\033[1;32m^\033[0m"), std::string::npos) << coloured.err;
+  // Without its escapes, the coloured text is the plain one.
+  EXPECT_EQ(std::regex_replace(coloured.err, std::regex("\033\\[[0-9;]*m"), ""), plain.err);
+  // --color before the verb works too; an unknown mode is an argument error.
+  EXPECT_EQ(testing::run_kiln({"--color=always", "build", "p.pack.json", "-o", "out", "-q", "--no-cache"}, dir.path()).err,
+            coloured.err);
+  EXPECT_EQ(build({"--color=sometimes"}).exit_code, 1);
+
+  const std::vector<std::string> on_terminal{KILN_CLI_PATH, "build", "p.pack.json", "-o", "out", "--cache", "cache", "-q"};
+  EXPECT_NE(testing::run_on_terminal(on_terminal, dir.path()).out.find("\033[1;31merror["), std::string::npos);
+  EXPECT_EQ(testing::run_on_terminal(on_terminal, dir.path(), "dumb").out.find('\033'), std::string::npos);
+  ::setenv("NO_COLOR", "1", 1);
+  const std::string no_color = testing::run_on_terminal(on_terminal, dir.path()).out;
+  auto always = on_terminal;
+  always.push_back("--color=always");
+  const std::string forced = testing::run_on_terminal(always, dir.path()).out;
+  ::unsetenv("NO_COLOR");
+  EXPECT_EQ(no_color.find('\033'), std::string::npos) << no_color;
+  EXPECT_NE(forced.find("\033[1;31merror["), std::string::npos);
+}
+
+// --summary-json: the summary's numbers for CI dashboards, written whether the build succeeds or not.
+TEST_F(Cli, SummaryJsonRecordsTheBuildForDashboardsEvenWhenItFails) {
+  dir.write("S.hlsl", kTwoKeywords);
+  auto r = build({"--summary-json", "summary.json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json summary = nlohmann::json::parse(testing::read_file(dir / "summary.json"));
+  const nlohmann::json manifest = nlohmann::json::parse(testing::read_file(dir / "out/p.manifest.json"));
+  EXPECT_EQ(summary.at("ok"), true);
+  EXPECT_EQ(summary.at("exit_code"), 0);
+  EXPECT_EQ(summary.at("errors"), 0);
+  EXPECT_EQ(summary.at("up_to_date"), false);
+  EXPECT_EQ(summary.at("manifest"), "out/p.manifest.json");
+  for (const auto& [field, value] : manifest.at("funnel").items()) EXPECT_EQ(summary.at("funnel").at(field), value) << field;
+  EXPECT_EQ(summary.at("compiled"), 5);
+  EXPECT_EQ(summary.at("cache_hits"), 0);
+  EXPECT_EQ(summary.at("remote").at("configured"), false);
+  std::string stages;
+  for (const auto& t : summary.at("timings")) {
+    stages += t.at("stage").get<std::string>() + ";";
+    EXPECT_GE(t.at("milliseconds").get<double>(), 0.0);
+  }
+  EXPECT_EQ(stages, "load;declarations;expand+strip;preprocess;dedupe;compile;cache store;reflect;pack;total;");
+
+  r = build({"--summary-json", "summary.json"});
+  EXPECT_EQ(nlohmann::json::parse(testing::read_file(dir / "summary.json")).at("up_to_date"), true);
+
+  dir.write("S.hlsl", "#error broken\n" + std::string(kEntries));
+  r = build({"--summary-json", "summary.json"});
+  EXPECT_EQ(r.exit_code, 1);
+  const nlohmann::json failed = nlohmann::json::parse(testing::read_file(dir / "summary.json"));
+  EXPECT_EQ(failed.at("ok"), false);
+  EXPECT_EQ(failed.at("exit_code"), 1);
+  EXPECT_GE(failed.at("errors").get<int>(), 1);
+  EXPECT_TRUE(failed.at("manifest").is_null());
+
+  std::filesystem::create_directory(dir / "taken");
+  r = build({"--summary-json", "taken"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("kiln: error: --summary-json: "), std::string::npos) << r.err;
+}
+
 TEST_F(Cli, OnATerminalABuildShowsOneProgressLineAndErasesItBeforeTheSummary) {
   dir.write("S.hlsl", kTwoKeywords);
   const std::vector<std::string> cold{KILN_CLI_PATH, "build", "p.pack.json", "-o", "out", "--cache", "cache"};
@@ -536,7 +611,9 @@ TEST_F(Cli, OnATerminalADiagnosticDuringTheBuildStartsOnAClearedLine) {
             "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
             "#ifdef CRASH\nfloat4 F(float4) : SV_Target { return 0; }\n"
             "#else\nfloat4 F() : SV_Target { return 1.0; }\n#endif\n");
-  auto r = testing::run_on_terminal({KILN_CLI_PATH, "build", "p.pack.json", "-o", "out", "--cache", "cache"}, dir.path());
+  // Uncoloured, to match the text (colour is DiagnosticsAreColouredOnATerminalUnlessNoColorAndOnRequest's).
+  auto r = testing::run_on_terminal({KILN_CLI_PATH, "build", "p.pack.json", "-o", "out", "--cache", "cache", "--color=never"},
+                                    dir.path());
   EXPECT_EQ(r.exit_code, 2);
   const size_t error = r.out.find("S.hlsl: error[K1501]: internal compiler error: the compiler worker killed by signal 11");
   ASSERT_NE(error, std::string::npos) << r.out;

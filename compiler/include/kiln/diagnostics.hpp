@@ -85,7 +85,9 @@ class DiagnosticSink {
 inline constexpr size_t kMaxQuotedLineBytes = 400;
 
 // Renders a diagnostic with its quoted source line (if any) and a caret under the column. Reads no file.
-std::string format_diagnostic(const Diagnostic& diagnostic);
+// With `colour`, in ANSI colours as GCC and clang use them: the location and message bold, the severity in
+// red (error), magenta (warning) or cyan (note), the caret green; the text is otherwise the same.
+std::string format_diagnostic(const Diagnostic& diagnostic, bool colour = false);
 
 // Edit distance, used to suggest the closest known name.
 size_t edit_distance(std::string_view a, std::string_view b);

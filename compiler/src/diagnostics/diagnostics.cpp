@@ -114,10 +114,22 @@ const char* severity_word(Severity severity) {
   return "error";
 }
 
+const char* severity_colour(Severity severity) {
+  switch (severity) {
+    case Severity::Note: return "\x1b[1;36m";
+    case Severity::Warning: return "\x1b[1;35m";
+    case Severity::Error: return "\x1b[1;31m";
+  }
+  return "\x1b[1;31m";
+}
+
 }  // namespace
 
-std::string format_diagnostic(const Diagnostic& d) {
+std::string format_diagnostic(const Diagnostic& d, bool colour) {
+  const char* bold = colour ? "\x1b[1m" : "";
+  const char* reset = colour ? "\x1b[0m" : "";
   std::ostringstream out;
+  out << bold;
   if (!d.location.path.empty()) {
     out << d.location.path;
     if (d.location.line > 0) out << ':' << d.location.line;
@@ -126,7 +138,8 @@ std::string format_diagnostic(const Diagnostic& d) {
   } else {
     out << "kiln: ";
   }
-  out << severity_word(d.severity) << '[' << diagnostic_code(d.id) << "]: " << d.message << '\n';
+  out << (colour ? severity_colour(d.severity) : "") << severity_word(d.severity) << '[' << diagnostic_code(d.id) << "]:" << reset
+      << bold << ' ' << d.message << reset << '\n';
   if (const std::optional<std::string>& line = d.source_line) {
     out << "    " << *line << '\n';
     if (d.location.column > 0) {
@@ -134,10 +147,11 @@ std::string format_diagnostic(const Diagnostic& d) {
       // Keep tabs so the caret lines up under the same column in a terminal.
       for (int i = 0; i < d.location.column - 1 && i < static_cast<int>(line->size()); ++i)
         pad += (*line)[i] == '\t' ? '\t' : ' ';
-      out << "    " << pad << "^\n";
+      out << "    " << pad << (colour ? "\x1b[1;32m^\x1b[0m" : "^") << "\n";
     }
   }
-  for (const std::string& note : d.notes) out << "  note: " << note << '\n';
+  for (const std::string& note : d.notes)
+    out << "  " << (colour ? severity_colour(Severity::Note) : "") << "note:" << reset << ' ' << note << '\n';
   return out.str();
 }
 
