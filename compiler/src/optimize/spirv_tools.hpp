@@ -40,6 +40,11 @@ SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool opt
 SpirvStepResult legalize_spirv(const std::vector<uint32_t>& spirv);
 SpirvStepResult legalize_spirv_core(const std::vector<uint32_t>& spirv);
 SpirvStepResult optimize_spirv(const std::vector<uint32_t>& spirv, OptimizerRecipe recipe);
+// What kiln's recipe assumes of its input, checked on every module (kiln runs -O on a module without it): no
+// function call, every function an entry point, no Private variable, at most one return per function and in
+// its last block. True of what the core legalization recipe gives for kiln's modules unless it could not
+// inline a call.
+bool fits_kiln_recipe(const std::vector<uint32_t>& spirv);
 // The passes of the core legalization recipe and of each optimization recipe, by SPIRV-Tools' pass names, in
 // order (kiln --version, the per-pass benchmark).
 std::vector<std::string> legalization_pass_names();
