@@ -145,6 +145,31 @@ nlohmann::json rows_json(const std::vector<PassRow>& rows, size_t modules) {
   return table;
 }
 
+// The marginal cost of each pass in its recipe: the time of the recipe's first k passes, over every module, minus
+// that of its first k - 1 (k = 0: parsing and writing back), medians over `rounds` interleaved rounds. Unlike a
+// pass run alone, this counts what the pass costs where it is (analyses it shares with its neighbours).
+std::vector<double> marginal_seconds(const std::vector<Module>& inputs, const std::vector<std::string>& names, int rounds) {
+  std::vector<std::vector<double>> prefix(names.size() + 1);
+  for (int r = 0; r < rounds; ++r)
+    for (size_t k = 0; k <= names.size(); ++k) {
+      std::vector<std::string> flags;
+      for (size_t i = 0; i < k; ++i) flags.push_back(flag_of(names[i]));
+      Module out;
+      auto start = clock_type::now();
+      for (const Module& m : inputs) run_flags(m, flags, out);
+      prefix[k].push_back(ms_since(start) / 1000);
+    }
+  std::vector<double> medians;
+  for (auto& times : prefix) {
+    std::sort(times.begin(), times.end());
+    medians.push_back(times[times.size() / 2]);
+  }
+  std::vector<double> marginal;
+  for (size_t k = 1; k < medians.size(); ++k) marginal.push_back(medians[k] - medians[k - 1]);
+  marginal.insert(marginal.begin(), medians[0]);  // [0]: parse and write back
+  return marginal;
+}
+
 Module compacted(const Module& module) {
   Module out;
   run_flags(module, {"--compact-ids"}, out);
@@ -176,6 +201,13 @@ int main(int argc, char** argv) {
                                               [](const Module& m) { return kiln::legalize_spirv_core(m).spirv; },
                                               "the core legalization recipe", legalized);
   nlohmann::json legalization_json = rows_json(legalization_rows, front.size());
+  std::cout << "core legalization recipe, marginal cost of each pass (" << rounds << " rounds):\n";
+  const std::vector<double> legalization_marginal = marginal_seconds(front, kiln::legalization_pass_names(), rounds);
+  std::cout << "  parse and write back: " << legalization_marginal[0] << " s\n";
+  for (size_t i = 0; i < legalization_rows.size(); ++i) {
+    legalization_json[i]["marginal_s"] = legalization_marginal[i + 1];
+    std::cout << "  " << i << " " << legalization_rows[i].name << ": " << legalization_marginal[i + 1] << " s\n";
+  }
   std::cout << "-O, one pass at a time, on the legalized modules:\n";
   const auto stock_rows = pass_by_pass(
       legalized, kiln::optimizer_pass_names(kiln::OptimizerRecipe::Stock),
@@ -223,6 +255,7 @@ int main(int argc, char** argv) {
                           {"spirv_tools", kiln::spirv_tools_version()},
                           {"modules", front.size()},
                           {"legalization_passes", legalization_json},
+                          {"legalization_parse_and_write_s", legalization_marginal[0]},
                           {"stock_passes", stock_json},
                           {"kiln_passes", kiln_json},
                           {"identical_after_compaction", identical},
