@@ -1,5 +1,5 @@
 // Times the steps of compile jobs on preprocessed stage sources (from `kiln build --emit preprocessed`), in
-// the order a worker runs them: front end (glslang), legalize (kiln's core recipe), validate, optimize,
+// the order a worker runs them: front end (glslang), legalize (kiln's core recipe), validate, optimize (kiln's recipe),
 // validate, reflect, the three cross-compilers. Linked with the same allocator as kiln-worker, so the numbers
 // are the workers'.
 //
@@ -76,7 +76,9 @@ nlohmann::json run_steps(kiln::Frontend& frontend, const std::string& path, kiln
   if (!back_end(front.spirv)) return nullptr;
   timed(i++, "legalize (core recipe)", [&] { return (legal = kiln::legalize_spirv_core(front.spirv)).ok; });
   timed(i++, "validate", [&] { return kiln::validate_spirv(legal.spirv).ok; });
-  timed(i++, "optimize (-O)", [&] { return (optimized = kiln::optimize_spirv(legal.spirv)).ok; });
+  timed(i++, "optimize (kiln's recipe)", [&] {
+    return (optimized = kiln::optimize_spirv(legal.spirv, kiln::OptimizerRecipe::Kiln)).ok;
+  });
   timed(i++, "validate again", [&] { return kiln::validate_spirv(optimized.spirv).ok; });
   timed(i++, "reflect", [&] { return !kiln::reflect_spirv(optimized.spirv).outputs.empty(); });
   // As in a worker: the GL module (16-bit floats widened) is made once, inside the first GL step.

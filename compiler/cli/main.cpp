@@ -372,6 +372,11 @@ std::string version_text() {
   for (const std::string& name : kiln::frontend_names())
     if (auto frontend = kiln::make_frontend(name)) text += "front end: " + frontend->name() + " " + frontend->version() + "\n";
   text += "SPIRV-Tools: " + kiln::spirv_tools_version() + "\n";
+  text += "optimizer recipe: kiln (default; -O without " +
+          std::to_string(kiln::optimizer_pass_names(kiln::OptimizerRecipe::Stock).size() -
+                         kiln::optimizer_pass_names(kiln::OptimizerRecipe::Kiln).size()) +
+          " of its " + std::to_string(kiln::optimizer_pass_names(kiln::OptimizerRecipe::Stock).size()) +
+          " passes), O with --optimize=O\n";
   text += "SPIRV-Cross: " + kiln::spirv_cross_version() + "\n";
   return text + "allocator: " + kiln::allocator_description();
 }
@@ -452,6 +457,12 @@ int main(int argc, char** argv) {
       ->delimiter(',');
   build->add_option("--frontend", options.frontend, "HLSL front end (default: glslang)")
       ->check(CLI::IsMember(kiln::frontend_names()));
+  std::string recipe_name(kiln::optimizer_recipe_name(kiln::OptimizerRecipe::Kiln));
+  build->add_option("--optimize", recipe_name,
+                    "Optimizer recipe: kiln (default: -O without the passes kiln's legalization already did; the same "
+                    "SPIR-V once IDs are compacted) or O (SPIRV-Tools' -O as spirv-opt runs it)")
+      ->check(CLI::IsMember({std::string(kiln::optimizer_recipe_name(kiln::OptimizerRecipe::Kiln)),
+                             std::string(kiln::optimizer_recipe_name(kiln::OptimizerRecipe::Stock))}));
   build->add_option("--worker-timeout", timeout_s, "Seconds one compile job may take before it is an internal error");
   build->add_flag("-q,--quiet", quiet, "Print only diagnostics");
   build->add_option("--summary-json", summary_file, "Also write the build summary as JSON (funnel, cache and remote counts, "
@@ -550,6 +561,7 @@ int main(int argc, char** argv) {
 
   if (*build) {
     options.output_dir = output;
+    options.optimizer_recipe = *kiln::parse_optimizer_recipe(recipe_name);
     // The remote's URL, token and CA file may come from the environment (KILN_REMOTE_TOKEN is never printed).
     auto environment = [](const char* name) { const char* value = std::getenv(name); return value ? std::string(value) : std::string(); };
     if (remote.url.empty()) remote.url = environment("KILN_REMOTE");

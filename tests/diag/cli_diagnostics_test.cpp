@@ -49,12 +49,18 @@ struct Cli : ::testing::Test {
   }
 };
 
-// A bug report needs every tool's version: --version names them as the cache keys and manifests do.
+// A bug report needs every tool's version and the optimizer recipe: --version names them as the cache keys and
+// manifests do.
 TEST_F(Cli, VersionNamesEveryToolKilnWasBuiltWith) {
   auto r = testing::run_kiln({"--version"}, dir.path());
   EXPECT_EQ(r.exit_code, 0);
+  const size_t stock = optimizer_pass_names(OptimizerRecipe::Stock).size();
+  const size_t left_out = stock - optimizer_pass_names(OptimizerRecipe::Kiln).size();
   const std::string expected = std::string("kiln ") + kKilnVersion + "\nfront end: glslang " + make_frontend("glslang")->version() +
-                               "\nSPIRV-Tools: " + spirv_tools_version() + "\nSPIRV-Cross: " + spirv_cross_version() + "\nallocator: ";
+                               "\nSPIRV-Tools: " + spirv_tools_version() + "\noptimizer recipe: kiln (default; -O without " +
+                               std::to_string(left_out) + " of its " + std::to_string(stock) +
+                               " passes), O with --optimize=O\nSPIRV-Cross: " + spirv_cross_version() + "\nallocator: ";
+  EXPECT_GT(left_out, 0u);
   EXPECT_EQ(r.out.substr(0, expected.size()), expected) << r.out;
   EXPECT_NE(spirv_cross_version().find("libraries sha256 "), std::string::npos);
 }

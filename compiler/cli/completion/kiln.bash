@@ -20,6 +20,7 @@ _kiln() {
     --targets) COMPREPLY=($(compgen -W "spirv glsl gles msl" -- "$cur")); return ;;
     --format) COMPREPLY=($(compgen -W "text json sarif" -- "$cur")); return ;;
     --frontend) COMPREPLY=($(compgen -W "glslang" -- "$cur")); return ;;
+    --optimize) COMPREPLY=($(compgen -W "kiln O" -- "$cur")); return ;;
     --api|--against) COMPREPLY=($(compgen -W "vulkan gl gles" -- "$cur")); return ;;
     --scene) COMPREPLY=($(compgen -f -X '!*.json' -- "$cur")); compopt -o plusdirs 2>/dev/null; return ;;
     -o|--output|--cache|--extract|--depfile|--summary-json|--sarif-root|-I|--include-dir|--golden|--report|--exr)
@@ -36,7 +37,7 @@ _kiln() {
   local options="--help --color"
   case "$verb" in
     build) options+=" --output -o --scene $binding --jobs -j --cache --no-cache --cache-max-mb --emit --depfile --targets
-                     --frontend --worker-timeout --quiet -q --summary-json --remote --remote-upload --remote-required
+                     --frontend --optimize --worker-timeout --quiet -q --summary-json --remote --remote-upload --remote-required
                      --remote-instance --remote-namespace --remote-connect-timeout --remote-timeout --remote-transfers --shard" ;;
     list) options+=" --scene $binding --json" ;;
     inspect) options+=" --json --extract" ;;

@@ -51,6 +51,7 @@ struct BuildOptions {
   std::chrono::milliseconds worker_timeout{120'000};
   uint64_t worker_memory_limit_mb = 4096;
   bool optimize = true;
+  OptimizerRecipe optimizer_recipe = OptimizerRecipe::Kiln;  // --optimize=kiln|O (with `optimize`)
   std::string frontend = "glslang";                 // HLSL front end, by name (frontend_names())
   std::vector<Target> targets;                      // empty: the pack definition's targets
   uint64_t max_file_bytes = 4u << 20;

@@ -199,6 +199,7 @@ struct ManifestTools {
 
 struct ManifestOptions {
   bool optimize = true;
+  std::string optimizer_recipe;  // "kiln" or "O" (docs/design.md, "The optimizer recipe")
   std::vector<Target> targets;
   std::string spirv_env;  // "vulkan1.1"
   uint32_t glsl_version = 0;

@@ -16,6 +16,13 @@
 
 namespace kiln {
 
+// The optimization recipe that follows legalization (docs/design.md, "The optimizer recipe"). Kiln: SPIRV-Tools'
+// -O without the passes whose work kiln's legalization has already done; the same modules as -O once IDs are
+// compacted. Stock: -O itself (`spirv-opt -O`).
+enum class OptimizerRecipe : uint8_t { Kiln, Stock };
+std::string_view optimizer_recipe_name(OptimizerRecipe recipe);  // "kiln", "O"
+std::optional<OptimizerRecipe> parse_optimizer_recipe(std::string_view name);
+
 // One `#pragma multi_compile ...` line: exactly one of `values` is chosen per variant.
 // The "none" value (`_` in the pragma) is stored as the empty string.
 struct KeywordGroup {

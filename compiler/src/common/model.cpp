@@ -56,6 +56,14 @@ std::optional<Define> parse_define(std::string_view text) {
   return define;
 }
 
+std::string_view optimizer_recipe_name(OptimizerRecipe recipe) { return recipe == OptimizerRecipe::Kiln ? "kiln" : "O"; }
+
+std::optional<OptimizerRecipe> parse_optimizer_recipe(std::string_view name) {
+  for (OptimizerRecipe recipe : {OptimizerRecipe::Kiln, OptimizerRecipe::Stock})
+    if (optimizer_recipe_name(recipe) == name) return recipe;
+  return std::nullopt;
+}
+
 bool KeywordGroup::has_none() const { return index_of("") >= 0; }
 
 int KeywordGroup::index_of(std::string_view keyword) const {

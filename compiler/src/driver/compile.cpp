@@ -117,6 +117,7 @@ class Scheduler {
       job.source = s.text;
       job.targets = settings_.targets;
       job.optimize = settings_.optimize;
+      job.optimizer_recipe = settings_.optimizer_recipe;
       job.bindings = plan_.pack.passes[s.pass].bindings;
       jobs_.push_back(std::move(job));
       job_subject_.push_back(b);
@@ -221,6 +222,7 @@ class Scheduler {
         back.spirv = std::move(outcome.output.spirv);  // `spirv` is not read again on this path
         back.targets = jobs_[j].targets;
         back.optimize = jobs_[j].optimize;
+        back.optimizer_recipe = jobs_[j].optimizer_recipe;
         back.bindings = jobs_[j].bindings;
         jobs_.push_back(std::move(back));  // runs next, in whichever worker is free
         job_subject_.push_back(results_.modules.size());

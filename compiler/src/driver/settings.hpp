@@ -22,6 +22,7 @@ struct BuildSettings {
   std::vector<Target> targets;  // sorted; SPIR-V always included
   std::string target_names;     // "spirv,glsl,..." as hashed
   bool optimize = true;
+  OptimizerRecipe optimizer_recipe = OptimizerRecipe::Kiln;
 
   // The start of every compile's cache key: what its output depends on besides its input (the pass gives the
   // entry point and the binding options). A Hasher for local keys, a RemoteKeyHasher for remote ones: the same
@@ -31,7 +32,7 @@ struct BuildSettings {
   // whose bindings did not change keep their bytes.
   template <typename KeyHasher>
   KeyHasher& add_compile_options(KeyHasher& hasher, const PassDefinition& pass, Stage stage) const {
-    return hasher.add(fingerprint).add(optimize ? 1 : 0).add(target_names).add(stage_name(stage))
+    return hasher.add(fingerprint).add(optimize ? 1 : 0).add(optimizer_recipe_name(optimizer_recipe)).add(target_names).add(stage_name(stage))
         .add(pass.entry_points[static_cast<size_t>(stage)]).add("binding model 1").add(pass.bindings.canonical());
   }
 };
@@ -41,7 +42,8 @@ struct BuildSettings {
 template <typename KeyHasher>
 void add_build_inputs(KeyHasher& hasher, const BuildSettings& settings, const Plan& plan, const BuildOptions& options) {
   hasher.add(uint64_t{kPackFormatVersion});
-  hasher.add(settings.fingerprint).add(settings.optimize ? 1 : 0).add(settings.target_names).add(plan.pack.text);
+  hasher.add(settings.fingerprint).add(settings.optimize ? 1 : 0).add(optimizer_recipe_name(settings.optimizer_recipe))
+      .add(settings.target_names).add(plan.pack.text);
   for (const SceneProfile& scene : plan.scenes) hasher.add(scene.text);
   // The pack's own bindings and defines are in its text; the command line's are added when given (a build
   // without them keeps the inputs hash, and so the manifest, it always had).

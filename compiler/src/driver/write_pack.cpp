@@ -38,6 +38,7 @@ void add_pass_settings(ManifestPass& record, const PassDefinition& pass) {
 ManifestOptions option_records(const BuildOptions& options, const BuildSettings& settings) {
   ManifestOptions out;
   out.optimize = options.optimize;
+  out.optimizer_recipe = optimizer_recipe_name(options.optimizer_recipe);
   out.targets = settings.targets;
   out.spirv_env = kTargetEnvironment.spirv_env;
   for (const TargetBackend& backend : target_backends()) backend.record_options(out);

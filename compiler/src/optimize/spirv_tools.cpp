@@ -68,6 +68,8 @@ SpirvStepResult legalize_spirv(const std::vector<uint32_t>& spirv) {
   return run_recipe(spirv, CompileStep::Legalize, [](spvtools::Optimizer& o) { o.RegisterLegalizationPasses(); });
 }
 
+namespace {
+
 // The first sixteen passes of SPIRV-Tools' legalization recipe (RegisterLegalizationPasses, 2023.1): wrap
 // OpKill, merge returns, inline everything, drop the dead functions, make private variables local, fix the
 // storage classes, forward single-block and single-store values, scalar replacement, SSA rewrite, with
@@ -78,20 +80,189 @@ SpirvStepResult legalize_spirv(const std::vector<uint32_t>& spirv) {
 // constant condition, an array of textures indexed in an unrolled loop) and is otherwise optimization that
 // `-O` runs again right after. Measured on the bundled library: the same -O output, instruction for
 // instruction, for every module (only the ID numbering differs), 11% less SPIRV-Tools time.
-SpirvStepResult legalize_spirv_core(const std::vector<uint32_t>& spirv) {
-  return run_recipe(spirv, CompileStep::Legalize, [](spvtools::Optimizer& o) {
-    for (const char* pass : {"--wrap-opkill", "--eliminate-dead-branches", "--merge-return",
-                             "--inline-entry-points-exhaustive", "--eliminate-dead-functions", "--private-to-local",
-                             "--fix-storage-class", "--eliminate-local-single-block", "--eliminate-local-single-store",
-                             "--eliminate-dead-code-aggressive", "--scalar-replacement=0",
-                             "--eliminate-local-single-block", "--eliminate-local-single-store",
-                             "--eliminate-dead-code-aggressive", "--ssa-rewrite", "--eliminate-dead-code-aggressive"})
-      o.RegisterPassFromFlag(pass);
-  });
+void register_core_legalization(spvtools::Optimizer& o) {
+  o.RegisterPass(spvtools::CreateWrapOpKillPass())
+      .RegisterPass(spvtools::CreateDeadBranchElimPass())
+      .RegisterPass(spvtools::CreateMergeReturnPass())
+      .RegisterPass(spvtools::CreateInlineExhaustivePass())
+      .RegisterPass(spvtools::CreateEliminateDeadFunctionsPass())
+      .RegisterPass(spvtools::CreatePrivateToLocalPass())
+      .RegisterPass(spvtools::CreateFixStorageClassPass())
+      .RegisterPass(spvtools::CreateLocalSingleBlockLoadStoreElimPass())
+      .RegisterPass(spvtools::CreateLocalSingleStoreElimPass())
+      .RegisterPass(spvtools::CreateAggressiveDCEPass())
+      .RegisterPass(spvtools::CreateScalarReplacementPass(0))
+      .RegisterPass(spvtools::CreateLocalSingleBlockLoadStoreElimPass())
+      .RegisterPass(spvtools::CreateLocalSingleStoreElimPass())
+      .RegisterPass(spvtools::CreateAggressiveDCEPass())
+      .RegisterPass(spvtools::CreateSSARewritePass())
+      .RegisterPass(spvtools::CreateAggressiveDCEPass());
 }
 
-SpirvStepResult optimize_spirv(const std::vector<uint32_t>& spirv) {
-  return run_recipe(spirv, CompileStep::Optimize, [](spvtools::Optimizer& o) { o.RegisterPerformancePasses(); });
+// SPIRV-Tools' -O (RegisterPerformancePasses, 2023.1) pass for pass, each with whether kiln's recipe keeps it.
+// Kiln's recipe leaves out only passes that provably have nothing to do on the core legalization recipe's
+// output (its last passes are -O's first ones) when `fits_kiln_recipe` holds, which kiln checks on every module:
+//   - no OpFunctionCall, and every function is an entry point: wrap-opkill (acts only on functions called
+//     from a continue construct), inline-entry-points-exhaustive (acts only on calls) and
+//     eliminate-dead-functions (removes functions no entry point reaches) have nothing to act on;
+//   - no Private variable: private-to-local has nothing to move;
+//   - at most one return per function, in its last block (checked), and outside any construct: the core
+//     recipe's merge-return made it so before inlining, inlining adds no construct around the caller's return
+//     and no later pass adds one. Merge-return leaves such a function alone;
+//   - local single-block and single-store elimination act only on loads of function variables whose every
+//     use is a load or a store (MemPass::HasOnlySupportedRefs); the core recipe's last SSA rewrite replaced
+//     every load of those variables and its last ADCE removed them. In between only dead-branch elimination
+//     and ADCE run, which delete code and create no load or store;
+//   - the ADCE after those two repeats the ADCE before them with nothing in between that changes the module.
+// Every other pass stays, even where it changed no module of the bundled library (measured per pass by
+// kiln-optimizer-passes, bench/REPORT.md): nothing proves it idle on every input. optimizer_recipe_test.cpp
+// requires -O's modules, IDs compacted, on the bundled library's default pack and on tests/corpus.
+struct RecipePass {
+  spvtools::Optimizer::PassToken (*make)();
+  bool kiln;  // in kiln's recipe
+};
+// clang-format off
+const RecipePass kStockRecipe[] = {
+    {[] { return spvtools::CreateWrapOpKillPass(); }, false},                // no calls
+    {[] { return spvtools::CreateDeadBranchElimPass(); }, true},
+    {[] { return spvtools::CreateMergeReturnPass(); }, false},               // one return, last, since the core recipe
+    {[] { return spvtools::CreateInlineExhaustivePass(); }, false},          // no calls
+    {[] { return spvtools::CreateEliminateDeadFunctionsPass(); }, false},    // every function an entry point
+    {[] { return spvtools::CreateAggressiveDCEPass(); }, true},
+    {[] { return spvtools::CreatePrivateToLocalPass(); }, false},            // no Private variable
+    {[] { return spvtools::CreateLocalSingleBlockLoadStoreElimPass(); }, false},  // after the core recipe's SSA rewrite
+    {[] { return spvtools::CreateLocalSingleStoreElimPass(); }, false},           // after the core recipe's SSA rewrite
+    {[] { return spvtools::CreateAggressiveDCEPass(); }, false},             // repeats the ADCE above, nothing between
+    {[] { return spvtools::CreateScalarReplacementPass(); }, true},
+    {[] { return spvtools::CreateLocalAccessChainConvertPass(); }, true},
+    {[] { return spvtools::CreateLocalSingleBlockLoadStoreElimPass(); }, true},
+    {[] { return spvtools::CreateLocalSingleStoreElimPass(); }, true},
+    {[] { return spvtools::CreateAggressiveDCEPass(); }, true},
+    {[] { return spvtools::CreateLocalMultiStoreElimPass(); }, true},
+    {[] { return spvtools::CreateAggressiveDCEPass(); }, true},
+    {[] { return spvtools::CreateCCPPass(); }, true},
+    {[] { return spvtools::CreateAggressiveDCEPass(); }, true},
+    {[] { return spvtools::CreateLoopUnrollPass(true); }, true},
+    {[] { return spvtools::CreateDeadBranchElimPass(); }, true},
+    {[] { return spvtools::CreateRedundancyEliminationPass(); }, true},
+    {[] { return spvtools::CreateCombineAccessChainsPass(); }, true},
+    {[] { return spvtools::CreateSimplificationPass(); }, true},
+    {[] { return spvtools::CreateScalarReplacementPass(); }, true},
+    {[] { return spvtools::CreateLocalAccessChainConvertPass(); }, true},
+    {[] { return spvtools::CreateLocalSingleBlockLoadStoreElimPass(); }, true},
+    {[] { return spvtools::CreateLocalSingleStoreElimPass(); }, true},
+    {[] { return spvtools::CreateAggressiveDCEPass(); }, true},
+    {[] { return spvtools::CreateSSARewritePass(); }, true},
+    {[] { return spvtools::CreateAggressiveDCEPass(); }, true},
+    {[] { return spvtools::CreateVectorDCEPass(); }, true},
+    {[] { return spvtools::CreateDeadInsertElimPass(); }, true},
+    {[] { return spvtools::CreateDeadBranchElimPass(); }, true},
+    {[] { return spvtools::CreateSimplificationPass(); }, true},
+    {[] { return spvtools::CreateIfConversionPass(); }, true},
+    {[] { return spvtools::CreateCopyPropagateArraysPass(); }, true},
+    {[] { return spvtools::CreateReduceLoadSizePass(); }, true},
+    {[] { return spvtools::CreateAggressiveDCEPass(); }, true},
+    {[] { return spvtools::CreateBlockMergePass(); }, true},
+    {[] { return spvtools::CreateRedundancyEliminationPass(); }, true},
+    {[] { return spvtools::CreateDeadBranchElimPass(); }, true},
+    {[] { return spvtools::CreateBlockMergePass(); }, true},
+    {[] { return spvtools::CreateSimplificationPass(); }, true},
+};
+// clang-format on
+
+void register_kiln_recipe(spvtools::Optimizer& o) {
+  for (const RecipePass& pass : kStockRecipe)
+    if (pass.kiln) o.RegisterPass(pass.make());
+}
+
+void register_recipe(spvtools::Optimizer& o, OptimizerRecipe recipe) {
+  if (recipe == OptimizerRecipe::Stock) {
+    o.RegisterPerformancePasses();
+    return;
+  }
+  register_kiln_recipe(o);
+}
+
+}  // namespace
+
+SpirvStepResult legalize_spirv_core(const std::vector<uint32_t>& spirv) {
+  return run_recipe(spirv, CompileStep::Legalize, register_core_legalization);
+}
+
+bool fits_kiln_recipe(const std::vector<uint32_t>& spirv) {
+  std::set<uint32_t> entry_points, functions;
+  int returns = 0;             // in the current function
+  bool label_after_return = false;  // the return is not in the function's last block
+  for (size_t at = 5; at < spirv.size();) {
+    const uint32_t count = spirv[at] >> 16, opcode = spirv[at] & 0xffff;
+    if (count == 0 || at + count > spirv.size()) return false;
+    const uint32_t* w = &spirv[at];
+    switch (opcode) {
+      case spv::OpFunctionCall: return false;
+      case spv::OpVariable:
+        if (count >= 4 && w[3] == spv::StorageClassPrivate) return false;
+        break;
+      case spv::OpEntryPoint:
+        if (count >= 3) entry_points.insert(w[2]);
+        break;
+      case spv::OpFunction:
+        if (count >= 3) functions.insert(w[2]);
+        returns = 0;
+        label_after_return = false;
+        break;
+      case spv::OpReturn:
+      case spv::OpReturnValue: ++returns; break;
+      case spv::OpLabel: label_after_return |= returns > 0; break;
+      case spv::OpFunctionEnd:
+        if (returns > 1 || label_after_return) return false;
+        break;
+      default: break;
+    }
+    at += count;
+  }
+  return functions == entry_points;
+}
+
+SpirvStepResult optimize_spirv(const std::vector<uint32_t>& spirv, OptimizerRecipe recipe) {
+  if (recipe == OptimizerRecipe::Kiln && !fits_kiln_recipe(spirv)) recipe = OptimizerRecipe::Stock;
+  SpirvStepResult result;
+  result.step = CompileStep::Optimize;
+  spvtools::Optimizer optimizer(kTargetEnv);
+  optimizer.SetMessageConsumer(collect_into(result.messages));
+  register_recipe(optimizer, recipe);
+  result.ok = optimizer.Run(spirv.data(), spirv.size(), &result.spirv, optimizer_options());
+  if (!result.ok) result.spirv.clear();
+  return result;
+}
+
+namespace {
+
+std::vector<std::string> names_of(const spvtools::Optimizer& optimizer) {
+  std::vector<std::string> names;
+  for (const char* name : optimizer.GetPassNames()) names.emplace_back(name);
+  return names;
+}
+
+}  // namespace
+
+std::vector<std::string> legalization_pass_names() {
+  spvtools::Optimizer optimizer(kTargetEnv);
+  register_core_legalization(optimizer);
+  return names_of(optimizer);
+}
+
+std::vector<std::string> optimizer_pass_names(OptimizerRecipe recipe) {
+  spvtools::Optimizer optimizer(kTargetEnv);
+  register_recipe(optimizer, recipe);
+  return names_of(optimizer);
+}
+
+std::vector<uint32_t> compact_ids(const std::vector<uint32_t>& spirv) {
+  spvtools::Optimizer optimizer(kTargetEnv);
+  optimizer.RegisterPass(spvtools::CreateCompactIdsPass());
+  std::vector<uint32_t> out;
+  if (!optimizer.Run(spirv.data(), spirv.size(), &out, optimizer_options())) return spirv;
+  return out;
 }
 
 namespace {
@@ -121,10 +292,11 @@ SpirvStepResult legalize_and_validate(const std::vector<uint32_t>& spirv, bool o
 
 }  // namespace
 
-SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize) {
+SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize, OptimizerRecipe recipe) {
   SpirvStepResult result = legalize_and_validate(spirv, optimize);
   if (!result.ok || !optimize) return result;
-  SpirvStepResult optimized = optimize_spirv(result.spirv);
+  // Kiln's recipe leaves out work the core legalization recipe did; after the full one, -O as a whole.
+  SpirvStepResult optimized = optimize_spirv(result.spirv, result.full_legalization ? OptimizerRecipe::Stock : recipe);
   optimized.full_legalization = result.full_legalization;
   optimized.messages.insert(optimized.messages.begin(), result.messages.begin(), result.messages.end());
   if (!optimized.ok) return optimized;

@@ -6,6 +6,7 @@
 
 #include "common/compile_step.hpp"
 #include "common/target_environment.hpp"
+#include "kiln/model.hpp"
 
 #include <spirv-tools/libspirv.h>
 #include <vector>
@@ -28,14 +29,29 @@ struct SpirvStepResult {
 };
 
 // The whole chain; on failure `step` names the step that failed. With `optimize`, legalization tries the core
-// recipe first and falls back to SPIRV-Tools' full one when the result does not validate.
-SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize);
+// recipe first and falls back to SPIRV-Tools' full one when the result does not validate; `recipe` says
+// which optimization recipe follows (kiln's runs only after the core legalization recipe: a module that
+// needed the full one gets -O).
+SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize,
+                                           OptimizerRecipe recipe = OptimizerRecipe::Kiln);
 // Its steps alone (kiln-compile-steps times them): SPIRV-Tools' full legalization recipe (`spirv-opt
-// --legalize-hlsl`), kiln's core legalization recipe (its first sixteen passes), and the performance recipe
-// (`spirv-opt -O`); none validates.
+// --legalize-hlsl`), kiln's core legalization recipe (its first sixteen passes), and an optimization recipe
+// (kiln's, or `spirv-opt -O`'s); none validates. Kiln's recipe expects the core legalization recipe's output.
 SpirvStepResult legalize_spirv(const std::vector<uint32_t>& spirv);
 SpirvStepResult legalize_spirv_core(const std::vector<uint32_t>& spirv);
-SpirvStepResult optimize_spirv(const std::vector<uint32_t>& spirv);
+SpirvStepResult optimize_spirv(const std::vector<uint32_t>& spirv, OptimizerRecipe recipe);
+// What kiln's recipe assumes of its input, checked on every module (kiln runs -O on a module without it): no
+// function call, every function an entry point, no Private variable, at most one return per function and in
+// its last block. True of what the core legalization recipe gives for kiln's modules unless it could not
+// inline a call.
+bool fits_kiln_recipe(const std::vector<uint32_t>& spirv);
+// The passes of the core legalization recipe and of each optimization recipe, by SPIRV-Tools' pass names, in
+// order (kiln --version, the per-pass benchmark).
+std::vector<std::string> legalization_pass_names();
+std::vector<std::string> optimizer_pass_names(OptimizerRecipe recipe);
+// The module with its result IDs renumbered densely in order of appearance (SPIRV-Tools' compact-ids): two
+// recipes that make the same instructions with other ID numbers give the same words after it.
+std::vector<uint32_t> compact_ids(const std::vector<uint32_t>& spirv);
 // spirv-val alone (used by lint and tests).
 SpirvStepResult validate_spirv(const std::vector<uint32_t>& spirv);
 // Every texture and sampler variable that share one (set, binding) become one combined image sampler

@@ -390,13 +390,14 @@ void from_json(const json& j, ManifestTools& v) {
 void to_json(json& j, const ManifestOptions& v) {
   json targets = json::array();
   for (Target t : v.targets) targets.push_back(target_name(t));
-  j = {{"optimize", v.optimize},         {"targets", targets},
+  j = {{"optimize", v.optimize},         {"optimizer_recipe", v.optimizer_recipe}, {"targets", targets},
        {"spirv_env", v.spirv_env},       {"glsl_version", v.glsl_version},
        {"gles_version", v.gles_version}, {"msl_version", v.msl_version},
        {"gl_clip_space_fixup", v.gl_clip_space_fixup}};
 }
 void from_json(const json& j, ManifestOptions& v) {
   read(j, "optimize", v.optimize);
+  read(j, "optimizer_recipe", v.optimizer_recipe);
   read(j, "targets", v.targets);
   read(j, "spirv_env", v.spirv_env);
   read(j, "glsl_version", v.glsl_version);

@@ -31,7 +31,7 @@ JobOutput run_front_end(Frontend& frontend, const CompileJob& job) {
 // Legalize, validate, optimize, validate, reflect, cross-compile: everything after the front end.
 JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
   JobOutput out;
-  SpirvStepResult spirv = legalize_validate_optimize(std::move(module), job.optimize);
+  SpirvStepResult spirv = legalize_validate_optimize(std::move(module), job.optimize, job.optimizer_recipe);
   if (!spirv.ok) {
     out.failed_step = spirv.step;
     for (std::string& message : spirv.messages) out.messages.push_back({Severity::Error, "", 0, std::move(message)});
@@ -181,6 +181,7 @@ std::vector<uint8_t> encode_job(const CompileJob& job) {
          {"source_name", job.source_name},
          {"source", job.source},
          {"optimize", job.optimize},
+         {"optimizer_recipe", optimizer_recipe_name(job.optimizer_recipe)},
          {"bindings", bindings_to_json(job.bindings)}};
   json targets = json::array();
   for (Target t : job.targets) targets.push_back(target_name(t));
@@ -209,6 +210,8 @@ CompileJob decode_job(const std::vector<uint8_t>& bytes) {
   job.source_name = j.at("source_name").get<std::string>();
   job.source = j.at("source").get<std::string>();
   job.optimize = j.at("optimize").get<bool>();
+  job.optimizer_recipe =
+      parse_optimizer_recipe(j.at("optimizer_recipe").get<std::string>()).value_or(OptimizerRecipe::Kiln);
   job.bindings = bindings_from_json(j.at("bindings"));
   for (const json& t : j.at("targets"))
     if (auto target = parse_target(t.get<std::string>())) job.targets.push_back(*target);
