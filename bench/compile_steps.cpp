@@ -23,6 +23,7 @@
 
 #include "../compiler/cli/allocator.hpp"
 #include "common/hash.hpp"
+#include "emitted_sources.hpp"
 #include "cross/targets.hpp"
 #include "frontend/frontend.hpp"
 #include "optimize/spirv_tools.hpp"
@@ -98,31 +99,21 @@ void write_json(const std::string& path, const nlohmann::json& j) {
 }
 
 int floor_mode(const std::string& emit_dir, const std::string& pack_file, const std::string& json_out) {
-  const nlohmann::json pack = nlohmann::json::parse(read_file(pack_file));
+  const std::vector<kiln::bench::EmittedSource> sources = kiln::bench::emitted_sources(emit_dir, pack_file);
   auto frontend = kiln::make_glslang_frontend();
   StepTimes steps;
   std::set<std::string> modules;
   size_t front_ends = 0, back_ends = 0;
   const auto start = clock_type::now();
-  for (const auto& pass : pack.at("passes")) {
-    for (const auto& [stage_name, entry] : pass.at("stages").items()) {
-      const std::filesystem::path dir = std::filesystem::path(emit_dir) / pass.at("name").get<std::string>() / stage_name;
-      std::vector<std::filesystem::path> sources;
-      for (const auto& file : std::filesystem::directory_iterator(dir))
-        if (file.path().extension() == ".hlsl") sources.push_back(file.path());
-      std::sort(sources.begin(), sources.end());
-      const kiln::Stage stage = kiln::parse_stage(stage_name).value_or(kiln::Stage::Fragment);
-      for (const auto& source : sources) {
-        ++front_ends;
-        run_steps(*frontend, source.string(), stage, entry.get<std::string>(), steps, [&](const std::vector<uint32_t>& spirv) {
-          std::string key = stage_name + entry.get<std::string>();
-          key.append(reinterpret_cast<const char*>(spirv.data()), spirv.size() * 4);
-          bool fresh = modules.insert(kiln::hash128(key).hex()).second;
-          back_ends += fresh;
-          return fresh;
-        });
-      }
-    }
+  for (const kiln::bench::EmittedSource& source : sources) {
+    ++front_ends;
+    run_steps(*frontend, source.path.string(), source.stage, source.entry, steps, [&](const std::vector<uint32_t>& spirv) {
+      std::string key = source.stage_name + source.entry;
+      key.append(reinterpret_cast<const char*>(spirv.data()), spirv.size() * 4);
+      bool fresh = modules.insert(kiln::hash128(key).hex()).second;
+      back_ends += fresh;
+      return fresh;
+    });
   }
   const double wall = std::chrono::duration<double>(clock_type::now() - start).count();
   nlohmann::json table = nlohmann::json::array();

@@ -22,6 +22,7 @@
 
 #include "../compiler/cli/allocator.hpp"
 #include "common/hash.hpp"
+#include "emitted_sources.hpp"
 #include "frontend/frontend.hpp"
 #include "optimize/spirv_tools.hpp"
 
@@ -43,30 +44,19 @@ double ms_since(clock_type::time_point start) {
 
 // The distinct front-end modules of a pack's build, as kiln compiles them (one per module, not per source).
 std::vector<Module> front_end_modules(const std::string& emit_dir, const std::string& pack_file) {
-  const nlohmann::json pack = nlohmann::json::parse(read_file(pack_file));
   auto frontend = kiln::make_glslang_frontend();
   std::set<std::string> seen;
   std::vector<Module> modules;
-  for (const auto& pass : pack.at("passes")) {
-    for (const auto& [stage_name, entry] : pass.at("stages").items()) {
-      const auto dir = std::filesystem::path(emit_dir) / pass.at("name").get<std::string>() / stage_name;
-      std::vector<std::filesystem::path> sources;
-      for (const auto& file : std::filesystem::directory_iterator(dir))
-        if (file.path().extension() == ".hlsl") sources.push_back(file.path());
-      std::sort(sources.begin(), sources.end());
-      const kiln::Stage stage = kiln::parse_stage(stage_name).value_or(kiln::Stage::Fragment);
-      for (const auto& source : sources) {
-        const std::string text = read_file(source);
-        kiln::CompileResult front = frontend->compile({stage, entry.get<std::string>(), source.string(), text});
-        if (!front.ok) {
-          std::cerr << "kiln-optimizer-passes: the front end failed on " << source << "\n";
-          std::exit(1);
-        }
-        std::string key = stage_name + entry.get<std::string>();
-        key.append(reinterpret_cast<const char*>(front.spirv.data()), front.spirv.size() * 4);
-        if (seen.insert(kiln::hash128(key).hex()).second) modules.push_back(std::move(front.spirv));
-      }
+  for (const kiln::bench::EmittedSource& source : kiln::bench::emitted_sources(emit_dir, pack_file)) {
+    const std::string text = read_file(source.path);
+    kiln::CompileResult front = frontend->compile({source.stage, source.entry, source.path.string(), text});
+    if (!front.ok) {
+      std::cerr << "kiln-optimizer-passes: the front end failed on " << source.path << "\n";
+      std::exit(1);
     }
+    std::string key = source.stage_name + source.entry;
+    key.append(reinterpret_cast<const char*>(front.spirv.data()), front.spirv.size() * 4);
+    if (seen.insert(kiln::hash128(key).hex()).second) modules.push_back(std::move(front.spirv));
   }
   return modules;
 }

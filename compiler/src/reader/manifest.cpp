@@ -65,36 +65,21 @@ void read_value(const json& v, T& out) {
   out = static_cast<T>(value);
 }
 
-void read_value(const json& v, Stage& out) {
+// A name among an enumeration's; `parse` is its parser, `what` says what it is ("a stage").
+template <class Enum, class Parse>
+void read_name(const json& v, Enum& out, Parse parse, const char* what) {
   std::string name;
   read_value(v, name);
-  std::optional<Stage> stage = parse_stage(name);
-  if (!stage) fail(json(name).dump() + " is not a stage");
-  out = *stage;
+  std::optional<Enum> value = parse(name);
+  if (!value) fail(json(name).dump() + " is not " + what);
+  out = *value;
 }
 
-void read_value(const json& v, Target& out) {
-  std::string name;
-  read_value(v, name);
-  std::optional<Target> target = parse_target(name);
-  if (!target) fail(json(name).dump() + " is not a target");
-  out = *target;
-}
-
-void read_value(const json& v, ResourceKind& out) {
-  std::string name;
-  read_value(v, name);
-  std::optional<ResourceKind> kind = parse_resource_kind(name);
-  if (!kind) fail(json(name).dump() + " is not a resource kind");
-  out = *kind;
-}
-
+void read_value(const json& v, Stage& out) { read_name(v, out, parse_stage, "a stage"); }
+void read_value(const json& v, Target& out) { read_name(v, out, parse_target, "a target"); }
+void read_value(const json& v, ResourceKind& out) { read_name(v, out, parse_resource_kind, "a resource kind"); }
 void read_value(const json& v, MslResourceKind& out) {
-  std::string name;
-  read_value(v, name);
-  std::optional<MslResourceKind> kind = parse_name<MslResourceKind>(kMslKindNames, name);
-  if (!kind) fail(json(name).dump() + " is not an MSL resource kind");
-  out = *kind;
+  read_name(v, out, [](std::string_view name) { return parse_name<MslResourceKind>(kMslKindNames, name); }, "an MSL resource kind");
 }
 
 // The manifest's structs: their own from_json.
