@@ -116,6 +116,7 @@ void write_html_report(const std::filesystem::path& path, const std::string& tit
 #include <chrono>
 #include <cstdio>
 #include <ostream>
+#include <unordered_map>
 
 #include "kiln/pack_reader.hpp"
 #include "render/backend.hpp"
@@ -141,6 +142,35 @@ std::string format(const char* fmt, double value) {
 
 }  // namespace
 
+std::vector<size_t> variants_to_run(const PackReader& pack, Api api, unsigned shard_index, unsigned shard_count) {
+  // A variant's pipeline is its pair of modules for the API; the pack stores each distinct output once.
+  using Modules = std::pair<std::string_view, std::string_view>;
+  struct ModulesHash {
+    size_t operator()(const Modules& m) const {
+      return std::hash<std::string_view>()(m.first) * 31 + std::hash<std::string_view>()(m.second);
+    }
+  };
+  auto module = [&](const SelectedVariant& variant, const char* stage) {
+    const StageView* view = variant.stage(stage);
+    if (!view) return std::string_view();
+    return api == Api::Vulkan ? view->spirv : api == Api::Gl ? view->glsl : view->gles;
+  };
+  std::unordered_map<Modules, size_t, ModulesHash> pipeline_of;  // -> pipeline number, in first-use order
+  std::vector<std::vector<size_t>> by_pipeline;
+  const size_t count = pack.variant_count("Forward");
+  for (size_t i = 0; i < count; ++i) {
+    SelectedVariant variant = pack.variant("Forward", i);
+    auto [it, inserted] = pipeline_of.try_emplace({module(variant, "vertex"), module(variant, "fragment")},
+                                                  by_pipeline.size());
+    if (inserted) by_pipeline.emplace_back();
+    by_pipeline[it->second].push_back(i);
+  }
+  std::vector<size_t> run;
+  for (size_t p = 0; p < by_pipeline.size(); ++p)
+    if (p % shard_count == shard_index) run.insert(run.end(), by_pipeline[p].begin(), by_pipeline[p].end());
+  return run;
+}
+
 GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream& out) {
   auto start = std::chrono::steady_clock::now();
   GoldenTestSummary summary;
@@ -163,9 +193,7 @@ GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream
   }
 
   std::vector<std::string> rows;
-  const size_t count = pack.variant_count("Forward");
-  for (size_t i = 0; i < count; ++i) {
-    if (i % options.shard_count != options.shard_index) continue;
+  for (size_t i : variants_to_run(pack, api, options.shard_index, options.shard_count)) {
     SelectedVariant variant = pack.variant("Forward", i);
     std::string name = variant_name(variant.keywords);
     if (!options.filter.empty() && name.find(options.filter) == std::string::npos) continue;
@@ -227,6 +255,8 @@ GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream
     out << "kiln test: report with the failing images: " << (options.report_dir / "index.html").string() << "\n";
   }
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  out << "kiln test: " << renderer->pipelines_created() << " " << (api == Api::Vulkan ? "pipelines" : "programs")
+      << " compiled, " << renderer->pipelines_reused() << " renders reused one\n";
   out << "kiln test: " << summary.passed << " passed, " << summary.failed << " failed, " << summary.not_run
       << " not run, " << format("%.1f s", summary.seconds) << "\n";
   return summary;

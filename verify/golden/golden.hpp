@@ -11,6 +11,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "kiln/pack_reader.hpp"
+#include "render/backend.hpp"
 #include "scene/image.hpp"
 
 namespace kiln::render {
@@ -69,6 +71,8 @@ struct GoldenTestOptions {
   // Another API: compare each image with that API's image of the same variant instead of the reference image
   // (same limits; the reference still marks the shadow-tie pixels).
   std::string against;
+  // Shard I of N: every N-th distinct pipeline (pair of modules for the API, in first-use order) with all the
+  // variants that share it, so that a pipeline is compiled in one shard only.
   unsigned shard_index = 0, shard_count = 1;
 };
 
@@ -79,6 +83,11 @@ struct GoldenTestSummary {
   double seconds = 0;
   bool ok() const { return failed == 0 && not_run == 0 && passed > 0; }
 };
+
+// The Forward variants shard `shard_index` of `shard_count` runs, in the order it runs them: grouped by
+// pipeline (the vertex and fragment modules for `api`, compared byte for byte), pipelines in first-use order,
+// every N-th pipeline; the shards of one N cover every variant exactly once.
+std::vector<size_t> variants_to_run(const PackReader& pack, Api api, unsigned shard_index, unsigned shard_count);
 
 // Every Forward variant of the pack (of the shard), rendered with the scene and compared with its golden.
 GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream& out);

@@ -36,6 +36,8 @@ class ContextBackend final : public Backend {
   std::string device() const override { return device_; }
   uint32_t width() const override { return renderer_.width(); }
   uint32_t height() const override { return renderer_.height(); }
+  size_t pipelines_created() const override { return renderer_.pipelines_created(); }
+  size_t pipelines_reused() const override { return renderer_.pipelines_reused(); }
 
  private:
   std::unique_ptr<Context> context_;

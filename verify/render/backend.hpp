@@ -28,6 +28,9 @@ class Backend {
   virtual std::string device() const = 0;  // e.g. "lavapipe: llvmpipe (LLVM 15.0.6, 256 bits), Mesa 22.3.6"
   virtual uint32_t width() const = 0;
   virtual uint32_t height() const = 0;
+  // Pipelines (Vulkan) or programs (GL) compiled for images, and renders that reused one instead.
+  virtual size_t pipelines_created() const = 0;
+  virtual size_t pipelines_reused() const = 0;
 };
 
 }  // namespace kiln::render

@@ -1,6 +1,7 @@
 #include "render/gl_renderer.hpp"
 
 #include <algorithm>
+#include <list>
 #include <map>
 
 #include "render/renderer.hpp"
@@ -123,6 +124,18 @@ struct GlSceneRenderer::State {
   GLuint color_framebuffer = 0, color_texture = 0, depth_texture = 0;
   // Everything created, deleted with the renderer.
   std::vector<GLuint> buffers, textures, samplers, framebuffers;
+  // Image programs by their sources: variants whose GLSL is byte-identical for both stages draw with one
+  // program, compiled and linked once. The most recently used few are kept (kiln test renders the variants
+  // of one program one after another).
+  struct CachedProgram {
+    std::string pass;
+    std::string_view vertex, fragment;  // GLSL (owned by the pack reader)
+    GLuint program = 0;
+    GlBindings bindings;
+  };
+  static constexpr size_t kCachedPrograms = 8;
+  std::list<CachedProgram> programs;  // most recent first
+  size_t programs_created = 0, programs_reused = 0;
 
   State(GlContext& c, const PackReader& p, const Scene& scene)
       : context(c), gl(c.gl()), gles(c.api() == GlApi::Gles32), pack(p), data(p, scene) {}
@@ -132,6 +145,30 @@ struct GlSceneRenderer::State {
     gl.DeleteSamplers(GLsizei(samplers.size()), samplers.data());
     gl.DeleteFramebuffers(GLsizei(framebuffers.size()), framebuffers.data());
     gl.DeleteVertexArrays(1, &vertex_array);
+    for (const CachedProgram& p : programs) gl.DeleteProgram(p.program);
+  }
+
+  const CachedProgram& image_program(const SelectedVariant& variant) {
+    const StageView* vs = variant.stage("vertex");
+    const StageView* fs = variant.stage("fragment");
+    auto text = [&](const StageView* stage) { return stage ? (gles ? stage->gles : stage->glsl) : std::string_view(); };
+    auto found = std::find_if(programs.begin(), programs.end(), [&](const CachedProgram& p) {
+      return p.pass == variant.pass && p.vertex == text(vs) && p.fragment == text(fs);
+    });
+    if (found != programs.end()) {
+      programs.splice(programs.begin(), programs, found);
+      ++programs_reused;
+      return programs.front();
+    }
+    CachedProgram entry{variant.pass, text(vs), text(fs), 0, {}};
+    entry.program = link(variant, entry.bindings);
+    ++programs_created;
+    programs.push_front(std::move(entry));
+    if (programs.size() > kCachedPrograms) {
+      gl.DeleteProgram(programs.back().program);
+      programs.pop_back();
+    }
+    return programs.front();
   }
 
   GLuint buffer(GLenum target, const void* bytes, size_t size) {
@@ -356,6 +393,9 @@ GlSceneRenderer::GlSceneRenderer(GlContext& context, const PackReader& pack, con
 
 GlSceneRenderer::~GlSceneRenderer() = default;
 
+size_t GlSceneRenderer::pipelines_created() const { return state_->programs_created; }
+size_t GlSceneRenderer::pipelines_reused() const { return state_->programs_reused; }
+
 Image GlSceneRenderer::render(const std::vector<std::string>& keywords) {
   return render(state_->pack.select("Forward", keywords));
 }
@@ -383,15 +423,13 @@ Image GlSceneRenderer::render(const SelectedVariant& variant) {
                      draw ? setup.additional_views : std::vector<ShadowView>{}, true, f);
     }
   }
-  GlBindings bindings;
-  GLuint program = s.link(variant, bindings);
+  const State::CachedProgram& cached = s.image_program(variant);
   gl.BindFramebuffer(GL_FRAMEBUFFER, s.color_framebuffer);
   gl.Viewport(0, 0, GLsizei(width_), GLsizei(height_));
   const GLfloat zero[4] = {0, 0, 0, 0}, one = 1.0f;
   gl.ClearBufferfv(GL_DEPTH, 0, &one);
   gl.ClearBufferfv(GL_COLOR, 0, zero);
-  s.draw_objects(program, variant, bindings, f);
-  gl.DeleteProgram(program);
+  s.draw_objects(cached.program, variant, cached.bindings, f);
   // Bottom row first: row 0 is NDC y = -1 in both APIs, so this is the Vulkan image's row order.
   Image out{width_, height_, {}};
   out.rgba.resize(size_t(width_) * height_ * 4);

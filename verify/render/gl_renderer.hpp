@@ -36,6 +36,9 @@ class GlSceneRenderer {
   // ES output on an ES context.
   Image render(const std::vector<std::string>& keywords);
   Image render(const SelectedVariant& variant);
+  // Image programs compiled and linked, and renders that reused one (byte-identical GLSL of an earlier variant).
+  size_t pipelines_created() const;
+  size_t pipelines_reused() const;
   uint32_t width() const { return width_; }
   uint32_t height() const { return height_; }
 

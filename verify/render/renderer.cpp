@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <list>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -99,6 +100,18 @@ struct SceneRenderer::State {
     std::vector<VkDescriptorSet> object_sets;
   };
   std::map<std::string, SimplePass> simple_passes;
+  // Image pipelines by what makes them distinct: variants whose SPIR-V modules are byte-identical (a keyword
+  // no stage reads, a vertex stage many fragment variants share) draw with one pipeline, compiled once.
+  // The most recently used few are kept (kiln test renders the variants of one pipeline one after another).
+  struct CachedPipeline {
+    std::string pass;
+    std::string_view vertex, fragment;  // SPIR-V bytes (owned by the pack reader)
+    std::string vertex_entry, fragment_entry;
+    std::unique_ptr<VulkanObjects> objects;
+    VkPipeline pipeline = VK_NULL_HANDLE;
+  };
+  static constexpr size_t kCachedPipelines = 8;
+  std::list<CachedPipeline> pipelines;  // most recent first; destroyed before `objects` (declared after it)
 
   State(VulkanContext& c, const PackReader& p, const Scene& scene) : context(c), pack(p), objects(c), data(p, scene) {}
 
@@ -579,6 +592,35 @@ const FrameSetup& SceneRenderer::frame(int cascades) {
   return f.setup;
 }
 
+VkPipeline SceneRenderer::image_pipeline(const SelectedVariant& variant, VkPipelineLayout layout) {
+  State& s = *state_;
+  const StageView* vs = variant.stage("vertex");
+  const StageView* fs = variant.stage("fragment");
+  auto same = [&](const State::CachedPipeline& c) {
+    return vs && fs && c.pass == variant.pass && c.vertex == vs->spirv && c.fragment == fs->spirv &&
+           c.vertex_entry == vs->entry_point && c.fragment_entry == fs->entry_point;
+  };
+  auto found = std::find_if(s.pipelines.begin(), s.pipelines.end(), same);
+  if (found != s.pipelines.end()) {
+    s.pipelines.splice(s.pipelines.begin(), s.pipelines, found);
+    ++pipelines_reused_;
+    return found->pipeline;
+  }
+  State::CachedPipeline entry;
+  entry.objects = std::make_unique<VulkanObjects>(s.context);
+  entry.pipeline = make_pipeline(s.context, *entry.objects, variant, s.color_target.pass, 1, layout);
+  entry.objects->adopt(entry.pipeline);
+  entry.pass = variant.pass;
+  entry.vertex = vs->spirv;
+  entry.fragment = fs->spirv;
+  entry.vertex_entry = vs->entry_point;
+  entry.fragment_entry = fs->entry_point;
+  ++pipelines_created_;
+  s.pipelines.push_front(std::move(entry));
+  if (s.pipelines.size() > State::kCachedPipelines) s.pipelines.pop_back();
+  return s.pipelines.front().pipeline;
+}
+
 Image SceneRenderer::render(const std::vector<std::string>& keywords) {
   return render(state_->pack.select("Forward", keywords));
 }
@@ -615,9 +657,7 @@ Image SceneRenderer::render(const SelectedVariant& variant) {
   if (has(variant.keywords, "_HALF_PRECISION") && !s.context.supports_float16())
     fail("this lavapipe lacks shaderFloat16, needed by _HALF_PRECISION variants");
   auto t0 = std::chrono::steady_clock::now();
-  VulkanObjects per_variant(s.context);
-  VkPipeline pipeline = make_pipeline(s.context, per_variant, variant, s.color_target.pass, 1, layout->pipeline_layout);
-  per_variant.adopt(pipeline);
+  VkPipeline pipeline = image_pipeline(variant, layout->pipeline_layout);
   last_pipeline_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   s.context.submit(
       [&](VkCommandBuffer cmd) {

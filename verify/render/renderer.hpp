@@ -37,6 +37,9 @@ class SceneRenderer {
   // Milliseconds of the last render: pipeline creation and draw (submit to idle).
   double last_pipeline_ms() const { return last_pipeline_ms_; }
   double last_draw_ms() const { return last_draw_ms_; }
+  // Image pipelines compiled, and renders that reused one (byte-identical modules of an earlier variant).
+  size_t pipelines_created() const { return pipelines_created_; }
+  size_t pipelines_reused() const { return pipelines_reused_; }
 
   GBuffer render_gbuffer(const PackReader& debug_pack);
   // The shadow maps a variant with `cascades` (1 or the scene's count) reads, and the additional-light atlas.
@@ -53,6 +56,8 @@ class SceneRenderer {
   Scene scene_;  // with the image size overridden
   uint32_t width_, height_;
   double last_pipeline_ms_ = 0, last_draw_ms_ = 0;
+  size_t pipelines_created_ = 0, pipelines_reused_ = 0;
+  VkPipeline image_pipeline(const SelectedVariant& variant, VkPipelineLayout layout);
 };
 
 // The number of cascades a Forward variant's shadow layout uses: 1 unless it has _MAIN_LIGHT_SHADOWS_CASCADE.

@@ -116,7 +116,7 @@ int main(int argc, char** argv) {
   test->add_option("--tolerances", tolerances, "Tolerance classes (JSON)")->required()->check(CLI::ExistingFile);
   test->add_option("--report", report_dir, "Directory for failure images and index.html");
   test->add_option("--filter", filter, "Only variants whose keyword list contains this text");
-  test->add_option("--shard", shard, "I/N: run every N-th variant starting at I");
+  test->add_option("--shard", shard, "I/N: run every N-th distinct pipeline (with all the variants that share it) starting at I");
   test->add_option("--api", api, api_help)->check(CLI::IsMember({"vulkan", "gl", "gles"}));
   std::string against;
   test->add_option("--against", against, "Compare with this API's image of each variant instead of the reference image")
