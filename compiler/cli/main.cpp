@@ -169,7 +169,9 @@ int run_verify(int argc, char** argv) {
 }
 
 // --shard I/N (0 <= I < N), or auto: Slurm job arrays (SLURM_ARRAY_TASK_ID with SLURM_ARRAY_TASK_COUNT, or with
-// SLURM_ARRAY_TASK_MIN/MAX), GitLab parallel jobs (CI_NODE_INDEX, 1-based, and CI_NODE_TOTAL). Empty, or the error.
+// SLURM_ARRAY_TASK_MIN/MAX), GitLab parallel jobs (CI_NODE_INDEX, 1-based, and CI_NODE_TOTAL), Kubernetes Indexed
+// Jobs (JOB_COMPLETION_INDEX; Kubernetes exports no count, so the job passes its completions as KILN_SHARD_COUNT).
+// Empty, or the error.
 std::string parse_shard(const std::string& text, kiln::BuildOptions& options) {
   auto number = [](const char* name) -> std::optional<long> {
     const char* value = std::getenv(name);
@@ -186,8 +188,15 @@ std::string parse_shard(const std::string& text, kiln::BuildOptions& options) {
       if (min && max) index = *id - *min, count = *max - *min + 1;
     } else if (auto node = number("CI_NODE_INDEX"), total = number("CI_NODE_TOTAL"); node && total) {
       index = *node - 1, count = *total;
+    } else if (auto completion = number("JOB_COMPLETION_INDEX")) {
+      auto n = number("KILN_SHARD_COUNT");
+      if (!n)
+        return "--shard auto found JOB_COMPLETION_INDEX (a Kubernetes Indexed Job) but no KILN_SHARD_COUNT: set it to "
+               "the job's completions";
+      index = *completion, count = *n;
     } else {
-      return "--shard auto found no SLURM_ARRAY_TASK_ID or CI_NODE_INDEX/CI_NODE_TOTAL in the environment";
+      return "--shard auto found no SLURM_ARRAY_TASK_ID, CI_NODE_INDEX/CI_NODE_TOTAL or JOB_COMPLETION_INDEX in the "
+             "environment";
     }
   } else if (unsigned i = 0, n = 0; std::sscanf(text.c_str(), "%u/%u", &i, &n) == 2) {
     index = i, count = n;
@@ -481,7 +490,8 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   std::string shard_text;
   build->add_option("--shard", shard_text, "I/N: compile only share I of N of the compile jobs, upload them, write no pack "
-                                           "(needs --remote); auto: from Slurm's or GitLab's environment");
+                                           "(needs --remote); auto: from Slurm's, GitLab's or a Kubernetes Indexed Job's "
+                                           "environment");
   build->add_option("--remote-transfers", remote.parallel_transfers, "Remote requests in flight, one connection each (default: 8)")
       ->check(CLI::Range(1u, 64u));
 

@@ -59,6 +59,18 @@ TEST_F(SmallLibrary, SameBytesWithOneWorkerAndWithTwo) {
   EXPECT_EQ(testing::read_file(dir / "j1/p.manifest.json"), testing::read_file(dir / "j2/p.manifest.json"));
 }
 
+// The same sources checked out at two places (two CI runners, a developer's home) make the same pack, manifest
+// included: its inputs hash, also the remote's pack-level key, names files by their path from the pack.
+TEST_F(SmallLibrary, TheSameSourcesCheckedOutElsewhereGiveTheSameBytes) {
+  for (const char* file : {"lib/Shadows.hlsl", "lib/Fog.hlsl", "S.hlsl", "p.pack.json"})
+    dir.write(std::string("elsewhere/deeper/") + file, testing::read_file(dir / file));
+  DiagnosticSink sink;
+  ASSERT_TRUE(build(dir / "p.pack.json", dir / "here", std::nullopt, 2, sink).ok) << errors_of(sink);
+  ASSERT_TRUE(build(dir / "elsewhere/deeper/p.pack.json", dir / "there", std::nullopt, 2, sink).ok) << errors_of(sink);
+  EXPECT_EQ(testing::read_file(dir / "here/p.manifest.json"), testing::read_file(dir / "there/p.manifest.json"));
+  EXPECT_EQ(testing::read_archive(dir / "here/p.manifest.json"), testing::read_archive(dir / "there/p.manifest.json"));
+}
+
 TEST_F(SmallLibrary, AFrontEndKilnDoesNotHaveIsAnErrorBeforeAnythingIsWritten) {
   BuildOptions options;
   options.pack_file = dir / "p.pack.json";

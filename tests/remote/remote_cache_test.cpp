@@ -680,8 +680,9 @@ TEST(RemoteCli, ASecondMachineCompilesNothingAndWritesTheSamePack) {
             testing::read_archive(root / "elsewhere/deeper/out/p.manifest.json"));
 }
 
-// --shard auto reads a Slurm job array's task index and count (GitLab's CI_NODE_INDEX is 1-based).
-TEST(RemoteCli, ShardAutoReadsSlurmsArrayTaskFromTheEnvironment) {
+// --shard auto reads a Slurm job array's task index and count (GitLab's CI_NODE_INDEX is 1-based; a Kubernetes
+// Indexed Job's JOB_COMPLETION_INDEX with KILN_SHARD_COUNT).
+TEST(RemoteCli, ShardAutoReadsTheSchedulersIndexAndCountFromTheEnvironment) {
   testing::Nginx server;
   testing::TempDir root;
   write_library(root, "ws");
@@ -700,12 +701,102 @@ TEST(RemoteCli, ShardAutoReadsSlurmsArrayTaskFromTheEnvironment) {
   ::unsetenv("CI_NODE_INDEX");
   ::unsetenv("CI_NODE_TOTAL");
   EXPECT_EQ(gitlab.out.rfind("kiln: shard 0/2 of out/p.manifest.json: compiled ", 0), 0u) << gitlab.out;
+  // Kubernetes exports the index only: the count comes from the job's spec, as KILN_SHARD_COUNT.
+  ::setenv("JOB_COMPLETION_INDEX", "1", 1);
+  auto no_count = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "c4", "--remote", server.url(),
+                                     "--shard", "auto"}, root / "ws");
+  EXPECT_EQ(no_count.exit_code, 1);
+  EXPECT_EQ(no_count.err, "kiln: error: --shard auto found JOB_COMPLETION_INDEX (a Kubernetes Indexed Job) but no "
+                          "KILN_SHARD_COUNT: set it to the job's completions\n");
+  ::setenv("KILN_SHARD_COUNT", "2", 1);
+  auto kubernetes = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "c5", "--remote", server.url(),
+                                       "--shard", "auto"}, root / "ws");
+  ::unsetenv("JOB_COMPLETION_INDEX");
+  ::unsetenv("KILN_SHARD_COUNT");
+  EXPECT_EQ(kubernetes.exit_code, 0) << kubernetes.err;
+  EXPECT_EQ(kubernetes.out.rfind("kiln: shard 1/2 of out/p.manifest.json: compiled ", 0), 0u) << kubernetes.out;
+  auto nothing = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "c6", "--remote", server.url(),
+                                    "--shard", "auto"}, root / "ws");
+  EXPECT_EQ(nothing.exit_code, 1);
+  EXPECT_EQ(nothing.err, "kiln: error: --shard auto found no SLURM_ARRAY_TASK_ID, CI_NODE_INDEX/CI_NODE_TOTAL or "
+                         "JOB_COMPLETION_INDEX in the environment\n");
   auto merge = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "c3", "--remote", server.url()}, root / "ws");
   EXPECT_NE(merge.out.find("  compiled 0 (back ends 0,"), std::string::npos) << merge.out;
   auto alone = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--shard", "0/2"}, root / "ws");
   EXPECT_EQ(alone.exit_code, 1);
   EXPECT_EQ(alone.err, "kiln: error: --shard needs a remote cache (--remote URL or KILN_REMOTE): the merge build reads the "
                        "shards' work there\n");
+}
+
+// The documented Slurm recipe on a real one-node cluster: the shards are a job array, the merge a job that runs
+// only after every shard succeeded (afterok), all against one nginx.
+struct RemoteSlurm : ::testing::Test {
+  void SetUp() override {
+    if (::geteuid() != 0) GTEST_SKIP() << "slurmd runs jobs only as root";
+  }
+  testing::TempDir root;
+  // sbatch's arguments for a job in `ws` whose output goes to `log` (%a: the array index).
+  std::vector<std::string> job(const std::string& log, std::vector<std::string> options, const std::string& script) {
+    std::vector<std::string> argv{"/usr/bin/sbatch", "--parsable", "--chdir", (root / "ws").string(), "--output",
+                                  (root / log).string()};
+    argv.insert(argv.end(), options.begin(), options.end());
+    argv.insert(argv.end(), {"--wrap", script});
+    return argv;
+  }
+  static std::string job_id(const testing::RunResult& submitted) {
+    return submitted.out.substr(0, submitted.out.find_first_of(";\n"));
+  }
+};
+
+TEST_F(RemoteSlurm, AJobArrayOfShardsAndAnAfterokMergeWriteThePackOfOneMachine) {
+  testing::Nginx server;
+  testing::SlurmCluster slurm;
+  write_library(root, "ws");
+  write_library(root, "alone");
+  auto alone = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "cache"}, root / "alone");
+  ASSERT_EQ(alone.exit_code, 0) << alone.err;
+  const std::string kiln = std::string(KILN_CLI_PATH) + " build p.pack.json -o out --remote " + server.url() + " --remote-required";
+  auto shards = slurm.command(job("shard-%a.log", {"--array=0-2"}, kiln + " --cache cache-$SLURM_ARRAY_TASK_ID --shard auto"),
+                              root.path());
+  ASSERT_EQ(shards.exit_code, 0) << shards.err << slurm.logs();
+  // --wait returns when the merge has ended; its exit code is the job's (0 also for a job cancelled unrun).
+  auto merge = slurm.command(job("merge.log", {"--wait", "--kill-on-invalid-dep=yes", "--dependency=afterok:" + job_id(shards)},
+                                 kiln + " --cache cache-merge"),
+                             root.path());
+  ASSERT_EQ(merge.exit_code, 0) << merge.err << slurm.logs();
+  EXPECT_EQ(slurm.job_state(job_id(merge)), "COMPLETED None");
+
+  // Every shard compiled its share and they add up to the one-machine build; the merge compiled nothing.
+  size_t compiled = 0;
+  for (int shard = 0; shard < 3; ++shard) {
+    const std::string log = testing::read_file(root / ("shard-" + std::to_string(shard) + ".log"));
+    const std::string prefix = "kiln: shard " + std::to_string(shard) + "/3 of out/p.manifest.json: compiled ";
+    ASSERT_EQ(log.rfind(prefix, 0), 0u) << log;
+    compiled += std::stoul(log.substr(prefix.size()));
+  }
+  const std::string merged = testing::read_file(root / "merge.log");
+  EXPECT_NE(merged.find("  compiled 0 (back ends 0,"), std::string::npos) << merged;
+  EXPECT_NE(alone.out.find("  compiled " + std::to_string(compiled) + " (back ends"), std::string::npos)
+      << "the shards compiled " << compiled << "\n" << alone.out;
+  EXPECT_TRUE(pack_bytes(root / "ws/out") == pack_bytes(root / "alone/out")) << "the merged pack differs from one machine's";
+}
+
+TEST_F(RemoteSlurm, AFailedShardKeepsTheMergeFromRunning) {
+  testing::Nginx server;
+  testing::SlurmCluster slurm;
+  write_library(root, "ws");
+  const std::string kiln = std::string(KILN_CLI_PATH) + " build p.pack.json -o out --remote " + server.url() + " --remote-required";
+  auto shards = slurm.command(job("shard-%a.log", {"--array=0-2"},
+                                  "if [ \"$SLURM_ARRAY_TASK_ID\" = 1 ]; then exit 3; fi; " + kiln +
+                                      " --cache cache-$SLURM_ARRAY_TASK_ID --shard auto"),
+                              root.path());
+  ASSERT_EQ(shards.exit_code, 0) << shards.err << slurm.logs();
+  auto merge = slurm.command(job("merge.log", {"--wait", "--kill-on-invalid-dep=yes", "--dependency=afterok:" + job_id(shards)},
+                                 kiln + " --cache cache-merge"),
+                             root.path());
+  EXPECT_EQ(slurm.job_state(job_id(merge)), "CANCELLED DependencyNeverSatisfied") << merge.err << slurm.logs();
+  EXPECT_FALSE(std::filesystem::exists(root / "merge.log")) << "the merge ran";
+  EXPECT_FALSE(std::filesystem::exists(root / "ws/out/p.manifest.json")) << "a pack was written";
 }
 
 TEST(RemoteCli, RemoteRequiredMakesAnUnreachableServerAnError) {

@@ -5,6 +5,8 @@
 //  - FaultServer: a socket thread for the two faults nginx cannot produce on purpose: a body cut short of its
 //    Content-Length, and a server that accepts and never answers.
 //  - make_test_ca: a CA and a server certificate for 127.0.0.1, made with the openssl CLI at test time.
+//  - SlurmCluster: Debian's Slurm as a one-node cluster (munged, slurmctld, slurmd in the foreground, each stopped
+//    by its PID) with its own key, configuration, ports, state and logs in a temporary directory.
 #pragma once
 
 #include <arpa/inet.h>
@@ -14,6 +16,8 @@
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
+
+#include <fcntl.h>
 
 #include <atomic>
 #include <chrono>
@@ -230,6 +234,127 @@ class FaultServer {
   std::atomic<bool> stopping_{false};
   std::vector<int> held_;
   std::thread thread_;
+};
+
+// A one-node Slurm cluster on 127.0.0.1 for the tests of sharded builds: munged with its own key and socket, then
+// slurmctld and slurmd, all in the foreground and started by fork/exec, so that the PIDs the destructor stops are
+// theirs. Nothing of the machine's own Slurm or MUNGE configuration is read: SLURM_CONF points at this cluster's
+// file while it runs (client commands and the jobs it starts read it). slurmd runs jobs as their user only as root.
+class SlurmCluster {
+ public:
+  SlurmCluster() { start(); }
+  ~SlurmCluster() { stop(); }
+  SlurmCluster(const SlurmCluster&) = delete;
+  SlurmCluster& operator=(const SlurmCluster&) = delete;
+
+  // sbatch, scontrol, ... against this cluster.
+  RunResult command(const std::vector<std::string>& argv, const std::filesystem::path& cwd) const { return run(argv, cwd); }
+  // A job's state and reason, from `scontrol show job` ("COMPLETED None", "CANCELLED DependencyNeverSatisfied").
+  std::string job_state(const std::string& id) const {
+    const std::string text = command({"/usr/bin/scontrol", "-o", "show", "job", id}, dir_.path()).out;
+    auto field = [&](const std::string& name) {
+      size_t at = text.find(" " + name + "=");
+      if (at == std::string::npos) return std::string("?");
+      at += name.size() + 2;
+      return text.substr(at, text.find(' ', at) - at);
+    };
+    return field("JobState") + " " + field("Reason");
+  }
+  // The daemons' logs, for a failure message.
+  std::string logs() const {
+    std::string text;
+    for (const char* name : {"munged.log", "slurmctld.log", "slurmd.log"})
+      text += std::string("== ") + name + "\n" + read_file(dir_ / name);
+    return text;
+  }
+
+ private:
+  pid_t spawn(std::vector<std::string> argv, const std::string& log) {
+    std::vector<char*> args;
+    for (std::string& a : argv) args.push_back(a.data());
+    args.push_back(nullptr);
+    const std::string log_path = (dir_ / log).string();
+    pid_t pid = ::fork();
+    if (pid == 0) {
+      int fd = ::open(log_path.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+      ::dup2(fd, 1);
+      ::dup2(fd, 2);
+      ::execv(args[0], args.data());
+      ::_exit(127);
+    }
+    pids_.push_back(pid);
+    return pid;
+  }
+  // Polls `ready` (bounded: a daemon that never gets ready fails the test with the logs, it does not hang it).
+  template <typename Ready>
+  void wait_until(const std::string& what, Ready ready) {
+    for (int attempt = 0; attempt < 3000; ++attempt) {
+      if (ready()) return;
+      for (pid_t pid : pids_) {
+        int status = 0;
+        if (::waitpid(pid, &status, WNOHANG) == pid) throw std::runtime_error("a Slurm daemon exited before " + what + "\n" + logs());
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    throw std::runtime_error("Slurm: no " + what + "\n" + logs());
+  }
+
+  void start() {
+    const std::filesystem::path& d = dir_.path();
+    for (const char* sub : {"state", "spool"}) std::filesystem::create_directories(d / sub);
+    if (run_quietly({"/usr/sbin/mungekey", "--create", "--keyfile=" + (d / "munge.key").string()}, d) != 0)
+      throw std::runtime_error("mungekey failed");
+    std::filesystem::permissions(d / "munge.key", std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
+    const std::string socket = (d / "munge.sock").string();
+    // --force: munged refuses to run as root, and its directories (here the test's) are not the ones it expects.
+    spawn({"/usr/sbin/munged", "--foreground", "--force", "--socket=" + socket, "--key-file=" + (d / "munge.key").string(),
+           "--pid-file=" + (d / "munged.pid").string(), "--log-file=" + (d / "munged.log").string(),
+           "--seed-file=" + (d / "munge.seed").string()},
+          "munged.out");
+    wait_until("MUNGE socket", [&] { return std::filesystem::exists(socket); });
+
+    char host[256] = {};
+    ::gethostname(host, sizeof host - 1);
+    std::string controller(host);
+    controller = controller.substr(0, controller.find('.'));  // slurmctld compares the short name with its own
+    const uint16_t controller_port = free_port(), node_port = free_port();
+    // linuxproc/none plugins: no cgroups and no accounting, so the cluster runs in a container too.
+    std::ofstream(d / "slurm.conf")
+        << "ClusterName=kilntest\nSlurmctldHost=" << controller << "(127.0.0.1)\n"
+        << "SlurmctldPort=" << controller_port << "\nSlurmdPort=" << node_port << "\n"
+        << "AuthType=auth/munge\nCredType=cred/munge\nAuthInfo=socket=" << socket << "\n"
+        << "SlurmUser=root\nSlurmdUser=root\n"
+        << "StateSaveLocation=" << (d / "state").string() << "\nSlurmdSpoolDir=" << (d / "spool").string() << "\n"
+        << "SlurmctldPidFile=" << (d / "slurmctld.pid").string() << "\nSlurmdPidFile=" << (d / "slurmd.pid").string() << "\n"
+        << "SlurmctldLogFile=" << (d / "slurmctld.log").string() << "\nSlurmdLogFile=" << (d / "slurmd.log").string() << "\n"
+        << "ProctrackType=proctrack/linuxproc\nTaskPlugin=task/none\nJobAcctGatherType=jobacct_gather/none\n"
+        << "AccountingStorageType=accounting_storage/none\nSwitchType=switch/none\nMpiDefault=none\n"
+        << "SelectType=select/cons_tres\nSelectTypeParameters=CR_CPU\nSchedulerType=sched/backfill\nReturnToService=2\n"
+        << "NodeName=kilnnode NodeAddr=127.0.0.1 CPUs=2 State=UNKNOWN\n"
+        << "PartitionName=kiln Nodes=ALL Default=YES MaxTime=INFINITE State=UP\n";
+    const std::string conf = (d / "slurm.conf").string();
+    ::setenv("SLURM_CONF", conf.c_str(), 1);
+    spawn({"/usr/sbin/slurmctld", "-D", "-i", "-f", conf}, "slurmctld.out");
+    spawn({"/usr/sbin/slurmd", "-D", "-N", "kilnnode", "-f", conf}, "slurmd.out");
+    wait_until("idle node", [&] {
+      RunResult r = command({"/usr/bin/sinfo", "-h", "-N", "-o", "%t"}, d);
+      return r.exit_code == 0 && r.out == "idle\n";
+    });
+  }
+
+  void stop() {
+    // The node first, then the controller, then MUNGE, which both authenticate with.
+    for (auto pid = pids_.rbegin(); pid != pids_.rend(); ++pid) {
+      ::kill(*pid, SIGTERM);
+      int status = 0;
+      ::waitpid(*pid, &status, 0);
+    }
+    pids_.clear();
+    ::unsetenv("SLURM_CONF");
+  }
+
+  TempDir dir_;
+  std::vector<pid_t> pids_;
 };
 
 }  // namespace kiln::testing

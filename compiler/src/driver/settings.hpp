@@ -3,6 +3,8 @@
 // inputs hash that makes a no-change build a no-op.
 #pragma once
 
+#include <algorithm>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -38,7 +40,7 @@ struct BuildSettings {
 };
 
 // What the inputs hash covers: the tools, options, pack format (a pack another format version wrote is rebuilt),
-// the command line's bindings and defines, and the bytes of every file read. Also the remote's pack-level key.
+// the command line's bindings and defines, and every file read (its path from the pack's directory and its bytes). Also the remote's pack-level key.
 template <typename KeyHasher>
 void add_build_inputs(KeyHasher& hasher, const BuildSettings& settings, const Plan& plan, const BuildOptions& options) {
   hasher.add(uint64_t{kPackFormatVersion});
@@ -49,7 +51,14 @@ void add_build_inputs(KeyHasher& hasher, const BuildSettings& settings, const Pl
   // without them keeps the inputs hash, and so the manifest, it always had).
   if (!options.bindings.canonical().empty()) hasher.add("bindings").add(options.bindings.canonical());
   for (const Define& define : options.defines) hasher.add("define").add(define.name).add(define.value);
-  for (const auto& [path, file] : plan.sources.files) hasher.add(path.string()).add(file.text);
+  // Each file by its path from the pack's directory, in that order: the same sources checked out elsewhere (another
+  // CI runner's work tree, a developer's home) have the same inputs, so the same manifest and pack-level key.
+  const std::filesystem::path base = std::filesystem::weakly_canonical(plan.pack.file).parent_path();
+  std::vector<std::pair<std::string, const std::string*>> files;
+  for (const auto& [path, file] : plan.sources.files) files.emplace_back(path.lexically_relative(base).generic_string(), &file.text);
+  std::sort(files.begin(), files.end());
+  hasher.add("files relative to the pack");
+  for (const auto& [path, text] : files) hasher.add(path).add(*text);
 }
 
 // Nothing when the front end is unknown (reported).
