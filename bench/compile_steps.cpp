@@ -104,16 +104,29 @@ int floor_mode(const std::string& emit_dir, const std::string& pack_file, const 
   StepTimes steps;
   std::set<std::string> modules;
   size_t front_ends = 0, back_ends = 0;
+  // Per source, in build order: its front end's time and, for the first source of each module, the back end's
+  // (bench/scaling_model.py schedules these jobs on P workers).
+  nlohmann::json jobs = nlohmann::json::array();
+  auto recorded_ms = [&] {
+    double sum = 0;
+    for (const auto& times : steps.times)
+      for (double t : times) sum += t;
+    return sum;
+  };
   const auto start = clock_type::now();
   for (const kiln::bench::EmittedSource& source : sources) {
     ++front_ends;
+    const double before = recorded_ms();
+    bool fresh = false;
     run_steps(*frontend, source.path.string(), source.stage, source.entry, steps, [&](const std::vector<uint32_t>& spirv) {
       std::string key = source.stage_name + source.entry;
       key.append(reinterpret_cast<const char*>(spirv.data()), spirv.size() * 4);
-      bool fresh = modules.insert(kiln::hash128(key).hex()).second;
+      fresh = modules.insert(kiln::hash128(key).hex()).second;
       back_ends += fresh;
       return fresh;
     });
+    const double front_ms = steps.times[0].back(), all_ms = recorded_ms() - before;
+    jobs.push_back({{"stage", source.stage_name}, {"front_end_ms", front_ms}, {"back_end_ms", fresh ? all_ms - front_ms : 0.0}});
   }
   const double wall = std::chrono::duration<double>(clock_type::now() - start).count();
   nlohmann::json table = nlohmann::json::array();
@@ -128,7 +141,7 @@ int floor_mode(const std::string& emit_dir, const std::string& pack_file, const 
   std::cout << "front ends " << front_ends << ", back ends " << back_ends << ", library time " << total << " s (wall "
             << wall << " s)\n";
   write_json(json_out, {{"pack", pack_file}, {"allocator", kiln::allocator_description()}, {"front_ends", front_ends},
-                        {"back_ends", back_ends}, {"steps", table}, {"total_s", total}, {"wall_s", wall}});
+                        {"back_ends", back_ends}, {"steps", table}, {"total_s", total}, {"wall_s", wall}, {"jobs", jobs}});
   return 0;
 }
 

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The remote cache on loopback (bench/REPORT.md, section 5): cold build; a second client warm from the remote
-# (per stage source, from a checkout at another path; and the pack-level entry, at the same path); the hit rate
+# (per stage source, from a checkout whose pack definition differs by one byte; and the pack-level entry); the hit rate
 # after an include edit; the cost of a remote that is down (connection refused) on a build that is warm locally.
 # Runs are interleaved, medians reported; writes bench/results/remote_cache.json (bench/report.py renders it).
 # Usage: bench/remote_cache.sh <kiln> <source dir> <rounds> [workdir]
@@ -28,8 +28,11 @@ for _ in $(seq 100); do (exec 3<>/dev/tcp/127.0.0.1/$port) 2>/dev/null && break;
 url=http://127.0.0.1:$port
 down=http://127.0.0.1:$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
 
-# Two checkouts: "a" uploads; "b" is the same files at another path (its inputs hash differs: no pack-level hit).
+# Two checkouts: "a" uploads; "b" is the same files at another path with one byte more in the pack definition (a
+# trailing newline: the inputs hash, and so the pack-level key, differ; every stage source and its key is the same),
+# so that b reads the per-source entries. (The same files at another path alone read the pack-level entry.)
 for c in a b; do mkdir -p "$work/$c"; cp -r "$source_dir/variants" "$source_dir/shaderlib" "$work/$c/"; done
+echo >> "$work/b/variants/lit.pack.json"
 pack=variants/lit.pack.json
 seconds() { local start end; start=$(date +%s.%N); "$@" > "$work/last.out" 2> "$work/last.err"; end=$(date +%s.%N); echo "$end - $start" | bc; }
 requests() { wc -l < "$server/access.log"; }
