@@ -137,10 +137,13 @@ def main():
             return measure([kiln, "build", args.pack, "-o", os.path.join(out, "pack"), "--cache", os.path.join(out, "cache"),
                             "-j", str(n), "-q"])
 
-        def xargs_chain():
-            out = fresh("xargs")
-            joblist = write_lines("xargs.jobs", [chain_line(j, out) for j in jobs])
+        def under_xargs(name, make_line):
+            out = fresh(name)
+            joblist = write_lines(name + ".jobs", [make_line(j, out) for j in jobs])
             return measure(f"xargs -P {n} -I CMD -d '\\n' bash -c CMD < {shlex.quote(joblist)}")
+
+        def xargs_chain():
+            return under_xargs("xargs", chain_line)
 
         def ninja_chain():
             out = fresh("ninja")
@@ -149,9 +152,7 @@ def main():
             return measure(["ninja", "-j", str(n), "-C", out])
 
         def xargs_glslc():
-            out = fresh("glslc")
-            joblist = write_lines("glslc.jobs", [glslc_line(j, out) for j in jobs])
-            return measure(f"xargs -P {n} -I CMD -d '\\n' bash -c CMD < {shlex.quote(joblist)}")
+            return under_xargs("glslc", glslc_line)
 
         def serial_chain():
             out = fresh("serial")

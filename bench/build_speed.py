@@ -29,6 +29,8 @@ import tempfile
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from anchors import chain_line, stage_jobs  # noqa: E402
 
 
 def run(cmd, **kw):
@@ -36,28 +38,9 @@ def run(cmd, **kw):
 
 
 def naive_commands(kiln, pack, work):
-    listing = json.loads(run([kiln, "list", pack, "--json"]).stdout)
-    definition = json.load(open(pack))
-    base = os.path.dirname(os.path.abspath(pack))
-    includes = [os.path.join(base, d) for d in definition.get("include_dirs", [])]
-    passes = {p["name"]: p for p in definition["passes"]}
-    lines = []
-    for index, variant in enumerate(listing["variants"]):
-        p = passes[variant["pass"]]
-        source = os.path.join(base, p["source"])
-        for stage, keywords in variant["stages"].items():
-            entry = p["stages"][stage]
-            out = os.path.join(work, f"{index}.{stage}")
-            defines = " ".join(f"-D{k}=1" for k in keywords)
-            inc = " ".join(f"-I{d}" for d in includes)
-            short = "vert" if stage == "vertex" else "frag"
-            lines.append(
-                f"glslangValidator -D -V --hlsl-enable-16bit-types --target-env vulkan1.1 -S {short} -e {entry} {defines} {inc} "
-                f"{source} -o {out}.spv >/dev/null && spirv-opt -O {out}.spv -o {out}.opt.spv && "
-                f"spirv-val --target-env vulkan1.1 {out}.opt.spv && spirv-cross {out}.opt.spv --version 450 --output {out}.glsl && "
-                f"spirv-cross {out}.opt.spv --es --version 310 --output {out}.es.glsl && "
-                f"spirv-cross {out}.opt.spv --msl --output {out}.metal")
-    return lines, len(listing["variants"])
+    """The naive chain, one shell line per variant and stage (bench/anchors.py builds the lines)."""
+    jobs, variants = stage_jobs(kiln, pack)
+    return [chain_line(job, work) for job in jobs], variants
 
 
 def compare_packs(a, b):
