@@ -203,7 +203,7 @@ def main():
                         procs, start = [], time.perf_counter()
                         before = resource.getrusage(resource.RUSAGE_CHILDREN)
                         for i in range(n):
-                            out, cache = os.path.join(work, f"shard-{n}-{i}"), os.path.join(work, f"cache-shard-{n}-{i}-{rep}")
+                            out, cache = os.path.join(work, f"shard-{n}-{i}-{rep}"), os.path.join(work, f"cache-shard-{n}-{i}-{rep}")
                             procs.append(subprocess.Popen(
                                 [kiln, "build", args.pack, "-o", out, "--cache", cache, "-j", str(per_shard_jobs),
                                  "--remote", server.url(), "--shard", f"{i}/{n}"],
