@@ -51,6 +51,7 @@ class OnDemandWorkers final : public JobRunner {
     pool_->run(jobs, on_done);
   }
   unsigned spawned() const override { return pool_ ? pool_->spawned() : 0; }
+  std::vector<WorkerActivity> activity() const override { return pool_ ? pool_->activity() : std::vector<WorkerActivity>{}; }
 
  private:
   const BuildOptions& options_;
@@ -78,6 +79,25 @@ bool fetched_from_remote(RemoteCache& remote, const RemoteKey& pack_key, const B
   report.ok = !sink.has_errors();
   if (options.depfile) write_depfile(*options.depfile, report.manifest, report.dependencies, sink);
   return true;
+}
+
+// The summary's timeline of each worker slot, in milliseconds since the build started.
+void record_worker_timeline(const JobRunner& workers, BuildReport& report) {
+  auto ms = [](WorkerActivity::Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); };
+  for (const WorkerActivity& a : workers.activity()) {
+    WorkerTimeline t;
+    t.spawned_ms = ms_since_start(report, a.spawned);
+    t.last_done_ms = ms_since_start(report, a.last_done);
+    t.preprocess_busy_ms = ms(a.preprocessing);
+    t.compile_busy_ms = ms(a.compiling);
+    t.idle_ms = t.last_done_ms - t.spawned_ms - t.preprocess_busy_ms - t.compile_busy_ms;
+    if (a.compiled) {
+      t.first_compile_ms = ms_since_start(report, a.first_compile);
+      t.idle_before_first_compile_ms = t.first_compile_ms - t.spawned_ms - ms(a.preprocessing_before_compile);
+    }
+    t.jobs = a.jobs;
+    report.worker_timeline.push_back(t);
+  }
 }
 
 void record_dependencies(const BuildOptions& options, const Plan& plan, BuildReport& report) {
@@ -168,6 +188,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   CompileResults compiled = compile_binaries(*plan, options, *settings, sources, binaries,  // stages 5-7
                                              CompileServices{workers, cache ? &*cache : nullptr, preprocessor, remote.get()}, locator,
                                              messages, sink, report);
+  record_worker_timeline(workers, report);
   const bool input_errors = messages.has_errors();
   if (cache)
     store_in_cache(*cache, memo_cache != nullptr, compiled, sources, binaries, input_errors, parallelism(options), sink, report);
