@@ -4,6 +4,7 @@
 //       up-to-date check   driver/settings, driver/outputs
 //   4   stage sources      driver/stage_sources (preprocess in the workers, memos, dedupe)   frontend/
 //   5-6 compile            driver/compile       workers/ frontend/ optimize/ cross/ cache/
+//       (4-6 stream: each source is compiled as soon as it is preprocessed; see driver/compile.hpp)
 //   7   layouts            driver/layouts       reflect/
 //   8   pack, stamp        driver/write_pack    pack/
 //       --emit, depfile    driver/emit, driver/outputs
@@ -183,11 +184,11 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   const SourceLocator locator(*plan);
   MessageGroups messages;
 
-  StageSources sources = prepare_stage_sources(*plan, *settings, memo_cache, preprocessor, report);  // stage 4
-  std::vector<Binary> binaries = dedupe_stage_sources(sources, *plan, locator, messages, sink, report);
-  CompileResults compiled = compile_binaries(*plan, options, *settings, sources, binaries,  // stages 5-7
-                                             CompileServices{workers, cache ? &*cache : nullptr, preprocessor, remote.get()}, locator,
-                                             messages, sink, report);
+  StageSources sources = enumerate_stage_sources(*plan, *settings, memo_cache, report);  // stage 4
+  std::vector<Binary> binaries;  // stages 4-6, streamed: preprocess, dedupe (in source order), compile
+  CompileResults compiled = compile_stage_sources(*plan, options, *settings, sources, binaries,
+                                                  CompileServices{workers, cache ? &*cache : nullptr, preprocessor, remote.get()},
+                                                  locator, messages, sink, report);
   record_worker_timeline(workers, report);
   const bool input_errors = messages.has_errors();
   if (cache)
