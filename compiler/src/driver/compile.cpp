@@ -57,7 +57,7 @@ class Scheduler {
     settle_binaries();
     report_.compiled = front_ends_;
     report_.workers_started = services_.runner.spawned();
-    record_stage(report_, "compile", compile_from, StageClock::now());
+    record_stage(report_, "compile", first_front_end_.value_or(compile_from), StageClock::now());
     return std::move(results_);
   }
 
@@ -130,6 +130,7 @@ class Scheduler {
       ++report_.shard_skipped;  // another shard's: settles with no output
       return;
     }
+    if (!first_front_end_) first_front_end_ = StageClock::now();
     CompileJob job;
     job.id = index;
     job.kind = JobKind::FrontEnd;
@@ -181,8 +182,8 @@ class Scheduler {
     services_.preprocessor.finished(sources_.list[i], std::move(outcome));
     std::vector<std::string>().swap((*running_)[j].defines);
     --unpreprocessed_;
-    last_preprocessed_ = StageClock::now();
     if (sources_.list[i].ok) preprocessed(i);
+    last_preprocessed_ = StageClock::now();  // after its front end is queued: the stages' overlap shows in order
   }
 
   // The misses the remote has: not compiled. Their entries, verified by the remote tier, go into the local cache.
@@ -451,6 +452,7 @@ class Scheduler {
   size_t done_ = 0;
   bool total_known_ = false;
   std::optional<StageClock::time_point> last_preprocessed_;
+  std::optional<StageClock::time_point> first_front_end_;  // the compile stage starts here
 };
 
 }  // namespace

@@ -63,7 +63,7 @@ struct CompileServices {
 // of the remote (verified entries go into the local cache too; with a remote, compiles start after preprocessing,
 // when the misses are asked in one request); with --shard I/N, only the misses whose source key falls in share I
 // are compiled. Times the stages "preprocess" (from enumerate_stage_sources to the last source preprocessed),
-// "dedupe" and "compile" (from the first job sent): the first and the last overlap.
+// "dedupe" and "compile" (from the first front end queued): the first and the last overlap.
 CompileResults compile_stage_sources(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
                                      StageSources& sources, std::vector<Binary>& binaries, CompileServices services,
                                      const SourceLocator& locator, MessageGroups& messages, DiagnosticSink& sink,
