@@ -97,11 +97,18 @@ void print_summary(const kiln::BuildReport& r, std::ostream& out, const std::str
 }
 
 // `kiln build --summary-json FILE`: what the summary says, for CI dashboards; written whether the build
-// succeeded or not (docs/ci.md lists the fields).
+// succeeded or not (README.md lists the fields; they are only ever added).
 json summary_json(const kiln::BuildReport& r, const kiln::DiagnosticSink& sink, int exit_code, const kiln::BuildOptions& options) {
   const kiln::Funnel& f = r.funnel;
   json timings = json::array();
-  for (const kiln::StageTiming& t : r.timings) timings.push_back({{"stage", t.stage}, {"milliseconds", t.milliseconds}});
+  for (const kiln::StageTiming& t : r.timings)
+    timings.push_back({{"stage", t.stage}, {"milliseconds", t.milliseconds}, {"start_ms", t.start_ms}, {"end_ms", t.end_ms}});
+  json workers = json::array();
+  for (const kiln::WorkerTimeline& w : r.worker_timeline)
+    workers.push_back({{"spawned_ms", w.spawned_ms}, {"first_compile_ms", w.first_compile_ms >= 0 ? json(w.first_compile_ms) : json()},
+                       {"idle_before_first_compile_ms", w.first_compile_ms >= 0 ? json(w.idle_before_first_compile_ms) : json()},
+                       {"last_done_ms", w.last_done_ms}, {"preprocess_busy_ms", w.preprocess_busy_ms},
+                       {"compile_busy_ms", w.compile_busy_ms}, {"idle_ms", w.idle_ms}, {"jobs", w.jobs}});
   json strip = json::array();
   for (const kiln::StripLine& line : r.strip_report)
     strip.push_back({{"pass", line.pass}, {"what", line.what}, {"count", line.count}, {"reason", line.reason}});
@@ -129,6 +136,7 @@ json summary_json(const kiln::BuildReport& r, const kiln::DiagnosticSink& sink, 
                        {"uploads", r.remote.uploads}, {"blobs_uploaded", r.remote.blobs_uploaded},
                        {"bytes_down", r.remote.bytes_down}, {"bytes_up", r.remote.bytes_up}, {"errors", r.remote.errors}}},
            {"timings", timings},
+           {"worker_timeline", workers},
            {"strip_report", strip}};
   if (options.shard_count > 1)
     out["shard"] = {{"index", options.shard_index}, {"count", options.shard_count}, {"left_to_other_shards", r.shard_skipped}};

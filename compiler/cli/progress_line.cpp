@@ -45,7 +45,7 @@ ProgressLine::ProgressLine(std::FILE* out, unsigned columns, Clock::duration int
 
 void ProgressLine::update(size_t done, size_t total, size_t cache_hits, Clock::time_point now) {
   std::lock_guard lock(mutex_);
-  // The rate counts from the first update: the compile starts then, after loading and preprocessing.
+  // The rate counts from the first update: the compile starts then, after loading (preprocessing streams into it).
   if (!drawn_once_) start_ = now;
   const bool last = done >= total;
   // Throttled only while shown: a line erased for a diagnostic comes back at once.

@@ -4,6 +4,7 @@
 //       up-to-date check   driver/settings, driver/outputs
 //   4   stage sources      driver/stage_sources (preprocess in the workers, memos, dedupe)   frontend/
 //   5-6 compile            driver/compile       workers/ frontend/ optimize/ cross/ cache/
+//       (4-6 stream: each source is compiled as soon as it is preprocessed; see driver/compile.hpp)
 //   7   layouts            driver/layouts       reflect/
 //   8   pack, stamp        driver/write_pack    pack/
 //       --emit, depfile    driver/emit, driver/outputs
@@ -51,6 +52,7 @@ class OnDemandWorkers final : public JobRunner {
     pool_->run(jobs, on_done);
   }
   unsigned spawned() const override { return pool_ ? pool_->spawned() : 0; }
+  std::vector<WorkerActivity> activity() const override { return pool_ ? pool_->activity() : std::vector<WorkerActivity>{}; }
 
  private:
   const BuildOptions& options_;
@@ -78,6 +80,25 @@ bool fetched_from_remote(RemoteCache& remote, const RemoteKey& pack_key, const B
   report.ok = !sink.has_errors();
   if (options.depfile) write_depfile(*options.depfile, report.manifest, report.dependencies, sink);
   return true;
+}
+
+// The summary's timeline of each worker slot, in milliseconds since the build started.
+void record_worker_timeline(const JobRunner& workers, BuildReport& report) {
+  auto ms = [](WorkerActivity::Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); };
+  for (const WorkerActivity& a : workers.activity()) {
+    WorkerTimeline t;
+    t.spawned_ms = ms_since_start(report, a.spawned);
+    t.last_done_ms = ms_since_start(report, a.last_done);
+    t.preprocess_busy_ms = ms(a.preprocessing);
+    t.compile_busy_ms = ms(a.compiling);
+    t.idle_ms = t.last_done_ms - t.spawned_ms - t.preprocess_busy_ms - t.compile_busy_ms;
+    if (a.compiled) {
+      t.first_compile_ms = ms_since_start(report, a.first_compile);
+      t.idle_before_first_compile_ms = t.first_compile_ms - t.spawned_ms - ms(a.preprocessing_before_compile);
+    }
+    t.jobs = a.jobs;
+    report.worker_timeline.push_back(t);
+  }
 }
 
 void record_dependencies(const BuildOptions& options, const Plan& plan, BuildReport& report) {
@@ -163,11 +184,12 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   const SourceLocator locator(*plan);
   MessageGroups messages;
 
-  StageSources sources = prepare_stage_sources(*plan, *settings, memo_cache, preprocessor, report);  // stage 4
-  std::vector<Binary> binaries = dedupe_stage_sources(sources, *plan, locator, messages, sink, report);
-  CompileResults compiled = compile_binaries(*plan, options, *settings, sources, binaries,  // stages 5-7
-                                             CompileServices{workers, cache ? &*cache : nullptr, preprocessor, remote.get()}, locator,
-                                             messages, sink, report);
+  StageSources sources = enumerate_stage_sources(*plan, *settings, memo_cache, report);  // stage 4
+  std::vector<Binary> binaries;  // stages 4-6, streamed: preprocess, dedupe (in source order), compile
+  CompileResults compiled = compile_stage_sources(*plan, options, *settings, sources, binaries,
+                                                  CompileServices{workers, cache ? &*cache : nullptr, preprocessor, remote.get()},
+                                                  locator, messages, sink, report);
+  record_worker_timeline(workers, report);
   const bool input_errors = messages.has_errors();
   if (cache)
     store_in_cache(*cache, memo_cache != nullptr, compiled, sources, binaries, input_errors, parallelism(options), sink, report);

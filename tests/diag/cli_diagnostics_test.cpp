@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 
 #include <future>
+#include <map>
 #include <regex>
 
 #include <nlohmann/json.hpp>
@@ -553,9 +554,28 @@ TEST_F(Cli, SummaryJsonRecordsTheBuildForDashboardsEvenWhenItFails) {
     EXPECT_GE(t.at("milliseconds").get<double>(), 0.0);
   }
   EXPECT_EQ(stages, "load;declarations;expand+strip;preprocess;dedupe;compile;cache store;reflect;pack;total;");
+  // The timeline: stages by start and end; preprocessing streams into the compile, so the compile stage starts
+  // before the last source is preprocessed (an order, not a duration: it holds however fast the machine is).
+  std::map<std::string, nlohmann::json> stage;
+  for (const auto& t : summary.at("timings")) {
+    stage[t.at("stage").get<std::string>()] = t;
+    EXPECT_LE(t.at("start_ms").get<double>(), t.at("end_ms").get<double>()) << t;
+  }
+  EXPECT_LE(stage["compile"].at("start_ms").get<double>(), stage["preprocess"].at("end_ms").get<double>());
+  ASSERT_FALSE(summary.at("worker_timeline").empty());
+  size_t jobs = 0;
+  for (const auto& w : summary.at("worker_timeline")) {
+    jobs += w.at("jobs").get<size_t>();
+    if (w.at("first_compile_ms").is_null()) continue;
+    EXPECT_GE(w.at("first_compile_ms").get<double>(), w.at("spawned_ms").get<double>()) << w;
+    EXPECT_GE(w.at("idle_before_first_compile_ms").get<double>(), 0.0) << w;
+  }
+  EXPECT_GE(jobs, 5u + 5u);  // at least a Preprocess job and a front end per stage source
 
   r = build({"--summary-json", "summary.json"});
-  EXPECT_EQ(nlohmann::json::parse(testing::read_file(dir / "summary.json")).at("up_to_date"), true);
+  const nlohmann::json up_to_date = nlohmann::json::parse(testing::read_file(dir / "summary.json"));
+  EXPECT_EQ(up_to_date.at("up_to_date"), true);
+  EXPECT_TRUE(up_to_date.at("worker_timeline").empty());  // no worker started
 
   dir.write("S.hlsl", "#error broken\n" + std::string(kEntries));
   r = build({"--summary-json", "summary.json"});

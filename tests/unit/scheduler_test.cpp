@@ -82,10 +82,9 @@ class Scheduler : public ::testing::Test {
   CompileResults compile(FakeRunner& runner, Cache* cache = nullptr) {
     Preprocessor preprocessor(*plan_, *settings_, runner, options_);
     SourceLocator locator(*plan_);
-    sources_ = prepare_stage_sources(*plan_, *settings_, nullptr, preprocessor, report_);
-    binaries_ = dedupe_stage_sources(sources_, *plan_, locator, messages_, *sink_, report_);
-    return compile_binaries(*plan_, options_, *settings_, sources_, binaries_, CompileServices{runner, cache, preprocessor},
-                            locator, messages_, *sink_, report_);
+    sources_ = enumerate_stage_sources(*plan_, *settings_, nullptr, report_);
+    return compile_stage_sources(*plan_, options_, *settings_, sources_, binaries_, CompileServices{runner, cache, preprocessor},
+                                 locator, messages_, *sink_, report_);
   }
 
   std::string reported() {
@@ -235,6 +234,97 @@ TEST_F(Scheduler, AModuleTheCacheHasRunsNoBackEnd) {
   EXPECT_EQ(second.count(JobKind::BackEnd), 0u);
   EXPECT_EQ(report_.back_end_hits, 2u);
   for (const Binary& b : binaries_) EXPECT_TRUE(b.output);
+}
+
+// Streaming: a source's front end is sent as soon as it is preprocessed, while later sources still wait for
+// theirs. LIFO finishes the last job sent first, so a front end queued by the stream runs before the remaining
+// Preprocess jobs; compiling only after preprocessing would send every Preprocess job first.
+TEST_F(Scheduler, FrontEndsAreSentWhileOtherSourcesAreStillBeingPreprocessed) {
+  FakeRunner runner;
+  runner.answer = default_answer;
+  runner.order = FakeRunner::Order::Lifo;
+  compile(runner);
+  auto last_preprocess = std::find_if(runner.seen.rbegin(), runner.seen.rend(),
+                                      [](const CompileJob& j) { return j.kind == JobKind::Preprocess; });
+  auto first_front_end = std::find_if(runner.seen.begin(), runner.seen.end(),
+                                      [](const CompileJob& j) { return j.kind == JobKind::FrontEnd; });
+  ASSERT_NE(first_front_end, runner.seen.end());
+  EXPECT_LT(first_front_end - runner.seen.begin(), runner.seen.rend() - last_preprocess - 1);
+  EXPECT_EQ(runner.count(JobKind::Preprocess), 6u);
+  EXPECT_EQ(runner.count(JobKind::FrontEnd), 6u);
+  for (const Binary& b : binaries_) EXPECT_TRUE(b.output) << b.entry_point;
+  EXPECT_FALSE(sink_->has_errors()) << reported();
+}
+
+// A source that fails to preprocess stops nothing else: the others compile, and the failure is reported as an
+// unstreamed build reports it, whichever order the jobs finish in.
+TEST_F(Scheduler, APreprocessingFailureDoesNotStopTheOtherSourcesCompiles) {
+  auto answer = [](const CompileJob& job) {
+    if (job.kind == JobKind::Preprocess && std::find(job.defines.begin(), job.defines.end(), "A") != job.defines.end() &&
+        job.stage == Stage::Fragment) {
+      JobOutput out;
+      out.failed_step = CompileStep::Preprocess;
+      out.messages = {{Severity::Error, "S.hlsl", 1, "#error A is broken"}};
+      return done(std::move(out));
+    }
+    return default_answer(job);
+  };
+  std::string first;
+  for (FakeRunner::Order order : {FakeRunner::Order::Fifo, FakeRunner::Order::Lifo}) {
+    reset();
+    FakeRunner runner;
+    runner.answer = answer;
+    runner.order = order;
+    compile(runner);
+    EXPECT_EQ(runner.count(JobKind::FrontEnd), 5u);  // every source but the broken one
+    EXPECT_EQ(binaries_.size(), 5u);
+    for (const Binary& b : binaries_) EXPECT_TRUE(b.output) << b.entry_point;
+    const std::string text = reported();
+    EXPECT_NE(text.find("error[K1408]"), std::string::npos) << text;
+    EXPECT_NE(text.find("A is broken"), std::string::npos) << text;
+    if (first.empty()) first = text;
+    EXPECT_EQ(text, first);
+  }
+}
+
+// Stage sources whose preprocessed texts are the same are one compile, even when the duplicate is preprocessed
+// after its twin's front end was sent (or finished); binaries are numbered in source order either way.
+TEST_F(Scheduler, ADuplicateSourceArrivingLateIsNotCompiledAgain) {
+  auto answer = [](const CompileJob& job) {
+    if (job.kind == JobKind::Preprocess) {  // keyword B changes no code: "" and "B" preprocess alike
+      std::vector<std::string> seen_keywords;
+      for (const std::string& d : job.defines)
+        if (d != "B") seen_keywords.push_back(d);
+      JobOutput out;
+      out.ok = true;
+      out.preprocessed = std::string(stage_name(job.stage)) + " " + join_keywords(seen_keywords);
+      return done(std::move(out));
+    }
+    return default_answer(job);
+  };
+  std::vector<std::vector<size_t>> numbering;
+  for (FakeRunner::Order order : {FakeRunner::Order::Fifo, FakeRunner::Order::Lifo}) {
+    reset();
+    FakeRunner runner;
+    runner.answer = answer;
+    runner.order = order;
+    compile(runner);
+    EXPECT_EQ(runner.count(JobKind::Preprocess), 6u);
+    EXPECT_EQ(runner.count(JobKind::FrontEnd), 4u);  // per stage: none-or-B, A
+    EXPECT_EQ(report_.compiled, 4u);
+    EXPECT_EQ(report_.funnel.unique_compiles, 4u);
+    ASSERT_EQ(binaries_.size(), 4u);
+    std::vector<size_t> sources_of;
+    for (const Binary& b : binaries_) {
+      EXPECT_TRUE(b.output) << b.entry_point;
+      sources_of.push_back(b.source);
+      EXPECT_EQ(b.source, b.sources.front());  // the first source of its key, not the first to arrive
+    }
+    for (const StageSource& s : sources_.list) EXPECT_GE(s.binary, 0);
+    numbering.push_back(sources_of);
+    EXPECT_FALSE(sink_->has_errors()) << reported();
+  }
+  EXPECT_EQ(numbering[0], numbering[1]);
 }
 
 }  // namespace

@@ -115,6 +115,21 @@ struct StripLine {
 struct StageTiming {
   std::string stage;
   double milliseconds = 0;
+  double start_ms = 0;  // since the build started; stages that stream together overlap (preprocess, compile)
+  double end_ms = 0;
+};
+
+// What one compiler worker slot did, in milliseconds since the build started (a slot whose worker died is
+// restarted in place: one slot).
+struct WorkerTimeline {
+  double spawned_ms = 0;                   // its first process started
+  double first_compile_ms = -1;            // its first front or back end was handed to it; -1: none
+  double idle_before_first_compile_ms = 0;  // from spawned_ms to first_compile_ms, less the preprocessing in between
+  double last_done_ms = 0;                 // its last job finished
+  double preprocess_busy_ms = 0;           // with a Preprocess job in flight
+  double compile_busy_ms = 0;              // with a front or back end in flight
+  double idle_ms = 0;                      // from spawned_ms to last_done_ms with no job in flight
+  size_t jobs = 0;
 };
 
 // What the remote cache tier did; every count is of requests that were answered.
@@ -137,6 +152,8 @@ struct BuildReport {
   bool internal_errors = false;     // a worker crashed/hung/ran out of memory
   Funnel funnel;
   std::vector<StageTiming> timings;
+  std::vector<WorkerTimeline> worker_timeline;  // one per worker slot, when workers ran
+  std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();  // timings count from here
   std::vector<StripLine> strip_report;
   size_t compiled = 0;              // stage sources compiled (front ends run)
   size_t back_ends = 0;             // back ends run: one per distinct front-end module not in the cache

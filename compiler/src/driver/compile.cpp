@@ -34,122 +34,190 @@ DiagId diagnostic_for(CompileStep step) {
   return DiagId::InternalCompilerError;
 }
 
-// One compile: front ends for the misses, back ends as their modules appear, each binary settled exactly once.
+// One compile of a build's stage sources, streamed from their preprocessing: one front end per distinct source
+// key, one back end per distinct module, and each binary settled from its key's result after the stream.
 class Scheduler {
  public:
   Scheduler(const Plan& plan, const BuildOptions& options, const BuildSettings& settings, StageSources& sources,
             std::vector<Binary>& binaries, CompileServices services, const SourceLocator& locator, MessageGroups& messages,
             DiagnosticSink& sink, BuildReport& report)
       : plan_(plan), options_(options), settings_(settings), sources_(sources), binaries_(binaries), services_(services),
-        locator_(locator), messages_(messages), sink_(sink), report_(report) {
-    results_.module_of.resize(binaries.size());
-    results_.front_messages.resize(binaries.size());
-    results_.front_end_ran.assign(binaries.size(), false);
-    results_.remote_key_of.resize(binaries.size());
-  }
+        locator_(locator), messages_(messages), sink_(sink), report_(report) {}
 
   CompileResults run() {
-    std::vector<size_t> misses = load_cached();
-    queue_front_ends(misses);
-    report_.compiled = jobs_.size();
-    done_ = report_.cache_hits + remote_hits_;
-    if (options_.progress) options_.progress(done_, binaries_.size(), report_.cache_hits);
-    if (!jobs_.empty()) {
-      services_.runner.run(jobs_, [&](size_t j, WorkerOutcome outcome) {
-        if (jobs_[j].kind == JobKind::BackEnd) back_end_done(j, std::move(outcome));
-        else front_end_done(j, std::move(outcome));
-      });
-      report_.workers_started = services_.runner.spawned();
-    }
-    // Distinct modules among the built binaries, whether compiled now or found through cache aliases.
-    std::set<Hash128> distinct_modules;
-    for (size_t b = 0; b < binaries_.size(); ++b)
-      if (binaries_[b].output) distinct_modules.insert(results_.module_of[b].value_or(binaries_[b].key));
-    report_.funnel.unique_modules = distinct_modules.size();
+    const auto compile_from = StageClock::now();
+    for (size_t i = 0; i < sources_.list.size(); ++i) enter(i);
+    progress();
+    stream();
+    record_stage(report_, "preprocess", sources_.enumerated_from, last_preprocessed_.value_or(compile_from));
+    binaries_ = dedupe_stage_sources(sources_, plan_, locator_, messages_, sink_, report_);  // in source order
+    total_known_ = true;
+    fetch_from_remote();
+    stream();
+    settle_binaries();
+    report_.compiled = front_ends_;
+    report_.workers_started = services_.runner.spawned();
+    record_stage(report_, "compile", first_front_end_.value_or(compile_from), StageClock::now());
     return std::move(results_);
   }
 
  private:
-  // The binaries the cache has whole (through their source key's alias); the others are misses.
-  std::vector<size_t> load_cached() {
-    std::vector<size_t> misses;
-    for (size_t b = 0; b < binaries_.size(); ++b) {
-      if (services_.cache) {
-        bool rejected = false;
-        if (auto cached = services_.cache->load(binaries_[b].key, rejected, &results_.module_of[b]))
-          binaries_[b].output = std::make_shared<const JobOutput>(std::move(*cached));
-        if (rejected) ++report_.cache_rejected;
-        if (binaries_[b].output) {
-          ++report_.cache_hits;
-          continue;
-        }
-      }
-      misses.push_back(b);
+  // What became of one distinct source key: found whole (cache, remote), left to another shard, or compiled.
+  struct KeyResult {
+    size_t source = 0;                         // the stage source whose text its front end compiles
+    bool started = false;                      // its front end is queued, or it waits for the remote
+    bool for_remote = false;                   // asked of the remote after the stream
+    std::shared_ptr<const JobOutput> output;   // found whole
+    std::optional<Hash128> module;             // its module: from the front end, or a cache alias's
+    std::optional<RemoteKey> remote_key;
+    bool front_end_ran = false;
+    std::optional<WorkerOutcome> front_end_failure;
+    std::vector<FrontendMessage> front_messages;
+  };
+
+  // A stage source enters the stream: preprocessed already, known through a memo, or to be preprocessed.
+  void enter(size_t i) {
+    StageSource& s = sources_.list[i];
+    if (s.preprocessed) {
+      if (s.ok) preprocessed(i);
+      return;
     }
-    return misses;
+    // A memo gives the key without the text: the cache may have the result; if not, the workers need the text.
+    if (s.key && results_by_key_[result_for(*s.key, i)].output) return;
+    jobs_.push_back(services_.preprocessor.job(sources_, i));
+    job_subject_.push_back(i);
+    ++unpreprocessed_;
   }
 
-  void queue_front_ends(const std::vector<size_t>& misses) {
-    // Misses known only through a memo are preprocessed now: the workers need their text.
-    std::vector<size_t> unpreprocessed;
-    for (size_t b : misses)
-      if (!sources_.list[binaries_[b].source].preprocessed) unpreprocessed.push_back(binaries_[b].source);
-    services_.preprocessor.run(sources_, unpreprocessed);
-    fetch_from_remote(misses);
-    for (size_t b : misses) {
-      if (binaries_[b].output) continue;  // from the remote cache
-      const StageSource& s = sources_.list[binaries_[b].source];
-      if (!s.ok) {  // the memo said it preprocessed; it does not now (it cannot, with the same files)
-        report_preprocess_failure(s, binaries_[b].source, plan_, locator_, messages_, sink_, report_);
-        continue;
+  // The result of `key` (its index), looked up in the cache the first time the key is seen.
+  size_t result_for(const Hash128& key, size_t source) {
+    auto [it, inserted] = result_by_key_.emplace(key, results_by_key_.size());
+    if (!inserted) return it->second;
+    KeyResult& result = results_by_key_.emplace_back();
+    result.source = source;
+    if (services_.cache) {
+      bool rejected = false;
+      if (auto cached = services_.cache->load(key, rejected, &result.module))
+        result.output = std::make_shared<const JobOutput>(std::move(*cached));
+      if (rejected) ++report_.cache_rejected;
+      if (result.output) {
+        ++report_.cache_hits;
+        ++done_;
       }
-      if (options_.shard_count > 1 && s.key->low % options_.shard_count != options_.shard_index) {
-        ++report_.shard_skipped;  // another shard's
-        continue;
-      }
-      binaries_[b].key = *s.key;  // the text's own key, whatever a memo said
-      CompileJob job;
-      job.id = b;
-      job.kind = JobKind::FrontEnd;
-      job.stage = binaries_[b].stage;
-      job.entry_point = binaries_[b].entry_point;
-      job.source_name = display_path(plan_.declarations[s.pass].entry);
-      job.source = s.text;
-      job.targets = settings_.targets;
-      job.optimize = settings_.optimize;
-      job.optimizer_recipe = settings_.optimizer_recipe;
-      job.bindings = plan_.pack.passes[s.pass].bindings;
-      jobs_.push_back(std::move(job));
-      job_subject_.push_back(b);
     }
+    return it->second;
+  }
+
+  // Source `i` has its text: its key's front end is queued unless an earlier source of that key queued it (a
+  // duplicate arriving late is never compiled twice) or the cache has its result.
+  void preprocessed(size_t i) {
+    const size_t index = result_for(*sources_.list[i].key, i);
+    KeyResult& result = results_by_key_[index];
+    if (result.output || result.started) return;
+    result.started = true;
+    result.source = i;
+    if (services_.remote && services_.remote->usable()) {
+      result.for_remote = true;  // asked with the other misses in one request, after the stream
+      return;
+    }
+    queue_front_end(index);
+  }
+
+  void queue_front_end(size_t index) {
+    KeyResult& result = results_by_key_[index];
+    const StageSource& s = sources_.list[result.source];
+    if (options_.shard_count > 1 && s.key->low % options_.shard_count != options_.shard_index) {
+      ++report_.shard_skipped;  // another shard's: settles with no output
+      return;
+    }
+    if (!first_front_end_) first_front_end_ = StageClock::now();
+    CompileJob job;
+    job.id = index;
+    job.kind = JobKind::FrontEnd;
+    job.stage = s.stage;
+    job.entry_point = plan_.entry_point(s.pass, s.stage);
+    job.source_name = display_path(plan_.declarations[s.pass].entry);
+    job.source = s.text;
+    job.targets = settings_.targets;
+    job.optimize = settings_.optimize;
+    job.optimizer_recipe = settings_.optimizer_recipe;
+    job.bindings = plan_.pack.passes[s.pass].bindings;
+    jobs_.push_back(std::move(job));
+    job_subject_.push_back(index);
+    ++front_ends_;
+  }
+
+  // Runs the queued jobs; finished jobs queue their follow-ups (a preprocessed source's front end, a new
+  // module's back end), which the runner sends next.
+  void stream() {
+    if (jobs_.empty()) return;
+    std::vector<CompileJob> jobs = std::move(jobs_);
+    std::vector<size_t> subjects = std::move(job_subject_);
+    jobs_.clear();
+    job_subject_.clear();
+    running_ = &jobs;
+    running_subjects_ = &subjects;
+    services_.runner.run(jobs, [&](size_t j, WorkerOutcome outcome) {
+      switch (jobs[j].kind) {
+        case JobKind::Preprocess: preprocess_done(j, std::move(outcome)); break;
+        case JobKind::FrontEnd: front_end_done(j, std::move(outcome)); break;
+        case JobKind::BackEnd:
+        case JobKind::Full: back_end_done(j, std::move(outcome)); break;
+      }
+      // Follow-ups queued by this outcome join the running stream.
+      for (size_t q = 0; q < jobs_.size(); ++q) {
+        jobs.push_back(std::move(jobs_[q]));
+        subjects.push_back(job_subject_[q]);
+      }
+      jobs_.clear();
+      job_subject_.clear();
+      progress();
+    });
+    running_ = nullptr;
+    running_subjects_ = nullptr;
+  }
+
+  void preprocess_done(size_t j, WorkerOutcome outcome) {
+    const size_t i = (*running_subjects_)[j];
+    services_.preprocessor.finished(sources_.list[i], std::move(outcome));
+    std::vector<std::string>().swap((*running_)[j].defines);
+    --unpreprocessed_;
+    if (sources_.list[i].ok) preprocessed(i);
+    last_preprocessed_ = StageClock::now();  // after its front end is queued: the stages' overlap shows in order
   }
 
   // The misses the remote has: not compiled. Their entries, verified by the remote tier, go into the local cache.
-  void fetch_from_remote(const std::vector<size_t>& misses) {
+  // Asked in source order, after the stream, in one request.
+  void fetch_from_remote() {
     RemoteCache* remote = services_.remote;
     if (!remote || !remote->usable()) return;
     std::vector<size_t> asked;
     std::vector<RemoteKey> keys;
-    for (size_t b : misses) {
-      const StageSource& s = sources_.list[binaries_[b].source];
-      if (!s.ok) continue;
-      results_.remote_key_of[b] = remote_source_key(*remote, settings_, plan_.pack.passes[s.pass], s.stage, s.text);
-      asked.push_back(b);
-      keys.push_back(*results_.remote_key_of[b]);
+    for (const Binary& binary : binaries_) {
+      const size_t index = result_by_key_.at(binary.key);
+      KeyResult& result = results_by_key_[index];
+      if (!result.for_remote || result.remote_key) continue;
+      const StageSource& s = sources_.list[binary.source];
+      result.remote_key = remote_source_key(*remote, settings_, plan_.pack.passes[s.pass], s.stage, s.text);
+      asked.push_back(index);
+      keys.push_back(*result.remote_key);
     }
     std::vector<std::optional<RemoteFetched>> fetched = remote->fetch(keys);
-    for (size_t i = 0; i < asked.size(); ++i) {
-      if (!fetched[i]) continue;
-      const size_t b = asked[i];
-      RemoteFetched& hit = *fetched[i];
+    for (size_t a = 0; a < asked.size(); ++a) {
+      KeyResult& result = results_by_key_[asked[a]];
+      if (!fetched[a]) {
+        queue_front_end(asked[a]);
+        continue;
+      }
+      RemoteFetched& hit = *fetched[a];
       if (services_.cache) {
         services_.cache->store(hit.module, hit.module_output);
-        services_.cache->store_alias(*sources_.list[binaries_[b].source].key, hit.module, hit.front_messages);
+        services_.cache->store_alias(*sources_.list[result.source].key, hit.module, hit.front_messages);
       }
       hit.module_output.messages.insert(hit.module_output.messages.begin(), hit.front_messages.begin(), hit.front_messages.end());
-      binaries_[b].output = std::make_shared<const JobOutput>(std::move(hit.module_output));
-      results_.module_of[b] = hit.module;
-      ++remote_hits_;
+      result.output = std::make_shared<const JobOutput>(std::move(hit.module_output));
+      result.module = hit.module;
+      ++done_;
     }
     remote->report_problems(sink_);  // here, so that a remote switched off is said before any compile message
   }
@@ -157,52 +225,51 @@ class Scheduler {
   // A finished job's input (its source text or its module) is not read again: free it now, not when the build
   // ends (`= {}` would keep the capacity).
   void release_input(size_t j) {
-    std::string().swap(jobs_[j].source);
-    std::vector<uint32_t>().swap(jobs_[j].spirv);
+    std::string().swap((*running_)[j].source);
+    std::vector<uint32_t>().swap((*running_)[j].spirv);
   }
 
   void back_end_done(size_t j, WorkerOutcome outcome) {
-    CompiledModule& module = results_.modules[job_subject_[j]];
+    CompiledModule& module = results_.modules[(*running_subjects_)[j]];
     module.settled = true;
     module.fresh = outcome.kind == WorkerOutcome::Kind::Done && outcome.output.ok;
     if (module.fresh) {
       if (outcome.output.full_legalization) ++report_.full_legalizations;
       module.output = std::make_shared<const JobOutput>(std::move(outcome.output));
+      release_input(j);
     } else {
       module.failure = std::move(outcome);
+      module.failed_input = std::move((*running_)[j].spirv);  // for the reproducer of each binary of the module
     }
-    for (size_t b : module.waiting) settle(b, module, jobs_[j].spirv);
+    done_ += module.waiting.size();
     module.waiting = {};
-    release_input(j);
   }
 
   void front_end_done(size_t j, WorkerOutcome outcome) {
-    release_input(j);
-    const size_t b = job_subject_[j];
-    results_.front_end_ran[b] = true;
+    CompileJob& job = (*running_)[j];
+    std::string().swap(job.source);
+    const size_t index = (*running_subjects_)[j];
+    KeyResult& result = results_by_key_[index];
+    result.front_end_ran = true;
     if (outcome.kind != WorkerOutcome::Kind::Done || !outcome.output.ok) {
-      fail(b, outcome, nullptr);
-      count_done();
+      result.front_end_failure = std::move(outcome);
+      ++done_;
       return;
     }
-    const StageSource& s = sources_.list[binaries_[b].source];
-    for (const FrontendMessage& m : outcome.output.messages)
-      if (m.severity == Severity::Warning)
-        messages_.collect(DiagId::HlslWarning, locator_.located(m, ""), m.text, variant_description(plan_, s),
-                          sources_.list.size() + b);
-    results_.front_messages[b] = std::move(outcome.output.messages);
+    const StageSource& s = sources_.list[result.source];
+    result.front_messages = std::move(outcome.output.messages);
     const std::vector<uint32_t>& spirv = outcome.output.spirv;
     Hasher module_key;
-    Hash128 key = settings_.add_compile_options(module_key, plan_.pack.passes[s.pass], binaries_[b].stage)
+    Hash128 key = settings_.add_compile_options(module_key, plan_.pack.passes[s.pass], s.stage)
                       .add(std::string_view(reinterpret_cast<const char*>(spirv.data()), spirv.size() * 4))
                       .finish();
+    result.module = key;
     auto [it, inserted] = module_by_key_.emplace(key, results_.modules.size());
-    results_.module_of[b] = key;
     if (inserted) {
       CompiledModule module;
       module.key = key;
       if (services_.remote && options_.remote.upload)
-        module.remote_key = remote_module_key(*services_.remote, settings_, plan_.pack.passes[s.pass], binaries_[b].stage, spirv);
+        module.remote_key = remote_module_key(*services_.remote, settings_, plan_.pack.passes[s.pass], s.stage, spirv);
       if (services_.cache) {
         bool rejected = false;
         if (auto cached = services_.cache->load(key, rejected)) {
@@ -216,14 +283,14 @@ class Scheduler {
         CompileJob back;
         back.id = results_.modules.size();
         back.kind = JobKind::BackEnd;
-        back.stage = jobs_[j].stage;
-        back.entry_point = jobs_[j].entry_point;
-        back.source_name = jobs_[j].source_name;
+        back.stage = job.stage;
+        back.entry_point = job.entry_point;
+        back.source_name = job.source_name;
         back.spirv = std::move(outcome.output.spirv);  // `spirv` is not read again on this path
-        back.targets = jobs_[j].targets;
-        back.optimize = jobs_[j].optimize;
-        back.optimizer_recipe = jobs_[j].optimizer_recipe;
-        back.bindings = jobs_[j].bindings;
+        back.targets = job.targets;
+        back.optimize = job.optimize;
+        back.optimizer_recipe = job.optimizer_recipe;
+        back.bindings = job.bindings;
         jobs_.push_back(std::move(back));  // runs next, in whichever worker is free
         job_subject_.push_back(results_.modules.size());
         ++report_.back_ends;
@@ -231,20 +298,55 @@ class Scheduler {
       results_.modules.push_back(std::move(module));
     }
     CompiledModule& module = results_.modules[it->second];
-    if (module.settled) settle(b, module, spirv);
-    else module.waiting.push_back(b);
+    if (module.settled) ++done_;
+    else module.waiting.push_back(index);
   }
 
-  void count_done() {
-    ++done_;
-    if (options_.progress) options_.progress(done_, binaries_.size(), report_.cache_hits);
+  // Stage sources done out of those there will be: until every source is preprocessed, the keys known so far plus
+  // the sources still to preprocess (duplicates among them make it shrink).
+  void progress() {
+    if (!options_.progress) return;
+    const size_t total = total_known_ ? binaries_.size() : results_by_key_.size() + unpreprocessed_;
+    options_.progress(done_, total, report_.cache_hits);
   }
 
-  // A binary whose module has settled is done: it shares the module's output, or reports its failure.
-  void settle(size_t b, const CompiledModule& module, const std::vector<uint32_t>& spirv) {
+  // Every binary, in order, takes its key's result: its module's output, or its diagnostics.
+  void settle_binaries() {
+    results_.module_of.resize(binaries_.size());
+    results_.front_messages.resize(binaries_.size());
+    results_.front_end_ran.assign(binaries_.size(), false);
+    results_.remote_key_of.resize(binaries_.size());
+    std::set<Hash128> distinct_modules;  // among the built binaries, compiled now or found through cache aliases
+    for (size_t b = 0; b < binaries_.size(); ++b) {
+      KeyResult& result = results_by_key_[result_by_key_.at(binaries_[b].key)];
+      results_.module_of[b] = result.module;
+      results_.remote_key_of[b] = result.remote_key;
+      if (result.output) {
+        binaries_[b].output = result.output;
+      } else if (result.front_end_ran) {
+        results_.front_end_ran[b] = true;
+        settle(b, result);
+      }
+      if (binaries_[b].output) distinct_modules.insert(results_.module_of[b].value_or(binaries_[b].key));
+    }
+    report_.funnel.unique_modules = distinct_modules.size();
+    progress();
+  }
+
+  void settle(size_t b, KeyResult& result) {
+    if (result.front_end_failure) {
+      fail(b, *result.front_end_failure, nullptr);
+      return;
+    }
+    const StageSource& s = sources_.list[binaries_[b].source];
+    for (const FrontendMessage& m : result.front_messages)
+      if (m.severity == Severity::Warning)
+        messages_.collect(DiagId::HlslWarning, locator_.located(m, ""), m.text, variant_description(plan_, s),
+                          sources_.list.size() + b);
+    results_.front_messages[b] = result.front_messages;
+    const CompiledModule& module = results_.modules[module_by_key_.at(*result.module)];
     if (module.output) binaries_[b].output = module.output;
-    else fail(b, module.failure, &spirv);
-    count_done();
+    else fail(b, module.failure, &module.failed_input);
   }
 
   // `module`: the front end's SPIR-V, when the worker died in the back end.
@@ -338,20 +440,27 @@ class Scheduler {
   BuildReport& report_;
 
   CompileResults results_;
-  std::vector<CompileJob> jobs_;
-  std::vector<size_t> job_subject_;  // FrontEnd job -> binary, BackEnd job -> module
+  std::vector<KeyResult> results_by_key_;
+  std::map<Hash128, size_t> result_by_key_;   // source key -> its index in results_by_key_
   std::map<Hash128, size_t> module_by_key_;
+  std::vector<CompileJob> jobs_;             // queued, not yet handed to the runner
+  std::vector<size_t> job_subject_;          // Preprocess job -> source, FrontEnd -> key result, BackEnd -> module
+  std::vector<CompileJob>* running_ = nullptr;  // the runner's jobs, while it runs
+  std::vector<size_t>* running_subjects_ = nullptr;
+  size_t unpreprocessed_ = 0;
+  size_t front_ends_ = 0;
   size_t done_ = 0;
-  size_t remote_hits_ = 0;
+  bool total_known_ = false;
+  std::optional<StageClock::time_point> last_preprocessed_;
+  std::optional<StageClock::time_point> first_front_end_;  // the compile stage starts here
 };
 
 }  // namespace
 
-CompileResults compile_binaries(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
-                                StageSources& sources, std::vector<Binary>& binaries, CompileServices services,
-                                const SourceLocator& locator, MessageGroups& messages, DiagnosticSink& sink,
-                                BuildReport& report) {
-  StageTimer timer(report, "compile");
+CompileResults compile_stage_sources(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
+                                     StageSources& sources, std::vector<Binary>& binaries, CompileServices services,
+                                     const SourceLocator& locator, MessageGroups& messages, DiagnosticSink& sink,
+                                     BuildReport& report) {
   return Scheduler(plan, options, settings, sources, binaries, services, locator, messages, sink, report).run();
 }
 

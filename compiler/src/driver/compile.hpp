@@ -5,6 +5,12 @@
 // halves are cached: the back end's result under the module's key, and under the source's key an alias to it
 // with the front end's warnings.
 //
+// Preprocessing streams into it: every stage source's Preprocess job is sent first, and each source's front end
+// as soon as it is preprocessed (once per distinct source key, whichever source of that key arrives first), so no
+// worker waits for the last source to be preprocessed. Nothing depends on the order jobs finish: after the
+// stream, dedupe_stage_sources numbers the binaries in source order and each is settled, and its diagnostics
+// collected, in that order.
+//
 // The scheduler knows the workers only as a JobRunner: its tests run it with an in-process fake.
 #pragma once
 
@@ -28,8 +34,9 @@ struct CompiledModule {
   bool settled = false;                     // its back end has finished, or the cache had it
   std::shared_ptr<const JobOutput> output;  // when settled and good
   WorkerOutcome failure;                    // when settled and not good
+  std::vector<uint32_t> failed_input;       // when its back end's worker died: the module it was given (reproducer)
   bool fresh = false;                       // compiled in this build: cached once the build is known good
-  std::vector<size_t> waiting;              // binaries whose front end produced it, before it settled
+  std::vector<size_t> waiting;              // source keys whose front end produced it, before it settled
   std::optional<RemoteKey> remote_key;      // when this build uploads it (--remote-upload)
 };
 
@@ -45,18 +52,22 @@ struct CompileResults {
 struct CompileServices {
   JobRunner& runner;
   Cache* cache = nullptr;  // nothing: no cache
-  Preprocessor& preprocessor;  // for cache misses known only through a memo
+  Preprocessor& preprocessor;  // makes the Preprocess jobs (cache misses known only through a memo included)
   RemoteCache* remote = nullptr;  // asked for the local cache's misses before they are compiled
 };
 
-// Fills each binary's output (a shared, settled module's), or reports why it has none: compile errors are
-// grouped into `messages`, worker deaths are internal compiler errors with a reproducer in <output>/kiln-ice.
-// The local cache's misses are asked of the remote (verified entries go into the local cache too); with
-// --shard I/N, only the misses whose source key falls in share I are compiled.
-CompileResults compile_binaries(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
-                                StageSources& sources, std::vector<Binary>& binaries, CompileServices services,
-                                const SourceLocator& locator, MessageGroups& messages, DiagnosticSink& sink,
-                                BuildReport& report);
+// Stages 4-6 streamed: preprocesses the sources `sources` has no key for (and the memo-known ones the cache
+// lacks), dedupes them into `binaries` (dedupe_stage_sources), and fills each binary's output (a shared, settled
+// module's), or reports why it has none: preprocessing and compile errors are grouped into `messages`, worker
+// deaths are internal compiler errors with a reproducer in <output>/kiln-ice. The local cache's misses are asked
+// of the remote (verified entries go into the local cache too; with a remote, compiles start after preprocessing,
+// when the misses are asked in one request); with --shard I/N, only the misses whose source key falls in share I
+// are compiled. Times the stages "preprocess" (from enumerate_stage_sources to the last source preprocessed),
+// "dedupe" and "compile" (from the first front end queued): the first and the last overlap.
+CompileResults compile_stage_sources(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
+                                     StageSources& sources, std::vector<Binary>& binaries, CompileServices services,
+                                     const SourceLocator& locator, MessageGroups& messages, DiagnosticSink& sink,
+                                     BuildReport& report);
 
 // Stores this build's results in the cache (back ends under their module's key, aliases under each source's key,
 // preprocessing memos) and commits them as one segment, unless the input had errors: a build with errors in the

@@ -111,57 +111,71 @@ std::shared_ptr<const std::vector<IncludableFile>> Preprocessor::files_of(uint32
   return pass_files_[pass];
 }
 
+CompileJob Preprocessor::job(const StageSources& sources, size_t index) {
+  const StageSource& s = sources.list[index];
+  CompileJob job;
+  job.id = index;
+  job.kind = JobKind::Preprocess;
+  job.stage = s.stage;
+  job.files = files_of(s.pass);
+  job.defines = pass_defines(plan_.pack.passes[s.pass]);  // the pass's defines, then the keywords
+  job.defines.insert(job.defines.end(), s.defines.begin(), s.defines.end());
+  return job;
+}
+
+void Preprocessor::finished(StageSource& s, WorkerOutcome outcome) const {
+  const std::string entry_name = display_path(plan_.declarations[s.pass].entry);
+  s.preprocessed = true;
+  s.ok = false;
+  if (outcome.kind == WorkerOutcome::Kind::Done && outcome.output.failed_step == CompileStep::Internal) {
+    s.internal_error = "threw an exception (" +
+                       (outcome.output.messages.empty() ? std::string("no message") : outcome.output.messages[0].text) + ")";
+  } else if (outcome.kind == WorkerOutcome::Kind::Done) {
+    s.ok = outcome.output.ok;
+    s.text = std::move(outcome.output.preprocessed);
+    s.messages = std::move(outcome.output.messages);
+    s.files_read = std::move(outcome.output.files_read);
+    if (s.ok) s.key = source_key(plan_, settings_, s);
+  } else if (outcome.kind == WorkerOutcome::Kind::OutOfMemory) {
+    s.messages = {{Severity::Error, entry_name, 0,
+                   "preprocessing needed more than the compiler worker's " + std::to_string(options_.worker_memory_limit_mb) +
+                       " MiB (a macro that expands exponentially?)"}};
+  } else if (outcome.kind == WorkerOutcome::Kind::TimedOut) {
+    s.messages = {{Severity::Error, entry_name, 0,
+                   "preprocessing took longer than the compiler worker's " +
+                       std::to_string(options_.worker_timeout.count() / 1000) + " s (a macro that expands exponentially?)"}};
+  } else {
+    s.internal_error = outcome.detail;  // the preprocessor crashed: a bug in it, not in the shader
+  }
+}
+
 void Preprocessor::run(StageSources& sources, const std::vector<size_t>& which) {
   if (which.empty()) return;
-  std::vector<CompileJob> jobs(which.size());
-  for (size_t w = 0; w < which.size(); ++w) {
-    const StageSource& s = sources.list[which[w]];
-    jobs[w].id = which[w];
-    jobs[w].kind = JobKind::Preprocess;
-    jobs[w].stage = s.stage;
-    jobs[w].files = files_of(s.pass);
-    jobs[w].defines = pass_defines(plan_.pack.passes[s.pass]);  // the pass's defines, then the keywords
-    jobs[w].defines.insert(jobs[w].defines.end(), s.defines.begin(), s.defines.end());
-  }
+  std::vector<CompileJob> jobs;
+  for (size_t index : which) jobs.push_back(job(sources, index));
   runner_.run(jobs, [&](size_t j, WorkerOutcome outcome) {
-    StageSource& s = sources.list[which[j]];
-    const std::string entry_name = display_path(plan_.declarations[s.pass].entry);
-    s.preprocessed = true;
-    s.ok = false;
-    if (outcome.kind == WorkerOutcome::Kind::Done && outcome.output.failed_step == CompileStep::Internal) {
-      s.internal_error = "threw an exception (" +
-                         (outcome.output.messages.empty() ? std::string("no message") : outcome.output.messages[0].text) + ")";
-    } else if (outcome.kind == WorkerOutcome::Kind::Done) {
-      s.ok = outcome.output.ok;
-      s.text = std::move(outcome.output.preprocessed);
-      s.messages = std::move(outcome.output.messages);
-      s.files_read = std::move(outcome.output.files_read);
-      if (s.ok) s.key = source_key(plan_, settings_, s);
-    } else if (outcome.kind == WorkerOutcome::Kind::OutOfMemory) {
-      s.messages = {{Severity::Error, entry_name, 0,
-                     "preprocessing needed more than the compiler worker's " + std::to_string(options_.worker_memory_limit_mb) +
-                         " MiB (a macro that expands exponentially?)"}};
-    } else if (outcome.kind == WorkerOutcome::Kind::TimedOut) {
-      s.messages = {{Severity::Error, entry_name, 0,
-                     "preprocessing took longer than the compiler worker's " +
-                         std::to_string(options_.worker_timeout.count() / 1000) + " s (a macro that expands exponentially?)"}};
-    } else {
-      s.internal_error = outcome.detail;  // the preprocessor crashed: a bug in it, not in the shader
-    }
+    finished(sources.list[which[j]], std::move(outcome));
     std::vector<std::string>().swap(jobs[j].defines);
   });
+}
+
+StageSources enumerate_stage_sources(const Plan& plan, const BuildSettings& settings, Cache* memo_cache, BuildReport& report) {
+  const auto started = std::chrono::steady_clock::now();
+  StageSources sources = enumerate(plan, report);
+  sources.enumerated_from = started;
+  if (memo_cache) use_memos(sources, plan, settings, *memo_cache, report);
+  report.funnel.unique_preprocessed = sources.list.size();
+  return sources;
 }
 
 StageSources prepare_stage_sources(const Plan& plan, const BuildSettings& settings, Cache* memo_cache,
                                    Preprocessor& preprocessor, BuildReport& report) {
   StageTimer timer(report, "preprocess");
-  StageSources sources = enumerate(plan, report);
-  if (memo_cache) use_memos(sources, plan, settings, *memo_cache, report);
+  StageSources sources = enumerate_stage_sources(plan, settings, memo_cache, report);
   std::vector<size_t> pending;
   for (size_t i = 0; i < sources.list.size(); ++i)
     if (!sources.list[i].key) pending.push_back(i);
   preprocessor.run(sources, pending);
-  report.funnel.unique_preprocessed = sources.list.size();
   return sources;
 }
 

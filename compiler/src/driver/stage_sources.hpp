@@ -1,10 +1,13 @@
 // Stage 4: the stage sources of a build. One per (pass, stage, keywords the stage sees), preprocessed once
 // however many variants share it (in the compiler workers, under their limits), or not at all when a
 // preprocessing memo in the cache says what it would give; then deduplicated by content into binaries, the
-// unit the compile stage works on.
+// unit the compile stage works on. A build streams them: the compile stage (driver/compile) sends each source's
+// Preprocess job and compiles it as soon as it is preprocessed; dedupe_stage_sources then numbers the binaries
+// in source order, as if every source had been preprocessed first.
 #pragma once
 
 #include <array>
+#include <chrono>
 #include <map>
 #include <memory>
 #include <optional>
@@ -41,6 +44,7 @@ struct StageSources {
   // variant_source[pass][variant][stage]: index into `list`, or -1 when the pass has no such stage.
   std::vector<std::vector<std::array<int, kStageCount>>> variant_source;
   std::map<std::string, uint64_t> file_hashes;  // display name -> XXH3 of the text, for preprocessing memos
+  std::chrono::steady_clock::time_point enumerated_from;  // when the preprocess stage started (its timing)
 };
 
 // One distinct preprocessed source (with its stage and entry point): one front end, one compile.
@@ -64,6 +68,10 @@ class Preprocessor {
   Preprocessor(const Plan& plan, const BuildSettings& settings, JobRunner& runner, const BuildOptions& options);
   // Preprocesses `which` (indexes into sources.list); sets text, messages, files read and key of each.
   void run(StageSources& sources, const std::vector<size_t>& which);
+  // The same, one job at a time, for a caller that runs the jobs itself: source `index`'s Preprocess job, and
+  // what its outcome says of the source.
+  CompileJob job(const StageSources& sources, size_t index);
+  void finished(StageSource& source, WorkerOutcome outcome) const;
 
  private:
   std::shared_ptr<const std::vector<IncludableFile>> files_of(uint32_t pass);
@@ -75,8 +83,13 @@ class Preprocessor {
   std::vector<std::shared_ptr<const std::vector<IncludableFile>>> pass_files_;
 };
 
-// Enumerates the stage sources of every variant, takes what the cache's memos know, and preprocesses the rest.
-// `cache`: nothing, or the cache whose memos to use (not with --emit preprocessed: its text is wanted).
+// Enumerates the stage sources of every variant and takes what the cache's memos know (a source with a key
+// and no text). `cache`: nothing, or the cache whose memos to use (not with --emit preprocessed: its text is
+// wanted).
+StageSources enumerate_stage_sources(const Plan& plan, const BuildSettings& settings, Cache* memo_cache, BuildReport& report);
+
+// enumerate_stage_sources, then preprocesses every source the memos do not know, all before returning (for
+// tools and tests that want the texts; a build streams them into its compiles instead).
 StageSources prepare_stage_sources(const Plan& plan, const BuildSettings& settings, Cache* memo_cache,
                                    Preprocessor& preprocessor, BuildReport& report);
 

@@ -2,6 +2,7 @@
 // implements it with processes; tests implement it in-process.
 #pragma once
 
+#include <chrono>
 #include <cstddef>
 #include <functional>
 #include <string>
@@ -17,6 +18,17 @@ struct WorkerOutcome {
   std::string detail;  // "killed by signal 11 (Segmentation fault)", ...
 };
 
+// What one worker slot did (the build's timeline): when it started, when it was first given a front or back
+// end, and how long it had a job in flight, by kind.
+struct WorkerActivity {
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point spawned, first_compile, last_done;
+  bool compiled = false;  // first_compile is set
+  Clock::duration preprocessing{}, compiling{};
+  Clock::duration preprocessing_before_compile{};  // of `preprocessing`, before first_compile
+  size_t jobs = 0;
+};
+
 class JobRunner {
  public:
   virtual ~JobRunner() = default;
@@ -25,6 +37,8 @@ class JobRunner {
   virtual void run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done) = 0;
   // Worker processes started so far (for the build summary).
   virtual unsigned spawned() const = 0;
+  // One entry per worker slot that ran a job; empty for runners without processes.
+  virtual std::vector<WorkerActivity> activity() const { return {}; }
 };
 
 }  // namespace kiln

@@ -32,6 +32,7 @@ struct WorkerPool::Worker {
   long job = -1;  // index of the job in flight
   std::chrono::steady_clock::time_point started;
   std::vector<uint8_t> buffer;
+  WorkerActivity activity;  // of this slot, across restarts
 };
 
 namespace {
@@ -139,6 +140,7 @@ bool WorkerPool::spawn(Worker& worker, std::string& error) {
   worker.from_worker = out_pipe[0];
   worker.buffer.clear();
   worker.job = -1;
+  if (worker.activity.jobs == 0 && !worker.activity.compiled) worker.activity.spawned = std::chrono::steady_clock::now();
   ++spawned_;
   return true;
 }
@@ -156,7 +158,29 @@ void WorkerPool::stop(Worker& worker, bool kill_now) {
   worker.buffer.clear();
 }
 
+std::vector<WorkerActivity> WorkerPool::activity() const {
+  std::vector<WorkerActivity> out;
+  for (const Worker* worker : workers_)
+    if (worker->activity.jobs > 0) out.push_back(worker->activity);
+  return out;
+}
+
 void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done) {
+  // The timeline: a job is in flight from its hand-out to its result (or its worker's death).
+  auto started_job = [&](Worker& worker) {
+    worker.started = std::chrono::steady_clock::now();
+    if (jobs[static_cast<size_t>(worker.job)].kind == JobKind::Preprocess || worker.activity.compiled) return;
+    worker.activity.compiled = true;
+    worker.activity.first_compile = worker.started;
+    worker.activity.preprocessing_before_compile = worker.activity.preprocessing;
+  };
+  auto ended_job = [&](Worker& worker) {
+    const auto now = std::chrono::steady_clock::now();
+    (jobs[static_cast<size_t>(worker.job)].kind == JobKind::Preprocess ? worker.activity.preprocessing
+                                                                        : worker.activity.compiling) += now - worker.started;
+    worker.activity.last_done = now;
+    ++worker.activity.jobs;
+  };
   std::deque<size_t> ready(jobs.size());
   std::iota(ready.begin(), ready.end(), size_t{0});
   size_t known = jobs.size(), finished = 0;
@@ -169,6 +193,7 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
     known = jobs.size();
   };
   auto fail_job = [&](Worker& worker, WorkerOutcome::Kind kind, std::string detail, bool kill_now) {
+    ended_job(worker);
     size_t index = static_cast<size_t>(worker.job);
     worker.job = -1;
     int status = 0;
@@ -201,7 +226,7 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
         continue;
       }
       worker->job = static_cast<long>(next);
-      worker->started = std::chrono::steady_clock::now();
+      started_job(*worker);
       if (!write_message(worker->to_worker, encode_job(jobs[static_cast<size_t>(worker->job)])))
         fail_job(*worker, WorkerOutcome::Kind::Crashed, "", false);
     }
@@ -237,6 +262,7 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
           if (worker.buffer.size() >= 4 + length) {
             std::vector<uint8_t> payload(worker.buffer.begin() + 4, worker.buffer.begin() + 4 + static_cast<long>(length));
             worker.buffer.erase(worker.buffer.begin(), worker.buffer.begin() + 4 + static_cast<long>(length));
+            ended_job(worker);
             size_t index = static_cast<size_t>(worker.job);
             worker.job = -1;
             WorkerOutcome outcome;

@@ -33,6 +33,7 @@ class WorkerPool final : public JobRunner {
   // follow-up jobs to `jobs` (run next, in the same workers); `index` always indexes `jobs`.
   void run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done) override;
   unsigned spawned() const override { return spawned_; }
+  std::vector<WorkerActivity> activity() const override;
 
  private:
   struct Worker;
