@@ -21,6 +21,7 @@
 #include "frontend/frontend.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
+#include "kiln/manifest_json.hpp"
 #include "lint/lint.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "tools/pack_tools.hpp"

@@ -22,6 +22,7 @@
 
 #include "kiln/pack_format.hpp"
 #include "kiln/pack_reader.hpp"
+#include "kiln/manifest_json.hpp"
 
 namespace {
 

@@ -9,6 +9,7 @@
 #include <filesystem>
 
 #include "kiln/pack_reader.hpp"
+#include "kiln/manifest_json.hpp"
 #include "render/backend.hpp"
 #include "render/renderer.hpp"
 

@@ -9,6 +9,7 @@
 
 #include "golden/golden.hpp"
 #include "kiln/pack_reader.hpp"
+#include "kiln/manifest_json.hpp"
 #include "render/backend.hpp"
 
 namespace kiln::render {

@@ -7,6 +7,7 @@
 
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
+#include "kiln/manifest_json.hpp"
 #include "test_support.hpp"
 
 namespace kiln {

@@ -11,6 +11,7 @@
 
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
+#include "kiln/manifest_json.hpp"
 #include "test_support.hpp"
 
 namespace kiln {

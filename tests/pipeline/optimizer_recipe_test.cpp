@@ -15,6 +15,7 @@
 #include "driver/stage_sources.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
+#include "kiln/manifest_json.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "test_support.hpp"
 #include "workers/worker_pool.hpp"

@@ -11,6 +11,7 @@
 #include "common/hash.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
+#include "kiln/manifest_json.hpp"
 #include "tools/pack_tools.hpp"
 #include "test_support.hpp"
 

@@ -13,6 +13,7 @@
 
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
+#include "kiln/manifest_json.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "test_support.hpp"
 

@@ -2,6 +2,8 @@
 // triggers it and one that does not.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 
 #include "lint/lint.hpp"

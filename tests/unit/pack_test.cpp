@@ -15,6 +15,7 @@
 
 #include "kiln/pack_format.hpp"
 #include "kiln/pack_reader.hpp"
+#include "kiln/manifest_json.hpp"
 #include "pack/pack_writer.hpp"
 #include "test_support.hpp"
 

@@ -119,6 +119,7 @@ void write_html_report(const std::filesystem::path& path, const std::string& tit
 #include <unordered_map>
 
 #include "kiln/pack_reader.hpp"
+#include "kiln/manifest_json.hpp"
 #include "render/backend.hpp"
 
 namespace kiln::render {

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "kiln/pack_reader.hpp"
+#include "kiln/manifest_json.hpp"
 #include "render/backend.hpp"
 #include "scene/image.hpp"
 

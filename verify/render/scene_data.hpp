@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "kiln/pack_reader.hpp"
+#include "kiln/manifest_json.hpp"
 #include "scene/environment.hpp"
 #include "scene/scene.hpp"
 

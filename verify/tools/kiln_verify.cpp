@@ -13,6 +13,7 @@
 
 #include "golden/golden.hpp"
 #include "kiln/pack_reader.hpp"
+#include "kiln/manifest_json.hpp"
 #include "render/backend.hpp"
 #include "scene/image.hpp"
 

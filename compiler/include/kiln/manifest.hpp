@@ -3,9 +3,8 @@
 // `Manifest`, and the reader, `kiln inspect`, check-scene, diff-packs, lint and the verify renderer read one:
 // no code walks the manifest by string keys, so a field change is a compile error.
 //
-// to_json/from_json are nlohmann-json's customisation points. from_json refuses what kiln does not write (a
-// missing field, a wrong type, a negative or oversized number, an unknown stage or target) with ManifestError,
-// which names the place as a JSON pointer; unknown fields are ignored. Indices between records (a variant's
+// The JSON conversions (to_json/from_json) are declared in manifest_json.hpp, which is the compiler's and is not
+// installed: the reader's public headers do not include nlohmann-json. Indices between records (a variant's
 // binaries, a binary's blobs and reflection) are checked by check_indices, not by from_json.
 #pragma once
 
@@ -17,8 +16,6 @@
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "kiln/stage_target.hpp"
 
@@ -233,9 +230,10 @@ struct Manifest {
   ManifestFunnel funnel;
   std::vector<ManifestConstraint> constraints;
   std::vector<ManifestMaterial> materials;
-  // The pack definition's scene_features table (feature -> value -> keywords), recorded as written for
-  // check-scene; its meaning is the pack definition's (docs/scenes.md).
-  nlohmann::json scene_features = nlohmann::json::object();
+  // The pack definition's scene_features table (feature -> value -> keywords) as compact JSON text, recorded as
+  // written for check-scene; its meaning is the pack definition's (docs/scenes.md). Text, not a JSON value, so
+  // that this header (installed with the reader) does not need nlohmann-json.
+  std::string scene_features_json = "{}";
   std::vector<ManifestPass> passes;
   std::vector<ManifestBinary> binaries;
   std::vector<Reflection> reflections;
@@ -245,52 +243,5 @@ struct Manifest {
   // Throws ManifestError for an index out of range (a variant's binary, a binary's blob or reflection).
   void check_indices() const;
 };
-
-void to_json(nlohmann::json& j, const BlockMember& v);
-void from_json(const nlohmann::json& j, BlockMember& v);
-void to_json(nlohmann::json& j, const Resource& v);
-void from_json(const nlohmann::json& j, Resource& v);
-void to_json(nlohmann::json& j, const PushConstantBlock& v);
-void from_json(const nlohmann::json& j, PushConstantBlock& v);
-void to_json(nlohmann::json& j, const StageVariable& v);
-void from_json(const nlohmann::json& j, StageVariable& v);
-void to_json(nlohmann::json& j, const GlCombinedSampler& v);
-void from_json(const nlohmann::json& j, GlCombinedSampler& v);
-void to_json(nlohmann::json& j, const GlBlock& v);
-void from_json(const nlohmann::json& j, GlBlock& v);
-void to_json(nlohmann::json& j, const GlBindings& v);
-void from_json(const nlohmann::json& j, GlBindings& v);
-void to_json(nlohmann::json& j, const MslResource& v);
-void from_json(const nlohmann::json& j, MslResource& v);
-void to_json(nlohmann::json& j, const MslBindings& v);
-void from_json(const nlohmann::json& j, MslBindings& v);
-void to_json(nlohmann::json& j, const Reflection& v);
-void from_json(const nlohmann::json& j, Reflection& v);
-void to_json(nlohmann::json& j, const PassLayout& v);
-void from_json(const nlohmann::json& j, PassLayout& v);
-void to_json(nlohmann::json& j, const ManifestKeywordGroup& v);
-void from_json(const nlohmann::json& j, ManifestKeywordGroup& v);
-void to_json(nlohmann::json& j, const ManifestVariant& v);
-void from_json(const nlohmann::json& j, ManifestVariant& v);
-void to_json(nlohmann::json& j, const ManifestPass& v);
-void from_json(const nlohmann::json& j, ManifestPass& v);
-void to_json(nlohmann::json& j, const ManifestBinary& v);
-void from_json(const nlohmann::json& j, ManifestBinary& v);
-void to_json(nlohmann::json& j, const ManifestConstraint& v);
-void from_json(const nlohmann::json& j, ManifestConstraint& v);
-void to_json(nlohmann::json& j, const ManifestMaterial& v);
-void from_json(const nlohmann::json& j, ManifestMaterial& v);
-void to_json(nlohmann::json& j, const ManifestTools& v);
-void from_json(const nlohmann::json& j, ManifestTools& v);
-void to_json(nlohmann::json& j, const ManifestOptions& v);
-void from_json(const nlohmann::json& j, ManifestOptions& v);
-void to_json(nlohmann::json& j, const ManifestFunnel& v);
-void from_json(const nlohmann::json& j, ManifestFunnel& v);
-void to_json(nlohmann::json& j, const ManifestArchive& v);
-void from_json(const nlohmann::json& j, ManifestArchive& v);
-// The manifest's "format" field and checksum are the file's, not the model's: the writer adds them
-// (pack_writer.cpp) and the reader checks them before from_json (pack_reader.cpp).
-void to_json(nlohmann::json& j, const Manifest& v);
-void from_json(const nlohmann::json& j, Manifest& v);
 
 }  // namespace kiln

@@ -12,7 +12,7 @@
 #include "common/blob.hpp"
 #include "common/compile_step.hpp"
 #include "kiln/diagnostics.hpp"
-#include "kiln/manifest.hpp"
+#include "kiln/manifest_json.hpp"
 #include "kiln/model.hpp"
 
 namespace kiln {

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "kiln/manifest.hpp"
+#include "kiln/manifest_json.hpp"
 
 namespace kiln {
 

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "common/compile_step.hpp"
-#include "kiln/manifest.hpp"
+#include "kiln/manifest_json.hpp"
 #include "kiln/model.hpp"
 
 namespace kiln {

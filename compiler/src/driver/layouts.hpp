@@ -4,7 +4,7 @@
 #include <optional>
 #include <vector>
 
-#include "kiln/manifest.hpp"
+#include "kiln/manifest_json.hpp"
 #include "driver/messages.hpp"
 #include "driver/plan.hpp"
 #include "driver/stage_sources.hpp"

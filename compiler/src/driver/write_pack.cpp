@@ -111,7 +111,7 @@ std::optional<std::string> write_variant_pack(const Plan& plan, const BuildOptio
                      f.unique_preprocessed, f.unique_compiles, f.unique_modules, f.unique_binaries};
   manifest.constraints = constraint_records(plan.pack);
   manifest.materials = material_records(plan.pack);
-  if (!plan.pack.scene_features_json.empty()) manifest.scene_features = nlohmann::json::parse(plan.pack.scene_features_json);
+  if (!plan.pack.scene_features_json.empty()) manifest.scene_features_json = plan.pack.scene_features_json;
   WrittenPack written = write_pack(options.output_dir, plan.pack.name, archive, std::move(manifest));
   if (!written.error.empty()) {
     sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, written.error);

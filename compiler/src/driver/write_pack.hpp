@@ -9,7 +9,7 @@
 #include "driver/plan.hpp"
 #include "driver/settings.hpp"
 #include "driver/stage_sources.hpp"
-#include "kiln/manifest.hpp"
+#include "kiln/manifest_json.hpp"
 
 namespace kiln {
 

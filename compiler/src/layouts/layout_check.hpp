@@ -10,7 +10,7 @@
 #include <optional>
 
 #include "kiln/diagnostics.hpp"
-#include "kiln/manifest.hpp"
+#include "kiln/manifest_json.hpp"
 #include "kiln/model.hpp"
 
 namespace kiln {

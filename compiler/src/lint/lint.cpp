@@ -10,6 +10,7 @@
 #include "common/files.hpp"
 #include "declarations/declarations.hpp"
 #include "kiln/pack_reader.hpp"
+#include "kiln/manifest_json.hpp"
 
 namespace kiln {
 namespace {

@@ -10,7 +10,7 @@
 
 #include "common/hash.hpp"
 #include "common/blob.hpp"
-#include "kiln/manifest.hpp"
+#include "kiln/manifest_json.hpp"
 
 namespace kiln {
 

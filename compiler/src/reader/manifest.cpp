@@ -1,4 +1,4 @@
-#include "kiln/manifest.hpp"
+#include "kiln/manifest_json.hpp"
 
 #include <algorithm>
 #include <limits>
@@ -433,7 +433,7 @@ void to_json(json& j, const Manifest& v) {
        {"funnel", v.funnel},
        {"constraints", v.constraints},
        {"materials", v.materials},
-       {"scene_features", v.scene_features},
+       {"scene_features", json::parse(v.scene_features_json)},
        {"passes", v.passes},
        {"binaries", v.binaries},
        {"reflections", v.reflections},
@@ -456,7 +456,7 @@ void from_json(const json& j, Manifest& v) {
   read(j, "materials", v.materials);
   const json& scene_features = member(j, "scene_features");
   if (!scene_features.is_object()) throw ManifestError("/scene_features", "is not an object");
-  v.scene_features = scene_features;
+  v.scene_features_json = scene_features.dump();
 }
 
 const ManifestPass* Manifest::pass(std::string_view pass_name) const {

@@ -12,6 +12,7 @@
 #include <optional>
 #include <set>
 
+#include "kiln/manifest_json.hpp"
 #include "kiln/pack_format.hpp"
 
 namespace kiln {

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "kiln/diagnostics.hpp"
-#include "kiln/manifest.hpp"
+#include "kiln/manifest_json.hpp"
 
 namespace kiln {
 

@@ -63,7 +63,7 @@ std::optional<SceneCheck> check_scene(const PackReader& pack, const std::filesys
   }
   for (const ManifestMaterial& m : manifest.materials) definition.materials.push_back(MaterialPreset{m.name, m.keywords, {}});
   for (const ManifestPass& pass : manifest.passes) definition.passes.push_back(PassDefinition{pass.name, {}, {}, {}});
-  std::string features = manifest.scene_features.dump();
+  const std::string& features = manifest.scene_features_json;
   if (!resolve_scene_profile(*scene, features, definition.materials, sink)) return std::nullopt;
   std::vector<PassKeywords> passes;
   for (size_t p = 0; p < definition.passes.size(); ++p)

@@ -1,0 +1,231 @@
+/* kiln's runtime pack reader as a C API: for C, and for C++ built with -fno-exceptions or without RTTI. It wraps
+ * kiln::PackReader (pack_reader.hpp), checks packs the same way, selects by the same rule and reports the same
+ * errors, as codes with messages; no C++ exception ever leaves it. C99; link with the kiln_reader library
+ * (CMake: kiln::reader; pkg-config: kiln-reader).
+ *
+ *   kiln_error error;
+ *   kiln_pack* pack;
+ *   if (kiln_pack_open("packs/lit", &pack, &error) != KILN_OK) { fprintf(stderr, "%s: %s\n", error.file, error.message); ... }
+ *   kiln_pass forward;                       // look names up once, at load time
+ *   kiln_keyword fog, soft;
+ *   kiln_pass_find(pack, "Forward", &forward, &error);
+ *   kiln_keyword_find(pack, "FOG_EXP", &fog, &error);
+ *   kiln_keyword_find(pack, "_SHADOWS_SOFT", &soft, &error);
+ *   kiln_keyword wanted[] = {fog, soft};     // then select per draw, with no string work
+ *   uint32_t variant;
+ *   if (kiln_select(pack, forward, wanted, 2, 0, &variant, &error) == KILN_OK) {
+ *     kiln_code spirv;
+ *     kiln_variant_code(pack, forward, variant, KILN_STAGE_FRAGMENT, KILN_TARGET_SPIRV, &spirv, &error);
+ *   }
+ *   kiln_pack_close(pack);
+ *
+ * Selection rule (pack_reader.hpp's, unchanged): keywords the pass does not declare are ignored, unless `strict`
+ * (then KILN_ERROR_UNKNOWN_KEYWORD); two keywords of one group are KILN_ERROR_CONFLICTING_KEYWORDS; a group with
+ * no keyword given takes its off value, and a group without one needs a keyword (KILN_ERROR_MISSING_KEYWORD); a
+ * combination stripped from the pack is KILN_ERROR_STRIPPED, whose message names the nearest variants that exist.
+ * There is never a silent "closest match".
+ *
+ * Ownership and lifetime: kiln_pack_open allocates the pack; kiln_pack_close frees it. Every pointer the API
+ * returns (names, entry points, code bytes, reflection handles and the strings in reflection records) is owned
+ * by the pack and stays valid, unchanged, until kiln_pack_close. The caller owns kiln_error and the arrays it
+ * passes; the API keeps no pointer to them.
+ *
+ * Threads: an open pack is read-only. Any number of threads may call any function on one pack at once (a
+ * compressed blob is decompressed once, under a lock, on first use), except kiln_pack_close, which must come
+ * after all of them. Errors go to the kiln_error the caller passes to each call, so there is no shared "last
+ * error" to race on. Every `kiln_error* error` parameter may be NULL (the code is still returned).
+ */
+#ifndef KILN_READER_H
+#define KILN_READER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define KILN_READER_API_VERSION 1
+
+/* The first nine mirror kiln::PackError::Code, in its order. */
+typedef enum kiln_result {
+  KILN_OK = 0,
+  KILN_ERROR_IO = 1,                    /* a file is missing, unreadable, or not a regular file */
+  KILN_ERROR_FORMAT = 2,                /* malformed manifest or archive */
+  KILN_ERROR_VERSION = 3,               /* a pack format this reader does not read */
+  KILN_ERROR_CHECKSUM = 4,              /* the manifest, the archive or a blob fails its checksum */
+  KILN_ERROR_UNKNOWN_PASS = 5,          /* no pass of that name */
+  KILN_ERROR_UNKNOWN_KEYWORD = 6,       /* strict selection: a keyword the pass does not declare; or a name no pass declares */
+  KILN_ERROR_CONFLICTING_KEYWORDS = 7,  /* two keywords of one group */
+  KILN_ERROR_MISSING_KEYWORD = 8,       /* a group without an off value got no keyword */
+  KILN_ERROR_STRIPPED = 9,              /* the combination was stripped from the pack */
+  KILN_ERROR_OUT_OF_MEMORY = 10,
+  KILN_ERROR_INVALID_ARGUMENT = 11      /* a NULL pointer, or a pass, keyword, variant, stage or target out of range */
+} kiln_result;
+
+/* Filled by every call that takes one: code, and on failure the message and, when the error is about a file, the
+ * file ("out/lit.manifest.json:3:1", "out/lit.<xxh3>.kpack"; empty otherwise). Both NUL-terminated, truncated to fit. */
+typedef struct kiln_error {
+  kiln_result code;
+  char file[512];
+  char message[1024];
+} kiln_error;
+
+/* "io", "format", ..., "stripped", "out of memory", "invalid argument"; "ok" for KILN_OK. Static strings. */
+const char* kiln_result_name(kiln_result code);
+
+typedef struct kiln_pack kiln_pack;             /* an open pack (opaque) */
+typedef struct kiln_reflection kiln_reflection; /* one compiled stage's reflection (opaque, owned by the pack) */
+typedef uint32_t kiln_pass;                     /* a pass: 0 .. kiln_pass_count() - 1, in the manifest's order */
+typedef uint32_t kiln_keyword;                  /* a keyword declared by any pass of the pack: 0 .. kiln_keyword_count() - 1, by name */
+
+typedef enum kiln_stage { KILN_STAGE_VERTEX = 0, KILN_STAGE_FRAGMENT = 1 } kiln_stage;
+/* Stage flags, as in Vulkan's VkShaderStageFlagBits (VERTEX 0x1, FRAGMENT 0x10). */
+enum { KILN_STAGE_FLAG_VERTEX = 0x1, KILN_STAGE_FLAG_FRAGMENT = 0x10 };
+typedef enum kiln_target {
+  KILN_TARGET_SPIRV = 0, /* SPIR-V words, for vkCreateShaderModule */
+  KILN_TARGET_GLSL = 1,  /* GLSL 450 source text (not NUL-terminated: use the size) */
+  KILN_TARGET_GLES = 2,  /* GLSL ES 3.10 source text */
+  KILN_TARGET_MSL = 3    /* MSL 2.1 source text */
+} kiln_target;
+
+/* ---- Opening ------------------------------------------------------------------------------------------------ */
+
+/* `path` is a `<name>.manifest.json` or a directory holding exactly one. On success *pack is the open pack; on
+ * failure it is NULL and the code is IO, FORMAT, VERSION, CHECKSUM, OUT_OF_MEMORY or INVALID_ARGUMENT. */
+kiln_result kiln_pack_open(const char* path, kiln_pack** pack, kiln_error* error);
+void kiln_pack_close(kiln_pack* pack); /* NULL is allowed */
+const char* kiln_pack_name(const kiln_pack* pack);
+
+/* ---- Passes and keywords: look names up once --------------------------------------------------------------- */
+
+uint32_t kiln_pass_count(const kiln_pack* pack);
+const char* kiln_pass_name(const kiln_pack* pack, kiln_pass pass); /* NULL when out of range */
+kiln_result kiln_pass_find(const kiln_pack* pack, const char* name, kiln_pass* pass, kiln_error* error); /* UNKNOWN_PASS */
+
+uint32_t kiln_keyword_count(const kiln_pack* pack);
+const char* kiln_keyword_name(const kiln_pack* pack, kiln_keyword keyword); /* NULL when out of range */
+/* UNKNOWN_KEYWORD when no pass of the pack declares the name (a keyword for another pack: leave it out). */
+kiln_result kiln_keyword_find(const kiln_pack* pack, const char* name, kiln_keyword* keyword, kiln_error* error);
+
+/* A pass's keyword groups; a group's values are keyword names, "" being the off value. */
+uint32_t kiln_pass_group_count(const kiln_pack* pack, kiln_pass pass);
+uint32_t kiln_pass_group_value_count(const kiln_pack* pack, kiln_pass pass, uint32_t group);
+const char* kiln_pass_group_value(const kiln_pack* pack, kiln_pass pass, uint32_t group, uint32_t value);
+
+/* ---- Selection ------------------------------------------------------------------------------------------------ */
+
+/* Selects the variant of `pass` for `keywords` (count of them; repeats allowed; NULL when count is 0) and stores
+ * its index (0 .. kiln_variant_count() - 1) in *variant. Precomputed at open: a successful selection does no
+ * string work and allocates nothing (unit.capi.FromCxxWithoutExceptionsSelectionByIdsAllocatesNothing counts). A
+ * failed one costs what the C++ reader's does, and fails with its code and message. */
+kiln_result kiln_select(const kiln_pack* pack, kiln_pass pass, const kiln_keyword* keywords, size_t count, int strict,
+                        uint32_t* variant, kiln_error* error);
+/* The same by names, exactly as kiln::PackReader::select (also UNKNOWN_PASS); strings are compared on every call. */
+kiln_result kiln_select_by_names(const kiln_pack* pack, const char* pass, const char* const* keywords, size_t count,
+                                 int strict, uint32_t* variant, kiln_error* error);
+
+/* ---- A variant: its keywords, and per stage its code, entry point and reflection ----------------------------- */
+
+uint32_t kiln_variant_count(const kiln_pack* pack, kiln_pass pass);
+uint32_t kiln_variant_keyword_count(const kiln_pack* pack, kiln_pass pass, uint32_t variant);
+const char* kiln_variant_keyword(const kiln_pack* pack, kiln_pass pass, uint32_t variant, uint32_t index); /* sorted */
+
+typedef struct kiln_code {
+  const void* bytes; /* NULL and size 0 when the variant has no such stage or the pack was not built for the target */
+  size_t size;
+} kiln_code;
+/* A compressed blob is decompressed on first use: that may fail with CHECKSUM, FORMAT or OUT_OF_MEMORY. */
+kiln_result kiln_variant_code(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage,
+                              kiln_target target, kiln_code* code, kiln_error* error);
+/* The entry point the stage's code has (the manifest's binary record); NULL when the variant has no such stage. */
+const char* kiln_variant_entry_point(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage);
+/* NULL when the variant has no such stage. Variants that share a binary share its reflection. */
+const kiln_reflection* kiln_variant_reflection(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage);
+
+/* ---- Reflection: what a stage binds (enough for a Vulkan pipeline layout), and each target's bindings ------- */
+
+typedef enum kiln_resource_kind {
+  KILN_RESOURCE_UNIFORM_BUFFER = 0,
+  KILN_RESOURCE_STORAGE_BUFFER = 1,
+  KILN_RESOURCE_TEXTURE = 2,                /* a separate (sampled) image */
+  KILN_RESOURCE_SAMPLER = 3,
+  KILN_RESOURCE_COMBINED_IMAGE_SAMPLER = 4,
+  KILN_RESOURCE_STORAGE_IMAGE = 5
+} kiln_resource_kind;
+
+typedef struct kiln_resource {
+  const char* name;
+  kiln_resource_kind kind;
+  uint32_t set;
+  uint32_t binding;
+  uint32_t count;       /* array size (descriptorCount) */
+  uint32_t stage_flags; /* KILN_STAGE_FLAG_*: the reflected stage's; OR them over the stages for a pipeline layout */
+  uint64_t size;        /* blocks: the declared size in bytes; 0 otherwise */
+  const char* dimension; /* images: "1D", "2D", "2DArray", "3D", "Cube", "CubeArray", "Buffer"; "" otherwise */
+  int depth;            /* images: depth comparison */
+} kiln_resource;
+
+typedef struct kiln_push_constant {
+  const char* name;
+  uint64_t size; /* bytes, from offset 0 */
+  uint32_t stage_flags;
+} kiln_push_constant;
+
+typedef enum kiln_scalar { KILN_SCALAR_UNKNOWN = 0, KILN_SCALAR_FLOAT, KILN_SCALAR_HALF, KILN_SCALAR_INT, KILN_SCALAR_UINT, KILN_SCALAR_BOOL } kiln_scalar;
+
+/* A stage input or output: a vertex input's location and format (scalar x components: float3 is FLOAT x 3,
+ * VK_FORMAT_R32G32B32_SFLOAT). `type` is the reflected HLSL-style name ("float4"); unknown forms have scalar UNKNOWN. */
+typedef struct kiln_stage_variable {
+  const char* name;
+  uint32_t location;
+  const char* type;
+  kiln_scalar scalar;
+  uint32_t components; /* 1-4; 0 when the type is not a scalar or vector */
+} kiln_stage_variable;
+
+/* GLSL and GLSL ES bindings: HLSL's separate textures and samplers become combined samplers, each at its texture's
+ * binding; blocks are bound by the interface name glGetUniformBlockIndex takes. */
+typedef struct kiln_gl_sampler {
+  const char* name; /* "<texture>_<sampler>"; the sampler is "kiln_no_sampler" for Load/GetDimensions */
+  const char* texture;
+  const char* sampler;
+  uint32_t binding;
+} kiln_gl_sampler;
+typedef struct kiln_gl_block {
+  const char* name;
+  kiln_resource_kind kind; /* uniform or storage buffer */
+  uint32_t binding;
+} kiln_gl_block;
+
+typedef enum kiln_msl_kind { KILN_MSL_BUFFER = 0, KILN_MSL_TEXTURE = 1, KILN_MSL_SAMPLER = 2 } kiln_msl_kind;
+typedef struct kiln_msl_resource {
+  const char* name; /* as the HLSL declares it */
+  kiln_msl_kind kind;
+  uint32_t index;   /* [[buffer(n)]], [[texture(n)]] or [[sampler(n)]] */
+} kiln_msl_resource;
+
+/* Each accessor takes an index below its count and returns 1 with *out filled, or 0 (out of range, or a NULL
+ * argument) with *out untouched. Records are in the manifest's order (resources by set and binding). */
+kiln_stage kiln_reflection_stage(const kiln_reflection* reflection);
+uint32_t kiln_reflection_resource_count(const kiln_reflection* reflection);
+int kiln_reflection_resource(const kiln_reflection* reflection, uint32_t index, kiln_resource* out);
+uint32_t kiln_reflection_push_constant_count(const kiln_reflection* reflection);
+int kiln_reflection_push_constant(const kiln_reflection* reflection, uint32_t index, kiln_push_constant* out);
+uint32_t kiln_reflection_input_count(const kiln_reflection* reflection);
+int kiln_reflection_input(const kiln_reflection* reflection, uint32_t index, kiln_stage_variable* out);
+uint32_t kiln_reflection_output_count(const kiln_reflection* reflection);
+int kiln_reflection_output(const kiln_reflection* reflection, uint32_t index, kiln_stage_variable* out);
+/* `es`: 0 for GLSL 450's records, 1 for GLSL ES's; the counts are 0 when the pack was not built for the target. */
+uint32_t kiln_reflection_gl_sampler_count(const kiln_reflection* reflection, int es);
+int kiln_reflection_gl_sampler(const kiln_reflection* reflection, int es, uint32_t index, kiln_gl_sampler* out);
+uint32_t kiln_reflection_gl_block_count(const kiln_reflection* reflection, int es);
+int kiln_reflection_gl_block(const kiln_reflection* reflection, int es, uint32_t index, kiln_gl_block* out);
+uint32_t kiln_reflection_msl_resource_count(const kiln_reflection* reflection);
+int kiln_reflection_msl_resource(const kiln_reflection* reflection, uint32_t index, kiln_msl_resource* out);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* KILN_READER_H */

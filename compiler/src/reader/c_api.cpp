@@ -1,0 +1,538 @@
+// kiln_reader.h: the C API over kiln::PackReader. Every entry point that can fail runs its body inside guarded(),
+// which turns any exception into a code (std::bad_alloc into KILN_ERROR_OUT_OF_MEMORY), so none crosses into C.
+//
+// Selection by ids (kiln_select) is precomputed at open: each pass maps every pack keyword id to its group and
+// value index, and every variant to one integer (its value indices in mixed radix), kept sorted. A call then reads
+// the ids into a fixed array of group values, fills the off values and binary-searches the integer: no string is
+// compared or built and nothing is allocated. Only a failing call (or a pass the table cannot encode: more than
+// kMaxFastGroups groups, a radix over 64 bits) hands the names to PackReader::select, so that errors and their
+// messages are the C++ reader's exactly. unit.CApi.* compares the two on every keyword set of awkward packs.
+#include "kiln/kiln_reader.h"
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <new>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "kiln/pack_reader.hpp"
+
+struct kiln_reflection {
+  const kiln::Reflection* reflection = nullptr;
+  kiln_stage stage = KILN_STAGE_VERTEX;
+  uint32_t stage_flags = 0;
+};
+
+namespace {
+
+using kiln::PackError;
+
+constexpr size_t kMaxFastGroups = 64;
+constexpr uint32_t kNoValue = UINT32_MAX;
+
+struct PassIndex {
+  const kiln::ManifestPass* manifest = nullptr;
+  // Per pack keyword id: its group in this pass (kNoValue: not declared) and its value index in that group.
+  std::vector<uint32_t> group_of, value_of;
+  std::vector<uint32_t> off_value;    // per group: the index of "" (kNoValue: none)
+  std::vector<uint64_t> radix;        // per group: its place value in a variant's code
+  std::vector<std::pair<uint64_t, uint32_t>> by_code;  // variant code -> variant index, sorted by code
+  bool fast = true;                   // false: kiln_select goes through PackReader::select
+  // Per variant per stage: the binary's reflection handle (null: no such stage).
+  std::vector<std::array<const kiln_reflection*, kiln::kStageCount>> stages;
+};
+
+}  // namespace
+
+struct kiln_pack {
+  kiln::PackReader reader;
+  std::vector<std::string> keywords;  // every keyword any pass declares, sorted: the id is the index
+  std::vector<PassIndex> passes;      // in the manifest's order
+  std::vector<kiln_reflection> binaries;  // per manifest binary
+};
+
+namespace {
+
+void copy_text(char* to, size_t capacity, const char* from) {
+  const size_t n = std::min(std::strlen(from), capacity - 1);
+  std::memcpy(to, from, n);
+  to[n] = '\0';
+}
+
+kiln_result fail(kiln_error* error, kiln_result code, const char* message, const char* file = "") {
+  if (error) {
+    error->code = code;
+    copy_text(error->message, sizeof error->message, message);
+    copy_text(error->file, sizeof error->file, file);
+  }
+  return code;
+}
+
+kiln_result ok(kiln_error* error) {
+  if (error) {
+    error->code = KILN_OK;
+    error->message[0] = '\0';
+    error->file[0] = '\0';
+  }
+  return KILN_OK;
+}
+
+kiln_result code_of(PackError::Code code) {
+  switch (code) {
+    case PackError::Code::Io: return KILN_ERROR_IO;
+    case PackError::Code::Format: return KILN_ERROR_FORMAT;
+    case PackError::Code::Version: return KILN_ERROR_VERSION;
+    case PackError::Code::Checksum: return KILN_ERROR_CHECKSUM;
+    case PackError::Code::UnknownPass: return KILN_ERROR_UNKNOWN_PASS;
+    case PackError::Code::UnknownKeyword: return KILN_ERROR_UNKNOWN_KEYWORD;
+    case PackError::Code::ConflictingKeywords: return KILN_ERROR_CONFLICTING_KEYWORDS;
+    case PackError::Code::MissingKeyword: return KILN_ERROR_MISSING_KEYWORD;
+    case PackError::Code::Stripped: return KILN_ERROR_STRIPPED;
+  }
+  return KILN_ERROR_FORMAT;
+}
+
+// Runs `body` (which returns a kiln_result) with every exception turned into an error code.
+template <class F>
+kiln_result guarded(kiln_error* error, F&& body) noexcept {
+  try {
+    return body();
+  } catch (const PackError& e) {
+    return fail(error, code_of(e.code()), e.what(), e.file().c_str());
+  } catch (const std::bad_alloc&) {
+    return fail(error, KILN_ERROR_OUT_OF_MEMORY, "out of memory");
+  } catch (const std::exception& e) {
+    return fail(error, KILN_ERROR_FORMAT, e.what());
+  } catch (...) {
+    return fail(error, KILN_ERROR_FORMAT, "unknown internal error");
+  }
+}
+
+template <class... Args>
+kiln_result invalid(kiln_error* error, const char* format, Args... args) {
+  if constexpr (sizeof...(Args) == 0) {
+    return fail(error, KILN_ERROR_INVALID_ARGUMENT, format);
+  } else {
+    char message[256];
+    std::snprintf(message, sizeof message, format, args...);
+    return fail(error, KILN_ERROR_INVALID_ARGUMENT, message);
+  }
+}
+
+const kiln::ManifestVariant* find_variant(const kiln_pack* pack, kiln_pass pass, uint32_t variant) {
+  if (!pack || pass >= pack->passes.size()) return nullptr;
+  const auto& variants = pack->passes[pass].manifest->variants;
+  return variant < variants.size() ? &variants[variant] : nullptr;
+}
+
+const kiln::ManifestBinary* find_binary(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage) {
+  const kiln::ManifestVariant* v = find_variant(pack, pass, variant);
+  if (!v || (stage != KILN_STAGE_VERTEX && stage != KILN_STAGE_FRAGMENT)) return nullptr;
+  auto it = v->binaries.find(static_cast<kiln::Stage>(stage));
+  return it == v->binaries.end() ? nullptr : &pack->reader.manifest().binaries[it->second];
+}
+
+void index_pass(kiln_pack& pack, PassIndex& index) {
+  const kiln::ManifestPass& pass = *index.manifest;
+  const size_t groups = pass.keyword_groups.size();
+  index.group_of.assign(pack.keywords.size(), kNoValue);
+  index.value_of.assign(pack.keywords.size(), kNoValue);
+  index.off_value.assign(groups, kNoValue);
+  index.radix.assign(groups, 0);
+  // A keyword in two groups belongs to the first, as in PackReader::select.
+  for (size_t g = groups; g-- > 0;) {
+    const std::vector<std::string>& values = pass.keyword_groups[g].values;
+    for (size_t v = 0; v < values.size(); ++v) {
+      if (values[v].empty()) {
+        index.off_value[g] = static_cast<uint32_t>(v);
+        continue;
+      }
+      auto id = std::lower_bound(pack.keywords.begin(), pack.keywords.end(), values[v]) - pack.keywords.begin();
+      index.group_of[id] = static_cast<uint32_t>(g);
+      index.value_of[id] = static_cast<uint32_t>(v);
+    }
+  }
+  uint64_t place = 1;
+  index.fast = groups <= kMaxFastGroups;
+  for (size_t g = 0; g < groups && index.fast; ++g) {
+    index.radix[g] = place;
+    const uint64_t size = pass.keyword_groups[g].values.size();
+    if (size == 0 || place > UINT64_MAX / size) index.fast = false;
+    else place *= size;
+  }
+  std::vector<std::pair<uint64_t, uint32_t>> codes;
+  for (size_t i = 0; i < pass.variants.size() && index.fast; ++i) {
+    uint32_t chosen[kMaxFastGroups];
+    std::fill_n(chosen, groups, kNoValue);
+    // A variant select never returns is left out: one with a keyword no group declares, two keywords that belong to
+    // one group (the first group that declares a keyword takes it), or none for a group without an off value.
+    bool reachable = true;
+    for (const std::string& keyword : pass.variants[i].keywords) {
+      auto it = std::lower_bound(pack.keywords.begin(), pack.keywords.end(), keyword);
+      const uint32_t g = it == pack.keywords.end() || *it != keyword ? kNoValue : index.group_of[it - pack.keywords.begin()];
+      if (g == kNoValue || chosen[g] != kNoValue) {
+        reachable = false;
+        break;
+      }
+      chosen[g] = index.value_of[it - pack.keywords.begin()];
+    }
+    uint64_t code = 0;
+    for (size_t g = 0; g < groups && reachable; ++g) {
+      if (chosen[g] == kNoValue) chosen[g] = index.off_value[g];
+      if (chosen[g] == kNoValue) reachable = false;
+      else code += chosen[g] * index.radix[g];
+    }
+    if (reachable) codes.emplace_back(code, static_cast<uint32_t>(i));
+  }
+  // PackReader keeps the last of variants with equal keywords; so does a stable sort and a unique from the back.
+  std::stable_sort(codes.begin(), codes.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (size_t i = 0; i < codes.size(); ++i)
+    if (i + 1 == codes.size() || codes[i + 1].first != codes[i].first) index.by_code.push_back(codes[i]);
+
+  index.stages.resize(pass.variants.size());
+  for (size_t i = 0; i < pass.variants.size(); ++i) {
+    index.stages[i].fill(nullptr);
+    for (const auto& [stage, binary] : pass.variants[i].binaries)
+      index.stages[i][static_cast<size_t>(stage)] = &pack.binaries[binary];
+  }
+}
+
+// The fast path of kiln_select; false when the call must go through PackReader::select (an error, or a pass the
+// table cannot encode). No allocation, no string: this is what a game calls per draw.
+bool select_fast(const PassIndex& index, const kiln_keyword* keywords, size_t count, bool strict, uint32_t* variant) {
+  if (!index.fast) return false;
+  const size_t groups = index.off_value.size();
+  uint32_t chosen[kMaxFastGroups];
+  std::fill_n(chosen, groups, kNoValue);
+  for (size_t k = 0; k < count; ++k) {
+    const uint32_t g = index.group_of[keywords[k]];
+    if (g == kNoValue) {
+      if (strict) return false;
+      continue;
+    }
+    if (chosen[g] != kNoValue && chosen[g] != index.value_of[keywords[k]]) return false;
+    chosen[g] = index.value_of[keywords[k]];
+  }
+  uint64_t code = 0;
+  for (size_t g = 0; g < groups; ++g) {
+    uint32_t value = chosen[g];
+    if (value == kNoValue) value = index.off_value[g];
+    if (value == kNoValue) {
+      if (index.manifest->keyword_groups[g].values.size() != 1) return false;
+      value = 0;  // a one-keyword multi_compile is always on
+    }
+    code += value * index.radix[g];
+  }
+  auto it = std::lower_bound(index.by_code.begin(), index.by_code.end(), std::pair<uint64_t, uint32_t>(code, 0),
+                             [](const auto& a, const auto& b) { return a.first < b.first; });
+  if (it == index.by_code.end() || it->first != code) return false;
+  *variant = it->second;
+  return true;
+}
+
+kiln_scalar scalar_of(const std::string& type, uint32_t* components) {
+  static constexpr std::pair<const char*, kiln_scalar> kScalars[] = {
+      {"float", KILN_SCALAR_FLOAT}, {"half", KILN_SCALAR_HALF}, {"int", KILN_SCALAR_INT},
+      {"uint", KILN_SCALAR_UINT},   {"bool", KILN_SCALAR_BOOL}};
+  *components = 0;
+  for (const auto& [name, scalar] : kScalars) {
+    const size_t n = std::strlen(name);
+    if (type.compare(0, n, name) != 0) continue;
+    if (type.size() == n) { *components = 1; return scalar; }
+    if (type.size() == n + 1 && type[n] >= '1' && type[n] <= '4') { *components = static_cast<uint32_t>(type[n] - '0'); return scalar; }
+  }
+  return KILN_SCALAR_UNKNOWN;
+}
+
+kiln_stage_variable variable_of(const kiln::StageVariable& v) {
+  kiln_stage_variable out{};
+  out.name = v.name.c_str();
+  out.location = v.location;
+  out.type = v.type.c_str();
+  out.scalar = scalar_of(v.type, &out.components);
+  return out;
+}
+
+template <class T>
+uint32_t count_of(const std::vector<T>& records) { return static_cast<uint32_t>(records.size()); }
+
+const kiln::GlBindings* gl_of(const kiln_reflection* r, int es) { return r ? r->reflection->gl(es != 0) : nullptr; }
+
+}  // namespace
+
+extern "C" {
+
+const char* kiln_result_name(kiln_result code) {
+  switch (code) {
+    case KILN_OK: return "ok";
+    case KILN_ERROR_IO: return "io";
+    case KILN_ERROR_FORMAT: return "format";
+    case KILN_ERROR_VERSION: return "version";
+    case KILN_ERROR_CHECKSUM: return "checksum";
+    case KILN_ERROR_UNKNOWN_PASS: return "unknown pass";
+    case KILN_ERROR_UNKNOWN_KEYWORD: return "unknown keyword";
+    case KILN_ERROR_CONFLICTING_KEYWORDS: return "conflicting keywords";
+    case KILN_ERROR_MISSING_KEYWORD: return "missing keyword";
+    case KILN_ERROR_STRIPPED: return "stripped";
+    case KILN_ERROR_OUT_OF_MEMORY: return "out of memory";
+    case KILN_ERROR_INVALID_ARGUMENT: return "invalid argument";
+  }
+  return "unknown error code";
+}
+
+kiln_result kiln_pack_open(const char* path, kiln_pack** pack, kiln_error* error) {
+  if (!pack) return invalid(error, "kiln_pack_open: pack is NULL");
+  *pack = nullptr;
+  if (!path) return invalid(error, "kiln_pack_open: path is NULL");
+  return guarded(error, [&] {
+    auto* opened = new kiln_pack{kiln::PackReader::open(path), {}, {}, {}};
+    std::unique_ptr<kiln_pack> owner(opened);
+    // Built in place, after the reader has its final address: the tables point into its manifest.
+    const kiln::Manifest& manifest = opened->reader.manifest();
+    for (const kiln::ManifestPass& pass : manifest.passes)
+      for (const kiln::ManifestKeywordGroup& group : pass.keyword_groups)
+        for (const std::string& value : group.values)
+          if (!value.empty()) opened->keywords.push_back(value);
+    std::sort(opened->keywords.begin(), opened->keywords.end());
+    opened->keywords.erase(std::unique(opened->keywords.begin(), opened->keywords.end()), opened->keywords.end());
+    for (const kiln::ManifestBinary& binary : manifest.binaries) {
+      const auto stage = static_cast<kiln_stage>(binary.stage);
+      opened->binaries.push_back({&manifest.reflections[binary.reflection], stage,
+                                  stage == KILN_STAGE_VERTEX ? uint32_t{KILN_STAGE_FLAG_VERTEX} : uint32_t{KILN_STAGE_FLAG_FRAGMENT}});
+    }
+    opened->passes.resize(manifest.passes.size());
+    for (size_t p = 0; p < manifest.passes.size(); ++p) {
+      opened->passes[p].manifest = &manifest.passes[p];
+      index_pass(*opened, opened->passes[p]);
+    }
+    *pack = owner.release();
+    return ok(error);
+  });
+}
+
+void kiln_pack_close(kiln_pack* pack) { delete pack; }
+
+const char* kiln_pack_name(const kiln_pack* pack) { return pack ? pack->reader.name().c_str() : nullptr; }
+
+uint32_t kiln_pass_count(const kiln_pack* pack) { return pack ? count_of(pack->passes) : 0; }
+
+const char* kiln_pass_name(const kiln_pack* pack, kiln_pass pass) {
+  return pack && pass < pack->passes.size() ? pack->passes[pass].manifest->name.c_str() : nullptr;
+}
+
+kiln_result kiln_pass_find(const kiln_pack* pack, const char* name, kiln_pass* pass, kiln_error* error) {
+  if (!pack || !name || !pass) return invalid(error, "kiln_pass_find: a NULL argument");
+  for (size_t p = 0; p < pack->passes.size(); ++p)
+    if (pack->passes[p].manifest->name == name) {
+      *pass = static_cast<kiln_pass>(p);
+      return ok(error);
+    }
+  // The C++ reader's own error and message.
+  return guarded(error, [&] {
+    pack->reader.variant_count(name);
+    return fail(error, KILN_ERROR_UNKNOWN_PASS, "unknown pass");
+  });
+}
+
+uint32_t kiln_keyword_count(const kiln_pack* pack) { return pack ? count_of(pack->keywords) : 0; }
+
+const char* kiln_keyword_name(const kiln_pack* pack, kiln_keyword keyword) {
+  return pack && keyword < pack->keywords.size() ? pack->keywords[keyword].c_str() : nullptr;
+}
+
+kiln_result kiln_keyword_find(const kiln_pack* pack, const char* name, kiln_keyword* keyword, kiln_error* error) {
+  if (!pack || !name || !keyword) return invalid(error, "kiln_keyword_find: a NULL argument");
+  return guarded(error, [&] {
+    auto it = std::lower_bound(pack->keywords.begin(), pack->keywords.end(), std::string_view(name));
+    if (it == pack->keywords.end() || *it != name)
+      return fail(error, KILN_ERROR_UNKNOWN_KEYWORD,
+                  ("pack '" + pack->reader.name() + "' has no pass that declares keyword '" + name + "'").c_str());
+    *keyword = static_cast<kiln_keyword>(it - pack->keywords.begin());
+    return ok(error);
+  });
+}
+
+uint32_t kiln_pass_group_count(const kiln_pack* pack, kiln_pass pass) {
+  return pack && pass < pack->passes.size() ? count_of(pack->passes[pass].manifest->keyword_groups) : 0;
+}
+
+uint32_t kiln_pass_group_value_count(const kiln_pack* pack, kiln_pass pass, uint32_t group) {
+  if (group >= kiln_pass_group_count(pack, pass)) return 0;
+  return count_of(pack->passes[pass].manifest->keyword_groups[group].values);
+}
+
+const char* kiln_pass_group_value(const kiln_pack* pack, kiln_pass pass, uint32_t group, uint32_t value) {
+  if (value >= kiln_pass_group_value_count(pack, pass, group)) return nullptr;
+  return pack->passes[pass].manifest->keyword_groups[group].values[value].c_str();
+}
+
+kiln_result kiln_select(const kiln_pack* pack, kiln_pass pass, const kiln_keyword* keywords, size_t count, int strict,
+                        uint32_t* variant, kiln_error* error) {
+  if (!pack || !variant || (count > 0 && !keywords)) return invalid(error, "kiln_select: a NULL argument");
+  if (pass >= pack->passes.size())
+    return invalid(error, "kiln_select: pass %u out of range (the pack has %zu)", pass, pack->passes.size());
+  for (size_t k = 0; k < count; ++k)
+    if (keywords[k] >= pack->keywords.size())
+      return invalid(error, "kiln_select: keyword %u out of range (the pack has %zu)", keywords[k], pack->keywords.size());
+  if (select_fast(pack->passes[pass], keywords, count, strict != 0, variant)) return ok(error);
+  return guarded(error, [&] {
+    std::vector<std::string> names;
+    for (size_t k = 0; k < count; ++k) names.push_back(pack->keywords[keywords[k]]);
+    *variant = static_cast<uint32_t>(pack->reader.select(pack->passes[pass].manifest->name, names, strict != 0).index);
+    return ok(error);
+  });
+}
+
+kiln_result kiln_select_by_names(const kiln_pack* pack, const char* pass, const char* const* keywords, size_t count,
+                                 int strict, uint32_t* variant, kiln_error* error) {
+  if (!pack || !pass || !variant || (count > 0 && !keywords)) return invalid(error, "kiln_select_by_names: a NULL argument");
+  for (size_t k = 0; k < count; ++k)
+    if (!keywords[k]) return invalid(error, "kiln_select_by_names: keyword %zu is NULL", k);
+  return guarded(error, [&] {
+    std::vector<std::string> names(keywords, keywords + count);
+    *variant = static_cast<uint32_t>(pack->reader.select(pass, names, strict != 0).index);
+    return ok(error);
+  });
+}
+
+uint32_t kiln_variant_count(const kiln_pack* pack, kiln_pass pass) {
+  return pack && pass < pack->passes.size() ? count_of(pack->passes[pass].manifest->variants) : 0;
+}
+
+uint32_t kiln_variant_keyword_count(const kiln_pack* pack, kiln_pass pass, uint32_t variant) {
+  const kiln::ManifestVariant* v = find_variant(pack, pass, variant);
+  return v ? count_of(v->keywords) : 0;
+}
+
+const char* kiln_variant_keyword(const kiln_pack* pack, kiln_pass pass, uint32_t variant, uint32_t index) {
+  const kiln::ManifestVariant* v = find_variant(pack, pass, variant);
+  return v && index < v->keywords.size() ? v->keywords[index].c_str() : nullptr;
+}
+
+kiln_result kiln_variant_code(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage,
+                              kiln_target target, kiln_code* code, kiln_error* error) {
+  if (!code) return invalid(error, "kiln_variant_code: code is NULL");
+  *code = kiln_code{nullptr, 0};
+  if (!find_variant(pack, pass, variant)) return invalid(error, "kiln_variant_code: no variant %u of pass %u", variant, pass);
+  if (stage != KILN_STAGE_VERTEX && stage != KILN_STAGE_FRAGMENT) return invalid(error, "kiln_variant_code: stage %d", static_cast<int>(stage));
+  if (target < KILN_TARGET_SPIRV || target > KILN_TARGET_MSL) return invalid(error, "kiln_variant_code: target %d", static_cast<int>(target));
+  const kiln::ManifestBinary* binary = find_binary(pack, pass, variant, stage);
+  if (!binary) return ok(error);
+  auto blob = binary->blobs.find(static_cast<kiln::Target>(target));
+  if (blob == binary->blobs.end()) return ok(error);
+  return guarded(error, [&] {
+    std::string_view bytes = pack->reader.blob(blob->second);
+    *code = kiln_code{bytes.data(), bytes.size()};
+    return ok(error);
+  });
+}
+
+const char* kiln_variant_entry_point(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage) {
+  const kiln::ManifestBinary* binary = find_binary(pack, pass, variant, stage);
+  return binary ? binary->entry.c_str() : nullptr;
+}
+
+const kiln_reflection* kiln_variant_reflection(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage) {
+  if (!find_variant(pack, pass, variant) || (stage != KILN_STAGE_VERTEX && stage != KILN_STAGE_FRAGMENT)) return nullptr;
+  return pack->passes[pass].stages[variant][static_cast<size_t>(stage)];
+}
+
+kiln_stage kiln_reflection_stage(const kiln_reflection* reflection) { return reflection ? reflection->stage : KILN_STAGE_VERTEX; }
+
+uint32_t kiln_reflection_resource_count(const kiln_reflection* r) { return r ? count_of(r->reflection->resources) : 0; }
+
+int kiln_reflection_resource(const kiln_reflection* r, uint32_t index, kiln_resource* out) {
+  if (!out || index >= kiln_reflection_resource_count(r)) return 0;
+  const kiln::Resource& resource = r->reflection->resources[index];
+  *out = kiln_resource{};
+  out->name = resource.name.c_str();
+  out->kind = static_cast<kiln_resource_kind>(resource.kind);
+  out->set = resource.set;
+  out->binding = resource.binding;
+  out->count = resource.count;
+  out->stage_flags = r->stage_flags;
+  out->size = resource.size;
+  out->dimension = resource.dimension.c_str();
+  out->depth = resource.depth ? 1 : 0;
+  return 1;
+}
+
+uint32_t kiln_reflection_push_constant_count(const kiln_reflection* r) { return r ? count_of(r->reflection->push_constants) : 0; }
+
+int kiln_reflection_push_constant(const kiln_reflection* r, uint32_t index, kiln_push_constant* out) {
+  if (!out || index >= kiln_reflection_push_constant_count(r)) return 0;
+  const kiln::PushConstantBlock& block = r->reflection->push_constants[index];
+  *out = kiln_push_constant{block.name.c_str(), block.size, r->stage_flags};
+  return 1;
+}
+
+uint32_t kiln_reflection_input_count(const kiln_reflection* r) { return r ? count_of(r->reflection->inputs) : 0; }
+
+int kiln_reflection_input(const kiln_reflection* r, uint32_t index, kiln_stage_variable* out) {
+  if (!out || index >= kiln_reflection_input_count(r)) return 0;
+  *out = variable_of(r->reflection->inputs[index]);
+  return 1;
+}
+
+uint32_t kiln_reflection_output_count(const kiln_reflection* r) { return r ? count_of(r->reflection->outputs) : 0; }
+
+int kiln_reflection_output(const kiln_reflection* r, uint32_t index, kiln_stage_variable* out) {
+  if (!out || index >= kiln_reflection_output_count(r)) return 0;
+  *out = variable_of(r->reflection->outputs[index]);
+  return 1;
+}
+
+uint32_t kiln_reflection_gl_sampler_count(const kiln_reflection* r, int es) {
+  const kiln::GlBindings* gl = gl_of(r, es);
+  return gl ? count_of(gl->combined_image_samplers) : 0;
+}
+
+int kiln_reflection_gl_sampler(const kiln_reflection* r, int es, uint32_t index, kiln_gl_sampler* out) {
+  if (!out || index >= kiln_reflection_gl_sampler_count(r, es)) return 0;
+  const kiln::GlCombinedSampler& s = gl_of(r, es)->combined_image_samplers[index];
+  *out = kiln_gl_sampler{s.name.c_str(), s.texture.c_str(), s.sampler.c_str(), s.binding};
+  return 1;
+}
+
+uint32_t kiln_reflection_gl_block_count(const kiln_reflection* r, int es) {
+  const kiln::GlBindings* gl = gl_of(r, es);
+  return gl ? count_of(gl->blocks) : 0;
+}
+
+int kiln_reflection_gl_block(const kiln_reflection* r, int es, uint32_t index, kiln_gl_block* out) {
+  if (!out || index >= kiln_reflection_gl_block_count(r, es)) return 0;
+  const kiln::GlBlock& b = gl_of(r, es)->blocks[index];
+  *out = kiln_gl_block{b.name.c_str(), static_cast<kiln_resource_kind>(b.kind), b.binding};
+  return 1;
+}
+
+uint32_t kiln_reflection_msl_resource_count(const kiln_reflection* r) {
+  return r && r->reflection->msl ? count_of(r->reflection->msl->resources) : 0;
+}
+
+int kiln_reflection_msl_resource(const kiln_reflection* r, uint32_t index, kiln_msl_resource* out) {
+  if (!out || index >= kiln_reflection_msl_resource_count(r)) return 0;
+  const kiln::MslResource& m = r->reflection->msl->resources[index];
+  *out = kiln_msl_resource{m.name.c_str(), static_cast<kiln_msl_kind>(m.kind), m.index};
+  return 1;
+}
+
+}  // extern "C"
+
+// The C enumerations are the C++ ones, value for value: the casts above rely on it.
+static_assert(KILN_STAGE_VERTEX == static_cast<int>(kiln::Stage::Vertex) && KILN_STAGE_FRAGMENT == static_cast<int>(kiln::Stage::Fragment));
+static_assert(KILN_TARGET_SPIRV == static_cast<int>(kiln::Target::Spirv) && KILN_TARGET_GLSL == static_cast<int>(kiln::Target::Glsl) &&
+              KILN_TARGET_GLES == static_cast<int>(kiln::Target::Gles) && KILN_TARGET_MSL == static_cast<int>(kiln::Target::Msl));
+static_assert(KILN_RESOURCE_UNIFORM_BUFFER == static_cast<int>(kiln::ResourceKind::UniformBuffer) &&
+              KILN_RESOURCE_STORAGE_BUFFER == static_cast<int>(kiln::ResourceKind::StorageBuffer) &&
+              KILN_RESOURCE_TEXTURE == static_cast<int>(kiln::ResourceKind::Texture) &&
+              KILN_RESOURCE_SAMPLER == static_cast<int>(kiln::ResourceKind::Sampler) &&
+              KILN_RESOURCE_COMBINED_IMAGE_SAMPLER == static_cast<int>(kiln::ResourceKind::CombinedImageSampler) &&
+              KILN_RESOURCE_STORAGE_IMAGE == static_cast<int>(kiln::ResourceKind::StorageImage));
+static_assert(KILN_MSL_BUFFER == static_cast<int>(kiln::MslResourceKind::Buffer) &&
+              KILN_MSL_TEXTURE == static_cast<int>(kiln::MslResourceKind::Texture) &&
+              KILN_MSL_SAMPLER == static_cast<int>(kiln::MslResourceKind::Sampler));
