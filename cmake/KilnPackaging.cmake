@@ -4,8 +4,8 @@
 #
 # Depends: the shared libraries the three executables link, found by dpkg-shlibdeps (glslang and SPIRV-Tools are
 # linked statically on Debian 12 and need nothing at run time), plus what a project that links the reader or
-# calls find_package(kiln) needs: kilnConfig.cmake finds nlohmann-json, libxxhash and libzstd (the reader is a
-# static library) through pkg-config. Tested by package.deb (fields, contents, a consumer project built against
+# calls find_package(kiln) or pkg-config's kiln-reader needs: libxxhash and libzstd (the reader is a static
+# library) and pkg-config. nlohmann-json is not needed: no installed header includes it. Tested by package.deb (fields, contents, a consumer project built against
 # the unpacked package) and package.fresh_debian (installed with apt into a fresh Debian 12 chroot).
 set(CPACK_GENERATOR DEB)
 set(CPACK_PACKAGE_NAME kiln)
@@ -21,7 +21,7 @@ set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SECTION devel)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
-set(CPACK_DEBIAN_PACKAGE_DEPENDS "nlohmann-json3-dev (>= 3.10), libxxhash-dev, libzstd-dev, pkgconf | pkg-config")
+set(CPACK_DEBIAN_PACKAGE_DEPENDS "libxxhash-dev, libzstd-dev, pkgconf | pkg-config")
 set(CPACK_DEBIAN_PACKAGE_RECOMMENDS "cmake (>= 3.25), mesa-vulkan-drivers, libgl1-mesa-dri")
 set(CPACK_DEBIAN_PACKAGE_HOMEPAGE "https://example.org/kiln")
 set(CPACK_STRIP_FILES ON)

@@ -19,14 +19,15 @@ depends=$(dpkg-deb -f "$deb" Depends)
 echo "$depends"
 names=$(tr ',|' '\n\n' <<< "$depends" | sed 's/^ *//; s/ .*//')
 for package in libc6 libstdc++6 libcurl4 libssl3 libzstd1 libxxhash0 libmimalloc2.0 libvulkan1 libegl1 libpng16-16 \
-               nlohmann-json3-dev libxxhash-dev libzstd-dev pkgconf; do
+               libxxhash-dev libzstd-dev pkgconf; do
   grep -qxF "$package" <<< "$names" || fail "Depends has no $package"
 done
 
 echo "== contents: everything cmake --install installs, under /usr"
 contents=$(dpkg-deb -c "$deb" | awk '{print $6}')
 for file in ./usr/bin/kiln ./usr/bin/kiln-worker ./usr/bin/kiln-verify ./usr/lib/libkiln_reader.a \
-            ./usr/include/kiln/pack_reader.hpp ./usr/include/kiln/manifest.hpp \
+            ./usr/include/kiln/pack_reader.hpp ./usr/include/kiln/manifest.hpp ./usr/include/kiln/kiln_reader.h \
+            ./usr/lib/pkgconfig/kiln-reader.pc \
             ./usr/lib/cmake/kiln/kilnConfig.cmake ./usr/lib/cmake/kiln/kilnConfigVersion.cmake \
             ./usr/lib/cmake/kiln/kilnTargets.cmake ./usr/lib/cmake/kiln/KilnShaderPack.cmake \
             ./usr/share/kiln/schema/pack.schema.json ./usr/share/kiln/schema/scene.schema.json \
