@@ -646,9 +646,10 @@ TEST_F(Https, WithTheTestCaTheRemoteWorksAndWithoutItNothingIsSentInClear) {
 namespace kiln {
 namespace {
 
-// Two machines through the CLI: each a checkout with its own local cache, one nginx between them. At the same
-// path (CI workspaces) the second fetches the finished pack, byte for byte; elsewhere (the inputs hash covers
-// the files' absolute paths) it fetches every stage source and writes the same archive. It compiles nothing.
+// Two machines through the CLI: each a checkout with its own local cache, one nginx between them. The same
+// files, at the same path or elsewhere (the inputs hash names files by their path from the pack), fetch the
+// finished pack, byte for byte; a checkout whose pack definition differs by one byte (another inputs hash, the same
+// stage sources) fetches every stage source and writes the same archive. It compiles nothing.
 TEST(RemoteCli, ASecondMachineCompilesNothingAndWritesTheSamePack) {
   testing::Nginx server;
   testing::TempDir root;
@@ -671,6 +672,15 @@ TEST(RemoteCli, ASecondMachineCompilesNothingAndWritesTheSamePack) {
   EXPECT_TRUE(pack_bytes(root / "machineA/out") == pack_bytes(root / "ws/out"));
 
   write_library(root, "elsewhere/deeper");
+  auto moved = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "../cacheD", "--remote", server.url()},
+                                 root / "elsewhere/deeper");
+  ASSERT_EQ(moved.exit_code, 0) << moved.err;
+  EXPECT_EQ(moved.out.rfind("kiln: fetched from the remote cache: out/p.manifest.json\n", 0), 0u) << moved.out;
+  EXPECT_TRUE(pack_bytes(root / "machineA/out") == pack_bytes(root / "elsewhere/deeper/out"));
+
+  std::filesystem::remove_all(root / "elsewhere");
+  write_library(root, "elsewhere/deeper");
+  std::ofstream(root / "elsewhere/deeper/p.pack.json", std::ios::app) << "\n";
   auto third = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "../cacheC", "--remote", server.url()},
                                  root / "elsewhere/deeper");
   ASSERT_EQ(third.exit_code, 0) << third.err;
