@@ -8,6 +8,7 @@
 #include "common/parallel.hpp"
 #include "driver/remote.hpp"
 #include "driver/stage_timer.hpp"
+#include "frontend/unsupported_hlsl.hpp"
 
 namespace kiln {
 namespace {
@@ -385,8 +386,19 @@ class Scheduler {
     if (first != outcome.output.messages.end() && id == DiagId::BlockTooLarge) {
       messages_.collect(id, locator_.declaration(s.pass, quoted_name(first->text), entry_name), first->text, variant, order);
     } else if (first != outcome.output.messages.end()) {
+      SourceLocation at = locator_.located(*first, entry_name);
+      if (id == DiagId::HlslError) {
+        if (auto unsupported = recognise_unsupported_hlsl(first->text, locator_.line(at.path, at.line))) {
+          if (unsupported->column) at.column = unsupported->column;
+          messages_.collect(id, at,
+                            "glslang 12's HLSL front end does not support " + unsupported->construct + " (it said: " +
+                                first->text + ")",
+                            variant, order, {unsupported->advice + " (docs/bindings.md lists what glslang 12 does not take)"});
+          return;
+        }
+      }
       std::string prefix = id == DiagId::HlslError ? "" : step + ": ";
-      messages_.collect(id, locator_.located(*first, entry_name), prefix + first->text, variant, order);
+      messages_.collect(id, at, prefix + first->text, variant, order);
     } else {
       messages_.collect(id, SourceLocation{entry_name, 0, 0}, step + " failed", variant, order);
     }

@@ -92,10 +92,11 @@ SourceLocation SourceLocator::declaration(uint32_t pass, const std::string& name
   return SourceLocation{entry_name, 0, 0};
 }
 
-void MessageGroups::collect(DiagId id, SourceLocation at, const std::string& text, const std::string& variant, size_t order) {
+void MessageGroups::collect(DiagId id, SourceLocation at, const std::string& text, const std::string& variant, size_t order,
+                            std::vector<std::string> notes) {
   auto key = std::make_tuple(static_cast<int>(id), at.path, at.line, text);
   auto [it, inserted] = index_.emplace(key, groups_.size());
-  if (inserted) groups_.push_back({id, std::move(at), text, {}});
+  if (inserted) groups_.push_back({id, std::move(at), text, {}, std::move(notes)});
   groups_[it->second].variants.emplace_back(order, variant);
 }
 
@@ -115,6 +116,7 @@ void MessageGroups::report(DiagnosticSink& sink) {
       notes.push_back("SPIRV-Cross cannot write this for the '" + target + "' target; if the pack does not ship it, remove \"" +
                       target + "\" from the pack's \"targets\" (or build with --targets)");
     }
+    notes.insert(notes.end(), g.notes.begin(), g.notes.end());
     sink.report(g.id, g.at, g.text, notes);
   }
   groups_.clear();

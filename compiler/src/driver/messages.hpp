@@ -47,8 +47,10 @@ int guess_column(const std::string& line_text, const std::string& message);
 
 class MessageGroups {
  public:
-  // `order`: the compile index of the variant it came from (the sort key of the report).
-  void collect(DiagId id, SourceLocation at, const std::string& text, const std::string& variant, size_t order);
+  // `order`: the compile index of the variant it came from (the sort key of the report). `notes`: printed after
+  // the variants' (the first collection of a message gives them).
+  void collect(DiagId id, SourceLocation at, const std::string& text, const std::string& variant, size_t order,
+               std::vector<std::string> notes = {});
   bool has_errors() const;
   // Reports every group to `sink`, in order.
   void report(DiagnosticSink& sink);
@@ -59,6 +61,7 @@ class MessageGroups {
     SourceLocation at;
     std::string text;
     std::vector<std::pair<size_t, std::string>> variants;  // compile index, description
+    std::vector<std::string> notes;
   };
   std::vector<Group> groups_;
   std::map<std::tuple<int, std::string, int, std::string>, size_t> index_;

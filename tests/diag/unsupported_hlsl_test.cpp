@@ -1,0 +1,101 @@
+// HLSL that glslang 12's front end does not take (HLSL 2021, Shader Model 6.4+ intrinsics, ray tracing, mesh
+// shaders, C++ spellings): the error names the construct, points at it, and says what to write instead, where
+// glslang alone says "'declaration' : Expected" or "no matching overloaded function found".
+#include <gtest/gtest.h>
+
+#include "frontend/unsupported_hlsl.hpp"
+#include "test_support.hpp"
+
+namespace kiln {
+namespace {
+
+struct Case {
+  const char* name;
+  const char* line;       // the fragment stage's line 2, where the construct is
+  const char* construct;  // as the diagnostic names it
+  int column;             // where the caret goes
+};
+
+const Case kCases[] = {
+    {"select", "float4 F(float4 p : SV_Position) : SV_Target { return select(p > 0.5, p, 1 - p); }",
+     "HLSL 2021 `select()`", 55},
+    {"and", "float4 F(float4 p : SV_Position) : SV_Target { return and(p > 0.5, p < 0.7).x ? 1 : 0; }",
+     "HLSL 2021 `and()`", 55},
+    {"or", "float4 F(float4 p : SV_Position) : SV_Target { return or(p > 0.5, p < 0.7).x ? 1 : 0; }",
+     "HLSL 2021 `or()`", 55},
+    {"template", "template<typename T> T Twice(T x) { return x + x; } float4 F() : SV_Target { return Twice(1.0); }",
+     "templates (HLSL 2021)", 1},
+    {"enum", "enum class Mode { A, B }; float4 F() : SV_Target { return 1.0; }", "`enum`", 1},
+    {"using", "using real = float; float4 F() : SV_Target { return 1.0; }", "type aliases with `using`", 1},
+    {"float16_t", "float4 F(float4 p : SV_Position) : SV_Target { float16_t3 h = float16_t3(p.xyz); return 1.0; }",
+     "the `float16_t` type names", 48},
+    {"int16_t", "float4 F(float4 p : SV_Position) : SV_Target { int16_t i = 3; return i; }", "the `int16_t` type names", 48},
+    {"uint16_t", "float4 F(float4 p : SV_Position) : SV_Target { uint16_t i = 3; return i; }", "the `uint16_t` type names",
+     48},
+    {"descriptor heap",
+     "float4 F() : SV_Target { Texture2D t = ResourceDescriptorHeap[0]; return t.Load(int3(0, 0, 0)); }",
+     "Shader Model 6.6 dynamic resources (`ResourceDescriptorHeap`)", 40},
+    {"acceleration structure", "RaytracingAccelerationStructure scene : register(t0); float4 F() : SV_Target { return 1.0; }",
+     "ray tracing (`RaytracingAccelerationStructure`)", 1},
+    {"ray query", "float4 F() : SV_Target { RayQuery<RAY_FLAG_NONE> q; return 1.0; }", "inline ray tracing (`RayQuery`)", 26},
+    {"packed dot", "float4 F() : SV_Target { uint a = 1, b = 2; return dot4add_u8packed(a, b, 0u); }",
+     "Shader Model 6.4 packed dot products (`dot4add_u8packed`, `dot4add_i8packed`)", 52},
+    {"pack_u8", "float4 F(float4 p : SV_Position) : SV_Target { return pack_u8(uint4(p)); }",
+     "Shader Model 6.6 packing intrinsics (`pack_u8`, `pack_s8`, `pack_clamp_*`)", 55},
+    {"static_assert", "static_assert(1 == 1, \"one\"); float4 F() : SV_Target { return 1.0; }", "`static_assert`", 1},
+    {"constexpr", "constexpr float k = 2.0; float4 F() : SV_Target { return k; }", "`constexpr`", 1},
+    {"operator", "struct V { float x; V operator+(V o) { V r; r.x = x + o.x; return r; } }; float4 F() : SV_Target { return 1.0; }",
+     "operator overloading (HLSL 2021)", 23},
+    {"bit field", "struct S { uint a : 4; uint b : 28; }; float4 F() : SV_Target { S s; s.a = 1; return s.a; }",
+     "bit fields (HLSL 2021)", 12},
+    {"mesh", "[outputtopology(\"triangle\")] [numthreads(1, 1, 1)] void F(out indices uint3 t[1]) { SetMeshOutputCounts(3, 1); }",
+     "mesh shaders", 2},
+};
+
+// Through the CLI, as a user sees it: exit 1, the construct named at its column, the advice as a note.
+TEST(UnsupportedHlsl, EachConstructIsNamedAtItsColumnWithWhatToWriteInstead) {
+  for (const Case& c : kCases) {
+    SCOPED_TRACE(c.name);
+    testing::TempDir dir;
+    dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl",
+                                  "stages": {"vertex": "V", "fragment": "F"}}]})");
+    dir.write("S.hlsl", std::string("float4 V(float4 p : POSITION) : SV_Position { return p; }\n") + c.line + "\n");
+    auto r = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--no-cache", "-q"}, dir.path());
+    EXPECT_EQ(r.exit_code, 1);
+    const std::string head = "S.hlsl:2:" + std::to_string(c.column) + ": error[K1401]: glslang 12's HLSL front end does not support " +
+                             c.construct + " (it said: '";
+    EXPECT_EQ(r.err.substr(0, head.size()), head) << r.err;
+    EXPECT_NE(r.err.find("\n    " + std::string(c.line) + "\n    " + std::string(c.column - 1, ' ') + "^\n"), std::string::npos)
+        << r.err;
+    EXPECT_NE(r.err.find("(docs/bindings.md lists what glslang 12 does not take)\n"), std::string::npos) << r.err;
+  }
+}
+
+// The whole text of one, and an ordinary error that only looks like one is left as glslang said it.
+TEST(UnsupportedHlsl, TheMessageKeepsGlslangsWordsAndOrdinaryErrorsAreUntouched) {
+  testing::TempDir dir;
+  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl",
+                                "stages": {"vertex": "V", "fragment": "F"}}]})");
+  dir.write("S.hlsl", "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "float4 F(float4 p : SV_Position) : SV_Target { return select(p > 0.5, p, 1 - p); }\n");
+  auto r = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--no-cache", "-q"}, dir.path());
+  EXPECT_EQ(r.err,
+            "S.hlsl:2:55: error[K1401]: glslang 12's HLSL front end does not support HLSL 2021 `select()` (it said: 'select' : "
+            "no matching overloaded function found)\n"
+            "    float4 F(float4 p : SV_Position) : SV_Target { return select(p > 0.5, p, 1 - p); }\n"
+            "                                                          ^\n"
+            "  note: in pass 'P' vertex stage, keywords [<none>]\n"
+            "  note: and in 1 more variant(s)\n"
+            "  note: glslang 12 implements HLSL 2018, where `?:` is componentwise on vectors: write `cond ? a : b` "
+            "(docs/bindings.md lists what glslang 12 does not take)\n"
+            "kiln: 1 error(s)\n");
+  // A user function named like an HLSL 2021 intrinsic, called wrongly, is the user's own mistake.
+  EXPECT_FALSE(recognise_unsupported_hlsl("'Select' : no matching overloaded function found", "return Select(a);"));
+  EXPECT_FALSE(recognise_unsupported_hlsl("'undefinedThing' : unknown variable", "float4 c = undefinedThing;"));
+  // A semantic or a ternary is no bit field; a word in a comment is no construct.
+  EXPECT_FALSE(recognise_unsupported_hlsl("';' : Expected", "float4 color : COLOR0; float x = c ? a : 0;"));
+  EXPECT_FALSE(recognise_unsupported_hlsl("';' : Expected", "float x = 1.0 // no static_assert here"));
+}
+
+}  // namespace
+}  // namespace kiln
