@@ -11,6 +11,7 @@ namespace {
 enum class Seen {
   Quoted,        // the message quotes the word: "'select' : no matching overloaded function found"
   QuotedPrefix,  // the message quotes a word starting with it: 'float16_t3'
+  QuotedNamespaced,  // the message quotes an unknown qualified name: "'Shading::Light' : unknown variable"
   InLine,        // the word is on the line the message points at ("'declaration' : Expected")
   Pattern,       // the line matches `word` as a regular expression
 };
@@ -31,6 +32,8 @@ constexpr std::array kRows{
     Row{Seen::Quoted, "template", "templates (HLSL 2021)", "write one function per type, or generate them with a macro"},
     Row{Seen::Quoted, "enum", "`enum`", "use `static const uint` constants"},
     Row{Seen::Quoted, "using", "type aliases with `using`", "write `typedef float real;`"},
+    Row{Seen::QuotedNamespaced, "", "types declared in a namespace",
+        "declare the type at file scope (functions in a namespace work)"},
     Row{Seen::QuotedPrefix, "float16_t", "the `float16_t` type names",
         "with 16-bit types on (kiln always enables them) `half`, `half2`, `half3x3`, ... are 16-bit floats: spell them so"},
     Row{Seen::QuotedPrefix, "int16_t", "the `int16_t` type names",
@@ -99,6 +102,10 @@ std::optional<UnsupportedHlsl> recognise_unsupported_hlsl(std::string_view messa
         column = word_column(line, quoted);
         break;
       }
+      case Seen::QuotedNamespaced:
+        if (quoted.find("::") == std::string_view::npos || !message.ends_with(": unknown variable")) continue;
+        column = word_column(line, quoted);
+        break;
       case Seen::InLine:
         column = word_column(line, row.word);
         if (column == 0) continue;
