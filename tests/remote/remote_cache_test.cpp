@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <map>
 
+#include <nlohmann/json.hpp>
+
 #include "kiln/build.hpp"
 #include "remote/remote_cache.hpp"
 #include "servers.hpp"
@@ -820,6 +822,77 @@ TEST(RemoteCli, RemoteRequiredMakesAnUnreachableServerAnError) {
                            "  note: the remote cache is off for the rest of this build\n"
                            "kiln: 1 error(s)\n");
   EXPECT_FALSE(std::filesystem::exists(root / "ws/out/p.manifest.json"));
+}
+
+}  // namespace
+}  // namespace kiln
+
+namespace kiln {
+namespace {
+
+// kiln_add_shader_pack(... DEFINES ... REMOTE <url> [REMOTE_UPLOAD]) in a CMake project, built with Ninja against a
+// real nginx: the build tree that may upload fills the server; another build tree of the same project (its own
+// kiln-cache) fetches the finished pack and compiles nothing; the define reaches the shader (it #errors without it)
+// and is part of the remote keys (another value compiles again) and of the build's inputs (changing it rebuilds).
+TEST(RemoteCli, ACMakeProjectsPackUploadsAndAnotherBuildTreeFetchesItWithItsDefines) {
+  testing::Nginx server;
+  testing::TempDir root;
+  root.write("project/S.hlsl",
+             "#pragma multi_compile_fragment _ FOG\n#ifndef TINT\n#error TINT is not defined\n#endif\n"
+             "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+             "float4 F(float4 p : SV_Position) : SV_Target {\n  float c = TINT;\n#ifdef FOG\n  c *= exp2(-p.z);\n#endif\n"
+             "  return float4(c, c, c, 1.0);\n}\n");
+  root.write("project/p.pack.json", R"({"name": "p",
+      "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  root.write("project/CMakeLists.txt",
+             "cmake_minimum_required(VERSION 3.25)\nproject(consumer NONE)\n"
+             "add_executable(kiln::kiln IMPORTED)\n"
+             "set_target_properties(kiln::kiln PROPERTIES IMPORTED_LOCATION \"" KILN_CLI_PATH "\")\n"
+             "include(\"" KILN_SOURCE_DIR "/cmake/KilnShaderPack.cmake\")\n"
+             "set(TINT 0.5 CACHE STRING \"\")\noption(UPLOAD \"\" OFF)\nset(upload \"\")\n"
+             "if(UPLOAD)\n  set(upload REMOTE_UPLOAD)\nendif()\n"
+             "kiln_add_shader_pack(shaders PACK p.pack.json DEFINES TINT=${TINT} REMOTE " + server.url() +
+                 " ${upload}\n  OPTIONS --summary-json ${CMAKE_BINARY_DIR}/summary.json)\n");
+  const auto configure_and_build = [&](const std::string& tree, std::vector<std::string> cache_entries) {
+    std::vector<std::string> configure{KILN_CMAKE_COMMAND, "-S", (root / "project").string(), "-B", (root / tree).string(), "-G", "Ninja"};
+    configure.insert(configure.end(), cache_entries.begin(), cache_entries.end());
+    auto configured = testing::run(configure, root.path());
+    EXPECT_EQ(configured.exit_code, 0) << configured.out << configured.err;
+    auto built = testing::run({KILN_CMAKE_COMMAND, "--build", (root / tree).string()}, root.path());
+    EXPECT_EQ(built.exit_code, 0) << built.out << built.err;
+    return nlohmann::json::parse(testing::read_file(root / tree / "summary.json"));
+  };
+
+  const nlohmann::json ci = configure_and_build("ci", {"-DUPLOAD=ON"});
+  EXPECT_EQ(ci["compiled"], 3);
+  EXPECT_EQ(ci["remote"]["configured"], true);
+  EXPECT_GT(ci["remote"]["uploads"].get<int>(), 0);
+  EXPECT_FALSE(testing::files_below(server.data()).empty()) << "nothing was uploaded";
+
+  // A developer's build tree: read-only, its own local cache.
+  const nlohmann::json developer = configure_and_build("developer", {});
+  EXPECT_EQ(developer["compiled"], 0);
+  EXPECT_EQ(developer["remote"]["pack_fetched"], true);
+  EXPECT_EQ(developer["remote"]["uploads"], 0);
+  EXPECT_TRUE(pack_bytes(root / "ci/shaders") == pack_bytes(root / "developer/shaders"));
+
+  // Another define is another pack: the remote has none of it, and the shader's code changes.
+  const nlohmann::json other = configure_and_build("other", {"-DTINT=0.25"});
+  EXPECT_EQ(other["remote"]["pack_fetched"], false);
+  EXPECT_EQ(other["remote"]["hits"], 0);
+  EXPECT_GT(other["compiled"].get<int>(), 0);
+  EXPECT_NE(testing::read_archive(root / "ci/shaders/p.manifest.json"),
+            testing::read_archive(root / "other/shaders/p.manifest.json"));
+
+  // Changing DEFINES in a configured tree rebuilds its pack; building again with nothing changed does not.
+  auto reconfigured = testing::run({KILN_CMAKE_COMMAND, "-DTINT=0.25", (root / "developer").string()}, root.path());
+  ASSERT_EQ(reconfigured.exit_code, 0) << reconfigured.err;
+  auto rebuilt = testing::run({KILN_CMAKE_COMMAND, "--build", (root / "developer").string()}, root.path());
+  EXPECT_NE(rebuilt.out.find("kiln: building shader pack 'p'"), std::string::npos) << rebuilt.out;
+  EXPECT_EQ(testing::read_archive(root / "developer/shaders/p.manifest.json"),
+            testing::read_archive(root / "other/shaders/p.manifest.json"));
+  auto again = testing::run({KILN_CMAKE_COMMAND, "--build", (root / "developer").string()}, root.path());
+  EXPECT_EQ(again.out.find("kiln: building shader pack"), std::string::npos) << again.out;
 }
 
 }  // namespace
