@@ -163,6 +163,32 @@ TEST_F(Lint, LayoutThatDiffersBetweenVariantsIsReported) {
   EXPECT_FALSE(has(rules({"p.pack.json"}), "layout-mismatch"));
 }
 
+// A binding clash names both declarations: the second one is a related location in every format (SARIF
+// relatedLocations, JSON "related", a located note in text), not dropped.
+TEST_F(Lint, ABindingClashNamesTheSecondDeclarationInEveryFormat) {
+  pack();
+  dir.write("S.hlsl", "Texture2D albedo : register(t0);\nSamplerState linearSampler : register(s0);\n" + std::string(kVertex) +
+                          "float4 F() : SV_Target { return albedo.Sample(linearSampler, float2(0.5, 0.5)); }\n");
+  auto text = testing::run_kiln({"lint", "p.pack.json"}, dir.path());
+  EXPECT_NE(text.err.find("\n  note: S.hlsl:2:14: 'linearSampler' (sampler) is declared here\n"), std::string::npos) << text.err;
+  json report;
+  rules({"p.pack.json"}, &report);
+  ASSERT_EQ(report["findings"].size(), 1u) << report.dump(2);
+  const json& finding = report["findings"][0];
+  EXPECT_EQ(finding["line"], 1);
+  EXPECT_EQ(finding["column"], 11);
+  ASSERT_EQ(finding["related"].size(), 1u);
+  EXPECT_EQ(finding["related"][0], json({{"path", "S.hlsl"}, {"line", 2}, {"column", 14},
+                                         {"message", "'linearSampler' (sampler) is declared here"}}));
+  json sarif = json::parse(lint_sarif({"p.pack.json", "--sarif-root", "."}).out);
+  const json& related = sarif["runs"][0]["results"][0]["relatedLocations"];
+  ASSERT_EQ(related.size(), 1u) << sarif.dump(2);
+  EXPECT_EQ(related[0]["physicalLocation"]["artifactLocation"]["uri"], "S.hlsl");
+  EXPECT_EQ(related[0]["physicalLocation"]["region"]["startLine"], 2);
+  EXPECT_EQ(related[0]["physicalLocation"]["region"]["startColumn"], 14);
+  EXPECT_EQ(related[0]["message"]["text"], "'linearSampler' (sampler) is declared here");
+}
+
 TEST_F(Lint, SpirvValidationErrorsAreReported) {
   pack();
   // Selecting between two textures at run time cannot be legalized for Vulkan: spirv-val rejects it.

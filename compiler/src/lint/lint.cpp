@@ -87,7 +87,12 @@ LintReport lint_pack(BuildOptions options) {
   for (const Diagnostic& d : sink.diagnostics()) {
     // Lint judges the shaders, not the machine: a cache that cannot be written is not a finding (--werror
     // failed on it alone).
-    if (d.severity == Severity::Note || d.id == DiagId::CacheUnwritable) continue;
+    if (d.id == DiagId::CacheUnwritable) continue;
+    // A located note belongs to the finding before it (K1406's "'s' (sampler) is declared here").
+    if (d.severity == Severity::Note) {
+      if (!report.findings.empty()) report.findings.back().related.emplace_back(d.location, d.message);
+      continue;
+    }
     report.findings.push_back({rule_for_diagnostic(d.id), d.severity == Severity::Error ? Severity::Error : Severity::Warning,
                                d.location, d.message, d.notes});
   }
@@ -180,30 +185,43 @@ std::optional<std::filesystem::path> user_cache_directory() {
   return std::nullopt;
 }
 
+namespace {
+
+std::string format_location(const SourceLocation& at) {
+  std::string where = at.path.empty() ? "kiln" : at.path;
+  if (at.line > 0) where += ":" + std::to_string(at.line);
+  if (at.line > 0 && at.column > 0) where += ":" + std::to_string(at.column);
+  return where;
+}
+
+}  // namespace
+
 std::string format_lint_text(const LintReport& report) {
   std::string out;
   for (const LintFinding& f : report.findings) {
-    const SourceLocation& at = f.location;
-    std::string where = at.path.empty() ? "kiln" : at.path;
-    if (at.line > 0) where += ":" + std::to_string(at.line);
-    if (at.line > 0 && at.column > 0) where += ":" + std::to_string(at.column);
-    out += where + ": " + (f.severity == Severity::Error ? "error" : "warning") + "[" + std::string(rule_id_text(f.rule)) +
+    out += format_location(f.location) + ": " + (f.severity == Severity::Error ? "error" : "warning") + "[" + std::string(rule_id_text(f.rule)) +
            "]: " + f.message + "\n";
     for (const std::string& note : f.notes) out += "  note: " + note + "\n";
+    for (const auto& [place, message] : f.related) out += "  note: " + format_location(place) + ": " + message + "\n";
   }
   return out;
 }
 
 std::string format_lint_json(const LintReport& report) {
   json findings = json::array();
-  for (const LintFinding& f : report.findings)
+  for (const LintFinding& f : report.findings) {
+    json related = json::array();
+    for (const auto& [place, message] : f.related)
+      related.push_back({{"path", place.path}, {"line", place.line}, {"column", place.column}, {"message", message}});
     findings.push_back({{"rule", rule_id_text(f.rule)},
                         {"severity", f.severity == Severity::Error ? "error" : "warning"},
                         {"path", f.location.path},
                         {"line", f.location.line},
                         {"column", f.location.column},
                         {"message", f.message},
-                        {"notes", f.notes}});
+                        {"notes", f.notes},
+                        {"related", related}});
+  }
   return json{{"findings", findings}, {"errors", report.errors()}, {"warnings", report.warnings()}}.dump(2) + "\n";
 }
 

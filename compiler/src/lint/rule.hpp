@@ -22,6 +22,8 @@ struct LintFinding {
   SourceLocation location;
   std::string message;
   std::vector<std::string> notes;
+  // Other places the finding involves (the second declaration of a binding clash): a build's note diagnostics.
+  std::vector<std::pair<SourceLocation, std::string>> related;
 };
 
 struct LintReport {

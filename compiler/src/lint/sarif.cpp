@@ -58,6 +58,13 @@ json artifact_location(const std::string& path, const std::filesystem::path& roo
 
 const char* level(Severity severity) { return severity == Severity::Error ? "error" : "warning"; }
 
+// Every location has a region: one about a whole file (no line) points at its first line.
+json physical_location(const SourceLocation& at, const std::filesystem::path& root) {
+  json region{{"startLine", at.line > 0 ? at.line : 1}};
+  if (at.line > 0 && at.column > 0) region["startColumn"] = at.column;
+  return {{"artifactLocation", artifact_location(at.path, root)}, {"region", region}};
+}
+
 }  // namespace
 
 std::filesystem::path default_sarif_root(const std::filesystem::path& directory) {
@@ -97,13 +104,15 @@ std::string format_lint_sarif(const LintReport& report, const SarifOptions& opti
                 {"ruleIndex", static_cast<int>(f.rule)},
                 {"level", level(f.severity)},
                 {"message", {{"text", message}}}};
-    if (!f.location.path.empty()) {
-      // Every result has a region: a finding about a whole file (no line) points at its first line.
-      json region{{"startLine", f.location.line > 0 ? f.location.line : 1}};
-      if (f.location.line > 0 && f.location.column > 0) region["startColumn"] = f.location.column;
-      result["locations"] = json::array(
-          {{{"physicalLocation", {{"artifactLocation", artifact_location(f.location.path, root)}, {"region", region}}}}});
+    if (!f.location.path.empty()) result["locations"] = json::array({{{"physicalLocation", physical_location(f.location, root)}}});
+    json related = json::array();
+    for (const auto& [place, text] : f.related) {
+      if (place.path.empty()) continue;
+      related.push_back({{"id", static_cast<int>(related.size())},
+                         {"physicalLocation", physical_location(place, root)},
+                         {"message", {{"text", text}}}});
     }
+    if (!related.empty()) result["relatedLocations"] = related;
     results.push_back(result);
   }
   json run{{"tool", {{"driver", {{"name", "kiln"},
