@@ -14,9 +14,12 @@ for entry in CMakeLists.txt CMakePresets.json compiler cmake tests bench; do ln 
 ln -s "$work/shaderlib" "$work/kiln-src/shaderlib"
 ln -s "$work/variants" "$work/kiln-src/variants"
 extra=()
+# kiln inside the consumer builds as a unity build (CMAKE_UNITY_BUILD, which kiln supports): a quarter less CPU
+# than one source at a time, and the mode a project that builds its dependencies this way uses.
+if [ "$mode" = subdirectory ]; then extra=(-DCMAKE_UNITY_BUILD=ON); fi
 if [ "$mode" = find_package ]; then
   cmake --install "$build" --prefix "$work/prefix" > /dev/null
-  extra=(-DCMAKE_PREFIX_PATH="$work/prefix")
+  extra+=(-DCMAKE_PREFIX_PATH="$work/prefix")
 fi
 cmake -S "$source/tests/cmake_consumer" -B "$work/build" -G "$generator" -DCMAKE_BUILD_TYPE=Release \
   -DKILN_CONSUMER_MODE="$mode" -DKILN_SOURCE_DIR="$work/kiln-src" \
@@ -39,6 +42,7 @@ if [ "$mode" = subdirectory ]; then
   ! grep -q "^KILN_BUILD_VERIFY:BOOL=ON\|^Vulkan_LIBRARY\|^OpenEXR_DIR" "$work/build/CMakeCache.txt" ||
     { echo "FAIL: add_subdirectory(kiln) configured verify/"; exit 1; }
   ! grep -q "kiln_verify\|kiln-verify" "$work/build1.log" || { echo "FAIL: add_subdirectory(kiln) built verify/"; exit 1; }
+  ! grep -q "warning:" "$work/build1.log" || { grep -A3 "warning:" "$work/build1.log"; echo "FAIL: the unity build warned"; exit 1; }
 fi
 
 stamp() { stat -c %Y.%y "$manifest"; }
