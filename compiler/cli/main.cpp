@@ -190,19 +190,24 @@ std::string parse_shard(const std::string& text, kiln::BuildOptions& options) {
     return *end ? std::nullopt : std::optional<long>(n);
   };
   long index = -1, count = 0;
+  std::string read;  // what --shard auto read, for its error
+  auto variable = [](const char* name) { return std::string(name) + "=" + std::getenv(name); };
   if (text == "auto") {
     if (auto id = number("SLURM_ARRAY_TASK_ID")) {
-      if (auto n = number("SLURM_ARRAY_TASK_COUNT")) index = *id, count = *n;
+      if (auto n = number("SLURM_ARRAY_TASK_COUNT")) index = *id, count = *n, read = variable("SLURM_ARRAY_TASK_COUNT");
       auto min = number("SLURM_ARRAY_TASK_MIN"), max = number("SLURM_ARRAY_TASK_MAX");
-      if (min && max) index = *id - *min, count = *max - *min + 1;
+      if (min && max)
+        index = *id - *min, count = *max - *min + 1,
+        read = variable("SLURM_ARRAY_TASK_MIN") + ", " + variable("SLURM_ARRAY_TASK_MAX");
+      read = variable("SLURM_ARRAY_TASK_ID") + (read.empty() ? "" : ", " + read);
     } else if (auto node = number("CI_NODE_INDEX"), total = number("CI_NODE_TOTAL"); node && total) {
-      index = *node - 1, count = *total;
+      index = *node - 1, count = *total, read = variable("CI_NODE_INDEX") + ", " + variable("CI_NODE_TOTAL");
     } else if (auto completion = number("JOB_COMPLETION_INDEX")) {
       auto n = number("KILN_SHARD_COUNT");
       if (!n)
         return "--shard auto found JOB_COMPLETION_INDEX (a Kubernetes Indexed Job) but no KILN_SHARD_COUNT: set it to "
                "the job's completions";
-      index = *completion, count = *n;
+      index = *completion, count = *n, read = variable("JOB_COMPLETION_INDEX") + ", " + variable("KILN_SHARD_COUNT");
     } else {
       return "--shard auto found no SLURM_ARRAY_TASK_ID, CI_NODE_INDEX/CI_NODE_TOTAL or JOB_COMPLETION_INDEX in the "
              "environment";
@@ -210,7 +215,12 @@ std::string parse_shard(const std::string& text, kiln::BuildOptions& options) {
   } else if (unsigned i = 0, n = 0; std::sscanf(text.c_str(), "%u/%u", &i, &n) == 2) {
     index = i, count = n;
   }
-  if (count < 1 || index < 0 || index >= count) return "--shard wants I/N with I < N, or auto (got '" + text + "')";
+  if (count < 1 || index < 0 || index >= count) {
+    if (!read.empty())
+      return "--shard auto read shard " + std::to_string(index) + " of " + std::to_string(count) + " from " + read +
+             ": a shard's index must be at least 0 and below the count (does the count match the scheduler's?)";
+    return "--shard wants I/N with I < N, or auto (got '" + text + "')";
+  }
   options.shard_index = static_cast<unsigned>(index);
   options.shard_count = static_cast<unsigned>(count);
   return {};

@@ -723,6 +723,13 @@ TEST(RemoteCli, ShardAutoReadsTheSchedulersIndexAndCountFromTheEnvironment) {
   ::setenv("KILN_SHARD_COUNT", "2", 1);
   auto kubernetes = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "c5", "--remote", server.url(),
                                        "--shard", "auto"}, root / "ws");
+  // A count that does not match the scheduler's: the error says what was read, not only "auto".
+  ::setenv("JOB_COMPLETION_INDEX", "2", 1);
+  auto beyond = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "c7", "--remote", server.url(),
+                                   "--shard", "auto"}, root / "ws");
+  EXPECT_EQ(beyond.exit_code, 1);
+  EXPECT_EQ(beyond.err, "kiln: error: --shard auto read shard 2 of 2 from JOB_COMPLETION_INDEX=2, KILN_SHARD_COUNT=2: a "
+                        "shard's index must be at least 0 and below the count (does the count match the scheduler's?)\n");
   ::unsetenv("JOB_COMPLETION_INDEX");
   ::unsetenv("KILN_SHARD_COUNT");
   EXPECT_EQ(kubernetes.exit_code, 0) << kubernetes.err;
