@@ -191,6 +191,65 @@ Rgb direct(const Model& m, const Surface& s, Vec3 L) {
   return out;
 }
 
+// The environment's light integrated over the hemisphere for one surface, by Monte Carlo over the analytic sky:
+// the split-sum, SH9 and DFG-table approximations the shader (and the table-sampling reference) make are absent.
+struct IntegratedEnvironment {
+  bool valid = false;
+  Rgb specular{};         // (1/N) sum of 4 Vis F NoL VoH / NoH * L(l), GGX-importance sampled
+  Rgb specular_albedo{};  // the same with L = 1: what the shader takes from the DFG table
+  double albedo = 0;      // the same with F = 1 (energy compensation's E)
+  Rgb irradiance{};       // (1/pi) integral of L cos: cosine-sampled
+};
+
+// A per-pixel rotation of the Hammersley points (Cranley-Patterson): noise, not structure, across pixels.
+std::array<double, 2> pixel_offset(uint32_t x, uint32_t y, uint32_t salt) {
+  uint64_t h = (uint64_t(x) * 0x9E3779B97F4A7C15ull) ^ (uint64_t(y) * 0xC2B2AE3D27D4EB4Full) ^ (uint64_t(salt) * 0x165667B19E3779F9ull);
+  h ^= h >> 33, h *= 0xFF51AFD7ED558CCDull, h ^= h >> 33, h *= 0xC4CEB9FE1A85EC53ull, h ^= h >> 33;
+  return {double(h >> 40) / double(1ull << 24), double(h & 0xFFFFFF) / double(1ull << 24)};
+}
+
+IntegratedEnvironment integrate_environment(const Surface& s, uint32_t samples, std::array<double, 2> offset) {
+  IntegratedEnvironment out;
+  out.valid = true;
+  Vec3 up = std::abs(s.N.z) < 0.999 ? Vec3{0, 0, 1} : Vec3{1, 0, 0};
+  Vec3 tx = normalize(cross(up, s.N)), ty = cross(s.N, tx);
+  auto rotated = [&](uint32_t i, uint32_t n) {
+    auto u = hammersley(i, n);
+    return std::array<double, 2>{std::fmod(u[0] + offset[0], 1.0), std::fmod(u[1] + offset[1], 1.0)};
+  };
+  const double a2 = s.alpha * s.alpha;
+  for (uint32_t i = 0; i < samples; ++i) {
+    auto u = rotated(i, samples);
+    double phi = 2 * kPi * u[0];
+    double cos_theta = std::sqrt((1 - u[1]) / (1 + (a2 - 1) * u[1]));
+    double sin_theta = std::sqrt(std::max(0.0, 1 - cos_theta * cos_theta));
+    Vec3 H = tx * (sin_theta * std::cos(phi)) + ty * (sin_theta * std::sin(phi)) + s.N * cos_theta;
+    double VoH = dot(s.V, H);
+    Vec3 L = H * (2 * VoH) - s.V;
+    double NoL = dot(s.N, L), NoH = dot(s.N, H);
+    if (NoL <= 0 || VoH <= 0 || NoH <= 0) continue;
+    double w = 4 * V_SmithGGXCorrelated(s.NoV, NoL, s.alpha) * NoL * VoH / NoH;
+    Rgb radiance = SkyRadiance(normalize(L));
+    out.albedo += w;
+    for (int c = 0; c < 3; ++c) {
+      double F = F_Schlick(s.f0[c], 1.0, VoH);
+      out.specular[c] += w * F * radiance[c];
+      out.specular_albedo[c] += w * F;
+    }
+  }
+  out.albedo /= samples;
+  for (int c = 0; c < 3; ++c) out.specular[c] /= samples, out.specular_albedo[c] /= samples;
+  const uint32_t diffuse_samples = std::max(1u, samples / 4);
+  for (uint32_t i = 0; i < diffuse_samples; ++i) {
+    auto u = rotated(i, diffuse_samples);
+    double phi = 2 * kPi * u[0], r = std::sqrt(u[1]);
+    Vec3 L = tx * (r * std::cos(phi)) + ty * (r * std::sin(phi)) + s.N * std::sqrt(std::max(0.0, 1 - u[1]));
+    Rgb radiance = SkyRadiance(normalize(L));
+    for (int c = 0; c < 3; ++c) out.irradiance[c] += radiance[c] / diffuse_samples;
+  }
+  return out;
+}
+
 int cube_face_index(Vec3 d) {
   double ax = std::abs(d.x), ay = std::abs(d.y), az = std::abs(d.z);
   if (ax >= ay && ax >= az) return d.x >= 0 ? 0 : 1;
@@ -363,6 +422,14 @@ render::Image shade_image(const ReferenceInputs& in, const std::vector<std::stri
                                             : dfg[0] + (dfg[1] - dfg[0]) * s.f0[c];
         s.energy[c] = m.multiscatter ? 1 + s.f0[c] * (1 / std::max(dfg[1], 1e-3) - 1) : 1;
       }
+      IntegratedEnvironment integrated;
+      if (in.integrate_environment_samples > 0 && !m.anisotropic && !m.mobile && !m.env_approx) {
+        integrated = integrate_environment(s, in.integrate_environment_samples, pixel_offset(x, y, in.sample_salt));
+        for (int c = 0; c < 3; ++c) {
+          s.specular_albedo[c] = integrated.specular_albedo[c];
+          s.energy[c] = m.multiscatter ? 1 + s.f0[c] * (1 / std::max(integrated.albedo, 1e-3) - 1) : 1;
+        }
+      }
 
       Rgb color{};
       bool unstable = false;
@@ -423,10 +490,14 @@ render::Image shade_image(const ReferenceInputs& in, const std::vector<std::stri
       }
       for (int c = 0; c < 3; ++c) color[c] += s.diffuse_color[c] * vertex_irradiance[c] / kPi;
 
-      // Image-based lighting: SH irradiance, prefiltered radiance (or the flat glossy color).
-      Rgb irradiance = sh9_irradiance_over_pi(*in.environment, s.N);
+      // Image-based lighting: SH irradiance, prefiltered radiance (or the flat glossy color); or the sky integrated.
+      Rgb irradiance = integrated.valid ? integrated.irradiance : sh9_irradiance_over_pi(*in.environment, s.N);
       Rgb prefiltered;
-      if (m.reflections_off) {
+      if (integrated.valid && !m.reflections_off) {
+        // The integral already holds F and the lobe: prefiltered x specular albedo, without the split.
+        for (int c = 0; c < 3; ++c)
+          prefiltered[c] = integrated.specular_albedo[c] > 0 ? integrated.specular[c] / integrated.specular_albedo[c] : 0;
+      } else if (m.reflections_off) {
         prefiltered = {scene.glossy_environment_color[0], scene.glossy_environment_color[1], scene.glossy_environment_color[2]};
       } else {
         Vec3 R = s.N * (2 * dot(s.N, s.V)) - s.V;

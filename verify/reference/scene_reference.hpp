@@ -33,6 +33,12 @@ struct ReferenceInputs {
   const render::ShadowAtlas* main_shadow = nullptr;  // same
   const render::ShadowAtlas* additional_shadow = nullptr;
   const render::FrameSetup* additional_frame = nullptr;  // shadow views of the additional lights
+  // > 0: the image-based lighting is integrated from the sky itself (SkyRadiance) with this many GGX-importance
+  // samples per pixel (and a quarter as many cosine samples for the diffuse part), and the specular albedo and
+  // energy compensation come from the same samples: no SH9, no prefiltered cube and no DFG table, i.e. nothing
+  // the shader samples. Isotropic, non-mobile, non-EnvBRDFApprox models only (others shade as with 0).
+  uint32_t integrate_environment_samples = 0;
+  uint32_t sample_salt = 0;  // decorrelates two integrations of one image (a noise estimate)
 };
 
 // Shades every covered pixel for the variant `keywords` of the Forward pass; background pixels are 0.
