@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates bench/REPORT.md and bench/plots/*.png from scratch: installs the Debian packages, builds,
-# then runs the six instruments and the report. About 55 minutes on 2 cores; do not run other heavy jobs
+# then runs the instruments and the report. About 95 minutes on 2 cores; do not run other heavy jobs
 # meanwhile (the build benchmark edits shaderlib/Fog.hlsl temporarily and restores it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -29,5 +29,8 @@ build/ci/compiler/kiln build variants/lit.pack.json -o build/ci/packs/lit --cach
 build/ci/compiler/kiln build variants/debug.pack.json -o build/ci/packs/debug --cache build/ci/kiln-cache -q
 build/ci/bench/kiln-frame-cost build/ci/packs/lit build/ci/packs/debug bench/results/frame_cost.json
 bash bench/remote_cache.sh build/ci/compiler/kiln . 3
+python3 bench/remote_transfers.py --kiln build/ci/compiler/kiln --rounds 3 --delay-ms 5
+# kiln against the 2-wide anchors (xargs, build.ninja, glslc): the longest instrument, about 25 minutes.
+python3 bench/anchors.py --kiln build/ci/compiler/kiln --reps 3
 python3 bench/report.py
 echo "wrote bench/REPORT.md"

@@ -511,7 +511,7 @@ int main(int argc, char** argv) {
   build->add_option("--shard", shard_text, "I/N: compile only share I of N of the compile jobs, upload them, write no pack "
                                            "(needs --remote); auto: from Slurm's, GitLab's or a Kubernetes Indexed Job's "
                                            "environment");
-  build->add_option("--remote-transfers", remote.parallel_transfers, "Remote requests in flight, one connection each (default: 8)")
+  build->add_option("--remote-transfers", remote.parallel_transfers, "Remote requests in flight, one connection each (default: 32)")
       ->check(CLI::Range(1u, 64u));
 
   CLI::App* list = app.add_subcommand("list", "List every variant a pack would contain, with the keywords each stage sees");

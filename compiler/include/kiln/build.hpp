@@ -35,7 +35,7 @@ struct RemoteCacheOptions {
   std::filesystem::path token_file;                 // read when bearer_token is empty
   std::filesystem::path ca_file;                    // empty: the system's CAs
   std::filesystem::path netrc_file;                 // basic auth; empty: libcurl's default (~/.netrc)
-  unsigned parallel_transfers = 8;                  // requests in flight (one kept-alive connection each)
+  unsigned parallel_transfers = 32;                 // requests in flight (one kept-alive connection each)
 };
 
 struct BuildOptions {
