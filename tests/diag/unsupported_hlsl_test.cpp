@@ -102,3 +102,30 @@ TEST(UnsupportedHlsl, TheMessageKeepsGlslangsWordsAndOrdinaryErrorsAreUntouched)
 
 }  // namespace
 }  // namespace kiln
+
+namespace kiln {
+namespace {
+
+// What a target cannot run is an error at the pass, naming the stage and the target, never a blob that does not
+// compile there: SPIRV-Cross writes a geometry shader as an MSL function returning "unknown".
+TEST(UnsupportedStages, GeometryAndTessellationForMetalAreErrorsNamingTheStage) {
+  testing::TempDir dir;
+  dir.write("G.hlsl", "struct V { float4 p : SV_Position; };\nV VS(float4 p : POSITION) { V v; v.p = p; return v; }\n"
+                      "[maxvertexcount(3)]\nvoid GS(triangle V i[3], inout TriangleStream<V> s) { s.Append(i[0]); s.Append(i[1]); "
+                      "s.Append(i[2]); }\nfloat4 PS(V v) : SV_Target { return 1.0; }\n");
+  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "Sprites", "source": "G.hlsl",
+                                "stages": {"vertex": "VS", "geometry": "GS", "fragment": "PS"}}]})");
+  auto r = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--no-cache", "-q"}, dir.path());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "G.hlsl: error[K1405]: cross-msl: Metal has no geometry shader stage\n"
+                   "  note: in pass 'Sprites' geometry stage, keywords [<none>]\n"
+                   "  note: SPIRV-Cross cannot write this for the 'msl' target; if the pack does not ship it, remove \"msl\" "
+                   "from the pack's \"targets\" (or build with --targets)\n"
+                   "kiln: 1 error(s)\n");
+  auto without_msl = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--no-cache", "-q", "--targets", "spirv,glsl,gles"},
+                                       dir.path());
+  EXPECT_EQ(without_msl.exit_code, 0) << without_msl.err;
+}
+
+}  // namespace
+}  // namespace kiln

@@ -57,7 +57,8 @@ Manifest sample_manifest() {
   ManifestPass& pass = m.passes.emplace_back();
   pass.name = "P";
   pass.entry_points = {{Stage::Vertex, "V"}, {Stage::Fragment, "F"}};
-  pass.keyword_groups = {{"multi_compile", {"", "A"}, kAllStageBits}, {"shader_feature_fragment", {"B"}, stage_bit(Stage::Fragment)}};
+  pass.keyword_groups = {{"multi_compile", {"", "A"}, static_cast<StageMask>(stage_bit(Stage::Vertex) | stage_bit(Stage::Fragment))},
+                         {"shader_feature_fragment", {"B"}, stage_bit(Stage::Fragment)}};
   pass.layout = {sample_reflection().resources, {}};
   pass.variants = {{{"B"}, {{Stage::Vertex, 0}, {Stage::Fragment, 1}}}, {{"A", "B"}, {{Stage::Vertex, 0}, {Stage::Fragment, 1}}}};
   pass.bindings = "-fvk-t-shift 16 all";
@@ -145,7 +146,7 @@ TEST(Manifest, RefusesWhatKilnDoesNotWriteAndSaysWhere) {
   };
   const Case cases[] = {
       {"/name", nullptr, "top level: has no \"name\""},
-      {"/binaries/1/stage", "compute", "/binaries/1/stage: \"compute\" is not a stage"},
+      {"/binaries/1/stage", "amplification", "/binaries/1/stage: \"amplification\" is not a stage"},
       {"/binaries/0/blobs/hlsl", 7, "/binaries/0/blobs/hlsl: \"hlsl\" is not a target"},
       {"/binaries/0/reflection", -1, "/binaries/0/reflection: is not an unsigned integer"},
       {"/binaries/0/reflection", uint64_t{4294967296}, "/binaries/0/reflection: 4294967296 is out of range"},
@@ -154,7 +155,7 @@ TEST(Manifest, RefusesWhatKilnDoesNotWriteAndSaysWhere) {
       {"/reflections/0/resources/0/members", nullptr, "/reflections/0/resources/0: has no \"members\""},
       {"/reflections/0/glsl/blocks/0/kind", "texture", "/reflections/0/glsl/blocks/0/kind: is not a block kind"},
       {"/passes/0/variants/1/keywords/0", 5, "/passes/0/variants/1/keywords/0: is not a string"},
-      {"/passes/0/keyword_groups/0/stages/0", "geometry", "/passes/0/keyword_groups/0/stages/0: \"geometry\" is not a stage"},
+      {"/passes/0/keyword_groups/0/stages/0", "mesh", "/passes/0/keyword_groups/0/stages/0: \"mesh\" is not a stage"},
       {"/passes/0/layout", json::array(), "/passes/0/layout: is not an object"},
       {"/options/gl_clip_space_fixup", 1, "/options/gl_clip_space_fixup: is not a boolean"},
       {"/scene_features", json::array(), "/scene_features: is not an object"},

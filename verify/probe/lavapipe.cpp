@@ -346,7 +346,7 @@ std::optional<ProbeProgram> compile_probe(const std::filesystem::path& probe_fil
   std::string entry_text = read_text(probe_file);
   std::string entry_name = std::filesystem::weakly_canonical(probe_file).string();
   ProbeProgram program;
-  for (Stage stage : kAllStages) {
+  for (Stage stage : {Stage::Vertex, Stage::Fragment}) {
     PreprocessRequest request{stage, entry_name, entry_text, defines, &includes};
     PreprocessResult preprocessed = frontend->preprocess(request);
     auto describe = [&](const std::vector<FrontendMessage>& messages) {

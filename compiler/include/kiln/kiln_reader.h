@@ -79,9 +79,24 @@ typedef struct kiln_reflection kiln_reflection; /* one compiled stage's reflecti
 typedef uint32_t kiln_pass;                     /* a pass: 0 .. kiln_pass_count() - 1, in the manifest's order */
 typedef uint32_t kiln_keyword;                  /* a keyword declared by any pass of the pack: 0 .. kiln_keyword_count() - 1, by name */
 
-typedef enum kiln_stage { KILN_STAGE_VERTEX = 0, KILN_STAGE_FRAGMENT = 1 } kiln_stage;
-/* Stage flags, as in Vulkan's VkShaderStageFlagBits (VERTEX 0x1, FRAGMENT 0x10). */
-enum { KILN_STAGE_FLAG_VERTEX = 0x1, KILN_STAGE_FLAG_FRAGMENT = 0x10 };
+/* Hull and domain are HLSL's tessellation control and evaluation stages. */
+typedef enum kiln_stage {
+  KILN_STAGE_VERTEX = 0,
+  KILN_STAGE_FRAGMENT = 1,
+  KILN_STAGE_COMPUTE = 2,
+  KILN_STAGE_GEOMETRY = 3,
+  KILN_STAGE_HULL = 4,
+  KILN_STAGE_DOMAIN = 5
+} kiln_stage;
+/* Stage flags, as in Vulkan's VkShaderStageFlagBits. */
+enum {
+  KILN_STAGE_FLAG_VERTEX = 0x1,
+  KILN_STAGE_FLAG_HULL = 0x2,   /* VK_SHADER_STAGE_TESSELLATION_CONTROL_BIT */
+  KILN_STAGE_FLAG_DOMAIN = 0x4, /* VK_SHADER_STAGE_TESSELLATION_EVALUATION_BIT */
+  KILN_STAGE_FLAG_GEOMETRY = 0x8,
+  KILN_STAGE_FLAG_FRAGMENT = 0x10,
+  KILN_STAGE_FLAG_COMPUTE = 0x20
+};
 typedef enum kiln_target {
   KILN_TARGET_SPIRV = 0, /* SPIR-V words, for vkCreateShaderModule */
   KILN_TARGET_GLSL = 1,  /* GLSL 450 source text (not NUL-terminated: use the size) */
@@ -208,6 +223,9 @@ typedef struct kiln_msl_resource {
 /* Each accessor takes an index below its count and returns 1 with *out filled, or 0 (out of range, or a NULL
  * argument) with *out untouched. Records are in the manifest's order (resources by set and binding). */
 kiln_stage kiln_reflection_stage(const kiln_reflection* reflection);
+/* A compute stage's thread-group size ([numthreads(x, y, z)]): returns 1 with size[0..2] filled, or 0 (not a compute
+ * stage, or a NULL argument) with size untouched. */
+int kiln_reflection_local_size(const kiln_reflection* reflection, uint32_t size[3]);
 uint32_t kiln_reflection_resource_count(const kiln_reflection* reflection);
 int kiln_reflection_resource(const kiln_reflection* reflection, uint32_t index, kiln_resource* out);
 uint32_t kiln_reflection_push_constant_count(const kiln_reflection* reflection);

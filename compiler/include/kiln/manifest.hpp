@@ -8,6 +8,7 @@
 // binaries, a binary's blobs and reflection) are checked by check_indices, not by from_json.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -121,6 +122,8 @@ struct Reflection {
   std::vector<PushConstantBlock> push_constants;
   std::vector<StageVariable> inputs;   // by location
   std::vector<StageVariable> outputs;  // by location
+  // A compute shader's thread-group size (HLSL [numthreads(x, y, z)]); absent for other stages.
+  std::optional<std::array<uint32_t, 3>> local_size;
   // Each target's own binding records, present when the binary was built for it.
   std::optional<GlBindings> glsl;
   std::optional<GlBindings> gles;

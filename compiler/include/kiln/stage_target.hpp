@@ -12,17 +12,35 @@
 
 namespace kiln {
 
-enum class Stage : uint8_t { Vertex, Fragment };
-inline constexpr int kStageCount = 2;
-inline constexpr std::array<Stage, kStageCount> kAllStages{Stage::Vertex, Stage::Fragment};
+// Every stage glslang's HLSL front end compiles. Hull and domain are HLSL's names for tessellation control and
+// evaluation. New stages go at the end: a stage's value indexes per-stage arrays.
+enum class Stage : uint8_t { Vertex, Fragment, Compute, Geometry, Hull, Domain };
+inline constexpr int kStageCount = 6;
+inline constexpr std::array<Stage, kStageCount> kAllStages{Stage::Vertex, Stage::Fragment, Stage::Compute,
+                                                          Stage::Geometry, Stage::Hull, Stage::Domain};
 using StageMask = uint8_t;
 inline constexpr StageMask stage_bit(Stage s) { return static_cast<StageMask>(1u << static_cast<unsigned>(s)); }
-inline constexpr StageMask kAllStageBits = 0x3;
+inline constexpr StageMask kAllStageBits = 0x3F;
 
-constexpr std::string_view stage_name(Stage stage) { return stage == Stage::Vertex ? "vertex" : "fragment"; }
+struct StageName {
+  Stage stage;
+  std::string_view name;        // in pack definitions, the manifest, `kiln list`
+  std::string_view short_name;  // glslangValidator's -S, file suffixes (.vert.hlsl)
+};
+inline constexpr std::array<StageName, kStageCount> kStageNames{{
+    {Stage::Vertex, "vertex", "vert"},
+    {Stage::Fragment, "fragment", "frag"},
+    {Stage::Compute, "compute", "comp"},
+    {Stage::Geometry, "geometry", "geom"},
+    {Stage::Hull, "hull", "tesc"},
+    {Stage::Domain, "domain", "tese"},
+}};
+
+constexpr std::string_view stage_name(Stage stage) { return kStageNames[static_cast<size_t>(stage)].name; }
+constexpr std::string_view stage_short_name(Stage stage) { return kStageNames[static_cast<size_t>(stage)].short_name; }
 constexpr std::optional<Stage> parse_stage(std::string_view name) {
-  for (Stage s : kAllStages)
-    if (stage_name(s) == name) return s;
+  for (const StageName& s : kStageNames)
+    if (s.name == name) return s.stage;
   return std::nullopt;
 }
 
@@ -58,6 +76,11 @@ inline std::string target_name_list() {
   return out;
 }
 
+static_assert([] {
+  for (size_t i = 0; i < kStageNames.size(); ++i)
+    if (static_cast<size_t>(kStageNames[i].stage) != i) return false;
+  return true;
+}(), "kStageNames is indexed by Stage");
 static_assert([] {
   for (size_t i = 0; i < kTargetNames.size(); ++i)
     if (static_cast<size_t>(kTargetNames[i].target) != i) return false;

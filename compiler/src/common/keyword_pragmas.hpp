@@ -32,7 +32,11 @@ struct StageSuffix {
   std::string_view suffix;
   Stage stage;
 };
-inline constexpr StageSuffix kStageSuffixes[] = {{"_vertex", Stage::Vertex}, {"_fragment", Stage::Fragment}};
+// Unity's stage suffixes (multi_compile_vertex, _fragment, _geometry, _hull, _domain); a compute shader's keywords
+// carry none.
+inline constexpr StageSuffix kStageSuffixes[] = {{"_vertex", Stage::Vertex},     {"_fragment", Stage::Fragment},
+                                                 {"_geometry", Stage::Geometry}, {"_hull", Stage::Hull},
+                                                 {"_domain", Stage::Domain}};
 
 struct KeywordPragma {
   const KeywordPragmaKind* kind = nullptr;

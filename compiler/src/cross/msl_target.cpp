@@ -6,12 +6,22 @@
 
 #include <algorithm>
 #include <map>
+#include <stdexcept>
 
 namespace kiln {
 namespace {
 
 std::string translate(CrossModules& modules, Reflection& reflection) {
   spirv_cross::CompilerMSL compiler(modules.spirv());
+  // Metal has no geometry stage (SPIRV-Cross writes a function of type "unknown"), and its tessellation runs the
+  // hull shader as a compute kernel with SPIRV-Cross's own buffer conventions, which no renderer here follows.
+  switch (compiler.get_execution_model()) {
+    case spv::ExecutionModelGeometry: throw std::runtime_error("Metal has no geometry shader stage");
+    case spv::ExecutionModelTessellationControl:
+    case spv::ExecutionModelTessellationEvaluation:
+      throw std::runtime_error("Metal tessellation (a hull shader as a compute kernel) is not written by kiln");
+    default: break;
+  }
   spirv_cross::CompilerMSL::Options options;
   options.platform = spirv_cross::CompilerMSL::Options::macOS;
   options.set_msl_version(kTargetEnvironment.msl_major, kTargetEnvironment.msl_minor);

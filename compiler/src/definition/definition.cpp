@@ -262,7 +262,9 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
       for (auto& [stage_text, entry] : stages->items()) {
         auto stage = parse_stage(stage_text);
         if (!stage) {
-          fields.fail(stage_text, "unknown stage '" + stage_text + "' (expected vertex or fragment)");
+          std::string names;
+          for (const StageName& known : kStageNames) names += (names.empty() ? "" : ", ") + std::string(known.name);
+          fields.fail(stage_text, "unknown stage '" + stage_text + "' (expected one of " + names + ")");
         } else if (!entry.is_string() || entry.get<std::string>().empty()) {
           fields.fail(stage_text, "stage '" + stage_text + "' must name an entry point");
         } else {

@@ -416,7 +416,7 @@ class Scheduler {
     std::filesystem::path repro = dir / (base + ".hlsl");
     std::string header = "// kiln internal compiler error: the compiler worker " + detail + "\n// " + variant +
                          ", entry point " + binary.entry_point + "\n// reproduce: glslangValidator -D -V -S " +
-                         (s.stage == Stage::Vertex ? "vert" : "frag") + " -e " + binary.entry_point + " " +
+                         std::string(stage_short_name(s.stage)) + " -e " + binary.entry_point + " " +
                          repro.filename().string() + "\n";
     std::vector<std::string> notes;
     std::vector<std::string> unwritten;  // a reproducer that could not be written is said, not dropped

@@ -11,8 +11,9 @@
 namespace kiln {
 namespace {
 
-ManifestKeywordGroup keyword_group_record(const KeywordGroup& group) {
-  return {group.pragma, group.values, group.stages};
+// The stages a group applies to, of those the pass has (an unsuffixed keyword applies to every stage).
+ManifestKeywordGroup keyword_group_record(const KeywordGroup& group, StageMask pass_stages) {
+  return {group.pragma, group.values, static_cast<StageMask>(group.stages & pass_stages)};
 }
 
 // Recorded in the manifest so that tools (check-scene) can reason about a built pack on its own.
@@ -61,9 +62,13 @@ std::optional<std::string> write_variant_pack(const Plan& plan, const BuildOptio
     const PassDefinition& def = plan.pack.passes[p];
     ManifestPass& pass = manifest.passes.emplace_back();
     pass.name = def.name;
+    StageMask pass_stages = 0;
     for (Stage s : kAllStages)
-      if (!def.entry_points[static_cast<size_t>(s)].empty()) pass.entry_points[s] = def.entry_points[static_cast<size_t>(s)];
-    for (const KeywordGroup& g : plan.passes[p].groups) pass.keyword_groups.push_back(keyword_group_record(g));
+      if (!def.entry_points[static_cast<size_t>(s)].empty()) {
+        pass.entry_points[s] = def.entry_points[static_cast<size_t>(s)];
+        pass_stages |= stage_bit(s);
+      }
+    for (const KeywordGroup& g : plan.passes[p].groups) pass.keyword_groups.push_back(keyword_group_record(g, pass_stages));
     pass.layout = layouts[p];
     const auto& expansion = plan.expansions[p];
     for (size_t v = 0; v < expansion.variants.size(); ++v) {

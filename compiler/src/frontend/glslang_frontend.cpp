@@ -26,7 +26,17 @@ void initialize_glslang_once() {
   std::call_once(once, [] { glslang::InitializeProcess(); });
 }
 
-EShLanguage to_glslang(Stage stage) { return stage == Stage::Vertex ? EShLangVertex : EShLangFragment; }
+EShLanguage to_glslang(Stage stage) {
+  switch (stage) {
+    case Stage::Vertex: return EShLangVertex;
+    case Stage::Fragment: return EShLangFragment;
+    case Stage::Compute: return EShLangCompute;
+    case Stage::Geometry: return EShLangGeometry;
+    case Stage::Hull: return EShLangTessControl;
+    case Stage::Domain: return EShLangTessEvaluation;
+  }
+  return EShLangFragment;
+}
 
 // 16-bit types on: `real` in shaderlib becomes float16_t under _HALF_PRECISION.
 constexpr auto kMessages = static_cast<EShMessages>(EShMsgReadHlsl | EShMsgSpvRules | EShMsgVulkanRules |

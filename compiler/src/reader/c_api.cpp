@@ -31,6 +31,19 @@ namespace {
 
 using kiln::PackError;
 
+// Vulkan's VkShaderStageFlagBits of a stage.
+uint32_t stage_flag(kiln_stage stage) {
+  switch (stage) {
+    case KILN_STAGE_VERTEX: return KILN_STAGE_FLAG_VERTEX;
+    case KILN_STAGE_FRAGMENT: return KILN_STAGE_FLAG_FRAGMENT;
+    case KILN_STAGE_COMPUTE: return KILN_STAGE_FLAG_COMPUTE;
+    case KILN_STAGE_GEOMETRY: return KILN_STAGE_FLAG_GEOMETRY;
+    case KILN_STAGE_HULL: return KILN_STAGE_FLAG_HULL;
+    case KILN_STAGE_DOMAIN: return KILN_STAGE_FLAG_DOMAIN;
+  }
+  return 0;
+}
+
 constexpr size_t kMaxFastGroups = 64;
 constexpr uint32_t kNoValue = UINT32_MAX;
 
@@ -131,7 +144,7 @@ const kiln::ManifestVariant* find_variant(const kiln_pack* pack, kiln_pass pass,
 
 const kiln::ManifestBinary* find_binary(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage) {
   const kiln::ManifestVariant* v = find_variant(pack, pass, variant);
-  if (!v || (stage != KILN_STAGE_VERTEX && stage != KILN_STAGE_FRAGMENT)) return nullptr;
+  if (!v || (static_cast<int>(stage) < 0 || static_cast<int>(stage) >= kiln::kStageCount)) return nullptr;
   auto it = v->binaries.find(static_cast<kiln::Stage>(stage));
   return it == v->binaries.end() ? nullptr : &pack->reader.manifest().binaries[it->second];
 }
@@ -301,8 +314,7 @@ kiln_result kiln_pack_open(const char* path, kiln_pack** pack, kiln_error* error
     opened->keywords.erase(std::unique(opened->keywords.begin(), opened->keywords.end()), opened->keywords.end());
     for (const kiln::ManifestBinary& binary : manifest.binaries) {
       const auto stage = static_cast<kiln_stage>(binary.stage);
-      opened->binaries.push_back({&manifest.reflections[binary.reflection], stage,
-                                  stage == KILN_STAGE_VERTEX ? uint32_t{KILN_STAGE_FLAG_VERTEX} : uint32_t{KILN_STAGE_FLAG_FRAGMENT}});
+      opened->binaries.push_back({&manifest.reflections[binary.reflection], stage, stage_flag(stage)});
     }
     opened->passes.resize(manifest.passes.size());
     for (size_t p = 0; p < manifest.passes.size(); ++p) {
@@ -418,7 +430,7 @@ kiln_result kiln_variant_code(const kiln_pack* pack, kiln_pass pass, uint32_t va
   if (!code) return invalid(error, "kiln_variant_code: code is NULL");
   *code = kiln_code{nullptr, 0};
   if (!find_variant(pack, pass, variant)) return invalid(error, "kiln_variant_code: no variant %u of pass %u", variant, pass);
-  if (stage != KILN_STAGE_VERTEX && stage != KILN_STAGE_FRAGMENT) return invalid(error, "kiln_variant_code: stage %d", static_cast<int>(stage));
+  if (static_cast<int>(stage) < 0 || static_cast<int>(stage) >= kiln::kStageCount) return invalid(error, "kiln_variant_code: stage %d", static_cast<int>(stage));
   if (target < KILN_TARGET_SPIRV || target > KILN_TARGET_MSL) return invalid(error, "kiln_variant_code: target %d", static_cast<int>(target));
   const kiln::ManifestBinary* binary = find_binary(pack, pass, variant, stage);
   if (!binary) return ok(error);
@@ -437,11 +449,17 @@ const char* kiln_variant_entry_point(const kiln_pack* pack, kiln_pass pass, uint
 }
 
 const kiln_reflection* kiln_variant_reflection(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage) {
-  if (!find_variant(pack, pass, variant) || (stage != KILN_STAGE_VERTEX && stage != KILN_STAGE_FRAGMENT)) return nullptr;
+  if (!find_variant(pack, pass, variant) || (static_cast<int>(stage) < 0 || static_cast<int>(stage) >= kiln::kStageCount)) return nullptr;
   return pack->passes[pass].stages[variant][static_cast<size_t>(stage)];
 }
 
 kiln_stage kiln_reflection_stage(const kiln_reflection* reflection) { return reflection ? reflection->stage : KILN_STAGE_VERTEX; }
+
+int kiln_reflection_local_size(const kiln_reflection* reflection, uint32_t size[3]) {
+  if (!reflection || !size || !reflection->reflection->local_size) return 0;
+  for (int i = 0; i < 3; ++i) size[i] = (*reflection->reflection->local_size)[i];
+  return 1;
+}
 
 uint32_t kiln_reflection_resource_count(const kiln_reflection* r) { return r ? count_of(r->reflection->resources) : 0; }
 
@@ -524,7 +542,9 @@ int kiln_reflection_msl_resource(const kiln_reflection* r, uint32_t index, kiln_
 }  // extern "C"
 
 // The C enumerations are the C++ ones, value for value: the casts above rely on it.
-static_assert(KILN_STAGE_VERTEX == static_cast<int>(kiln::Stage::Vertex) && KILN_STAGE_FRAGMENT == static_cast<int>(kiln::Stage::Fragment));
+static_assert(KILN_STAGE_VERTEX == static_cast<int>(kiln::Stage::Vertex) && KILN_STAGE_FRAGMENT == static_cast<int>(kiln::Stage::Fragment) &&
+              KILN_STAGE_COMPUTE == static_cast<int>(kiln::Stage::Compute) && KILN_STAGE_GEOMETRY == static_cast<int>(kiln::Stage::Geometry) &&
+              KILN_STAGE_HULL == static_cast<int>(kiln::Stage::Hull) && KILN_STAGE_DOMAIN == static_cast<int>(kiln::Stage::Domain));
 static_assert(KILN_TARGET_SPIRV == static_cast<int>(kiln::Target::Spirv) && KILN_TARGET_GLSL == static_cast<int>(kiln::Target::Glsl) &&
               KILN_TARGET_GLES == static_cast<int>(kiln::Target::Gles) && KILN_TARGET_MSL == static_cast<int>(kiln::Target::Msl));
 static_assert(KILN_RESOURCE_UNIFORM_BUFFER == static_cast<int>(kiln::ResourceKind::UniformBuffer) &&

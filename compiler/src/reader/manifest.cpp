@@ -96,6 +96,11 @@ void read_value(const json& v, std::vector<T>& out) {
   for (size_t i = 0; i < v.size(); ++i) inside(std::to_string(i), [&] { read_value(v[i], out[i]); });
 }
 
+void read_value(const json& v, std::array<uint32_t, 3>& out) {
+  if (!v.is_array() || v.size() != 3) fail("is not an array of 3 numbers");
+  for (size_t i = 0; i < 3; ++i) inside(std::to_string(i), [&] { read_value(v[i], out[i]); });
+}
+
 void read_value(const json& v, std::set<std::string>& out) {
   std::vector<std::string> list;
   read_value(v, list);
@@ -260,6 +265,7 @@ void from_json(const json& j, MslBindings& v) { read(j, "resources", v.resources
 
 void to_json(json& j, const Reflection& v) {
   j = {{"resources", v.resources}, {"push_constants", v.push_constants}, {"inputs", v.inputs}, {"outputs", v.outputs}};
+  if (v.local_size) j["local_size"] = *v.local_size;
   if (v.glsl) j[std::string(target_name(Target::Glsl))] = *v.glsl;
   if (v.gles) j[std::string(target_name(Target::Gles))] = *v.gles;
   if (v.msl) j[std::string(target_name(Target::Msl))] = *v.msl;
@@ -269,6 +275,9 @@ void from_json(const json& j, Reflection& v) {
   read(j, "push_constants", v.push_constants);
   read(j, "inputs", v.inputs);
   read(j, "outputs", v.outputs);
+  read_if_present(j, "local_size", v.local_size);
+  if (v.local_size && ((*v.local_size)[0] == 0 || (*v.local_size)[1] == 0 || (*v.local_size)[2] == 0))
+    throw ManifestError("/local_size", "has a thread-group size of 0");
   read_if_present(j, "glsl", v.glsl);
   read_if_present(j, "gles", v.gles);
   read_if_present(j, "msl", v.msl);

@@ -144,6 +144,10 @@ Reflection reflect_spirv(const std::vector<uint32_t>& spirv) {
   };
   out.inputs = interface(resources.stage_inputs);
   out.outputs = interface(resources.stage_outputs);
+  if (compiler.get_execution_model() == spv::ExecutionModelGLCompute)
+    out.local_size = std::array<uint32_t, 3>{compiler.get_execution_mode_argument(spv::ExecutionModeLocalSize, 0),
+                                             compiler.get_execution_mode_argument(spv::ExecutionModeLocalSize, 1),
+                                             compiler.get_execution_mode_argument(spv::ExecutionModeLocalSize, 2)};
   return out;
 }
 

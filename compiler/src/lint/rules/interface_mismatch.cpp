@@ -1,4 +1,5 @@
-// interface-mismatch: a fragment input the vertex stage does not write, or writes with another type.
+// interface-mismatch: a fragment input the stage before it (vertex, domain or geometry) does not write, or writes
+// with another type.
 #include <algorithm>
 #include <set>
 
@@ -13,7 +14,16 @@ void check(const LintContext& context, LintReport& report) {
   for (const PackView::Pass& pass : pack.passes) {
     const SourceLocation at = context.pass_location(pass.name);
     for (const PackView::Variant& variant : pass.variants) {
-      auto vertex = variant.binaries.find("vertex"), fragment = variant.binaries.find("fragment");
+      // The fragment stage reads what the last stage before it writes: geometry, else domain, else vertex (the
+      // hull and domain stages' own interfaces are per control point, arrayed, and not compared here).
+      auto fragment = variant.binaries.find("fragment");
+      auto vertex = variant.binaries.end();
+      std::string producer;
+      for (const char* stage : {"geometry", "domain", "vertex"})
+        if (vertex = variant.binaries.find(stage); vertex != variant.binaries.end()) {
+          producer = stage;
+          break;
+        }
       if (vertex == variant.binaries.end() || fragment == variant.binaries.end()) continue;
       if (!checked.insert({vertex->second, fragment->second}).second) continue;
       const auto& outputs = pack.binaries.at(vertex->second).outputs;
@@ -24,11 +34,11 @@ void check(const LintContext& context, LintReport& report) {
         if (written == outputs.end())
           add_finding(report, RuleId::InterfaceMismatch, at,
                       "pass '" + pass.name + "' [" + keywords + "]: fragment input '" + input.name + "' at location " +
-                          std::to_string(input.location) + " is not written by the vertex stage");
+                          std::to_string(input.location) + " is not written by the " + producer + " stage");
         else if (written->type != input.type)
           add_finding(report, RuleId::InterfaceMismatch, at,
                       "pass '" + pass.name + "' [" + keywords + "]: location " + std::to_string(input.location) + " is " +
-                          written->type + " in the vertex stage and " + input.type + " in the fragment stage");
+                          written->type + " in the " + producer + " stage and " + input.type + " in the fragment stage");
       }
     }
   }
