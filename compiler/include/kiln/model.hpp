@@ -75,8 +75,9 @@ bool is_identifier(std::string_view text);
 
 struct PassDefinition {
   std::string name;
-  std::filesystem::path source;                      // entry HLSL file of the pass
+  std::filesystem::path source;                      // entry HLSL file of the pass (empty when every stage names its own)
   std::array<std::string, kStageCount> entry_points;  // empty: the pass has no such stage
+  std::array<std::filesystem::path, kStageCount> stage_sources;  // each stage's file: its own, or `source`
   SourceLocation defined_at;
   BindingOptions bindings;      // the pack's, with the pass's own overrides applied
   std::vector<Define> defines;  // the pack's, then the pass's own

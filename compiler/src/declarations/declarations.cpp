@@ -305,4 +305,50 @@ std::optional<PassDeclarations> scan_declarations(const std::filesystem::path& e
   return result;
 }
 
+std::optional<PassDeclarations> scan_pass_declarations(const PassDefinition& pass, const IncludeRoots& roots,
+                                                       const ReadLimits& limits, SourceSet& sources, DiagnosticSink& sink) {
+  std::optional<PassDeclarations> merged;
+  std::vector<std::filesystem::path> scanned;  // as the pass names them
+  for (Stage stage : kAllStages) {
+    const std::filesystem::path& file = pass.stage_sources[static_cast<size_t>(stage)];
+    if (pass.entry_points[static_cast<size_t>(stage)].empty() ||
+        std::find(scanned.begin(), scanned.end(), file) != scanned.end())
+      continue;
+    scanned.push_back(file);
+    StageMask using_file = 0;  // the stages this file is the entry of
+    for (Stage s : kAllStages)
+      if (!pass.entry_points[static_cast<size_t>(s)].empty() && pass.stage_sources[static_cast<size_t>(s)] == file)
+        using_file |= stage_bit(s);
+    auto found = scan_declarations(file, roots, limits, sources, sink);
+    if (!found) return std::nullopt;
+    for (Stage s : kAllStages)
+      if (using_file & stage_bit(s)) found->stage_entry[static_cast<size_t>(s)] = found->entry;
+    if (!merged) {
+      merged = std::move(*found);
+      // With one source the groups keep their pragma's stages; with several, each file's reach the stages using it.
+      if (using_file != [&] {
+            StageMask all = 0;
+            for (Stage s : kAllStages)
+              if (!pass.entry_points[static_cast<size_t>(s)].empty()) all |= stage_bit(s);
+            return all;
+          }())
+        for (KeywordGroup& g : merged->groups) g.stages &= using_file;
+      continue;
+    }
+    for (const std::filesystem::path& f : found->files)
+      if (std::find(merged->files.begin(), merged->files.end(), f) == merged->files.end()) merged->files.push_back(f);
+    for (Stage s : kAllStages)
+      if (using_file & stage_bit(s)) merged->stage_entry[static_cast<size_t>(s)] = found->entry;
+    for (KeywordGroup& g : found->groups) {
+      g.stages &= using_file;
+      auto same = std::find_if(merged->groups.begin(), merged->groups.end(), [&](const KeywordGroup& m) {
+        return m.pragma == g.pragma && m.values == g.values;
+      });
+      if (same != merged->groups.end()) same->stages |= g.stages;
+      else merged->groups.push_back(std::move(g));
+    }
+  }
+  return merged;
+}
+
 }  // namespace kiln

@@ -2,6 +2,8 @@
 // #include), and collect the keyword declarations (#pragma multi_compile / shader_feature ...).
 #pragma once
 
+#include <array>
+
 #include <map>
 #include <optional>
 
@@ -32,7 +34,15 @@ struct PassDeclarations {
   std::filesystem::path entry;                 // canonical
   std::vector<std::filesystem::path> files;    // entry first, then includes in discovery order
   std::vector<KeywordGroup> groups;            // in declaration order
+  // Each stage's own entry file (canonical), for a pass whose stages have files of their own; `entry` otherwise.
+  std::array<std::filesystem::path, kStageCount> stage_entry;
 };
+
+// One pass's declarations from the files its stages name: a keyword declared in a stage's file applies to the
+// stages whose files declare it (narrowed further by its pragma's stage suffix); a group declared alike in two
+// files is one group.
+std::optional<PassDeclarations> scan_pass_declarations(const PassDefinition& pass, const IncludeRoots& roots,
+                                                       const ReadLimits& limits, SourceSet& sources, DiagnosticSink& sink);
 
 inline constexpr int kMaxIncludeDepth = 64;
 

@@ -252,23 +252,37 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
       pass.name = fields.string(item, "name", true).value_or("");
       pass.defined_at = fields.at(pass.name);
       auto source = fields.string(item, "source", false);
-      if (!source && !default_source) fields.fail(pass.name, "pass '" + pass.name + "' has no \"source\" and the pack no \"shader\"");
-      pass.source = base / source.value_or(default_source.value_or(""));
+      if (source || default_source) pass.source = base / source.value_or(default_source.value_or(""));
       auto stages = item.find("stages");
       if (stages == item.end() || !stages->is_object() || stages->empty()) {
         fields.fail(pass.name, "pass '" + pass.name + "' needs \"stages\": {\"vertex\": \"Entry\", \"fragment\": \"Entry\"}");
         continue;
       }
-      for (auto& [stage_text, entry] : stages->items()) {
+      // A stage names its entry point in the pass's source ("vertex": "VSMain"), or a file of its own with its entry
+      // point ("vertex": {"source": "Sky.vert.hlsl", "entry": "main"}), as stage-per-file projects write them.
+      for (auto& [stage_text, value] : stages->items()) {
         auto stage = parse_stage(stage_text);
+        std::string entry;
+        std::optional<std::string> own_source;
+        if (value.is_object()) {
+          fields.only(value, {"source", "entry"}, "a stage");
+          own_source = fields.string(value, "source", true);
+          entry = fields.string(value, "entry", false).value_or("main");
+        } else if (value.is_string()) {
+          entry = value.get<std::string>();
+        }
         if (!stage) {
           std::string names;
           for (const StageName& known : kStageNames) names += (names.empty() ? "" : ", ") + std::string(known.name);
           fields.fail(stage_text, "unknown stage '" + stage_text + "' (expected one of " + names + ")");
-        } else if (!entry.is_string() || entry.get<std::string>().empty()) {
-          fields.fail(stage_text, "stage '" + stage_text + "' must name an entry point");
+        } else if (entry.empty()) {
+          fields.fail(stage_text, "stage '" + stage_text + "' must name an entry point, or {\"source\": FILE, \"entry\": NAME}");
+        } else if (!own_source && pass.source.empty()) {
+          fields.fail(pass.name, "pass '" + pass.name + "' has no \"source\" (and the pack no \"shader\") for its " + stage_text +
+                                     " stage: give the pass one, or the stage {\"source\": FILE, \"entry\": NAME}");
         } else {
-          pass.entry_points[static_cast<size_t>(*stage)] = entry.get<std::string>();
+          pass.entry_points[static_cast<size_t>(*stage)] = entry;
+          pass.stage_sources[static_cast<size_t>(*stage)] = own_source ? base / *own_source : pass.source;
         }
       }
       pass.bindings = pack.bindings;

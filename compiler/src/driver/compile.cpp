@@ -137,7 +137,7 @@ class Scheduler {
     job.kind = JobKind::FrontEnd;
     job.stage = s.stage;
     job.entry_point = plan_.entry_point(s.pass, s.stage);
-    job.source_name = display_path(plan_.declarations[s.pass].entry);
+    job.source_name = display_path(plan_.declarations[s.pass].stage_entry[static_cast<size_t>(s.stage)]);
     job.source = s.text;
     job.targets = settings_.targets;
     job.optimize = settings_.optimize;
@@ -370,7 +370,7 @@ class Scheduler {
       internal_compiler_error(binary, s, variant, detail, module);
       return;
     }
-    const std::string entry_name = display_path(plan_.declarations[s.pass].entry);
+    const std::string entry_name = display_path(plan_.declarations[s.pass].stage_entry[static_cast<size_t>(s.stage)]);
     const std::string step(step_name(outcome.output.failed_step));
     if (id == DiagId::MissingEntryPoint) {
       SourceLocation at = locate_json_string(plan_.pack.file.string(), plan_.pack.text, binary.entry_point);
@@ -436,7 +436,7 @@ class Scheduler {
       unwritten.insert(unwritten.begin(), "the reproducer could not be written: " + error);
     notes.insert(notes.end(), unwritten.begin(), unwritten.end());
     notes.push_back("this is a bug in the compiler, not in your shader");
-    sink_.report(DiagId::InternalCompilerError, SourceLocation{display_path(plan_.declarations[s.pass].entry), 0, 0},
+    sink_.report(DiagId::InternalCompilerError, SourceLocation{display_path(plan_.declarations[s.pass].stage_entry[static_cast<size_t>(s.stage)]), 0, 0},
                  "internal compiler error: the compiler worker " + detail + " while compiling " + variant, notes);
   }
 

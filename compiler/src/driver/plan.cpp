@@ -27,18 +27,30 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sin
   {
     StageTimer timer(report, "declarations");
     std::vector<std::filesystem::path> roots = plan->pack.include_dirs;
-    for (const PassDefinition& pass : plan->pack.passes) roots.push_back(pass.source.parent_path());
+    for (const PassDefinition& pass : plan->pack.passes)
+      for (const std::filesystem::path& file : pass.stage_sources)
+        if (!file.empty() && std::find(roots.begin(), roots.end(), file.parent_path()) == roots.end())
+          roots.push_back(file.parent_path());
     plan->roots = std::make_unique<IncludeRoots>(roots);
     bool ok = true;
     for (const PassDefinition& pass : plan->pack.passes) {
-      std::error_code ec;
-      if (!std::filesystem::exists(pass.source, ec)) {
+      bool exists = true;
+      for (Stage stage : kAllStages) {
+        const std::filesystem::path& file = pass.stage_sources[static_cast<size_t>(stage)];
+        std::error_code ec;
+        if (file.empty() || std::filesystem::exists(file, ec)) continue;
+        const bool own = file != pass.source;
         sink.report(DiagId::FileUnreadable, pass.defined_at,
-                    "pass '" + pass.name + "': source file '" + pass.source.string() + "' does not exist");
+                    "pass '" + pass.name + "': " + (own ? "the " + std::string(stage_name(stage)) + " stage's " : "") +
+                        "source file '" + file.string() + "' does not exist");
+        exists = false;
+        if (!own) break;  // once for the pass's own source
+      }
+      if (!exists) {
         ok = false;
         continue;
       }
-      auto declarations = scan_declarations(pass.source, *plan->roots, limits, plan->sources, sink);
+      auto declarations = scan_pass_declarations(pass, *plan->roots, limits, plan->sources, sink);
       if (!declarations) {
         ok = false;
         continue;

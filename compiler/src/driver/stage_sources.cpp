@@ -60,7 +60,7 @@ void use_memos(StageSources& sources, const Plan& plan, const BuildSettings& set
   for (StageSource& s : sources.list) {
     Hasher memo;
     settings.add_compile_options(memo.add("preprocess"), plan.pack.passes[s.pass], s.stage)
-        .add(display_path(plan.declarations[s.pass].entry))
+        .add(display_path(plan.declarations[s.pass].stage_entry[static_cast<size_t>(s.stage)]))
         .add(files_listed);
     for (const std::string& define : pass_defines(plan.pack.passes[s.pass])) memo.add(define);
     for (const std::string& define : s.defines) memo.add(define);
@@ -96,19 +96,24 @@ std::string keywords_slug(const std::vector<std::string>& keywords) {
 Preprocessor::Preprocessor(const Plan& plan, const BuildSettings& settings, JobRunner& runner, const BuildOptions& options)
     : plan_(plan), settings_(settings), runner_(runner), options_(options), pass_files_(plan.passes.size()) {}
 
-std::shared_ptr<const std::vector<IncludableFile>> Preprocessor::files_of(uint32_t pass) {
-  if (!pass_files_[pass]) {
+std::shared_ptr<const std::vector<IncludableFile>> Preprocessor::files_of(uint32_t pass, Stage stage) {
+  auto& cached = pass_files_[pass][static_cast<size_t>(stage)];
+  if (!cached) {
     auto files = std::make_shared<std::vector<IncludableFile>>();
-    for (const std::filesystem::path& path : plan_.declarations[pass].files) {
+    const PassDeclarations& declarations = plan_.declarations[pass];
+    std::vector<std::filesystem::path> order{declarations.stage_entry[static_cast<size_t>(stage)]};
+    for (const std::filesystem::path& path : declarations.files)
+      if (path != order.front()) order.push_back(path);
+    for (const std::filesystem::path& path : order) {
       const SourceFile* file = plan_.sources.find(path);
       if (!file) continue;
       IncludableFile served{display_path(path), file->text, file->pragma_once, {}};
       for (const auto& [name, target] : file->includes) served.includes.emplace(name, display_path(target));
       files->push_back(std::move(served));
     }
-    pass_files_[pass] = std::move(files);
+    cached = std::move(files);
   }
-  return pass_files_[pass];
+  return cached;
 }
 
 CompileJob Preprocessor::job(const StageSources& sources, size_t index) {
@@ -117,14 +122,14 @@ CompileJob Preprocessor::job(const StageSources& sources, size_t index) {
   job.id = index;
   job.kind = JobKind::Preprocess;
   job.stage = s.stage;
-  job.files = files_of(s.pass);
+  job.files = files_of(s.pass, s.stage);
   job.defines = pass_defines(plan_.pack.passes[s.pass]);  // the pass's defines, then the keywords
   job.defines.insert(job.defines.end(), s.defines.begin(), s.defines.end());
   return job;
 }
 
 void Preprocessor::finished(StageSource& s, WorkerOutcome outcome) const {
-  const std::string entry_name = display_path(plan_.declarations[s.pass].entry);
+  const std::string entry_name = display_path(plan_.declarations[s.pass].stage_entry[static_cast<size_t>(s.stage)]);
   s.preprocessed = true;
   s.ok = false;
   if (outcome.kind == WorkerOutcome::Kind::Done && outcome.output.failed_step == CompileStep::Internal) {
@@ -181,7 +186,7 @@ StageSources prepare_stage_sources(const Plan& plan, const BuildSettings& settin
 
 void report_preprocess_failure(const StageSource& s, size_t order, const Plan& plan, const SourceLocator& locator,
                                MessageGroups& messages, DiagnosticSink& sink, BuildReport& report) {
-  const std::string entry_name = display_path(plan.declarations[s.pass].entry);
+  const std::string entry_name = display_path(plan.declarations[s.pass].stage_entry[static_cast<size_t>(s.stage)]);
   if (!s.internal_error.empty()) {
     report.internal_errors = true;
     sink.report(DiagId::InternalCompilerError, SourceLocation{entry_name, 0, 0},

@@ -74,13 +74,14 @@ class Preprocessor {
   void finished(StageSource& source, WorkerOutcome outcome) const;
 
  private:
-  std::shared_ptr<const std::vector<IncludableFile>> files_of(uint32_t pass);
+  // The files a stage's preprocessing may read, its own entry file first.
+  std::shared_ptr<const std::vector<IncludableFile>> files_of(uint32_t pass, Stage stage);
 
   const Plan& plan_;
   const BuildSettings& settings_;
   JobRunner& runner_;
   const BuildOptions& options_;
-  std::vector<std::shared_ptr<const std::vector<IncludableFile>>> pass_files_;
+  std::vector<std::array<std::shared_ptr<const std::vector<IncludableFile>>, kStageCount>> pass_files_;
 };
 
 // Enumerates the stage sources of every variant and takes what the cache's memos know (a source with a key
