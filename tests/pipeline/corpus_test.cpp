@@ -3,7 +3,7 @@
 //   // default: ok | K1406          the result with default options
 //   // option: {...}                 one documented "bindings" object (docs/bindings.md) that it needs or shows
 //   // layout: name kind set.binding, ...   the pass layout with the option (or the defaults)
-//   // stages: vertex=Entry fragment=Entry
+//   // stages: vertex=Entry fragment=Entry      or vertex=pairs/A.vert.hlsl:main ... (a file per stage)
 //   // targets: spirv msl              the pack's targets, when not all four (what SPIRV-Cross cannot write)
 // Every build validates the SPIR-V and cross-compiles to every target the pack names (all four by default).
 #include <gtest/gtest.h>
@@ -60,9 +60,7 @@ std::string errors_of(const DiagnosticSink& sink) {
 // Builds the shader into a one-pass pack with `bindings` (a JSON object, or empty).
 bool build(const testing::TempDir& dir, const CorpusShader& shader, const std::string& bindings, const std::string& out,
            DiagnosticSink& sink) {
-  json stages = json::object();
-  std::istringstream words(shader.header.at("stages"));
-  for (std::string word; words >> word;) stages[word.substr(0, word.find('='))] = word.substr(word.find('=') + 1);
+  json stages = testing::corpus_stages(shader.header.at("stages"), shader.file.parent_path());
   json pack{{"name", "corpus"}, {"passes", {{{"name", "P"}, {"source", shader.file.string()}, {"stages", stages}}}}};
   if (!bindings.empty()) pack["bindings"] = json::parse(bindings);
   if (shader.header.count("targets")) {

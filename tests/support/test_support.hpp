@@ -191,4 +191,19 @@ inline std::filesystem::path archive_named_by(const std::filesystem::path& manif
 }
 inline std::string read_archive(const std::filesystem::path& manifest) { return read_file(archive_named_by(manifest)); }
 
+// A corpus shader's "// stages:" header (tests/corpus) as a pack definition's "stages": "vertex=VSMain" names an entry
+// point of the shader itself, "vertex=pairs/A.vert.hlsl:main" a file of the stage's own, relative to `corpus_dir`.
+inline nlohmann::json corpus_stages(const std::string& header, const std::filesystem::path& corpus_dir) {
+  nlohmann::json stages = nlohmann::json::object();
+  std::istringstream words(header);
+  for (std::string word; words >> word;) {
+    const std::string stage = word.substr(0, word.find('=')), value = word.substr(word.find('=') + 1);
+    if (const size_t colon = value.find(':'); colon != std::string::npos)
+      stages[stage] = {{"source", (corpus_dir / value.substr(0, colon)).string()}, {"entry", value.substr(colon + 1)}};
+    else
+      stages[stage] = value;
+  }
+  return stages;
+}
+
 }  // namespace kiln::testing

@@ -27,10 +27,14 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sin
   {
     StageTimer timer(report, "declarations");
     std::vector<std::filesystem::path> roots = plan->pack.include_dirs;
-    for (const PassDefinition& pass : plan->pack.passes)
-      for (const std::filesystem::path& file : pass.stage_sources)
+    // The directory of every file a pass names (its source, each stage's own file) is an include root.
+    for (const PassDefinition& pass : plan->pack.passes) {
+      std::vector<std::filesystem::path> named(pass.stage_sources.begin(), pass.stage_sources.end());
+      named.push_back(pass.source);
+      for (const std::filesystem::path& file : named)
         if (!file.empty() && std::find(roots.begin(), roots.end(), file.parent_path()) == roots.end())
           roots.push_back(file.parent_path());
+    }
     plan->roots = std::make_unique<IncludeRoots>(roots);
     bool ok = true;
     for (const PassDefinition& pass : plan->pack.passes) {
