@@ -271,7 +271,7 @@ TEST_F(Cli, UnknownFieldInAPackOrSceneIsAnErrorSuggestingTheClosestKnownOne) {
                      "p.pack.json:2:93: error[K1011]: unknown field \"colour\" in a pass\n"
                      "      \"passes\": [{\"name\": \"P\", \"source\": \"S.hlsl\", \"stages\": {\"vertex\": \"V\", \"fragment\": \"F\"}, \"colour\": 1}]}\n"
                      "                                                                                                ^\n"
-                     "  note: known fields: name, description, source, stages, bindings, defines\n"
+                     "  note: known fields: name, description, source, stages, targets, bindings, defines\n"
                      "kiln: 2 error(s)\n");
 
   dir.write("p.pack.json", kPack);
@@ -367,8 +367,8 @@ TEST_F(Cli, CodeATargetCannotExpressIsAnErrorNamingTheTarget) {
                       "#ifdef FINE\n  return float4(ddx_fine(c.x), 0.0, 0.0, 1.0);\n#else\n  return c;\n#endif\n}\n");
   expect_build_error("S.hlsl: error[K1405]: cross-gles: GL_ARB_derivative_control is unavailable in OpenGL ES.\n"
                      "  note: in pass 'P' fragment stage, keywords [FINE]\n"
-                     "  note: SPIRV-Cross cannot write this for the 'gles' target; if the pack does not ship it, remove \"gles\" "
-                     "from the pack's \"targets\" (or build with --targets)\n"
+                     "  note: SPIRV-Cross cannot write this for the 'gles' target; if this pass does not need it, give the pass "
+                     "\"targets\" without \"gles\" (or remove it from the pack's, or build with --targets)\n"
                      "kiln: 1 error(s)\n");
   // Without GLSL ES, the same shader builds.
   auto r = build({"--targets", "spirv,glsl,msl"});

@@ -3,7 +3,10 @@
 // glslang alone says "'declaration' : Expected" or "no matching overloaded function found".
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include "frontend/unsupported_hlsl.hpp"
+#include "kiln/pack_reader.hpp"
 #include "test_support.hpp"
 
 namespace kiln {
@@ -119,12 +122,39 @@ TEST(UnsupportedStages, GeometryAndTessellationForMetalAreErrorsNamingTheStage) 
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(r.err, "G.hlsl: error[K1405]: cross-msl: Metal has no geometry shader stage\n"
                    "  note: in pass 'Sprites' geometry stage, keywords [<none>]\n"
-                   "  note: SPIRV-Cross cannot write this for the 'msl' target; if the pack does not ship it, remove \"msl\" "
-                   "from the pack's \"targets\" (or build with --targets)\n"
+                   "  note: SPIRV-Cross cannot write this for the 'msl' target; if this pass does not need it, give the pass "
+                   "\"targets\" without \"msl\" (or remove it from the pack's, or build with --targets)\n"
                    "kiln: 1 error(s)\n");
   auto without_msl = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--no-cache", "-q", "--targets", "spirv,glsl,gles"},
                                        dir.path());
   EXPECT_EQ(without_msl.exit_code, 0) << without_msl.err;
+}
+
+// A pass's own "targets": the geometry pass goes without MSL in a pack whose other pass ships it; --targets narrows both.
+TEST(UnsupportedStages, APassesOwnTargetsLetAGeometryPassShareAPackThatShipsMsl) {
+  testing::TempDir dir;
+  dir.write("G.hlsl", "struct V { float4 p : SV_Position; };\nV VS(float4 p : POSITION) { V v; v.p = p; return v; }\n"
+                      "[maxvertexcount(3)]\nvoid GS(triangle V i[3], inout TriangleStream<V> s) { s.Append(i[0]); s.Append(i[1]); "
+                      "s.Append(i[2]); }\nfloat4 PS(V v) : SV_Target { return 1.0; }\n");
+  dir.write("p.pack.json", R"({"name": "p", "passes": [
+      {"name": "Sprites", "source": "G.hlsl", "targets": ["spirv", "glsl", "gles"],
+       "stages": {"vertex": "VS", "geometry": "GS", "fragment": "PS"}},
+      {"name": "Plain", "source": "G.hlsl", "stages": {"vertex": "VS", "fragment": "PS"}}]})");
+  auto r = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--no-cache", "-q"}, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  PackReader pack = PackReader::open(dir / "out");
+  EXPECT_TRUE(pack.select("Sprites", {}).stage("geometry")->msl.empty());
+  EXPECT_FALSE(pack.select("Sprites", {}).stage("geometry")->gles.empty());
+  EXPECT_FALSE(pack.select("Plain", {}).stage("fragment")->msl.empty());
+  const auto manifest = nlohmann::json::parse(testing::read_file(dir / "out/p.manifest.json"));
+  EXPECT_EQ(manifest["passes"][0]["targets"], nlohmann::json({"spirv", "glsl", "gles"}));
+  EXPECT_FALSE(manifest["passes"][1].contains("targets"));
+  auto narrowed = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--no-cache", "-q", "--targets", "spirv,msl"}, dir.path());
+  ASSERT_EQ(narrowed.exit_code, 0) << narrowed.err;
+  PackReader spirv_only = PackReader::open(dir / "out");
+  EXPECT_TRUE(spirv_only.select("Sprites", {}).stage("geometry")->gles.empty());
+  EXPECT_FALSE(spirv_only.select("Sprites", {}).stage("geometry")->spirv.empty());
+  EXPECT_FALSE(spirv_only.select("Plain", {}).stage("fragment")->msl.empty());
 }
 
 }  // namespace

@@ -164,6 +164,7 @@ struct ManifestPass {
   std::vector<ManifestVariant> variants;
   std::string bindings;                       // BindingOptions::canonical(); empty: the defaults
   std::map<std::string, std::string> defines;  // name -> value
+  std::vector<Target> targets;                 // the pass's own targets; empty: the pack's (options.targets)
   friend bool operator==(const ManifestPass&, const ManifestPass&) = default;
 };
 

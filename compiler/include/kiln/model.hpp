@@ -78,6 +78,7 @@ struct PassDefinition {
   std::filesystem::path source;                      // entry HLSL file of the pass (empty when every stage names its own)
   std::array<std::string, kStageCount> entry_points;  // empty: the pass has no such stage
   std::array<std::filesystem::path, kStageCount> stage_sources;  // each stage's file: its own, or `source`
+  std::vector<Target> targets;  // the pass's own "targets" (sorted, SPIR-V in); empty: the pack's
   SourceLocation defined_at;
   BindingOptions bindings;      // the pack's, with the pass's own overrides applied
   std::vector<Define> defines;  // the pack's, then the pass's own

@@ -102,7 +102,7 @@ const DefinitionFields& definition_fields() {
   static const DefinitionFields fields{
       {"$schema", "name", "description", "shader", "include_dirs", "targets", "budget", "passes", "constraints",
        "materials", "scene_features", "bindings", "defines"},
-      {"name", "description", "source", "stages", "bindings", "defines"},
+      {"name", "description", "source", "stages", "targets", "bindings", "defines"},
       {"keyword", "requires", "requires_any", "excludes", "reason"},
       {"name", "description", "keywords"},
       {"$schema", "name", "description", "uses", "materials", "keywords"},
@@ -213,20 +213,26 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
   auto default_source = fields.string(*root, "shader", false);
   for (const std::string& dir : fields.strings(*root, "include_dirs")) pack.include_dirs.push_back(base / dir);
 
-  std::vector<std::string> target_names = fields.strings(*root, "targets");
-  if (!root->contains("targets"))
-    for (const TargetName& target : kTargetNames) target_names.emplace_back(target.name);
-  for (const std::string& name : target_names) {
-    if (auto target = parse_target(name)) {
-      if (std::find(pack.targets.begin(), pack.targets.end(), *target) == pack.targets.end())
-        pack.targets.push_back(*target);
-    } else {
-      fields.fail(name, "unknown target '" + name + "' (expected " + target_name_list() + ")");
+  // A "targets" list (the pack's, or a pass's own): known names, SPIR-V always in (every other target is made from
+  // it), sorted.
+  auto read_targets = [&](const json& object) {
+    std::vector<Target> targets;
+    for (const std::string& name : fields.strings(object, "targets")) {
+      if (auto target = parse_target(name)) {
+        if (std::find(targets.begin(), targets.end(), *target) == targets.end()) targets.push_back(*target);
+      } else {
+        fields.fail(name, "unknown target '" + name + "' (expected " + target_name_list() + ")");
+      }
     }
+    if (std::find(targets.begin(), targets.end(), Target::Spirv) == targets.end()) targets.insert(targets.begin(), Target::Spirv);
+    std::sort(targets.begin(), targets.end());
+    return targets;
+  };
+  if (root->contains("targets")) {
+    pack.targets = read_targets(*root);
+  } else {
+    for (const TargetName& target : kTargetNames) pack.targets.push_back(target.target);
   }
-  if (std::find(pack.targets.begin(), pack.targets.end(), Target::Spirv) == pack.targets.end())
-    pack.targets.insert(pack.targets.begin(), Target::Spirv);  // every other target is made from SPIR-V
-  std::sort(pack.targets.begin(), pack.targets.end());
 
   if (auto it = root->find("budget"); it != root->end()) {
     if (!it->is_number_unsigned() || it->get<uint64_t>() == 0)
@@ -285,6 +291,7 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
           pass.stage_sources[static_cast<size_t>(*stage)] = own_source ? base / *own_source : pass.source;
         }
       }
+      if (item.contains("targets")) pass.targets = read_targets(item);  // the pass's own, instead of the pack's
       pass.bindings = pack.bindings;
       pass.bindings.override_with(read_bindings(fields, item, "pass '" + pass.name + "'"));
       pass.defines = pack.defines;

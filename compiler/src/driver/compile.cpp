@@ -139,7 +139,7 @@ class Scheduler {
     job.entry_point = plan_.entry_point(s.pass, s.stage);
     job.source_name = display_path(plan_.declarations[s.pass].stage_entry[static_cast<size_t>(s.stage)]);
     job.source = s.text;
-    job.targets = settings_.targets;
+    job.targets = settings_.targets_for(plan_.pack.passes[s.pass]);
     job.optimize = settings_.optimize;
     job.optimizer_recipe = settings_.optimizer_recipe;
     job.bindings = plan_.pack.passes[s.pass].bindings;

@@ -113,8 +113,8 @@ void MessageGroups::report(DiagnosticSink& sink) {
     if (g.variants.size() > 1) notes.push_back("and in " + std::to_string(g.variants.size() - 1) + " more variant(s)");
     if (g.id == DiagId::CrossCompileFailed && g.text.starts_with("cross-")) {  // "cross-gles: ..."
       const std::string target = g.text.substr(6, g.text.find_first_of(": ") - 6);
-      notes.push_back("SPIRV-Cross cannot write this for the '" + target + "' target; if the pack does not ship it, remove \"" +
-                      target + "\" from the pack's \"targets\" (or build with --targets)");
+      notes.push_back("SPIRV-Cross cannot write this for the '" + target + "' target; if this pass does not need it, give the "
+                      "pass \"targets\" without \"" + target + "\" (or remove it from the pack's, or build with --targets)");
     }
     notes.insert(notes.end(), g.notes.begin(), g.notes.end());
     sink.report(g.id, g.at, g.text, notes);

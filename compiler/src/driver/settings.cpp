@@ -23,6 +23,7 @@ std::optional<BuildSettings> choose_settings(const BuildOptions& options, const 
                          "); " + settings.frontend->name() + " " + settings.frontend->version() + "; " +
                          spirv_tools_version() + "; SPIRV-Cross " + spirv_cross_version();
   settings.targets = options.targets.empty() ? plan.pack.targets : options.targets;
+  settings.targets_from_command_line = !options.targets.empty();
   if (std::find(settings.targets.begin(), settings.targets.end(), Target::Spirv) == settings.targets.end())
     settings.targets.insert(settings.targets.begin(), Target::Spirv);
   std::sort(settings.targets.begin(), settings.targets.end());

@@ -23,6 +23,24 @@ struct BuildSettings {
   std::string fingerprint;      // tools and their versions
   std::vector<Target> targets;  // sorted; SPIR-V always included
   std::string target_names;     // "spirv,glsl,..." as hashed
+  bool targets_from_command_line = false;
+
+  // What a pass is built for: its own "targets" if it has them (narrowed by --targets when given), else the
+  // build's. A pass without its own list hashes exactly what it always did.
+  std::vector<Target> targets_for(const PassDefinition& pass) const {
+    if (pass.targets.empty()) return targets;
+    if (!targets_from_command_line) return pass.targets;
+    std::vector<Target> both;
+    for (Target t : pass.targets)
+      if (std::find(targets.begin(), targets.end(), t) != targets.end()) both.push_back(t);
+    return both;
+  }
+  std::string target_names_for(const PassDefinition& pass) const {
+    if (pass.targets.empty()) return target_names;
+    std::string names;
+    for (Target t : targets_for(pass)) names += std::string(target_name(t)) + ",";
+    return names;
+  }
   bool optimize = true;
   OptimizerRecipe optimizer_recipe = OptimizerRecipe::Kiln;
 
@@ -34,7 +52,7 @@ struct BuildSettings {
   // whose bindings did not change keep their bytes.
   template <typename KeyHasher>
   KeyHasher& add_compile_options(KeyHasher& hasher, const PassDefinition& pass, Stage stage) const {
-    return hasher.add(fingerprint).add(optimize ? 1 : 0).add(optimizer_recipe_name(optimizer_recipe)).add(target_names).add(stage_name(stage))
+    return hasher.add(fingerprint).add(optimize ? 1 : 0).add(optimizer_recipe_name(optimizer_recipe)).add(target_names_for(pass)).add(stage_name(stage))
         .add(pass.entry_points[static_cast<size_t>(stage)]).add("binding model 1").add(pass.bindings.canonical());
   }
 };

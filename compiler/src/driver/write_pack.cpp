@@ -62,6 +62,7 @@ std::optional<std::string> write_variant_pack(const Plan& plan, const BuildOptio
     const PassDefinition& def = plan.pack.passes[p];
     ManifestPass& pass = manifest.passes.emplace_back();
     pass.name = def.name;
+    if (!def.targets.empty()) pass.targets = settings.targets_for(def);
     StageMask pass_stages = 0;
     for (Stage s : kAllStages)
       if (!def.entry_points[static_cast<size_t>(s)].empty()) {
@@ -82,8 +83,12 @@ std::optional<std::string> write_variant_pack(const Plan& plan, const BuildOptio
         if (known == binary_order.end()) {
           const JobOutput& out = *binaries[b].output;
           const Hash128 spirv = out.blobs.at(Target::Spirv).key;
-          Hash128 output_key =
-              Hasher().add(stage_name(binaries[b].stage)).add(binaries[b].entry_point).add(spirv.low).add(spirv.high).finish();
+          // Binaries with the same SPIR-V are one, unless one was built for targets the other was not (passes with
+          // their own "targets").
+          Hasher same_output;
+          same_output.add(stage_name(binaries[b].stage)).add(binaries[b].entry_point).add(spirv.low).add(spirv.high);
+          for (const auto& [target, blob] : out.blobs) same_output.add(target_name(target));
+          Hash128 output_key = same_output.finish();
           const auto binary_index = static_cast<uint32_t>(manifest.binaries.size());
           auto [by_output, fresh] = binary_by_output.emplace(output_key, binary_index);
           if (fresh) {

@@ -330,6 +330,11 @@ void to_json(json& j, const ManifestPass& v) {
        {"variants", v.variants}};
   if (!v.bindings.empty()) j["bindings"] = v.bindings;
   if (!v.defines.empty()) j["defines"] = keyed_object(v.defines);
+  if (!v.targets.empty()) {
+    json targets = json::array();
+    for (Target t : v.targets) targets.push_back(target_name(t));
+    j["targets"] = targets;
+  }
 }
 void from_json(const json& j, ManifestPass& v) {
   read(j, "name", v.name);
@@ -339,6 +344,7 @@ void from_json(const json& j, ManifestPass& v) {
   read(j, "variants", v.variants);
   read_if_present(j, "bindings", v.bindings);
   read_if_present(j, "defines", v.defines);
+  read_if_present(j, "targets", v.targets);
 }
 
 void to_json(json& j, const ManifestBinary& v) {
