@@ -27,7 +27,7 @@ KILN_STRESS_REPORT="$PWD/bench/results/stress.json" KILN_ACCURACY_REPORT="$PWD/b
 build/ci/bench/kiln-shading-study bench/results/shading_study.json
 build/ci/compiler/kiln build variants/lit.pack.json -o build/ci/packs/lit --cache build/ci/kiln-cache -q
 build/ci/compiler/kiln build variants/debug.pack.json -o build/ci/packs/debug --cache build/ci/kiln-cache -q
-build/ci/bench/kiln-frame-cost build/ci/packs/lit build/ci/packs/debug bench/results/frame_cost.json
+build/ci/bench/kiln-frame-cost build/ci/packs/lit bench/results/frame_cost.json
 bash bench/remote_cache.sh build/ci/compiler/kiln . 3
 python3 bench/remote_transfers.py --kiln build/ci/compiler/kiln --rounds 3 --delay-ms 5
 # kiln against the 2-wide anchors (xargs, build.ninja, glslc): the longest instrument, about 25 minutes.

@@ -25,8 +25,10 @@ struct ToleranceClass {
   std::vector<std::string> when_any;  // keywords; empty: every variant
   std::vector<std::string> when_all;  // and all of these
   int max_channel_difference = 2;     // of 255, on the display-encoded (ACES, sRGB, 8-bit) image
-  double max_fraction_over = 0.001;   // of pixels with a channel over that difference
+  double max_fraction_over = 0.001;   // of the shaded pixels, those with a channel over that difference
   double max_relative_rmse = 1e-3;    // on the shader's float output, RGB
+  int max_worst_difference = 255;     // of 255: the largest channel difference any pixel may have
+  double max_fraction_skipped = 0;    // of the shaded pixels, the shadow-test ties skipped
   std::string reason;
 };
 std::vector<ToleranceClass> load_tolerances(const std::filesystem::path& path);
@@ -35,20 +37,31 @@ struct ComparisonLimits {
   int max_channel_difference = 0;
   double max_fraction_over = 0;
   double max_relative_rmse = 0;
+  int max_worst_difference = 0;
+  double max_fraction_skipped = 0;
   std::vector<std::string> classes;
 };
 ComparisonLimits limits_for(const std::vector<ToleranceClass>& classes, const std::vector<std::string>& keywords);
 
+// Fractions are of the shaded pixels: those the reference covers with geometry (alpha not 0). The background
+// is not counted in the denominator, so it cannot dilute an error; a background pixel that differs still counts
+// as over (and in the worst difference).
 struct Comparison {
-  double fraction_over = 0;     // pixels with a channel difference over the limit
-  int max_difference = 0;       // largest 8-bit channel difference
+  size_t shaded = 0;            // pixels with geometry in the reference
+  size_t over = 0;              // compared pixels with a channel difference over the limit
+  double fraction_over = 0;     // over / shaded
+  int max_difference = 0;       // largest 8-bit channel difference of any compared pixel
   double relative_rmse = 0;
   size_t non_finite = 0;        // NaN or Inf values in the rendered image
   size_t unstable = 0;          // pixels the reference marked kUnstablePixel (not compared)
+  double fraction_skipped = 0;  // unstable / shaded
   bool passed = false;
 };
 // `linear_output`: the images hold linear radiance (_LINEAR_OUTPUT); both are tone-mapped for display.
+// Passes when nothing is NaN/Inf and each of the four measures is within its limit.
 Comparison compare_images(const Image& rendered, const Image& reference, bool linear_output, const ComparisonLimits& limits);
+// One line: each measure against its limit, e.g. "pixels over 2/255 0.031% of 40321 shaded (limit 0.100%), ...".
+std::string describe_comparison(const Comparison& c, const ComparisonLimits& limits);
 
 // Writes <dir>/<stem>.render.png, .reference.png, .diff.png (|difference| x 16) and returns the HTML row.
 std::string write_failure_images(const std::filesystem::path& dir, const std::string& stem, const Image& rendered,

@@ -1,14 +1,17 @@
 #include "golden/scene_inputs.hpp"
 
+#include "reference/rasterize.hpp"
+
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
 
 namespace kiln::reference {
 
-SceneInputs::SceneInputs(render::SceneRenderer& renderer, const PackReader& debug_pack)
+SceneInputs::SceneInputs(render::SceneRenderer& renderer)
     : renderer_(renderer),
-      gbuffer_(renderer.render_gbuffer(debug_pack)),
+      // The reference's own geometry, not lavapipe's (golden.Scenes/ReferenceGeometry.* checks that they agree).
+      gbuffer_(rasterize_gbuffer(renderer.scene(), renderer.frame(1).view_projection, renderer.width(), renderer.height())),
       environment_(render::load_environment(renderer.scene().environment)),
       additional_(renderer.additional_shadow_atlas()) {
   std::ifstream in(renderer.scene().dfg, std::ios::binary);

@@ -11,12 +11,12 @@
 
 namespace kiln::reference {
 
-// The inputs of one scene as a renderer provides them: the G-buffer the debug pack's GBuffer pass draws, the
-// shadow atlases and frames, and the environment and DFG table the scene names. Atlases and frames are made by
+// The inputs of one scene: the G-buffer the reference rasterizes itself (reference/rasterize.hpp), the shadow
+// atlases and frames the renderer provides, and the environment and DFG table the scene names. Atlases and frames are made by
 // prepare() on the renderer's thread; inputs() is then safe to call from several threads.
 class SceneInputs {
  public:
-  SceneInputs(render::SceneRenderer& renderer, const PackReader& debug_pack);
+  explicit SceneInputs(render::SceneRenderer& renderer);
   void prepare(const std::vector<std::string>& keywords);  // the variant's cascade layout
   ReferenceInputs inputs(const std::vector<std::string>& keywords) const;
   const render::GBuffer& gbuffer() const { return gbuffer_; }

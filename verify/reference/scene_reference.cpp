@@ -386,8 +386,8 @@ render::Image shade_image(const ReferenceInputs& in, const std::vector<std::stri
       const float* p = g.position.pixel(x, y);
       float* o = out.pixel(x, y);
       o[3] = 1;
-      if (p[3] == 0) {
-        o[3] = 0;
+      if (p[3] == 0 || p[3] == render::kUnstablePixel) {
+        o[3] = p[3];  // background, or a coverage tie (which surface the GPU draws there is a rounding matter)
         continue;
       }
       const float* nrm = g.normal.pixel(x, y);

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <iterator>
+#include <sstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
@@ -158,12 +160,26 @@ Mat4 orthographic(double hw, double hh, double n, double f) {
 }
 
 Mat4 object_to_world(const Object& object) {
+  auto rotation = [](int axis, double degrees) {
+    const double c = std::cos(degrees * kPi / 180), s = std::sin(degrees * kPi / 180);
+    const int a = (axis + 1) % 3, b = (axis + 2) % 3;  // x: (y, z), y: (z, x), z: (x, y)
+    Mat4 r = mat_identity();
+    r[a][a] = c;
+    r[a][b] = -s;
+    r[b][a] = s;
+    r[b][b] = c;
+    return r;
+  };
   Mat4 m = mat_identity();
-  for (int i = 0; i < 3; ++i) {
-    m[i][i] = object.size;
-    m[i][3] = object.position[i];
-  }
+  for (int i = 0; i < 3; ++i) m[i][i] = object.size * object.scale[i];
+  for (int axis = 0; axis < 3; ++axis) m = mat_multiply(rotation(axis, object.rotation_degrees[axis]), m);
+  for (int i = 0; i < 3; ++i) m[i][3] = object.position[i];
   return m;
+}
+
+bool Scene::judges(const std::string& variant_name) const {
+  return judged_variants.empty() ||
+         std::find(judged_variants.begin(), judged_variants.end(), variant_name) != judged_variants.end();
 }
 
 Scene load_scene(const std::filesystem::path& path) {
@@ -180,6 +196,20 @@ Scene load_scene(const std::filesystem::path& path) {
   Scene scene;
   scene.path = path;
   scene.name = j.value("name", path.stem().string());
+  if (j.contains("judged_variants")) {
+    const auto& list = j["judged_variants"];
+    if (!list.is_array() || list.empty()) fail(path, "'judged_variants' must be a non-empty list of keyword lists");
+    for (const auto& v : list) {
+      if (!v.is_string()) fail(path, "'judged_variants' must be a non-empty list of keyword lists");
+      // Sorted and single-spaced, as variant names are written.
+      std::istringstream words(v.get<std::string>());
+      std::vector<std::string> keywords{std::istream_iterator<std::string>(words), std::istream_iterator<std::string>()};
+      std::sort(keywords.begin(), keywords.end());
+      std::string name;
+      for (const std::string& k : keywords) name += (name.empty() ? "" : " ") + k;
+      scene.judged_variants.push_back(name.empty() ? "(none)" : name);
+    }
+  }
   if (r.contains("size")) {
     const auto& s = r["size"];
     if (!s.is_array() || s.size() != 2) fail(path, "'size' must be [width, height]");
@@ -289,6 +319,12 @@ Scene load_scene(const std::filesystem::path& path) {
     object.shape = shape == "plane" ? Object::Shape::Plane : Object::Shape::Sphere;
     if (o.contains("position")) object.position = read_vec3(o["position"], path, "object.position");
     object.size = read_number(o, "size", object.size, path, 1e-3, 1e4);
+    if (o.contains("scale")) {
+      object.scale = read_vec3(o["scale"], path, "object.scale");
+      for (double v : object.scale)
+        if (!(v >= 1e-3 && v <= 1e4)) fail(path, "'object.scale' components must be in [0.001, 10000]");
+    }
+    if (o.contains("rotation_degrees")) object.rotation_degrees = read_vec3(o["rotation_degrees"], path, "object.rotation_degrees");
     if (o.contains("material")) object.material = read_material(o["material"], path);
     scene.objects.push_back(object);
   }
@@ -353,12 +389,18 @@ struct Bounds {
 
 Bounds scene_bounds(const Scene& scene) {
   Vec3 lo{1e30, 1e30, 1e30}, hi{-1e30, -1e30, -1e30};
-  for (const Object& o : scene.objects)
-    for (int i = 0; i < 3; ++i) {
-      double extent = (o.shape == Object::Shape::Plane && i == 1) ? 0 : o.size;
-      lo[i] = std::min(lo[i], o.position[i] - extent);
-      hi[i] = std::max(hi[i], o.position[i] + extent);
+  for (const Object& o : scene.objects) {
+    // The transformed corners of the object's box in object space ([-1, 1]^3; a plane is flat in y).
+    const Mat4 m = object_to_world(o);
+    const double height = o.shape == Object::Shape::Plane ? 0 : 1;
+    for (int corner = 0; corner < 8; ++corner) {
+      auto p = mat_apply(m, {corner & 1 ? 1.0 : -1.0, corner & 2 ? height : -height, corner & 4 ? 1.0 : -1.0, 1});
+      for (int i = 0; i < 3; ++i) {
+        lo[i] = std::min(lo[i], p[i]);
+        hi[i] = std::max(hi[i], p[i]);
+      }
     }
+  }
   Bounds b;
   b.center = scale(add(lo, hi), 0.5);
   b.radius = std::sqrt(dot(sub(hi, lo), sub(hi, lo))) * 0.5;

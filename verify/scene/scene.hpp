@@ -39,6 +39,10 @@ struct Object {
   Shape shape = Shape::Sphere;
   Vec3 position{0, 0, 0};
   double size = 1;  // sphere radius, plane half-extent
+  // Object space to world: scale (size times this, per axis), then rotate about x, then y, then z (degrees), then
+  // translate. A non-uniform scale or a rotation makes object-space and world-space normals differ.
+  Vec3 scale{1, 1, 1};
+  Vec3 rotation_degrees{0, 0, 0};
   Material material;
 };
 
@@ -93,6 +97,10 @@ struct Scene {
   double environment_intensity = 1;
   Vec3 glossy_environment_color{0.3, 0.3, 0.35};
   std::vector<Object> objects;
+  // The Forward variants the scene is made to judge (sorted keyword names as variant_name() writes them, "(none)"
+  // for no keywords); empty: every variant. kiln test and kiln-reference goldens skip the others.
+  std::vector<std::string> judged_variants;
+  bool judges(const std::string& variant_name) const;
 };
 
 // Loads a scene; throws std::runtime_error "path: error: ..." naming the bad field.

@@ -1,9 +1,9 @@
 // kiln-reference: generates the data the shader library samples, and the golden images, from the CPU reference.
 //   kiln-reference dfg [--size N] [--samples S] -o FILE            the DFG table (KDFG binary, see reference.hpp)
 //   kiln-reference environment [--size N] [--mips M] -o FILE       prefiltered sky cube + SH9 (KENV, scene/environment.hpp)
-//   kiln-reference goldens --pack DIR --debug-pack DIR --scene S -o DIR
+//   kiln-reference goldens --pack DIR --scene S -o DIR
 //       one reference image per shading configuration of the pack's Forward variants, shaded in double
-//       precision from the G-buffer (debug pack) and the shadow maps lavapipe rendered, plus index.json
+//       precision from the reference's own rasterization of the scene and the shadow maps lavapipe rendered, plus index.json
 #include <CLI/CLI.hpp>
 #include <fstream>
 #include <iostream>
@@ -21,11 +21,10 @@
 
 namespace {
 
-int make_goldens(const std::string& pack_dir, const std::string& debug_dir, const std::string& scene_file,
+int make_goldens(const std::string& pack_dir, const std::string& scene_file,
                  const std::string& dfg_file, const std::string& output, uint32_t width, uint32_t height) {
   using namespace kiln;
   PackReader pack = PackReader::open(pack_dir);
-  PackReader debug = PackReader::open(debug_dir);
   render::Scene scene = render::load_scene(scene_file);
   if (!dfg_file.empty()) scene.dfg = dfg_file;
   std::string error;
@@ -35,7 +34,7 @@ int make_goldens(const std::string& pack_dir, const std::string& debug_dir, cons
     return 1;
   }
   render::SceneRenderer renderer(*context, pack, scene, width, height);
-  reference::SceneInputs inputs(renderer, debug);
+  reference::SceneInputs inputs(renderer);
   std::filesystem::create_directories(output);
 
   nlohmann::json index;
@@ -51,6 +50,7 @@ int make_goldens(const std::string& pack_dir, const std::string& debug_dir, cons
   std::vector<SelectedVariant> to_shade;
   for (size_t i = 0; i < pack.variant_count("Forward"); ++i) {
     SelectedVariant variant = pack.variant("Forward", i);
+    if (!scene.judges(render::variant_name(variant.keywords))) continue;
     std::string key = render::variant_name(reference::reference_key(variant.keywords));
     auto found = files.find(key);
     if (found == files.end()) {
@@ -68,7 +68,7 @@ int make_goldens(const std::string& pack_dir, const std::string& debug_dir, cons
   });
   const size_t shaded = to_shade.size();
   render::write_file_atomically(std::filesystem::path(output) / "index.json", index.dump(1) + "\n");
-  std::cout << "kiln-reference: " << shaded << " reference images for " << pack.variant_count("Forward")
+  std::cout << "kiln-reference: " << shaded << " reference images for " << index["variants"].size()
             << " Forward variants of " << pack.name() << " (scene " << scene.name << ") in " << output << "\n";
   return 0;
 }
@@ -96,10 +96,9 @@ int main(int argc, char** argv) {
   env->add_option("--samples", env_samples, "GGX samples per texel");
   env->add_option("-o,--output", output, "Output file")->required();
 
-  std::string pack_dir, debug_dir, scene, dfg_file, size_text;
+  std::string pack_dir, scene, dfg_file, size_text;
   CLI::App* goldens = app.add_subcommand("goldens", "Shade the reference image of every Forward variant of a pack");
   goldens->add_option("--pack", pack_dir, "The pack under test")->required();
-  goldens->add_option("--debug-pack", debug_dir, "The debug pack (its GBuffer pass gives the geometry)")->required();
   goldens->add_option("--scene", scene, "Render scene")->required()->check(CLI::ExistingFile);
   goldens->add_option("--dfg", dfg_file, "DFG table (default: the scene's)");
   goldens->add_option("--size", size_text, "WxH (default: the scene's)");
@@ -113,7 +112,7 @@ int main(int argc, char** argv) {
         std::cerr << "kiln-reference: error: --size wants WxH\n";
         return 1;
       }
-      return make_goldens(pack_dir, debug_dir, scene, dfg_file, output, w, h);
+      return make_goldens(pack_dir, scene, dfg_file, output, w, h);
     }
     std::string bytes;
     if (*env) {

@@ -1,0 +1,149 @@
+// kiln test's image comparison and the scene features the adversarial scene needs, on synthetic images and
+// matrices (no renderer): fractions are of the shaded pixels, the worst pixel is bounded, shadow-test ties are
+// capped, object transforms rotate and scale, a scene can name the variants it judges.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "golden/golden.hpp"
+#include "scene/scene.hpp"
+
+namespace kiln::render {
+namespace {
+
+constexpr uint32_t kSide = 100;
+
+// A reference whose left `shaded_columns` columns hold geometry (alpha 1, grey 0.2), the rest background (alpha 0,
+// black), and a rendered copy of it.
+struct Images {
+  Image reference{kSide, kSide, std::vector<float>(size_t(kSide) * kSide * 4, 0.0f)};
+  Image rendered;
+  explicit Images(uint32_t shaded_columns) {
+    for (uint32_t y = 0; y < kSide; ++y)
+      for (uint32_t x = 0; x < shaded_columns; ++x) {
+        float* p = reference.pixel(x, y);
+        p[0] = p[1] = p[2] = 0.2f;
+        p[3] = 1;
+      }
+    rendered = reference;
+  }
+};
+
+ComparisonLimits limits() {
+  ComparisonLimits l;
+  l.max_channel_difference = 2;
+  l.max_fraction_over = 0.01;
+  l.max_relative_rmse = 1.0;  // not what these tests judge
+  l.max_worst_difference = 40;
+  l.max_fraction_skipped = 0.005;
+  return l;
+}
+
+TEST(Comparison, FractionsAreOfTheShadedPixelsSoTheBackgroundCannotDiluteThem) {
+  Images im(25);  // 2,500 shaded pixels of 10,000
+  for (uint32_t y = 0; y < 50; ++y) im.rendered.pixel(0, y)[0] = 0.25f;  // 50 pixels a few levels brighter in red
+  Comparison c = compare_images(im.rendered, im.reference, true, limits());
+  EXPECT_EQ(c.shaded, 2500u);
+  EXPECT_EQ(c.over, 50u);
+  EXPECT_DOUBLE_EQ(c.fraction_over, 0.02);  // over all 10,000 pixels it would have been 0.5%, under the limit
+  EXPECT_FALSE(c.passed);
+  EXPECT_NE(describe_comparison(c, limits()).find("over the limit: pixels over"), std::string::npos)
+      << describe_comparison(c, limits());
+}
+
+TEST(Comparison, ABackgroundPixelTheShaderLitCountsAsOver) {
+  Images im(25);
+  im.rendered.pixel(90, 90)[1] = 1.0f;
+  Comparison c = compare_images(im.rendered, im.reference, true, limits());
+  EXPECT_EQ(c.over, 1u);
+  EXPECT_GT(c.max_difference, 40);
+  EXPECT_FALSE(c.passed) << describe_comparison(c, limits());
+}
+
+TEST(Comparison, OneWrongPixelFailsOnTheWorstPixelBoundEvenWhenTheFractionIsTiny) {
+  Images im(100);
+  im.rendered.pixel(3, 4)[2] = 0.6f;
+  ComparisonLimits l = limits();
+  Comparison c = compare_images(im.rendered, im.reference, true, l);
+  EXPECT_EQ(c.over, 1u);
+  EXPECT_LE(c.fraction_over, l.max_fraction_over);
+  EXPECT_GT(c.max_difference, l.max_worst_difference);
+  EXPECT_FALSE(c.passed);
+  EXPECT_NE(describe_comparison(c, l).find("over the limit: worst pixel"), std::string::npos) << describe_comparison(c, l);
+  l.max_worst_difference = 255;
+  EXPECT_TRUE(compare_images(im.rendered, im.reference, true, l).passed);
+}
+
+TEST(Comparison, ShadowTieExclusionsAreCountedCappedAndReported) {
+  Images im(50);  // 5,000 shaded pixels; the cap is 0.5% of them: 25
+  for (uint32_t x = 0; x < 25; ++x) im.reference.pixel(x, 7)[3] = kUnstablePixel;
+  Comparison c = compare_images(im.rendered, im.reference, true, limits());
+  EXPECT_EQ(c.unstable, 25u);
+  EXPECT_TRUE(c.passed) << describe_comparison(c, limits());
+  EXPECT_NE(describe_comparison(c, limits()).find("shadow-tie pixels skipped 25 = 0.500% (limit 0.500%)"), std::string::npos)
+      << describe_comparison(c, limits());
+  im.reference.pixel(30, 7)[3] = kUnstablePixel;
+  c = compare_images(im.rendered, im.reference, true, limits());
+  EXPECT_FALSE(c.passed);
+  EXPECT_NE(describe_comparison(c, limits()).find("over the limit: shadow ties"), std::string::npos);
+}
+
+TEST(Comparison, TheSuitesToleranceFileStatesEveryLimitForEveryClass) {
+  auto classes = load_tolerances(std::filesystem::path(KILN_SOURCE_DIR) / "variants/scenes/render/tolerances.json");
+  ASSERT_FALSE(classes.empty());
+  for (const ToleranceClass& c : classes) {
+    SCOPED_TRACE(c.name);
+    EXPECT_LT(c.max_worst_difference, 255) << "a class must bound its worst pixel";
+    EXPECT_LT(c.max_fraction_skipped, 0.05) << "a class must cap its shadow-tie exclusions";
+  }
+  const std::filesystem::path missing = std::filesystem::temp_directory_path() / "kiln-tolerances-missing.json";
+  std::ofstream(missing) << R"({"classes": [{"name": "x", "max_channel_difference": 2, "max_fraction_over": 0.001,
+                                 "max_relative_rmse": 0.003, "reason": "no worst-pixel bound"}]})";
+  EXPECT_ANY_THROW(load_tolerances(missing));
+  std::filesystem::remove(missing);
+}
+
+TEST(Scene, ObjectsRotateAboutXThenYThenZAfterANonUniformScale) {
+  Object o;
+  o.size = 2;
+  o.scale = {1, 3, 1};
+  o.rotation_degrees = {90, 0, 0};
+  o.position = {10, 0, 0};
+  // (0, 1, 0) scales to (0, 6, 0); 90 degrees about x takes +y to +z.
+  auto p = mat_apply(object_to_world(o), {0, 1, 0, 1});
+  EXPECT_NEAR(p[0], 10, 1e-12);
+  EXPECT_NEAR(p[1], 0, 1e-12);
+  EXPECT_NEAR(p[2], 6, 1e-12);
+  o.rotation_degrees = {90, 0, 90};  // then 90 degrees about z takes +z to +z and +x to +y
+  p = mat_apply(object_to_world(o), {1, 0, 0, 0});
+  EXPECT_NEAR(p[0], 0, 1e-12);
+  EXPECT_NEAR(p[1], 2, 1e-12);
+  EXPECT_NEAR(p[2], 0, 1e-12);
+}
+
+TEST(Scene, TheAdversarialSceneHasTransformedObjectsAndNamesTheVariantsItJudges) {
+  Scene scene = load_scene(std::filesystem::path(KILN_SOURCE_DIR) / "variants/scenes/render/audit.json");
+  bool non_uniform = false, rotated = false;
+  for (const Object& o : scene.objects) {
+    non_uniform |= o.scale[0] != o.scale[1] || o.scale[1] != o.scale[2];
+    rotated |= o.rotation_degrees[0] != 0 || o.rotation_degrees[1] != 0 || o.rotation_degrees[2] != 0;
+  }
+  EXPECT_TRUE(non_uniform);
+  EXPECT_TRUE(rotated);
+  // Every Forward+ tile can hold 63 lights: the scene has exactly that many, so full tiles are reachable.
+  EXPECT_EQ(scene.lights.size(), size_t(kMaxLightsPerTile));
+  FrameSetup frame = setup_frame(scene, 1);
+  size_t full = 0, tiles = size_t(frame.tiles_x) * frame.tiles_y;
+  for (size_t t = 0; t < tiles; ++t) full += frame.tile_lists[t * kTileStride] == kMaxLightsPerTile;
+  EXPECT_GT(full, tiles / 2) << full << " of " << tiles << " tiles hold 63 lights";
+  EXPECT_TRUE(scene.judges("(none)"));
+  EXPECT_TRUE(scene.judges("FOG_EXP _ADDITIONAL_LIGHTS _ADDITIONAL_LIGHT_SHADOWS _FORWARD_PLUS _MAIN_LIGHT_SHADOWS "
+                           "_MULTISCATTER _SHADOWS_SOFT"));
+  EXPECT_FALSE(scene.judges("_LINEAR_OUTPUT"));
+  EXPECT_TRUE(load_scene(std::filesystem::path(KILN_SOURCE_DIR) / "variants/scenes/render/spheres.json").judges("_LINEAR_OUTPUT"));
+}
+
+}  // namespace
+}  // namespace kiln::render
