@@ -10,7 +10,7 @@ when every variant passes. A mutation whose snippet is missing, that does not co
 reference image is an error of the gate, never a kill.
 
   run_mutations.py --kiln KILN --source SOURCE_DIR --work DIR --goldens GOLDEN_WORK/goldens
-                   [--shard I/N] [--only NAME] [--json FILE]
+                   [--shard I/N] [--only NAME] [--json FILE] [--mutations FILE]
 
 Exit 0 when every mutation of the shard was killed; 1 when one survived or the gate itself failed.
 """
@@ -91,9 +91,10 @@ def main():
     parser.add_argument("--shard", default="0/1")
     parser.add_argument("--only", default="")
     parser.add_argument("--json", default="")
+    parser.add_argument("--mutations", default="", help="mutation list (default: tests/mutation/mutations.json)")
     args = parser.parse_args()
     index, count = (int(x) for x in args.shard.split("/"))
-    with open(os.path.join(args.source, "tests/mutation/mutations.json")) as f:
+    with open(args.mutations or os.path.join(args.source, "tests/mutation/mutations.json")) as f:
         mutations = json.load(f)["mutations"]
     names = [m["name"] for m in mutations]
     if len(set(names)) != len(names):

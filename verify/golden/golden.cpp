@@ -23,6 +23,7 @@ std::vector<ToleranceClass> load_tolerances(const std::filesystem::path& path) {
     t.name = c.at("name").get<std::string>();
     t.when_any = c.value("when_any", std::vector<std::string>{});
     t.when_all = c.value("when_all", std::vector<std::string>{});
+    t.scenes = c.value("scenes", std::vector<std::string>{});
     t.max_channel_difference = c.at("max_channel_difference").get<int>();
     t.max_fraction_over = c.at("max_fraction_over").get<double>();
     t.max_relative_rmse = c.at("max_relative_rmse").get<double>();
@@ -36,12 +37,14 @@ std::vector<ToleranceClass> load_tolerances(const std::filesystem::path& path) {
   return classes;
 }
 
-ComparisonLimits limits_for(const std::vector<ToleranceClass>& classes, const std::vector<std::string>& keywords) {
+ComparisonLimits limits_for(const std::vector<ToleranceClass>& classes, const std::vector<std::string>& keywords,
+                            const std::string& scene) {
   ComparisonLimits limits;
   for (const ToleranceClass& c : classes) {
     auto present = [&](const std::string& k) { return std::find(keywords.begin(), keywords.end(), k) != keywords.end(); };
     bool matches = c.when_any.empty() || std::any_of(c.when_any.begin(), c.when_any.end(), present);
     matches = matches && std::all_of(c.when_all.begin(), c.when_all.end(), present);
+    matches = matches && (c.scenes.empty() || std::find(c.scenes.begin(), c.scenes.end(), scene) != c.scenes.end());
     if (!matches) continue;
     limits.classes.push_back(c.name);
     limits.max_channel_difference = std::max(limits.max_channel_difference, c.max_channel_difference);
@@ -266,7 +269,7 @@ GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream
       for (size_t p = 0; p + 3 < expected.rgba.size(); p += 4) expected.rgba[p + 3] = reference.rgba[p + 3];
       reference = std::move(expected);
     }
-    ComparisonLimits limits = limits_for(tolerances, variant.keywords);
+    ComparisonLimits limits = limits_for(tolerances, variant.keywords, scene.name);
     Comparison c = compare_images(rendered, reference, linear, limits);
     std::string details = describe_comparison(c, limits);
     out << (c.passed ? "PASS     #" : "FAIL     #") << i << " " << name << ": " << details << "\n";

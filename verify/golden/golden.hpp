@@ -24,6 +24,7 @@ struct ToleranceClass {
   std::string name;
   std::vector<std::string> when_any;  // keywords; empty: every variant
   std::vector<std::string> when_all;  // and all of these
+  std::vector<std::string> scenes;    // render scene names (Scene::name); empty: every scene
   int max_channel_difference = 2;     // of 255, on the display-encoded (ACES, sRGB, 8-bit) image
   double max_fraction_over = 0.001;   // of the shaded pixels, those with a channel over that difference
   double max_relative_rmse = 1e-3;    // on the shader's float output, RGB
@@ -41,7 +42,8 @@ struct ComparisonLimits {
   double max_fraction_skipped = 0;
   std::vector<std::string> classes;
 };
-ComparisonLimits limits_for(const std::vector<ToleranceClass>& classes, const std::vector<std::string>& keywords);
+ComparisonLimits limits_for(const std::vector<ToleranceClass>& classes, const std::vector<std::string>& keywords,
+                            const std::string& scene = "");
 
 // Fractions are of the shaded pixels: those the reference covers with geometry (alpha not 0). The background
 // is not counted in the denominator, so it cannot dilute an error; a background pixel that differs still counts
