@@ -18,7 +18,7 @@
 
 #include "golden/golden.hpp"
 #include "render/renderer.hpp"
-#include "golden/scene_inputs.hpp"
+#include "reference/scene_inputs.hpp"
 #include "reference/scene_reference.hpp"
 
 namespace {
@@ -43,7 +43,7 @@ json measure_scene(render::VulkanContext& context, const PackReader& pack,
                    const std::filesystem::path& scene_file, int frames) {
   render::Scene scene = render::load_scene(scene_file);
   render::SceneRenderer renderer(context, pack, scene);
-  reference::SceneInputs reference_inputs(renderer);  // the variants below all use one cascade
+  reference::SceneInputs reference_inputs(renderer.scene());  // the variants below all use one cascade
   const render::GBuffer& gbuffer = reference_inputs.gbuffer();
   const render::FrameSetup& frame = renderer.frame(1);
   const double lights = double(renderer.scene().lights.size());

@@ -1,6 +1,7 @@
 // The CPU reference rasterizes the scenes itself (verify/reference/rasterize.cpp) instead of reading the G-buffer
-// lavapipe draws: the two must agree wherever the reference does not mark a coverage tie, which checks both the
-// reference's rasterizer and the debug pack's GBuffer pass. A wrong object transform in either fails here.
+// and the shadow maps lavapipe draws: they must agree wherever the reference does not mark a coverage tie, which
+// checks both the reference's rasterizer and the debug pack's GBuffer pass and the ShadowCaster pass. A wrong object
+// transform or caster bias in either fails here.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -85,6 +86,73 @@ TEST_P(ReferenceGeometry, TheReferencesOwnRasterizationAgreesWithLavapipesGBuffe
   EXPECT_LT(a.tangent, 0.05);
   EXPECT_LT(a.tangent_over, a.covered / 2000) << a.tangent_over << " pixels with a tangent over 1e-3 off";
   EXPECT_EQ(a.material, 0);
+}
+
+// The shadow atlases: the same caster coverage outside the tie texels, depths within what fp32 transforms and
+// vertices snapped to 1/256 texel move them.
+struct AtlasAgreement {
+  size_t covered = 0, ties = 0, coverage_differs = 0;
+  size_t depth_outside_tolerance = 0;  // texels whose depths differ by more than the reference's tolerance + 2e-6
+  double depth = 0;
+};
+
+AtlasAgreement agreement(const ShadowAtlas& gpu, const ShadowAtlas& cpu) {
+  AtlasAgreement a;
+  for (size_t i = 0; i < gpu.depth.size(); ++i) {
+    const bool g = gpu.depth[i] < 1, c = cpu.depth[i] < 1;
+    if (!g && !c) continue;
+    ++a.covered;
+    if (cpu.tie[i]) {
+      ++a.ties;
+      continue;
+    }
+    if (g != c) {
+      ++a.coverage_differs;
+      continue;
+    }
+    const double difference = std::abs(double(gpu.depth[i]) - double(cpu.depth[i]));
+    a.depth = std::max(a.depth, difference);
+    a.depth_outside_tolerance += difference > 2e-6 + cpu.depth_tolerance[i];
+  }
+  return a;
+}
+
+TEST_P(ReferenceGeometry, TheReferencesOwnShadowMapsAgreeWithTheShadowCasterPassOutsideCoverageTies) {
+  std::string error;
+  auto context = VulkanContext::open_lavapipe(error);
+  ASSERT_TRUE(context) << error;
+  PackReader pack = PackReader::open(kWork / "packs/lit");
+  const Scene scene = load_scene(std::filesystem::path(KILN_SOURCE_DIR) / "variants/scenes/render" / (std::string(GetParam()) + ".json"));
+  SceneRenderer renderer(*context, pack, scene);
+  struct Atlas {
+    const char* name;
+    ShadowAtlas gpu, cpu;
+  };
+  std::vector<Atlas> atlases;
+  for (int cascades : {1, 4}) {
+    const FrameSetup& f = renderer.frame(cascades);
+    atlases.push_back({cascades == 1 ? "main light" : "main light, 4 cascades", renderer.main_shadow_atlas(cascades),
+                       reference::rasterize_shadow_atlas(scene, f.main_views, f.main_atlas_size, f.main_atlas_size, scene.main_shadow)});
+  }
+  const FrameSetup& f = renderer.frame(1);
+  if (!f.additional_views.empty())
+    atlases.push_back({"additional lights", renderer.additional_shadow_atlas(),
+                       reference::rasterize_shadow_atlas(scene, f.additional_views, f.additional_atlas_width,
+                                                         f.additional_atlas_height, scene.additional_shadow)});
+  for (const Atlas& atlas : atlases) {
+    SCOPED_TRACE(atlas.name);
+    ASSERT_EQ(atlas.gpu.depth.size(), atlas.cpu.depth.size());
+    const AtlasAgreement a = agreement(atlas.gpu, atlas.cpu);
+    std::cout << "[ geometry ] " << GetParam() << ", " << atlas.name << ": " << a.covered << " covered texels, " << a.ties
+              << " ties, " << a.coverage_differs << " differ in coverage outside them, depth within " << a.depth << " ("
+              << a.depth_outside_tolerance << " texels beyond the reference's tolerance)\n";
+    EXPECT_GT(a.covered, 0u);
+    EXPECT_EQ(a.coverage_differs, 0u);
+    EXPECT_LT(a.ties, a.covered / 100);
+    // Depths: within how far the reference's depth moves over the tie distance (vertex snapping), plus fp32.
+    EXPECT_EQ(a.depth_outside_tolerance, 0u);
+    EXPECT_LT(a.depth, 1e-4);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, ReferenceGeometry, testing::Values("spheres", "audit", "night_city"),

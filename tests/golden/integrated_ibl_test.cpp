@@ -14,7 +14,7 @@
 #include <thread>
 
 #include "golden/golden.hpp"
-#include "golden/scene_inputs.hpp"
+#include "reference/scene_inputs.hpp"
 #include "kiln/pack_reader.hpp"
 #include "parallel.hpp"
 #include "reference/scene_reference.hpp"
@@ -67,7 +67,7 @@ struct Judged {
     context = VulkanContext::open_lavapipe(error);
     if (!context) throw std::runtime_error(error);
     renderer = std::make_unique<SceneRenderer>(*context, pack, scene);
-    inputs = std::make_unique<reference::SceneInputs>(*renderer);
+    inputs = std::make_unique<reference::SceneInputs>(renderer->scene());
     for (const auto& keywords : kVariants) inputs->prepare(keywords);
   }
   // The references of every judged variant, shaded on all cores.

@@ -6,7 +6,7 @@
 #       and the packs the night_city and audit scene profiles strip
 #   make_goldens.sh KILN KILN_REFERENCE SOURCE_DIR WORK_DIR spheres|night_city|audit
 #       has the CPU reference shade the reference image of every Forward variant of the scene's pack (those the
-#       scene judges) from its own rasterization of the scene and the shadow maps lavapipe rendered
+#       scene judges) from its own rasterization of the scene and of its shadow maps
 set -euo pipefail
 kiln=$1 reference=$2 source=$3 work=$4 step=$5
 mkdir -p "$work"

@@ -175,14 +175,6 @@ void write_html_report(const std::filesystem::path& path, const std::string& tit
 
 namespace kiln::render {
 
-std::string variant_name(const std::vector<std::string>& keywords) {
-  if (keywords.empty()) return "(none)";
-  std::vector<std::string> sorted = keywords;
-  std::sort(sorted.begin(), sorted.end());
-  std::string name;
-  for (const std::string& k : sorted) name += (name.empty() ? "" : " ") + k;
-  return name;
-}
 
 std::vector<size_t> variants_to_run(const PackReader& pack, Api api, unsigned shard_index, unsigned shard_count) {
   // A variant's pipeline is its pair of modules for the API; the pack stores each distinct output once.

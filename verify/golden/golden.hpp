@@ -108,7 +108,5 @@ std::vector<size_t> variants_to_run(const PackReader& pack, Api api, unsigned sh
 // Every Forward variant of the pack (of the shard), rendered with the scene and compared with its golden.
 GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream& out);
 
-// The keyword list of a variant as goldens and reports name it: sorted, space-separated, "(none)" if empty.
-std::string variant_name(const std::vector<std::string>& keywords);
 
 }  // namespace kiln::render

@@ -1,5 +1,5 @@
 // The reference's own geometry: the scene's meshes transformed and rasterized on the CPU in double precision, so
-// that the reference's G-buffer is not the renderer's (docs/golden.md, "A reference that shares nothing it judges").
+// that the reference's G-buffer and shadow maps are not the renderer's (docs/golden.md, "A reference that shares nothing it judges").
 // The rules are Vulkan's for the renderer's pipelines: pixel centres at half-integers, no culling, depth test LESS,
 // perspective-correct interpolation, the GBuffer pass's vertex expressions (world position, normal through the
 // inverse transpose, normalized per vertex; tangent through the object transform).
@@ -22,5 +22,12 @@ inline constexpr double kCoverageTiePixels = 1.0 / 128;
 // render::kUnstablePixel where the visible object changes within kCoverageTiePixels of the pixel centre.
 render::GBuffer rasterize_gbuffer(const render::Scene& scene, const render::Mat4& view_projection, uint32_t width,
                                   uint32_t height);
+
+// A shadow-depth atlas as the ShadowCaster pass draws it: every view's rectangle, the casters moved by the
+// caster-side depth and normal bias (towards the light's position for punctual views), window depth, cleared to 1.
+// `tie` marks texels whose nearest caster changes within kCoverageTiePixels of the texel centre, and
+// `depth_tolerance` how far the depth moves within that distance elsewhere.
+render::ShadowAtlas rasterize_shadow_atlas(const render::Scene& scene, const std::vector<render::ShadowView>& views,
+                                           uint32_t width, uint32_t height, const render::ShadowDesc& bias);
 
 }  // namespace kiln::reference

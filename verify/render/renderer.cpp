@@ -67,9 +67,6 @@ VkDescriptorType descriptor_type(ResourceKind kind) {
 
 }  // namespace
 
-int cascades_for(const std::vector<std::string>& keywords, const Scene& scene) {
-  return has(keywords, "_MAIN_LIGHT_SHADOWS_CASCADE") ? scene.cascade_count : 1;
-}
 
 struct SceneRenderer::State {
   VulkanContext& context;

@@ -60,7 +60,5 @@ class SceneRenderer {
   VkPipeline image_pipeline(const SelectedVariant& variant, VkPipelineLayout layout);
 };
 
-// The number of cascades a Forward variant's shadow layout uses: 1 unless it has _MAIN_LIGHT_SHADOWS_CASCADE.
-int cascades_for(const std::vector<std::string>& keywords, const Scene& scene);
 
 }  // namespace kiln::render

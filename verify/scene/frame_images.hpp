@@ -23,6 +23,10 @@ struct ShadowAtlas {
   uint32_t width = 0;
   uint32_t height = 0;
   std::vector<float> depth;
+  // The reference's own atlases: 1 where the nearest caster is a coverage tie, and how far the depth moves within
+  // the tie distance of the texel centre (a GPU's depth there may be anywhere in that range).
+  std::vector<uint8_t> tie;
+  std::vector<float> depth_tolerance;
 };
 
 }  // namespace kiln::render

@@ -177,9 +177,22 @@ Mat4 object_to_world(const Object& object) {
   return m;
 }
 
-bool Scene::judges(const std::string& variant_name) const {
+int cascades_for(const std::vector<std::string>& keywords, const Scene& scene) {
+  return std::find(keywords.begin(), keywords.end(), "_MAIN_LIGHT_SHADOWS_CASCADE") != keywords.end() ? scene.cascade_count : 1;
+}
+
+std::string variant_name(const std::vector<std::string>& keywords) {
+  if (keywords.empty()) return "(none)";
+  std::vector<std::string> sorted = keywords;
+  std::sort(sorted.begin(), sorted.end());
+  std::string name;
+  for (const std::string& k : sorted) name += (name.empty() ? "" : " ") + k;
+  return name;
+}
+
+bool Scene::judges(const std::string& variant) const {
   return judged_variants.empty() ||
-         std::find(judged_variants.begin(), judged_variants.end(), variant_name) != judged_variants.end();
+         std::find(judged_variants.begin(), judged_variants.end(), variant) != judged_variants.end();
 }
 
 Scene load_scene(const std::filesystem::path& path) {
@@ -201,13 +214,9 @@ Scene load_scene(const std::filesystem::path& path) {
     if (!list.is_array() || list.empty()) fail(path, "'judged_variants' must be a non-empty list of keyword lists");
     for (const auto& v : list) {
       if (!v.is_string()) fail(path, "'judged_variants' must be a non-empty list of keyword lists");
-      // Sorted and single-spaced, as variant names are written.
       std::istringstream words(v.get<std::string>());
-      std::vector<std::string> keywords{std::istream_iterator<std::string>(words), std::istream_iterator<std::string>()};
-      std::sort(keywords.begin(), keywords.end());
-      std::string name;
-      for (const std::string& k : keywords) name += (name.empty() ? "" : " ") + k;
-      scene.judged_variants.push_back(name.empty() ? "(none)" : name);
+      scene.judged_variants.push_back(
+          variant_name({std::istream_iterator<std::string>(words), std::istream_iterator<std::string>()}));
     }
   }
   if (r.contains("size")) {

@@ -100,8 +100,11 @@ struct Scene {
   // The Forward variants the scene is made to judge (sorted keyword names as variant_name() writes them, "(none)"
   // for no keywords); empty: every variant. kiln test and kiln-reference goldens skip the others.
   std::vector<std::string> judged_variants;
-  bool judges(const std::string& variant_name) const;
+  bool judges(const std::string& variant) const;
 };
+
+// The keyword list of a variant as goldens and reports name it: sorted, space-separated, "(none)" if empty.
+std::string variant_name(const std::vector<std::string>& keywords);
 
 // Loads a scene; throws std::runtime_error "path: error: ..." naming the bad field.
 Scene load_scene(const std::filesystem::path& path);
@@ -143,6 +146,8 @@ struct FrameSetup {
 inline constexpr uint32_t kMaxLightsPerTile = 63;  // shaderlib/Input.hlsl KILN_MAX_LIGHTS_PER_TILE
 inline constexpr uint32_t kTileStride = kMaxLightsPerTile + 1;
 FrameSetup setup_frame(const Scene& scene, int cascades);
+// The main-light shadow layout a Forward variant's keywords select: the scene's cascades, or one map.
+int cascades_for(const std::vector<std::string>& keywords, const Scene& scene);
 
 Mat4 object_to_world(const Object& object);
 

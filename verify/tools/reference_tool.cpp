@@ -3,8 +3,9 @@
 //   kiln-reference environment [--size N] [--mips M] -o FILE       prefiltered sky cube + SH9 (KENV, scene/environment.hpp)
 //   kiln-reference goldens --pack DIR --scene S -o DIR
 //       one reference image per shading configuration of the pack's Forward variants, shaded in double
-//       precision from the reference's own rasterization of the scene and the shadow maps lavapipe rendered, plus index.json
+//       precision from the reference's own rasterization of the scene and of its shadow maps, plus index.json
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 #include <fstream>
 #include <iostream>
 #include <map>
@@ -12,12 +13,11 @@
 
 #include "parallel.hpp"
 
+#include "kiln/pack_reader.hpp"
 #include "reference/reference.hpp"
-#include "golden/golden.hpp"
-#include "scene/image.hpp"
-#include "render/renderer.hpp"
-#include "golden/scene_inputs.hpp"
+#include "reference/scene_inputs.hpp"
 #include "reference/scene_reference.hpp"
+#include "scene/image.hpp"
 
 namespace {
 
@@ -27,25 +27,20 @@ int make_goldens(const std::string& pack_dir, const std::string& scene_file,
   PackReader pack = PackReader::open(pack_dir);
   render::Scene scene = render::load_scene(scene_file);
   if (!dfg_file.empty()) scene.dfg = dfg_file;
-  std::string error;
-  auto context = render::VulkanContext::open_lavapipe(error);
-  if (!context) {
-    std::cerr << "kiln-reference: error: " << error << "\n";
-    return 1;
-  }
-  render::SceneRenderer renderer(*context, pack, scene, width, height);
-  reference::SceneInputs inputs(renderer);
+  if (width) scene.width = width;
+  if (height) scene.height = height;
+  reference::SceneInputs inputs(scene);
   std::filesystem::create_directories(output);
 
   nlohmann::json index;
   index["scene"] = scene.name;
   index["pack"] = pack.name();
-  index["width"] = renderer.width();
-  index["height"] = renderer.height();
-  index["device"] = context->device_name() + " (" + context->driver_info() + ")";
+  index["width"] = scene.width;
+  index["height"] = scene.height;
+  index["made_by"] = "the CPU reference (double precision, its own rasterization; no GPU)";
   // Which variants need an image of their own (Forward+ shares the plain loop's), then the shading, in
-  // parallel: each image is independent and deterministic. Frames and shadow atlases come from the renderer,
-  // on this thread, before.
+  // parallel: each image is independent and deterministic. Frames and shadow atlases are made on this thread,
+  // before.
   std::map<std::string, std::string> files;  // reference key -> file
   std::vector<SelectedVariant> to_shade;
   for (size_t i = 0; i < pack.variant_count("Forward"); ++i) {
