@@ -49,7 +49,10 @@ def main():
     w = print
     w("## 10. Golden tolerances with teeth, and the mutation gate (issue 23 items 4-6)")
     w("")
-    w(f"Measured by `bench/golden_margins.py` from one `ctest -L golden` run ({len(rows)} comparisons of rendered images"
+    import datetime
+    stamp = datetime.datetime.fromtimestamp(os.path.getmtime(os.path.join(build, "Testing/Temporary/LastTest.log")),
+                                            datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    w(f"Measured by `bench/golden_margins.py` from one `ctest -L golden` run ({stamp}; {len(rows)} comparisons of rendered images"
       " with the CPU reference, on every API: Vulkan on lavapipe, GLSL 450 and GLSL ES on llvmpipe). Each measure"
       " is taken over the shaded pixels only (the background does not dilute it); ties are shadow-test and coverage"
       " ties. Per class and measure, over the comparisons whose limit that class sets (the loosest of the classes"

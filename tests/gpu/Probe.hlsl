@@ -12,6 +12,7 @@
 #endif
 #include "Lighting.hlsl"
 #include "Tonemap.hlsl"
+#include "Fog.hlsl"
 
 #define PROBE_WIDTH 128u  // kiln::gpu::kProbeWidth
 
@@ -121,6 +122,20 @@ float4 Evaluate(ProbeInput p)
 {
     return float4(PointLightLumensToCandela(p.d.z), DistanceAttenuation_UE4(p.c.x, p.c.y),
                   DistanceAttenuation_InverseSquare(p.c.x), RoughnessToSpecularPower((real)p.d.w));
+}
+#elif defined(PROBE_FOG)
+// With one of FOG_LINEAR, FOG_EXP, FOG_EXP2 defined. c = (view depth, density, start, end), d = (color, fog color,
+// camera offset along the forward axis, -): ComputeFogFactor, MixFog(color, fog color, factor), and
+// ComputeFogDepth of the point at that depth in front of a camera looking along a tilted axis, seen from a camera
+// moved back along it by d.z (so the depth read back is c.x + d.z), and 0.
+float4 Evaluate(ProbeInput p)
+{
+    float factor = ComputeFogFactor(p.c.x, float4(p.c.y, p.c.z, p.c.w, 0.0));
+    const float3 forward = float3(0.48, -0.6, -0.64);  // unit length
+    const float3 camera = float3(1.0, 2.0, 3.0);
+    float3 positionWS = camera + forward * p.c.x + float3(0.8, 0.0, 0.6) * 0.25;  // plus a step across the axis
+    float depth = ComputeFogDepth(positionWS, camera - forward * p.d.z, forward);
+    return float4(factor, MixFog(p.d.xxx, p.d.yyy, factor).x, depth, 0.0);
 }
 #elif defined(PROBE_SH9)
 // SampleSH9 at the normal a.xyz with coefficient k = (s_k, s_k / 2, -s_k) (b.xyzw, c.xyzw, d.x hold s_0..s_8),

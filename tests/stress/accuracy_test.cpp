@@ -406,6 +406,54 @@ TEST_F(Accuracy, LightFunctionsMatchTheDoubleReferenceInFp32AndFp16) {
   gate_terms(more_lights_probe(), grid, [&](auto defines, const auto& g) { return run(defines, g); }, report_["terms"]);
 }
 
+// Fog (shaderlib/Fog.hlsl), one probe per multi_compile_fog mode (tests/gpu/Probe.hlsl, PROBE_FOG). The fog is
+// evaluated in float in every variant, so fp16 variants are held to the fp32 bounds. Bounds: exp2 and the division
+// on llvmpipe are within a few fp32 ulps; 1e-5 leaves room over the measured maxima (REPORT section 4).
+TermProbe fog_probe(const char* mode, std::function<double(const ProbeInput&)> factor) {
+  return {"PROBE_FOG",
+          false,
+          {mode},
+          {TermCheck{"ComputeFogFactor", [factor](const ProbeInput& p, double) { return factor(p); }, 1e-5, 1e-5},
+           TermCheck{"MixFog", [factor](const ProbeInput& p, double) { return ref::MixFog(p[12], p[13], factor(p)); }, 1e-5, 1e-5},
+           // The depth of a point c.x in front of the camera, from a camera moved back by d.z: c.x + d.z, exactly.
+           // Floor 0.1 m: near the camera the error is absolute, the rounding of world positions of magnitude ~3.
+           TermCheck{"ComputeFogDepth", [](const ProbeInput& p, double) { return double(p[8]) + double(p[14]); }, 1e-5, 1e-5, 0.1},
+           TermCheck{"-", [](const ProbeInput&, double) { return 0.0; }, 0.0, 0.0}}};
+}
+
+// View depths from 0 to 2 km; densities from none to opaque; linear planes ordinary, far apart and equal.
+std::vector<ProbeInput> fog_domain_grid() {
+  std::vector<ProbeInput> grid;
+  std::vector<double> depths = log_spaced(1e-3, 2e3, 40);
+  depths.push_back(0);
+  const std::vector<double> densities = {0, 1e-3, 0.035, 0.2, 1, 5};
+  const std::vector<std::pair<double, double>> planes = {{0, 10}, {3, 22}, {5, 5}, {10, 1000}};
+  const std::vector<double> offsets = {0, 0.5, 7};
+  size_t i = 0;
+  for (double d : depths)
+    for (double density : densities)
+      for (auto [start, end] : planes) {
+        ProbeInput p{};
+        p[8] = float(d), p[9] = float(density), p[10] = float(start), p[11] = float(end);
+        p[12] = float(0.05 + 3.0 * double(i % 7) / 6.0), p[13] = float(0.2 + 0.6 * double(i % 5) / 4.0);
+        p[14] = float(offsets[i % offsets.size()]);
+        grid.push_back(p);
+        ++i;
+      }
+  return grid;
+}
+
+TEST_F(Accuracy, FogFunctionsMatchTheDoubleReferenceInEveryFogMode) {
+  auto grid = fog_domain_grid();
+  ASSERT_GE(grid.size(), 900u);
+  gate_terms(fog_probe("FOG_LINEAR", [](const ProbeInput& p) { return ref::FogFactorLinear(p[8], p[10], p[11]); }), grid,
+             [&](auto defines, const auto& g) { return run(defines, g); }, report_["terms"]);
+  gate_terms(fog_probe("FOG_EXP", [](const ProbeInput& p) { return ref::FogFactorExp(p[8], p[9]); }), grid,
+             [&](auto defines, const auto& g) { return run(defines, g); }, report_["terms"]);
+  gate_terms(fog_probe("FOG_EXP2", [](const ProbeInput& p) { return ref::FogFactorExp2(p[8], p[9]); }), grid,
+             [&](auto defines, const auto& g) { return run(defines, g); }, report_["terms"]);
+}
+
 TEST_F(Accuracy, SphericalHarmonicsIrradianceMatchesTheDoubleReferenceInFp32AndFp16) {
   gate_terms(sh9_probe(), sh9_grid(), [&](auto defines, const auto& g) { return run(defines, g); }, report_["terms"]);
 }

@@ -116,6 +116,19 @@ std::array<double, 3> ColorTemperatureToLinearRGB(double temperature) {
   return {r, g, b};
 }
 
+double FogFactorLinear(double depth, double start, double end) {
+  // Equal planes: a hard step at the plane (the shader floors end - start at 1e-4 for the same reason).
+  return std::clamp((end - depth) / std::max(end - start, 1e-4), 0.0, 1.0);
+}
+
+double FogFactorExp(double depth, double density) { return std::clamp(std::exp(-density * depth), 0.0, 1.0); }
+
+double FogFactorExp2(double depth, double density) {
+  return std::clamp(std::exp(-(density * depth) * (density * depth)), 0.0, 1.0);
+}
+
+double MixFog(double color, double fog_color, double factor) { return fog_color + (color - fog_color) * factor; }
+
 std::array<double, 3> ACESFitted(std::array<double, 3> c) {
   // NaN -> 0 like the shader's max-based guard on GPUs that return the non-NaN operand.
   for (double& v : c) v = std::isnan(v) ? 0.0 : std::clamp(v, 0.0, 1e5);

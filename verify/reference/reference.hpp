@@ -57,6 +57,14 @@ std::array<double, 3> ColorTemperatureToLinearRGB(double kelvin);
 // Tone mapping (shaderlib/Tonemap.hlsl).
 std::array<double, 3> ACESFitted(std::array<double, 3> color);
 
+// Fog (shaderlib/Fog.hlsl; Unity's multi_compile_fog): the factor that keeps the surface's color, 1 = no fog, from
+// the view depth: linear between the start and end planes (FOG_LINEAR), exp(-density d) (FOG_EXP),
+// exp(-(density d)^2) (FOG_EXP2); MixFog blends towards the fog color by 1 - factor.
+double FogFactorLinear(double depth, double start, double end);
+double FogFactorExp(double depth, double density);
+double FogFactorExp2(double depth, double density);
+double MixFog(double color, double fog_color, double factor);
+
 // Integrators. The view vector is in the x-z plane: V = (sqrt(1 - NoV^2), 0, NoV), N = +z.
 std::array<double, 2> hammersley(uint32_t i, uint32_t count);
 

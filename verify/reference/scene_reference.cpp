@@ -524,10 +524,10 @@ render::Image shade_image(const ReferenceInputs& in, const std::vector<std::stri
       // Fog on view depth, exposure, tone mapping.
       if (fog_linear || fog_exp || fog_exp2) {
         double depth = std::max(dot(P - camera, forward), 0.0);
-        double factor = fog_linear ? saturate((scene.fog_end - depth) / std::max(scene.fog_end - scene.fog_start, 1e-4))
-                        : fog_exp  ? saturate(std::exp(-scene.fog_density * depth))
-                                   : saturate(std::exp(-std::pow(scene.fog_density * depth, 2)));
-        for (int c = 0; c < 3; ++c) color[c] = scene.fog_color[c] + (color[c] - scene.fog_color[c]) * factor;
+        double factor = fog_linear ? FogFactorLinear(depth, scene.fog_start, scene.fog_end)
+                        : fog_exp  ? FogFactorExp(depth, scene.fog_density)
+                                   : FogFactorExp2(depth, scene.fog_density);
+        for (int c = 0; c < 3; ++c) color[c] = MixFog(color[c], scene.fog_color[c], factor);
       }
       for (double& v : color) v *= scene.exposure;
       if (!linear_output) color = ACESFitted(color);
