@@ -107,14 +107,18 @@ def main():
           " the variants its scene profile keeps and compares them on Vulkan with the unmodified library's reference"
           " images. Which comparison killed each (variants failed of those judged; the measures over their limits):")
         w("")
-        w("| mutant | file | scene | killed by |")
-        w("|---|---|---|---|")
+        w("| mutant | file | scene | killed by | first failing variant: pixels over 2/255, worst pixel, relative RMSE (limits) |")
+        w("|---|---|---|---|---|")
         for o in sorted(outcomes, key=lambda o: o["name"]):
-            parts = []
+            parts, first = [], ""
             for api, r in o["apis"].items():
                 measures = ", ".join(f"{k} {v}" for k, v in sorted(r["measures"].items()))
                 parts.append(f"{api}: {r['failed']}/{r['variants']} ({measures})" if r["failed"] else f"{api}: survived")
-            w(f"| `{o['name']}` | {o['file']} | {o['scene']} | {'; '.join(parts)} |")
+                m = LINE.match("FAIL     #0 " + r["first_failure"]) if r["first_failure"] else None
+                if m and not first:
+                    g = m.groups()
+                    first = (f"{g[3 + 1]}% ({g[6]}%), {g[7]}/255 ({g[8]}), {g[9]} ({g[10]})")
+            w(f"| `{o['name']}` | {o['file']} | {o['scene']} | {'; '.join(parts)} | {first} |")
 
 
 if __name__ == "__main__":
