@@ -122,6 +122,20 @@ double shadow_tap(const render::ShadowAtlas& atlas, double u, double v, double z
 bool shadow_tap_is_unstable(const render::ShadowAtlas& atlas, double u, double v, double z) {
   const double du = 0.01 / atlas.width, dv = 0.01 / atlas.height;
   double center = shadow_tap(atlas, u, v, z);
+  // Most taps are well inside one texel: then the nine (u, v) offsets below read the same texel with the same depth
+  // step, and three depth taps decide (the same answer as the full search, at a ninth of its cost).
+  auto column = [&](double t) { return std::clamp(static_cast<int>(std::floor(t * atlas.width)), 0, int(atlas.width) - 1); };
+  auto row = [&](double t) { return std::clamp(static_cast<int>(std::floor(t * atlas.height)), 0, int(atlas.height) - 1); };
+  if (u - du >= 0 && u + du <= 1 && v - dv >= 0 && v + dv <= 1 && column(u - du) == column(u + du) &&
+      row(v - dv) == row(v + dv)) {
+    double dz = 2e-6;
+    if (!atlas.tie.empty()) {
+      const size_t texel = size_t(row(v)) * atlas.width + column(u);
+      if (atlas.tie[texel]) return true;
+      dz = std::max(dz, 2e-6 + double(atlas.depth_tolerance[texel]));
+    }
+    return shadow_tap(atlas, u, v, z - dz) != center || shadow_tap(atlas, u, v, z + dz) != center;
+  }
   for (double ou : {-du, 0.0, du})
     for (double ov : {-dv, 0.0, dv}) {
       const double tu = u + ou, tv = v + ov;
