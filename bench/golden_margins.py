@@ -17,7 +17,7 @@ import sys
 
 LINE = re.compile(r"^(PASS|FAIL) +#(\d+) (.*?): pixels over (\d+)/255 ([\d.]+)% of (\d+) shaded \(limit ([\d.]+)%\), "
                   r"worst (\d+)/255 \(limit (\d+)\), relative RMSE ([\d.e+-]+) \(limit ([\d.e+-]+)\), "
-                  r"shadow-tie pixels skipped (\d+) = ([\d.]+)% \(limit ([\d.]+)%\)(?:, \d+ NaN/Inf values)? \[(.*?)\]")
+                  r"tie pixels skipped \(shadow test, coverage\) (\d+) = ([\d.]+)% \(limit ([\d.]+)%\)(?:, \d+ NaN/Inf values)? \[(.*?)\]")
 MEASURES = [("fraction over 2/255", "over", "limit_over", lambda v: f"{v:.3f}%"),
             ("worst pixel", "worst", "limit_worst", lambda v: f"{v:.0f}/255"),
             ("relative RMSE", "rmse", "limit_rmse", lambda v: f"{v:.2e}"),

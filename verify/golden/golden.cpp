@@ -106,9 +106,7 @@ std::string format(const char* fmt, double value) {
   return text;
 }
 
-}  // namespace
-
-static std::string exceeded_measures(const Comparison& c, const ComparisonLimits& limits) {
+std::string exceeded_measures(const Comparison& c, const ComparisonLimits& limits) {
   std::string names;
   auto add = [&](bool exceeded, const char* name) {
     if (exceeded) names += (names.empty() ? "" : ", ") + std::string(name);
@@ -117,9 +115,11 @@ static std::string exceeded_measures(const Comparison& c, const ComparisonLimits
   add(c.fraction_over > limits.max_fraction_over, "pixels over");
   add(c.max_difference > limits.max_worst_difference, "worst pixel");
   add(c.relative_rmse > limits.max_relative_rmse, "RMSE");
-  add(c.fraction_skipped > limits.max_fraction_skipped, "shadow ties");
+  add(c.fraction_skipped > limits.max_fraction_skipped, "ties");
   return names.empty() ? "" : "; over the limit: " + names;
 }
+
+}  // namespace
 
 std::string describe_comparison(const Comparison& c, const ComparisonLimits& limits) {
   std::string classes;
@@ -129,7 +129,7 @@ std::string describe_comparison(const Comparison& c, const ComparisonLimits& lim
          format("%.3f%%", limits.max_fraction_over * 100) + "), worst " + std::to_string(c.max_difference) +
          "/255 (limit " + std::to_string(limits.max_worst_difference) + "), relative RMSE " +
          format("%.2e", c.relative_rmse) + " (limit " + format("%.2e", limits.max_relative_rmse) + ")" +
-         ", shadow-tie pixels skipped " + std::to_string(c.unstable) + " = " + format("%.3f%%", c.fraction_skipped * 100) +
+         ", tie pixels skipped (shadow test, coverage) " + std::to_string(c.unstable) + " = " + format("%.3f%%", c.fraction_skipped * 100) +
          " (limit " + format("%.3f%%", limits.max_fraction_skipped * 100) + ")" +
          (c.non_finite ? ", " + std::to_string(c.non_finite) + " NaN/Inf values" : "") +
          (classes.empty() ? "" : " [" + classes + "]") + exceeded_measures(c, limits);
@@ -174,7 +174,6 @@ void write_html_report(const std::filesystem::path& path, const std::string& tit
 #include "render/backend.hpp"
 
 namespace kiln::render {
-
 
 std::vector<size_t> variants_to_run(const PackReader& pack, Api api, unsigned shard_index, unsigned shard_count) {
   // A variant's pipeline is its pair of modules for the API; the pack stores each distinct output once.
