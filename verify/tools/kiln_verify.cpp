@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <sstream>
 #include <string>
@@ -103,10 +104,16 @@ void keep_freed_memory_in_the_heap() {
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
 }
 
+// llvmpipe and lavapipe compile each pipeline for a few draws: LLVM's IR passes (on by default) cost more than
+// they save, and leaving them out changes no bit of an image (golden.determinism_and_cross_variant checks it on
+// each API). A caller's own GALLIVM_PERF, even an empty one, is kept.
+void default_driver_settings() { setenv("GALLIVM_PERF", "nopt", /*overwrite=*/0); }
+
 }  // namespace
 
 int main(int argc, char** argv) {
   keep_freed_memory_in_the_heap();
+  default_driver_settings();
   CLI::App app{"kiln-verify: renders variant packs on Mesa lavapipe/llvmpipe and compares them with CPU-reference goldens", "kiln"};
   app.require_subcommand(1);
   std::string pack_dir, scene_file;
