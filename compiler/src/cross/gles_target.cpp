@@ -6,19 +6,19 @@
 namespace kiln {
 namespace {
 
-constexpr GlslOptions kOptions{kTargetEnvironment.gles_version, true, kTargetEnvironment.gl_clip_space_fixup};
+constexpr GlslOptions kGlesOptions{kTargetEnvironment.gles_version, true, kTargetEnvironment.gl_clip_space_fixup};
 
-std::string translate(CrossModules& modules, Reflection& reflection) {
-  return translate_to_glsl(modules.gl_spirv(), kOptions, reflection.gles.emplace());
+std::string translate_gles(CrossModules& modules, Reflection& reflection) {
+  return translate_to_glsl(modules.gl_spirv(), kGlesOptions, reflection.gles.emplace());
 }
 
-void record_options(ManifestOptions& options) {
-  options.gles_version = kOptions.version;
-  options.gl_clip_space_fixup = kOptions.clip_space_fixup;
+void record_gles_options(ManifestOptions& options) {
+  options.gles_version = kGlesOptions.version;
+  options.gl_clip_space_fixup = kGlesOptions.clip_space_fixup;
 }
 
 }  // namespace
 
-extern const TargetBackend kGlesTarget{Target::Gles, "GLSL ES 310", "glsl", CompileStep::CrossGles, record_options, translate};
+extern const TargetBackend kGlesTarget{Target::Gles, "GLSL ES 310", "glsl", CompileStep::CrossGles, record_gles_options, translate_gles};
 
 }  // namespace kiln

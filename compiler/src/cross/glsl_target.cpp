@@ -6,19 +6,19 @@
 namespace kiln {
 namespace {
 
-constexpr GlslOptions kOptions{kTargetEnvironment.glsl_version, false, kTargetEnvironment.gl_clip_space_fixup};
+constexpr GlslOptions kGlslOptions{kTargetEnvironment.glsl_version, false, kTargetEnvironment.gl_clip_space_fixup};
 
-std::string translate(CrossModules& modules, Reflection& reflection) {
-  return translate_to_glsl(modules.gl_spirv(), kOptions, reflection.glsl.emplace());
+std::string translate_glsl(CrossModules& modules, Reflection& reflection) {
+  return translate_to_glsl(modules.gl_spirv(), kGlslOptions, reflection.glsl.emplace());
 }
 
-void record_options(ManifestOptions& options) {
-  options.glsl_version = kOptions.version;
-  options.gl_clip_space_fixup = kOptions.clip_space_fixup;
+void record_glsl_options(ManifestOptions& options) {
+  options.glsl_version = kGlslOptions.version;
+  options.gl_clip_space_fixup = kGlslOptions.clip_space_fixup;
 }
 
 }  // namespace
 
-extern const TargetBackend kGlslTarget{Target::Glsl, "GLSL 450", "glsl", CompileStep::CrossGlsl, record_options, translate};
+extern const TargetBackend kGlslTarget{Target::Glsl, "GLSL 450", "glsl", CompileStep::CrossGlsl, record_glsl_options, translate_glsl};
 
 }  // namespace kiln

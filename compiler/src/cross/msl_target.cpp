@@ -11,7 +11,7 @@
 namespace kiln {
 namespace {
 
-std::string translate(CrossModules& modules, Reflection& reflection) {
+std::string translate_msl(CrossModules& modules, Reflection& reflection) {
   spirv_cross::CompilerMSL compiler(modules.spirv());
   // Metal has no geometry stage (SPIRV-Cross writes a function of type "unknown"), and its tessellation runs the
   // hull shader as a compute kernel with SPIRV-Cross's own buffer conventions, which no renderer here follows.
@@ -53,10 +53,10 @@ std::string translate(CrossModules& modules, Reflection& reflection) {
   return source;
 }
 
-void record_options(ManifestOptions& options) { options.msl_version = kTargetEnvironment.msl_version; }
+void record_msl_options(ManifestOptions& options) { options.msl_version = kTargetEnvironment.msl_version; }
 
 }  // namespace
 
-extern const TargetBackend kMslTarget{Target::Msl, "MSL 2.1 (macOS)", "msl", CompileStep::CrossMsl, record_options, translate};
+extern const TargetBackend kMslTarget{Target::Msl, "MSL 2.1 (macOS)", "msl", CompileStep::CrossMsl, record_msl_options, translate_msl};
 
 }  // namespace kiln

@@ -8,7 +8,7 @@
 namespace kiln::rules {
 namespace {
 
-void check(const LintContext& context, LintReport& report) {
+void check_fp16_unguarded(const LintContext& context, LintReport& report) {
   // Heuristics (documented in docs/lint.md): a line is fp16 code if it names `real` or `half`, or lies in the
   // body of a function whose declaration does; an operation is guarded if its line, or the line above, shows a
   // guard: max/clamp/saturate/Safe*/saturateMediump, or a comment that states the bound (floor, guard, never
@@ -63,6 +63,6 @@ constinit const LintRule fp16_unguarded{
     "function whose declaration does), a division, pow, sqrt, rsqrt or normalize must show a guard on its line "
     "or the line above (max, clamp, saturate, a Safe... function, saturateMediump) or a comment stating the bound "
     "(floor, guard, never zero, finite, bounded, >=). A heuristic: it insists that the reason be written down.",
-    Severity::Warning, LintInput::Sources, check};
+    Severity::Warning, LintInput::Sources, check_fp16_unguarded};
 
 }  // namespace kiln::rules

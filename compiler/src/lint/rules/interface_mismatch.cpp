@@ -8,7 +8,7 @@
 namespace kiln::rules {
 namespace {
 
-void check(const LintContext& context, LintReport& report) {
+void check_interface_mismatch(const LintContext& context, LintReport& report) {
   const PackView& pack = *context.pack;
   std::set<std::pair<size_t, size_t>> checked;
   for (const PackView::Pass& pass : pack.passes) {
@@ -52,6 +52,6 @@ constinit const LintRule interface_mismatch{
     "For every distinct pair of vertex and fragment binaries a pass's variants use, each fragment input location "
     "must be a vertex output of the same type (from the reflection of both stages). A mismatch reads undefined "
     "values on the GPU. Reported at the pass's definition in the pack file.",
-    Severity::Error, LintInput::BuiltPack, check};
+    Severity::Error, LintInput::BuiltPack, check_interface_mismatch};
 
 }  // namespace kiln::rules

@@ -6,7 +6,7 @@
 namespace kiln::rules {
 namespace {
 
-void check(const LintContext& context, LintReport& report) {
+void check_multi_compile_could_be_feature(const LintContext& context, LintReport& report) {
   const PlanListing& plan = *context.plan;
   if (plan.scenes.empty()) return;
   for (const auto& [pass, groups] : plan.pass_groups) {
@@ -32,6 +32,6 @@ constinit const LintRule multi_compile_could_be_feature{
     "Every variant of a multi_compile group is built whatever the materials use. When none of the scene profiles "
     "given with --scene enables any keyword of the group, declaring it with shader_feature lets the build strip "
     "it unless a material uses it. Runs only when scenes are given.",
-    Severity::Warning, LintInput::Plan, check};
+    Severity::Warning, LintInput::Plan, check_multi_compile_could_be_feature};
 
 }  // namespace kiln::rules

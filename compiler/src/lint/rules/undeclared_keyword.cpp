@@ -9,7 +9,7 @@
 namespace kiln::rules {
 namespace {
 
-void check(const LintContext& context, LintReport& report) {
+void check_undeclared_keyword(const LintContext& context, LintReport& report) {
   // Names #define'd anywhere are the library's own macros, not keywords.
   static const std::regex define_re(R"(^\s*#\s*define\s+([A-Za-z_][A-Za-z0-9_]*))");
   static const std::regex test_re(R"(^\s*#\s*(if|ifdef|ifndef|elif)\b(.*)$)");
@@ -52,6 +52,6 @@ constinit const LintRule undeclared_keyword{
     "pragma declares and no #define in any file read defines is never true: usually a misspelt keyword. The "
     "closest declared keyword is suggested. In file mode, pass the include roots with -I so that names defined "
     "in included headers are known.",
-    Severity::Warning, LintInput::Sources, check};
+    Severity::Warning, LintInput::Sources, check_undeclared_keyword};
 
 }  // namespace kiln::rules

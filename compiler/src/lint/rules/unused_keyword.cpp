@@ -9,7 +9,7 @@ namespace kiln::rules {
 namespace {
 
 // Every keyword changes some compiled code: compare variants that differ only in that keyword.
-void check(const LintContext& context, LintReport& report) {
+void check_unused_keyword(const LintContext& context, LintReport& report) {
   const PlanListing& plan = *context.plan;
   const PackView& pack = *context.pack;
   for (size_t p = 0; p < pack.passes.size() && p < plan.pass_groups.size(); ++p) {
@@ -49,6 +49,6 @@ constinit const LintRule unused_keyword{
     "A keyword declared by a #pragma multi_compile or shader_feature doubles (or more) the variants of its pass. "
     "This rule compares the built variants that differ only in that keyword: when every pair compiled to the same "
     "binaries for every stage, the keyword changes nothing and only costs build time and pack size.",
-    Severity::Warning, LintInput::BuiltPack, check};
+    Severity::Warning, LintInput::BuiltPack, check_unused_keyword};
 
 }  // namespace kiln::rules
