@@ -46,4 +46,9 @@ std::string translate_to_glsl(const std::vector<uint32_t>& spirv, const GlslOpti
   return source;
 }
 
+void record_gl_options(const GlslOptions& gl, ManifestOptions& options) {
+  (gl.es ? options.gles_version : options.glsl_version) = gl.version;
+  options.gl_clip_space_fixup = gl.clip_space_fixup;
+}
+
 }  // namespace kiln

@@ -19,4 +19,7 @@ struct GlslOptions {
 // `spirv`: the module with its 16-bit floats already widened for GL. Throws on failure.
 std::string translate_to_glsl(const std::vector<uint32_t>& spirv, const GlslOptions& options, GlBindings& records);
 
+// What a GL back end records in the manifest: its dialect's version and the clip-space fixup.
+void record_gl_options(const GlslOptions& gl, ManifestOptions& options);
+
 }  // namespace kiln

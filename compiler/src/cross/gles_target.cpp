@@ -12,10 +12,7 @@ std::string translate_gles(CrossModules& modules, Reflection& reflection) {
   return translate_to_glsl(modules.gl_spirv(), kGlesOptions, reflection.gles.emplace());
 }
 
-void record_gles_options(ManifestOptions& options) {
-  options.gles_version = kGlesOptions.version;
-  options.gl_clip_space_fixup = kGlesOptions.clip_space_fixup;
-}
+void record_gles_options(ManifestOptions& options) { record_gl_options(kGlesOptions, options); }
 
 }  // namespace
 

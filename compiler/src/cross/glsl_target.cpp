@@ -12,10 +12,7 @@ std::string translate_glsl(CrossModules& modules, Reflection& reflection) {
   return translate_to_glsl(modules.gl_spirv(), kGlslOptions, reflection.glsl.emplace());
 }
 
-void record_glsl_options(ManifestOptions& options) {
-  options.glsl_version = kGlslOptions.version;
-  options.gl_clip_space_fixup = kGlslOptions.clip_space_fixup;
-}
+void record_glsl_options(ManifestOptions& options) { record_gl_options(kGlslOptions, options); }
 
 }  // namespace
 
