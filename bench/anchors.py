@@ -8,8 +8,18 @@ and -O in one process) in place of glslangValidator + spirv-opt under `xargs -P 
 serial loop (one core) as a row. Every configuration once per round, rounds interleaved; medians; wall time and the
 CPU time of the process tree (user + system), so that a ratio of walls can be read beside a ratio of work.
 
+With --floor-tool (build/ci/bench/kiln-compile-steps), one more row: the library floor of bench/build_speed.py (the
+glslang, SPIRV-Tools and SPIRV-Cross calls of kiln's recipe and dedupe, nothing of kiln's own), N copies side by side
+and divided by N: the cold build of an ideal kiln on N cores, so that a goal against an anchor can be checked
+against what any kiln could reach.
+
 usage: python3 bench/anchors.py --kiln build/ci/compiler/kiln [--pack variants/lit.pack.json] [--jobs 2] [--reps 3]
-                                [--no-serial] [--out bench/results/anchors.json]
+                                [--no-serial] [--floor-tool build/ci/bench/kiln-compile-steps] [--only kiln,ninja,floor]
+                                [--out bench/results/anchors.json]
+
+The anchors start about 18,000 short processes (7 per stage compile); kiln starts 2 workers. Their cost therefore
+moves the ratios, and it varies on a shared virtual machine: before each round the script times 200 starts of
+/bin/true (fork + exec + exit, wall per start) and records them beside the results.
 """
 import argparse
 import json
@@ -91,15 +101,19 @@ def ninja_file(jobs, work):
     return "\n".join(lines) + "\n"
 
 
-def measure(cmd, cwd=None):
-    """Wall seconds and CPU seconds (user + system) of the whole process tree."""
+def measure(cmd, cwd=None, copies=1):
+    """Wall seconds and CPU seconds (user + system) of the whole process tree; with copies > 1, of that many
+    copies of cmd started at once."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    proc = subprocess.run(cmd, shell=isinstance(cmd, str), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=cwd)
+    procs = [subprocess.Popen(cmd, shell=isinstance(cmd, str), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                              cwd=cwd) for _ in range(copies)]
+    errors = [proc.communicate()[1] for proc in procs]
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if proc.returncode != 0:
-        sys.exit(f"command failed ({proc.returncode}): {cmd}\n{proc.stderr[-2000:]}")
+    for proc, err in zip(procs, errors):
+        if proc.returncode != 0:
+            sys.exit(f"command failed ({proc.returncode}): {cmd}\n{err[-2000:]}")
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
@@ -110,6 +124,8 @@ def main():
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--reps", type=int, default=3)
     parser.add_argument("--no-serial", action="store_true", help="leave out the serial loop (the longest row)")
+    parser.add_argument("--only", help="comma-separated words: run the configurations whose names contain one of them")
+    parser.add_argument("--floor-tool", help="kiln-compile-steps: adds the library floor on N cores (see above)")
     parser.add_argument("--out", default=os.path.join(ROOT, "bench/results/anchors.json"))
     args = parser.parse_args()
     kiln = os.path.abspath(args.kiln)
@@ -159,6 +175,19 @@ def main():
             script = write_lines("serial.sh", ["set -e"] + [chain_line(j, out) for j in jobs])
             return measure(["bash", script])
 
+        def floor_sources():
+            emit = os.path.join(work, "floor-emit")
+            if not os.path.isdir(emit):  # the stage sources a cold build compiles, preprocessed (not timed)
+                subprocess.run([kiln, "build", args.pack, "-o", emit, "--cache", os.path.join(work, "floor-cache"), "-q",
+                                "--emit", "preprocessed"], check=True, stdout=subprocess.DEVNULL)
+            return os.path.join(emit, "emit")
+
+        def library_floor():
+            # n copies of the whole floor at once, divided by n: n cores' worth of the floor's work, with whatever
+            # the cores share counted, as an ideal build of one pack on n cores.
+            wall, cpu = measure([os.path.abspath(args.floor_tool), "--floor", floor_sources(), args.pack], copies=n)
+            return wall / n, cpu / n
+
         configs = {f"kiln cold -j{n}": kiln_cold, f"naive chain, xargs -P{n}": xargs_chain,
                    f"naive chain, build.ninja, ninja -j{n}": ninja_chain}
         have_glslc = shutil.which("glslc") is not None
@@ -166,9 +195,23 @@ def main():
             configs[f"glslc -O chain, xargs -P{n}"] = xargs_glslc
         if not args.no_serial:
             configs["naive chain, serial loop"] = serial_chain
+        if args.floor_tool:
+            configs[f"library floor on {n} cores (an ideal kiln)"] = library_floor
+        if args.only:
+            words = args.only.split(",")
+            configs = {k: v for k, v in configs.items() if k.startswith("kiln cold") or any(w in k for w in words)}
         walls = {k: [] for k in configs}
+        process_starts_ms = []
+
+        def process_start_ms():
+            start = time.perf_counter()
+            for _ in range(200):
+                subprocess.run(["/bin/true"], check=True)
+            return (time.perf_counter() - start) / 200 * 1000
         cpus = {k: [] for k in configs}
         for rep in range(args.reps):
+            process_starts_ms.append(process_start_ms())
+            print(f"rep {rep + 1}/{args.reps}: a process start takes {process_starts_ms[-1]:.2f} ms", flush=True)
             for name, fn in configs.items():
                 wall, cpu = fn()
                 walls[name].append(wall)
@@ -187,6 +230,7 @@ def main():
             if have_glslc else None
         result = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "pack": os.path.relpath(args.pack, ROOT),
                   "variants": variants, "stage_compiles": len(jobs), "jobs": n, "reps": args.reps, "load_averages": loads,
+                  "process_start_ms": process_starts_ms,
                   "glslc": glslc_version, "rows": rows}
         os.makedirs(os.path.dirname(args.out), exist_ok=True)
         with open(args.out, "w") as f:

@@ -60,12 +60,44 @@ def spirv_tools_share():
     return part / c["total_ms"]
 
 
-def anchors_subsection(w, a):
-    """kiln against the 2-wide anchors (bench/anchors.py), wall and CPU (issue 26 item 1)."""
+def anchors_table(w, a):
+    """The rows of one bench/anchors.py run, and what they say of the 5x goal."""
     rows = {row["config"]: row for row in a["rows"]}
     n = a["jobs"]
-    kiln = rows[f"kiln cold -j{n}"]
     ninja = rows.get(f"naive chain, build.ninja, ninja -j{n}")
+    floor = next((row for row in a["rows"] if row["config"].startswith("library floor")), None)
+    w("| configuration | wall (median) | CPU (median) | kiln is faster, wall | kiln is faster, CPU |")
+    w("|---|---|---|---|---|")
+    for row in a["rows"]:
+        bold = "**" if row is ninja else ""
+        w(f"| {row['config']} | {row['wall_s']:.2f} s | {row['cpu_s']:.2f} s | {bold}{row['wall_ratio']:.2f}x{bold} | "
+          f"{bold}{row['cpu_ratio']:.2f}x{bold} |")
+    w("")
+    if ninja:
+        met = ninja["wall_ratio"] >= 5
+        w(f"- Against the anchor a CMake user wires (`ninja -j{n}`), kiln is **{ninja['wall_ratio']:.1f}x faster in wall time and "
+          f"does {ninja['cpu_ratio']:.1f}x less work**. The goal was >= 5x: **{'met' if met else 'not met'}** in this run"
+          + ("" if met else f"; kiln is {100 * (1 - ninja['wall_ratio'] / 5):.0f}% short of it in wall time and "
+             f"{100 * (1 - ninja['cpu_ratio'] / 5):.0f}% in CPU time") + ".")
+    if ninja and floor:
+        w(f"- The library floor on {n} cores ({n} copies of `kiln-compile-steps --floor` side by side, divided by {n}: the")
+        w(f"  glslang, SPIRV-Tools and SPIRV-Cross calls of kiln's recipe and dedupe, nothing of kiln's own) is what an ideal")
+        w(f"  kiln would take: {ninja['wall_s'] / floor['wall_s']:.1f}x faster than `ninja -j{n}`, the most any kiln with this")
+        w(f"  recipe could reach in this run. kiln's median is {1 / floor['wall_ratio']:.2f}x the floor's (the rounds drifted by")
+        w(f"  more than that: kiln {', '.join(f'{x:.1f}' for x in rows[f'kiln cold -j{n}']['walls'])} s, the floor "
+          f"{', '.join(f'{x:.1f}' for x in floor['walls'])} s).")
+    if a.get("process_start_ms") and ninja:
+        chains = a["stage_compiles"]
+        w(f"- A process start (fork, exec and exit of `/bin/true`, before each round) took "
+          f"{', '.join(f'{x:.1f}' for x in a['process_start_ms'])} ms; the ninja anchor runs {7 * chains:,} tool processes and")
+        w(f"  spent {1000 * ninja['cpu_s'] / (7 * chains):.1f} ms of CPU per tool run.")
+
+
+def anchors_subsection(w, a, later=None):
+    """kiln against the 2-wide anchors (bench/anchors.py), wall and CPU (issue 26 item 1); `later`, a run with the
+    library floor (bench/results/anchors_2026-11-26.json)."""
+    rows = {row["config"]: row for row in a["rows"]}
+    n = a["jobs"]
     w(f"### Against what a user would run instead, {n}-wide (issue 26 item 1)")
     w("")
     w(f"kiln uses {n} cores; so does anything a user would pick instead. `bench/anchors.py` builds `{a['pack']}` ({a['variants']}")
@@ -79,19 +111,7 @@ def anchors_subsection(w, a):
       f"{min(float(x) for x in a['load_averages']):.1f}-{max(float(x) for x in a['load_averages']):.1f}"
       + (f". {a['conditions']}" if a.get("conditions") else "") + " (`bench/results/anchors.json` has every run).")
     w("")
-    w("| configuration | wall (median) | CPU (median) | kiln is faster, wall | kiln is faster, CPU |")
-    w("|---|---|---|---|---|")
-    for row in a["rows"]:
-        bold = "**" if row is ninja else ""
-        w(f"| {row['config']} | {row['wall_s']:.2f} s | {row['cpu_s']:.2f} s | {bold}{row['wall_ratio']:.2f}x{bold} | "
-          f"{bold}{row['cpu_ratio']:.2f}x{bold} |")
-    w("")
-    if ninja:
-        met = ninja["wall_ratio"] >= 5
-        w(f"- Against the anchor a CMake user wires (`ninja -j{n}`), kiln is **{ninja['wall_ratio']:.1f}x faster in wall time and "
-          f"does {ninja['cpu_ratio']:.1f}x less work**. The goal was >= 5x: **{'met' if met else 'not met'}**"
-          + ("" if met else f"; kiln is {100 * (1 - ninja['wall_ratio'] / 5):.0f}% short of it in wall time and "
-             f"{100 * (1 - ninja['cpu_ratio'] / 5):.0f}% in CPU time") + ".")
+    anchors_table(w, a)
     w("- Where the rest would have to come from: kiln runs close to the library floor (below), so the CPU ratio is")
     w("  bounded by what the anchors do that kiln does not (process start-ups, SPIR-V written and read between tools,")
     w("  every variant compiled where kiln compiles each distinct front end and back end once), against the glslang and")
@@ -102,6 +122,23 @@ def anchors_subsection(w, a):
         w(f"- The serial loop reads {serial['wall_ratio']:.1f}x in wall time: half of any serial ratio is kiln using {n} cores; the")
         w(f"  CPU column says {serial['cpu_ratio']:.1f}x.")
     w("")
+    if later:
+        w(f"The run of {later['date']} (its end; `bench/anchors.py --only ninja,floor --floor-tool "
+          f"build/ci/bench/kiln-compile-steps`, {later['reps']} rounds, load average "
+          f"{min(float(x) for x in later['load_averages']):.1f}-{max(float(x) for x in later['load_averages']):.1f}"
+          + (f"; {later['conditions']}" if later.get("conditions") else "") + "; `bench/results/anchors_2026-11-26.json`):")
+        w("")
+        anchors_table(w, later)
+        per_run = lambda run: 1000 * next(r["cpu_s"] for r in run["rows"] if "ninja" in r["config"]) / (7 * run["stage_compiles"])
+        w("")
+        w(f"So the 5x goal is met where a tool run costs what it cost on this day ({per_run(later):.0f} ms of CPU) and missed")
+        w(f"where it costs what it cost on {a['date'][:10]} ({per_run(a):.0f} ms), with kiln at or near the library floor in both: the")
+        w("ratio is set by what the anchors pay per process on the machine, not by anything left in kiln. On a machine")
+        w("where processes are as cheap as on the earlier day, no kiln with this recipe reaches 5x: the issue's idle")
+        w("measurement put `ninja -j2` at 4.3x kiln, and section 1's run of 2026-11-22 put kiln 1.13x above the floor (17.03 s")
+        w("against 15.06 s), so an ideal kiln would have been about 4.9x faster than `ninja -j2` (the earlier anchors run")
+        w("has no floor row of its own).")
+        w("")
 
 
 def build_speed_section(w, r):
@@ -117,7 +154,7 @@ def build_speed_section(w, r):
     w("")
     anchors = load("anchors.json")
     if anchors:
-        anchors_subsection(w, anchors)
+        anchors_subsection(w, anchors, load("anchors_2026-11-26.json"))
     f = r["funnel"]
     w(f"Pack `{r['pack']}`: {r['variants']} variants. The naive pipeline is what a shell loop over `kiln list --json`")
     w("does for every (variant, stage): `glslangValidator -D -V` (HLSL to SPIR-V, legalized), `spirv-opt -O`,")

@@ -31,6 +31,6 @@ build/ci/bench/kiln-frame-cost build/ci/packs/lit bench/results/frame_cost.json
 bash bench/remote_cache.sh build/ci/compiler/kiln . 3
 python3 bench/remote_transfers.py --kiln build/ci/compiler/kiln --rounds 3 --delay-ms 5
 # kiln against the 2-wide anchors (xargs, build.ninja, glslc): the longest instrument, about 25 minutes.
-python3 bench/anchors.py --kiln build/ci/compiler/kiln --reps 3
+python3 bench/anchors.py --kiln build/ci/compiler/kiln --reps 3 --floor-tool build/ci/bench/kiln-compile-steps
 python3 bench/report.py
 echo "wrote bench/REPORT.md"
