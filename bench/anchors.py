@@ -201,6 +201,7 @@ def main():
             words = args.only.split(",")
             configs = {k: v for k, v in configs.items() if k.startswith("kiln cold") or any(w in k for w in words)}
         walls = {k: [] for k in configs}
+        cpus = {k: [] for k in configs}
         process_starts_ms = []
 
         def process_start_ms():
@@ -208,7 +209,7 @@ def main():
             for _ in range(200):
                 subprocess.run(["/bin/true"], check=True)
             return (time.perf_counter() - start) / 200 * 1000
-        cpus = {k: [] for k in configs}
+
         for rep in range(args.reps):
             process_starts_ms.append(process_start_ms())
             print(f"rep {rep + 1}/{args.reps}: a process start takes {process_starts_ms[-1]:.2f} ms", flush=True)
