@@ -11,6 +11,7 @@
 #include <iostream>
 #include <map>
 #include <optional>
+#include <string_view>
 #include <sstream>
 
 #include "allocator.hpp"
@@ -181,18 +182,33 @@ int run_verify(int argc, char** argv) {
 // SLURM_ARRAY_TASK_MIN/MAX), GitLab parallel jobs (CI_NODE_INDEX, 1-based, and CI_NODE_TOTAL), Kubernetes Indexed
 // Jobs (JOB_COMPLETION_INDEX; Kubernetes exports no count, so the job passes its completions as KILN_SHARD_COUNT).
 // Empty, or the error.
+// Counts and indices are plain decimal numbers of at most 9 digits (no sign, no suffix, nothing that a 32-bit
+// conversion could wrap), and a count is at most kMaxShardCount.
+constexpr long kMaxShardCount = 100000;
+
+std::optional<long> shard_number(std::string_view text) {
+  if (text.empty() || text.size() > 9 || text.find_first_not_of("0123456789") != std::string_view::npos) return std::nullopt;
+  return std::stol(std::string(text));
+}
+
 std::string parse_shard(const std::string& text, kiln::BuildOptions& options) {
-  auto number = [](const char* name) -> std::optional<long> {
+  std::string bad_variable;  // the first variable that is set but not a number
+  auto number = [&](const char* name) -> std::optional<long> {
     const char* value = std::getenv(name);
     if (!value || !*value) return std::nullopt;
-    char* end = nullptr;
-    long n = std::strtol(value, &end, 10);
-    return *end ? std::nullopt : std::optional<long>(n);
+    auto n = shard_number(value);
+    if (!n && bad_variable.empty()) bad_variable = name + std::string("='") + value + "'";
+    return n;
   };
   long index = -1, count = 0;
   std::string read;  // what --shard auto read, for its error
   auto variable = [](const char* name) { return std::string(name) + "=" + std::getenv(name); };
   if (text == "auto") {
+    for (const char* name : {"SLURM_ARRAY_TASK_ID", "SLURM_ARRAY_TASK_COUNT", "SLURM_ARRAY_TASK_MIN", "SLURM_ARRAY_TASK_MAX",
+                             "CI_NODE_INDEX", "CI_NODE_TOTAL", "JOB_COMPLETION_INDEX", "KILN_SHARD_COUNT"})
+      number(name);
+    if (!bad_variable.empty())
+      return "--shard auto read " + bad_variable + ", which is not a number (a decimal integer of at most 9 digits)";
     if (auto id = number("SLURM_ARRAY_TASK_ID")) {
       if (auto n = number("SLURM_ARRAY_TASK_COUNT")) index = *id, count = *n, read = variable("SLURM_ARRAY_TASK_COUNT");
       auto min = number("SLURM_ARRAY_TASK_MIN"), max = number("SLURM_ARRAY_TASK_MAX");
@@ -212,9 +228,13 @@ std::string parse_shard(const std::string& text, kiln::BuildOptions& options) {
       return "--shard auto found no SLURM_ARRAY_TASK_ID, CI_NODE_INDEX/CI_NODE_TOTAL or JOB_COMPLETION_INDEX in the "
              "environment";
     }
-  } else if (unsigned i = 0, n = 0; std::sscanf(text.c_str(), "%u/%u", &i, &n) == 2) {
-    index = i, count = n;
+  } else if (const size_t slash = text.find('/'); slash != std::string::npos) {
+    auto i = shard_number(std::string_view(text).substr(0, slash)), n = shard_number(std::string_view(text).substr(slash + 1));
+    if (i && n) index = *i, count = *n;
   }
+  if (count > kMaxShardCount)
+    return "--shard: " + std::to_string(count) + " shards is more than kiln splits a build into (" +
+           std::to_string(kMaxShardCount) + ")" + (read.empty() ? "" : ", read from " + read);
   if (count < 1 || index < 0 || index >= count) {
     if (!read.empty())
       return "--shard auto read shard " + std::to_string(index) + " of " + std::to_string(count) + " from " + read +
@@ -293,7 +313,13 @@ int run_inspect(const std::string& pack_dir, bool as_json, const std::string& ex
     kiln::PackReader pack = kiln::PackReader::open(pack_dir);
     const kiln::Manifest& manifest = pack.manifest();
     if (!extract.empty()) {
-      std::filesystem::create_directories(extract);
+      std::error_code ec;
+      std::filesystem::create_directories(extract, ec);
+      if (ec || !std::filesystem::is_directory(extract)) {
+        std::cerr << extract << ": error[K1601]: cannot create the --extract directory"
+                  << (ec ? ": " + ec.message() : std::string(": a file of that name is in the way")) << "\n";
+        return 1;
+      }
       for (size_t b = 0; b < manifest.binaries.size(); ++b) {
         const kiln::ManifestBinary& binary = manifest.binaries[b];
         for (const auto& [target, id] : binary.blobs) {

@@ -98,9 +98,11 @@ static void test_open_failures(const char* pack_dir, const char* scratch) {
     CHECK(strcmp(error.file, path) == 0);
     CHECK(pack == NULL);
   }
+  /* Cut short: the checksum is looked for before the text is parsed, and is not there. */
   CHECK(copy_file(from, path, 100, -1));
   CHECK_ERROR(kiln_pack_open(path, &pack, &error), &error, KILN_ERROR_FORMAT, NULL);
-  CHECK(strncmp(error.file, path, strlen(path)) == 0 && error.file[strlen(path)] == ':'); /* "path:line:column" */
+  CHECK(strcmp(error.file, path) == 0);
+  CHECK(strstr(error.message, "no checksum") != NULL);
   CHECK(pack == NULL);
 }
 

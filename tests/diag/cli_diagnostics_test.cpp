@@ -119,7 +119,8 @@ TEST_F(Cli, ABufferBlockOf4GiBIsAnErrorAtItsDeclaration) {
                      "(SPIR-V offsets are 32-bit)\n"
                      "    cbuffer Huge {\n"
                      "            ^\n"
-                     "  note: in pass 'P' fragment stage, keywords [<none>]\n"
+                     "  note: in pass 'P' vertex stage, keywords [<none>]\n"  // declared there too: checked before DCE
+                     "  note: and in 1 more variant(s)\n"
                      "kiln: 1 error(s)\n");
   // Just under the limit is a valid layout, reflected in full.
   dir.write("S.hlsl", "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
@@ -128,6 +129,34 @@ TEST_F(Cli, ABufferBlockOf4GiBIsAnErrorAtItsDeclaration) {
   ASSERT_EQ(build().exit_code, 0);
   const auto manifest = nlohmann::json::parse(testing::read_file(dir / "out/p.manifest.json"));
   EXPECT_NE(manifest.dump().find("\"size\":4294967280"), std::string::npos);
+}
+
+// The same limit for every kind of block, checked on the front end's module while the names are there: two
+// members adding up to 4 GiB wrapped their offsets (K1403, spirv-val), a tbuffer was K1409 named '_19' and with
+// no line, a structured buffer's 4 GiB element was an internal error (SPIRV-Cross threw).
+TEST_F(Cli, EveryKindOfBufferBlockOf4GiBIsAnErrorAtItsDeclaration) {
+  const struct {
+    const char* declaration;
+    const char* use;
+    std::string err;
+  } cases[] = {
+      {"cbuffer Pair {\n  float4 a[134217728];\n  float4 b[134217728];\n};\n", "a[0] + b[0]",
+       "S.hlsl:2:9: error[K1409]: buffer block 'Pair' is 4294967296 bytes; a block must be under 4 GiB (SPIR-V offsets "
+       "are 32-bit)\n"},
+      {"tbuffer Texels {\n  float4 t[268435456];\n};\n", "t[0]",
+       "S.hlsl:2:9: error[K1409]: buffer block 'Texels' is 4294967296 bytes; a block must be under 4 GiB (SPIR-V "
+       "offsets are 32-bit)\n"},
+      {"struct Element { float4 e[268435456]; };\nStructuredBuffer<Element> elements;\n", "elements[0].e[0]",
+       "S.hlsl:3:27: error[K1409]: buffer block 'elements' is 4294967296 bytes; a block must be under 4 GiB (SPIR-V "
+       "offsets are 32-bit)\n"},
+  };
+  for (const auto& c : cases) {
+    dir.write("S.hlsl", std::string("float4 V(float4 p : POSITION) : SV_Position { return p; }\n") + c.declaration +
+                            "float4 F() : SV_Target { return " + c.use + "; }\n");
+    auto r = build();
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_EQ(r.err.substr(0, r.err.find('\n') + 1), c.err) << r.err;
+  }
 }
 
 // glslang reports lines only; kiln finds the column from the token a message quotes. "';' : Expected" quotes
@@ -823,13 +852,154 @@ TEST_F(Cli, ASamplerSharedByTexturesCannotBeCombinedAndSaysWhy) {
 
 TEST_F(Cli, ADefineThatIsNotAnIdentifierIsAClearError) {
   dir.write("S.hlsl", kEntries);
-  expect_build_error("<command line>: error[K1014]: -D '2FAST=1': '2FAST' is not a preprocessor identifier (expected -D "
-                     "NAME or -D NAME=VALUE; NAME is letters, digits and '_', not starting with a digit)\n",
+  expect_build_error("<command line>: error[K1014]: -D '2FAST=1': '2FAST' is not a preprocessor identifier: letters, "
+                     "digits and '_', not starting with a digit (expected -D NAME or -D NAME=VALUE)\n",
                      {"-D", "LEVEL=2", "-D", "2FAST=1"});
   auto list = testing::run_kiln({"list", "p.pack.json", "-D", "A-B"}, dir.path());
   EXPECT_EQ(list.exit_code, 1);
-  EXPECT_EQ(list.err, "<command line>: error[K1014]: -D 'A-B': 'A-B' is not a preprocessor identifier (expected -D NAME "
-                      "or -D NAME=VALUE; NAME is letters, digits and '_', not starting with a digit)\n");
+  EXPECT_EQ(list.err, "<command line>: error[K1014]: -D 'A-B': 'A-B' is not a preprocessor identifier: letters, digits "
+                      "and '_', not starting with a digit (expected -D NAME or -D NAME=VALUE)\n");
+}
+
+// Numbers outside the double range aborted build, lint and list (an uncaught nlohmann out_of_range, exit 134),
+// even in "description"; a repeated key was silently last-wins; 200,000 nested arrays are refused at 64 levels.
+TEST_F(Cli, HostileJsonInAPackOrSceneIsALocatedError) {
+  dir.write("S.hlsl", kEntries);
+  const std::string pack_head = R"({"name": "p", "description": )";
+  for (const std::string& number : {std::string("1e400"), std::string("-1e400"), std::string(1000000, '9')}) {
+    dir.write("p.pack.json", pack_head + number + R"(, "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+    const std::string shown = number.size() > 40 ? std::string(32, '9') + "...' (1000000 characters)\n" : number + "'\n";
+    for (const std::string verb : {"build", "lint", "list"}) {
+      auto r = testing::run_kiln(verb == "build" ? std::vector<std::string>{"build", "p.pack.json", "-o", "out"}
+                                                 : std::vector<std::string>{verb, "p.pack.json"},
+                                 dir.path());
+      EXPECT_EQ(r.exit_code, 1) << verb << " " << number.size() << "\n" << r.err.substr(0, 300);
+      // lint reports the build's errors under its build-error rule.
+      const std::string id = verb == "lint" ? "build-error" : "K1010";
+      EXPECT_EQ(r.err.rfind("p.pack.json:1:30: error[" + id + "]: invalid JSON: number overflow parsing '" + shown, 0), 0u)
+          << verb << "\n" << r.err.substr(0, 300);
+    }
+  }
+  dir.write("p.pack.json", kPack);
+  dir.write("s.json", "{\"name\": \"s\",\n \"keywords\": [],\n \"name\": \"t\"}\n");
+  auto twice = testing::run_kiln({"list", "p.pack.json", "--scene", "s.json"}, dir.path());
+  EXPECT_EQ(twice.exit_code, 1);
+  EXPECT_EQ(twice.err.rfind("s.json:3:7: error[K1010]: invalid JSON: the key \"name\" appears twice in one object", 0), 0u)
+      << twice.err;
+  dir.write("s.json", "{\"name\": \"s\", \"keywords\": " + std::string(200000, '[') + std::string(200000, ']') + "}");
+  auto deep = testing::run_kiln({"list", "p.pack.json", "--scene", "s.json"}, dir.path());
+  EXPECT_EQ(deep.exit_code, 1);
+  EXPECT_EQ(deep.err.rfind("s.json:1:90: error[K1010]: invalid JSON: arrays and objects are nested more than 64 deep", 0), 0u)
+      << deep.err.substr(0, 300);
+}
+
+// Thread groups glslang took and then mistranslated: numthreads(0,0,0) was an internal error, 2^32-1 an optimizer
+// error with an internal message, 1024x1024x64 threads and 4 GiB of groupshared passed silently. Each is now the
+// source's error (K1401) at its line, by D3D's limits, which DXC enforces.
+TEST_F(Cli, ThreadGroupsBeyondTheLimitsAreTheSourcesErrors) {
+  const struct {
+    std::string source, err;
+  } cases[] = {
+      {"[numthreads(0,0,0)]\nvoid CS(uint3 id : SV_DispatchThreadID) { }\n",
+       "C.hlsl:1:2: error[K1401]: numthreads(0, 0, 0): each dimension of a thread group must be at least 1\n"},
+      {"[numthreads(4294967295,1,1)]\nvoid CS(uint3 id : SV_DispatchThreadID) { }\n",
+       "C.hlsl:1:2: error[K1401]: numthreads(4294967295, 1, 1): a thread group is at most 1024 x 1024 x 64 (D3D's "
+       "limits, which DXC enforces; Vulkan, GL and Metal guarantee no more)\n"},
+      {"// a group\n[numthreads(1024,1024,64)]\nvoid CS(uint3 id : SV_DispatchThreadID) { }\n",
+       "C.hlsl:2:2: error[K1401]: numthreads(1024, 1024, 64): 67108864 threads in a group, over the 1024 that D3D, "
+       "Metal and DXC allow (Vulkan guarantees 128)\n"},
+      {"#define N 0\n[numthreads(N * 2 + 8, 1, N)]\nvoid CS(uint3 id : SV_DispatchThreadID) { }\n",
+       "C.hlsl:2:2: error[K1401]: numthreads(8, 1, 0): each dimension of a thread group must be at least 1\n"},
+      {"groupshared float4 big[268435456];\n[numthreads(64,1,1)]\nvoid CS(uint3 id : SV_DispatchThreadID) { big[id.x] = 1; }\n",
+       "C.hlsl:1:1: error[K1401]: groupshared variables take 4294967296 bytes, over the 32768 that D3D and DXC allow "
+       "(Vulkan guarantees 16384)\n"},
+  };
+  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "C.hlsl", "stages": {"compute": "CS"}}]})");
+  for (const auto& c : cases) {
+    dir.write("C.hlsl", c.source);
+    auto r = build();
+    EXPECT_EQ(r.exit_code, 1) << c.source << r.err;
+    EXPECT_EQ(r.err.substr(0, r.err.find('\n') + 1), c.err) << r.err;
+  }
+  dir.write("C.hlsl", "groupshared float4 tile[2048];\n[numthreads(32,32,1)]\n"
+                      "void CS(uint3 id : SV_DispatchThreadID) { tile[id.x] = 1; }\n");
+  EXPECT_EQ(build().exit_code, 0) << "32 KiB of groupshared and 1024 threads are within the limits";
+}
+
+// glslang's preprocess-only mode, which kiln uses, rejected `#include "x"` on a last line without a newline
+// ("expected newline after header name"); glslangValidator and glslc accept it, and so does kiln now, in the entry
+// file and in included files.
+TEST_F(Cli, AnIncludeOnALastLineWithoutANewlineBuilds) {
+  dir.write("lib/Inc.hlsl", "#include \"Deeper.hlsl\"");
+  dir.write("lib/Deeper.hlsl", "float Half(float x) { return x * 0.5; }");
+  dir.write("lib/Tail.hlsl", "// nothing after this");
+  dir.write("S.hlsl", "#include \"Inc.hlsl\"\nfloat4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "float4 F() : SV_Target { return Half(1.0).xxxx; }\n#include \"Tail.hlsl\"");
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir / "out/p.manifest.json"));
+}
+
+
+// A define glslang's preamble cannot take was located in a file named "-1" (glslang's name for its preamble).
+TEST_F(Cli, AnErrorInADefinesValueIsLocatedOnTheCommandLine) {
+  dir.write("S.hlsl", "float4 V(float4 p : POSITION) : SV_Position { return p; }\nfloat4 F() : SV_Target { return X; }\n");
+  auto r = build({"-D", "X=\""});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err.substr(0, r.err.find('\n') + 1),
+            "<command line>: error[K1408]: 'string' : End of line in string (in a define: -D or the pack's \"defines\")\n")
+      << r.err;
+}
+
+
+// `kiln inspect --extract` into a directory that cannot be made aborted (an uncaught filesystem_error, exit 134).
+TEST_F(Cli, ExtractIntoADirectoryThatCannotBeMadeIsAnErrorNotAnAbort) {
+  dir.write("S.hlsl", kEntries);
+  ASSERT_EQ(build().exit_code, 0);
+  dir.write("blocker", "a file where the directory would go");
+  auto r = testing::run_kiln({"inspect", "out", "--extract", "blocker/sub"}, dir.path());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err.rfind("blocker/sub: error[K1601]: cannot create the --extract directory: ", 0), 0u) << r.err;
+  auto over_file = testing::run_kiln({"inspect", "out", "--extract", "blocker"}, dir.path());
+  EXPECT_EQ(over_file.exit_code, 1);
+  EXPECT_EQ(over_file.err.rfind("blocker: error[K1601]: cannot create the --extract directory", 0), 0u) << over_file.err;
+}
+
+// A pass name became a path: `--emit` wrote outside -o and an internal error's reproducer overwrote a file of
+// that name anywhere. Pack, pass and scene names follow one rule (name_problem), for build and lint alike.
+TEST_F(Cli, NamesThatWouldBecomePathsOutsideTheOutputAreRefused) {
+  dir.write("S.hlsl", kEntries);
+  for (const std::string& name : {std::string("../../x"), std::string("/tmp/x"), std::string(".."), std::string("")}) {
+    dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": )" + nlohmann::json(name).dump() +
+                                 R"(, "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+    for (const char* verb : {"build", "lint"}) {
+      std::vector<std::string> args{verb, "p.pack.json"};
+      if (std::string(verb) == "build") args.insert(args.end(), {"-o", "out", "--emit", "preprocessed"});
+      auto r = testing::run_kiln(args, dir.path());
+      EXPECT_EQ(r.exit_code, 1) << verb << " " << name << "\n" << r.err;
+      // build: K1011; lint reports the build's errors under its build-error rule.
+      EXPECT_NE(r.err.find("]: pass name '" + name + "' "), std::string::npos) << r.err;
+    }
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "x"));
+  EXPECT_FALSE(std::filesystem::exists("/tmp/x/vertex"));
+  dir.write("p.pack.json", R"({"name": "", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  auto unnamed = build();
+  EXPECT_EQ(unnamed.exit_code, 1);
+  EXPECT_NE(unnamed.err.find("error[K1011]: pack name '' is empty"), std::string::npos) << unnamed.err;
+}
+
+// `-D DIR=C:\shaders\` would end the preamble's #define with a line continuation and swallow the line after it
+// (before the fix: exit 0 and different code). Refused on the command line and in the pack alike.
+TEST_F(Cli, ADefineValueEndingInABackslashIsRefused) {
+  dir.write("S.hlsl", kEntries);
+  expect_build_error("<command line>: error[K1014]: -D 'DIR=C:\\shaders\\': the value of 'DIR' ends in a backslash, "
+                     "which would continue the #define onto the next line and swallow it (expected -D NAME or -D "
+                     "NAME=VALUE)\n",
+                     {"-D", "DIR=C:\\shaders\\"});
+  auto tab = testing::run_kiln({"list", "p.pack.json", "-D", "A=1\x01"}, dir.path());
+  EXPECT_EQ(tab.exit_code, 1);
+  EXPECT_NE(tab.err.find("the value of 'A' holds a line break or another control character"), std::string::npos) << tab.err;
 }
 
 TEST_F(Cli, AMalformedShiftIsAClearError) {
@@ -932,19 +1102,27 @@ TEST_F(Cli, InspectNamesTheFileOfEachPackError) {
     std::string err;
   };
   const Case cases[] = {
+      // The checksum is looked at before the text is parsed: anything without one is not a kiln manifest.
       {"{\n  \"format\": \"kiln-pack-manifest\",\n}\n",
-       "out/p.manifest.json:3:1: error: not a kiln manifest: invalid JSON: syntax error while parsing object key - "
-       "unexpected '}'; expected string literal\n"},
-      {"[]", "out/p.manifest.json: error: not a kiln pack manifest (no \"format\": \"kiln-pack-manifest\")\n"},
-      {replaced("\"format_version\": 3", "\"format_version\": 7"),
+       "out/p.manifest.json: error: not a kiln pack manifest: it has no checksum (\"manifest_xxh3_64\")\n"},
+      {"[]", "out/p.manifest.json: error: not a kiln pack manifest: it has no checksum (\"manifest_xxh3_64\")\n"},
+      {testing::resealed_manifest(replaced("\"format\": \"kiln-pack-manifest\",", "\"format\": \"kiln-pack-manifest\",,")),
+       "out/p.manifest.json:33:33: error: not a kiln manifest: invalid JSON: syntax error while parsing object key - "
+       "unexpected ','; expected string literal\n"},
+      {testing::resealed_manifest(replaced("\"format\": \"kiln-pack-manifest\"", "\"format\": \"other\"")),
+       "out/p.manifest.json: error: not a kiln pack manifest (no \"format\": \"kiln-pack-manifest\")\n"},
+      {testing::resealed_manifest(replaced("\"format_version\": 3", "\"format_version\": 7")),
        "out/p.manifest.json: error: pack format version 7 is not supported (this reader reads version 3)\n"},
-      {replaced("\"format_version\": 3", "\"format_revision\": 3"),
+      {testing::resealed_manifest(replaced("\"format_version\": 3", "\"format_revision\": 3")),
        "out/p.manifest.json: error: the manifest has no format_version (this reader reads version 3)\n"},
+      {testing::resealed_manifest(replaced("\"format_version\": 3", "\"format_version\": 3, \"format_version\": 3")),
+       "out/p.manifest.json:34:38: error: not a kiln manifest: invalid JSON: the key \"format_version\" appears twice in "
+       "one object (JSON does not say which one counts)\n"},
       // Valid JSON, edited: the manifest's own checksum refuses it.
       {replaced("\"reflection\": 0", "\"reflection\": 1"),
        "out/p.manifest.json: error: the manifest fails its checksum (changed since kiln wrote it)\n"},
       {replaced("\"manifest_xxh3_64\"", "\"manifest_checksum\""),
-       "out/p.manifest.json: error: the manifest has no checksum (\"manifest_xxh3_64\")\n"},
+       "out/p.manifest.json: error: not a kiln pack manifest: it has no checksum (\"manifest_xxh3_64\")\n"},
       // Edited and resealed: the checks behind the checksum.
       {testing::resealed_manifest(replaced("\"name\": \"p\"", "\"title\": \"p\"")),
        "out/p.manifest.json: error: malformed manifest: top level: has no \"name\"\n"},
@@ -956,7 +1134,7 @@ TEST_F(Cli, InspectNamesTheFileOfEachPackError) {
        "out/p.manifest.json: error: malformed manifest: /archive/file: \"/etc/passwd\" is not the archive's name, "
        "<name>.<xxh3_64>.kpack\n"},
       {testing::resealed_manifest(replaced("\"name\": \"p\"", "\"name\": \"../p\"")),
-       "out/p.manifest.json: error: malformed manifest: /name: \"../p\" is not a pack name (letters, digits, '_', '-' and '.')\n"},
+       "out/p.manifest.json: error: malformed manifest: /name: \"../p\" is not a pack name: it may only use letters, digits, '_', '-' and '.'\n"},
       // A well-formed name whose archive is missing.
       {testing::resealed_manifest(replaced_all(archive_hash, "0123456789abcdef")),
        "out/p.0123456789abcdef.kpack: error: no such file or directory\n"},
@@ -982,7 +1160,7 @@ TEST_F(Cli, InspectNamesTheFileOfEachPackError) {
   dir.write("out/p.manifest.json", "{");
   auto diff = testing::run_kiln({"diff-packs", "out", "out"}, dir.path());
   EXPECT_EQ(diff.exit_code, 1);
-  EXPECT_EQ(diff.err.rfind("out/p.manifest.json:1:2: error: not a kiln manifest: invalid JSON: ", 0), 0u) << diff.err;
+  EXPECT_EQ(diff.err.rfind("out/p.manifest.json: error: not a kiln pack manifest: it has no checksum", 0), 0u) << diff.err;
 }
 
 TEST_F(Cli, UnwritableCacheIsAWarningAndThePackIsStillWritten) {

@@ -20,12 +20,6 @@ struct Case {
 };
 
 const Case kCases[] = {
-    {"select", "float4 F(float4 p : SV_Position) : SV_Target { return select(p > 0.5, p, 1 - p); }",
-     "HLSL 2021 `select()`", 55},
-    {"and", "float4 F(float4 p : SV_Position) : SV_Target { return and(p > 0.5, p < 0.7).x ? 1 : 0; }",
-     "HLSL 2021 `and()`", 55},
-    {"or", "float4 F(float4 p : SV_Position) : SV_Target { return or(p > 0.5, p < 0.7).x ? 1 : 0; }",
-     "HLSL 2021 `or()`", 55},
     {"template", "template<typename T> T Twice(T x) { return x + x; } float4 F() : SV_Target { return Twice(1.0); }",
      "templates (HLSL 2021)", 1},
     {"namespaced type",
@@ -83,17 +77,16 @@ TEST(UnsupportedHlsl, TheMessageKeepsGlslangsWordsAndOrdinaryErrorsAreUntouched)
   dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl",
                                 "stages": {"vertex": "V", "fragment": "F"}}]})");
   dir.write("S.hlsl", "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
-                      "float4 F(float4 p : SV_Position) : SV_Target { return select(p > 0.5, p, 1 - p); }\n");
+                      "float4 F(float4 p : SV_Position) : SV_Target { return dot4add_u8packed(1u, 2u, 3.0).xxxx; }\n");
   auto r = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--no-cache", "-q"}, dir.path());
   EXPECT_EQ(r.err,
-            "S.hlsl:2:55: error[K1401]: glslang 12's HLSL front end does not support HLSL 2021 `select()` (it said: 'select' : "
-            "no matching overloaded function found)\n"
-            "    float4 F(float4 p : SV_Position) : SV_Target { return select(p > 0.5, p, 1 - p); }\n"
+            "S.hlsl:2:55: error[K1401]: glslang 12's HLSL front end does not support Shader Model 6.4 packed dot products "
+            "(`dot4add_u8packed`, `dot4add_i8packed`) (it said: 'dot4add_u8packed' : no matching overloaded function found)\n"
+            "    float4 F(float4 p : SV_Position) : SV_Target { return dot4add_u8packed(1u, 2u, 3.0).xxxx; }\n"
             "                                                          ^\n"
             "  note: in pass 'P' vertex stage, keywords [<none>]\n"
             "  note: and in 1 more variant(s)\n"
-            "  note: glslang 12 implements HLSL 2018, where `?:` is componentwise on vectors: write `cond ? a : b` "
-            "(docs/bindings.md lists what glslang 12 does not take)\n"
+            "  note: unpack the bytes with shifts and masks and use `dot` (docs/bindings.md lists what glslang 12 does not take)\n"
             "kiln: 1 error(s)\n");
   // A user function named like an HLSL 2021 intrinsic, called wrongly, is the user's own mistake.
   EXPECT_FALSE(recognise_unsupported_hlsl("'Select' : no matching overloaded function found", "return Select(a);"));

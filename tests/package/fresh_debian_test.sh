@@ -49,6 +49,6 @@ chroot "$root" bash -euo pipefail -c "
   grep -qxF 'kiln_DIR:PATH=/usr/lib/cmake/kiln' build/CMakeCache.txt
   cmake --build build -j 2 > build.log 2>&1 || { tail -30 build.log; exit 1; }
   build/consumer
-  man -w kiln > /dev/null 2>&1 || test -f /usr/share/man/man1/kiln.1.gz || test -f /usr/share/man/man1/kiln.1
+  test -f /usr/share/man/man1/kiln.1.gz || test -f /usr/share/man/man1/kiln.1  # man-db is not in a minimal Debian
 "
 echo "fresh Debian package test passed"

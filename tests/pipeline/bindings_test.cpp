@@ -249,10 +249,38 @@ TEST_F(Bindings, ADefineThatIsNotAnIdentifierInThePackIsAnError) {
   DiagnosticSink sink;
   EXPECT_FALSE(build(sink));
   EXPECT_EQ(errors_of(sink), (dir / "p.pack.json").string() +
-                                 ":1:28: error[K1011]: define '2FAST' is not a preprocessor identifier (or its value spans lines)\n"
+                                 ":1:28: error[K1011]: define: '2FAST' is not a preprocessor identifier: letters, digits and '_', "
+                                 "not starting with a digit\n"
                                  "    {\"name\": \"p\", \"defines\": {\"2FAST\": 1}, \"passes\": [{\"name\": \"P\", \"source\": "
                                  "\"S.hlsl\", \"stages\": {\"vertex\": \"V\", \"fragment\": \"F\"}}]}\n"
                                  "                               ^\n");
+}
+
+TEST_F(Bindings, ADefineValueEndingInABackslashInThePackIsAnError) {
+  dir.write("S.hlsl", kDefined);
+  write_pack(R"("defines": {"DIR": "C:\\shaders\\"})");
+  DiagnosticSink sink;
+  EXPECT_FALSE(build(sink));
+  EXPECT_NE(errors_of(sink).find(":1:28: error[K1011]: define: the value of 'DIR' ends in a backslash, which would "
+                                 "continue the #define onto the next line and swallow it\n"),
+            std::string::npos)
+      << errors_of(sink);
+}
+
+// Shifts, spaces and the $Global binding near 2^32 wrapped to bindings 0 and 1; the pack now has the command line's
+// limit (kMaxBindingNumber).
+TEST_F(Bindings, AShiftAboveTheLimitInThePackIsAnError) {
+  dir.write("S.hlsl", kDefined);
+  write_pack(R"("bindings": {"shifts": [{"register": "t", "shift": 4294967295}]})");
+  DiagnosticSink sink;
+  EXPECT_FALSE(build(sink));
+  EXPECT_NE(errors_of(sink).find("error[K1011]: a shift needs \"shift\": a non-negative integer up to 999999999\n"),
+            std::string::npos)
+      << errors_of(sink);
+  write_pack(R"("bindings": {"global_uniform": {"binding": 4294967295}})");
+  DiagnosticSink global;
+  EXPECT_FALSE(build(global));
+  EXPECT_NE(errors_of(global).find("each a non-negative integer up to 999999999)"), std::string::npos) << errors_of(global);
 }
 
 }  // namespace

@@ -292,6 +292,35 @@ TEST(Limits, AMacroBombIsAPreprocessingErrorAndTheRestIsStillBuilt) {
   EXPECT_EQ(report.funnel.unique_preprocessed, 4u);
 }
 
+// A worker that dies while preprocessing is an internal compiler error with a reproducer, as one that dies while
+// compiling is (9 of 16 worker kills used to give exit 2 and no reproducer): the entry file with the job's defines.
+TEST(TwoHalves, AWorkerThatDiesWhilePreprocessingLeavesAReproducer) {
+  testing::TempDir dir;
+  dir.write("S.hlsl", "// kiln-fault: crash-preprocess\n#pragma multi_compile_fragment _ FAST\n"
+                      "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "float4 F() : SV_Target { return 1.0; }\n");
+  dir.write("p.pack.json", R"({"name": "p", "defines": {"LEVEL": 2},
+    "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  ::setenv("KILN_WORKER_FAULT_INJECTION", "1", 1);
+  DiagnosticSink sink;
+  BuildReport report = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
+  ::unsetenv("KILN_WORKER_FAULT_INJECTION");
+  EXPECT_TRUE(report.internal_errors);
+  EXPECT_EQ(exit_code(sink, report.internal_errors), 2);
+  const auto repro = dir / "out/kiln-ice/P.fragment.FAST.preprocess.hlsl";
+  ASSERT_TRUE(std::filesystem::exists(repro)) << errors_of(sink);
+  const std::string text = testing::read_file(repro);
+  EXPECT_NE(text.find("// reproduce (from "), std::string::npos) << text;
+  EXPECT_NE(text.find("glslangValidator -E -DLEVEL=2 -DFAST S.hlsl\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("#define LEVEL 2\n#define FAST 1\n#line 1\n// kiln-fault: crash-preprocess\n"), std::string::npos) << text;
+  bool noted = false;
+  for (const Diagnostic& d : sink.diagnostics()) {
+    EXPECT_EQ(d.id, DiagId::InternalCompilerError) << format_diagnostic(d);
+    for (const std::string& note : d.notes) noted = noted || note == "reproducer written to " + repro.string();
+  }
+  EXPECT_TRUE(noted) << errors_of(sink);
+}
+
 // An exception inside a worker (a library throwing where it should not) is an internal compiler error with
 // exit code 2 and a reproducer, not a user error: it used to land on K1404 "optimizer failed" with exit 1.
 TEST(TwoHalves, AnExceptionInAWorkerIsAnInternalCompilerError) {

@@ -4,12 +4,15 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstdlib>
 #include <map>
 
 #include <nlohmann/json.hpp>
 
 #include "kiln/build.hpp"
 #include "remote/remote_cache.hpp"
+#include "mutating_server.hpp"
 #include "servers.hpp"
 #include "test_support.hpp"
 
@@ -227,6 +230,56 @@ TEST_F(Remote, AnUnchangedCheckoutFetchesTheFinishedPackInThreeRequests) {
   BuildReport again = build_pack(options, sink);
   EXPECT_TRUE(again.up_to_date);
   EXPECT_EQ(requests() - before, 3);
+}
+
+// A build killed while it fetched a pack left its scratch directory (a whole archive) in the output directory
+// forever. The next fetch removes the scratch of every process that no longer runs, and only that.
+TEST_F(Remote, AFetchRemovesTheScratchOfAKilledFetch) {
+  testing::Nginx server;
+  populate(server, {}, true);
+  const std::filesystem::path out = dir / "fetched";
+  const std::filesystem::path dead = out / ".kiln-remote-999999999-aBcDeF", live = out / (".kiln-remote-" + std::to_string(::getpid()) + "-xYz123");
+  for (const auto& scratch : {dead, live}) {
+    std::filesystem::create_directories(scratch);
+    std::ofstream(scratch / "p.0123456789abcdef.kpack") << "half an archive";
+  }
+  BuildOptions options;
+  options.pack_file = dir / "p.pack.json";
+  options.output_dir = out;
+  options.cache_dir = dir / "fetched-cache";
+  options.worker_executable = KILN_WORKER_PATH;
+  options.remote = serial(server.url());
+  DiagnosticSink sink;
+  BuildReport report = build_pack(options, sink);
+  ASSERT_TRUE(report.ok) << text_of(sink);
+  EXPECT_TRUE(report.remote.pack_fetched);
+  EXPECT_FALSE(std::filesystem::exists(dead)) << "a dead process's scratch is still there";
+  EXPECT_TRUE(std::filesystem::exists(live / "p.0123456789abcdef.kpack")) << "a running process's scratch was removed";
+  std::vector<std::string> left;
+  for (const auto& entry : std::filesystem::directory_iterator(out))
+    if (entry.path().filename().string().starts_with(".kiln-remote-") && entry.path() != live) left.push_back(entry.path());
+  EXPECT_TRUE(left.empty()) << left.front();
+}
+
+// The remote-response fuzzer: a server answers every request with damaged or resealed bytes (testing::
+// MutatingServer; fixed seed, bounded count of builds). Whatever comes back, every build succeeds with the pack of a
+// build without the remote, and says so only in warnings: the forged record of 200,000 nested CBOR arrays crashed it.
+TEST_F(Remote, MutatedResponsesNeverCrashABuildOrChangeItsPack) {
+  testing::Nginx server;
+  const auto wanted = reference();
+  populate(server, {}, true);  // the pack-level entry stays: its record and blobs are mutated too
+  testing::MutatingServer mutating(server.data(), 2026);
+  for (int round = 0; round < 24; ++round) {
+    RemoteCacheOptions remote = serial(mutating.url());
+    remote.operation_timeout = std::chrono::seconds(10);
+    DiagnosticSink sink;
+    BuildReport report = build(remote, sink);
+    ASSERT_TRUE(report.ok) << "round " << round << "\n" << text_of(sink);
+    EXPECT_TRUE(pack_bytes(last_output) == wanted) << "round " << round << ": the pack differs";
+    for (const Diagnostic& d : sink.diagnostics()) EXPECT_NE(d.severity, Severity::Error) << format_diagnostic(d);
+  }
+  EXPECT_GE(mutating.answered(), 48u);
+  EXPECT_GE(mutating.resealed(), 12u);
 }
 
 TEST_F(Remote, ADamagedPackEntryIsAMissAndTheSourcesAreFetchedInstead) {
@@ -492,6 +545,20 @@ TEST_F(Remote, AnUnreadableTokenFileIsAConfigurationWarning) {
                                "  note: the build goes on without the remote cache\n" + kNeverFails);
 }
 
+// A CR/LF in KILN_REMOTE_TOKEN would end the Authorization header and add headers of the token's choosing; the
+// variable is held to the token file's rule (one printable token) and nothing is sent.
+TEST_F(Remote, ATokenWithALineBreakIsRefusedBeforeAnyRequest) {
+  testing::Nginx server;
+  RemoteCacheOptions remote = serial(server.url());
+  remote.bearer_token = "t0ken\r\nX-Injected: yes";
+  DiagnosticSink sink;
+  EXPECT_TRUE(build(remote, sink).ok);
+  EXPECT_EQ(text_of(sink), server.url() + ": warning[K1707]: the remote cache token (KILN_REMOTE_TOKEN) is not one token: it "
+                                          "holds a space, a line break or another character outside printable ASCII\n"
+                                          "  note: the build goes on without the remote cache\n" + kNeverFails);
+  EXPECT_EQ(testing::read_file(server.directory() / "access.log"), "") << "a request was sent";
+}
+
 TEST_F(Remote, AResponseThatNeverComesTimesOut) {
   testing::FaultServer silent(testing::FaultServer::Mode::Silent);
   RemoteCacheOptions remote = serial(silent.url());
@@ -692,6 +759,36 @@ TEST(RemoteCli, ASecondMachineCompilesNothingAndWritesTheSamePack) {
             testing::read_archive(root / "elsewhere/deeper/out/p.manifest.json"));
 }
 
+// Shard numbers are plain decimals: "1/2junk" was taken as 1/2, "0/4294967297" wrapped to an unsharded build, a
+// Slurm count past 2^32 gave "shard 5/2", and a non-numeric SLURM_ARRAY_TASK_ID was reported as absent.
+TEST(RemoteCli, ShardNumbersThatAreNotPlainDecimalsAreRefused) {
+  testing::TempDir root;
+  write_library(root, "ws");
+  const std::string url = "http://127.0.0.1:" + std::to_string(testing::free_port());
+  auto shard = [&](const std::string& value) {
+    return testing::run_kiln({"build", "p.pack.json", "-o", "out", "--remote", url, "--shard", value}, root / "ws");
+  };
+  for (const char* text : {"1/2junk", "0/4294967297", "-1/2", "+0/2", "0x1/2", "1/"}) {
+    auto r = shard(text);
+    EXPECT_EQ(r.exit_code, 1) << text;
+    EXPECT_EQ(r.err, std::string("kiln: error: --shard wants I/N with I < N, or auto (got '") + text + "')\n");
+  }
+  auto many = shard("0/999999999");
+  EXPECT_EQ(many.err, "kiln: error: --shard: 999999999 shards is more than kiln splits a build into (100000)\n");
+  ::setenv("SLURM_ARRAY_TASK_ID", "abc", 1);
+  auto letters = shard("auto");
+  EXPECT_EQ(letters.err, "kiln: error: --shard auto read SLURM_ARRAY_TASK_ID='abc', which is not a number (a decimal "
+                         "integer of at most 9 digits)\n");
+  ::setenv("SLURM_ARRAY_TASK_ID", "5", 1);
+  ::setenv("SLURM_ARRAY_TASK_MIN", "0", 1);
+  ::setenv("SLURM_ARRAY_TASK_MAX", "4294967297", 1);
+  auto wrapped = shard("auto");
+  EXPECT_EQ(wrapped.err, "kiln: error: --shard auto read SLURM_ARRAY_TASK_MAX='4294967297', which is not a number (a "
+                         "decimal integer of at most 9 digits)\n");
+  for (const char* name : {"SLURM_ARRAY_TASK_ID", "SLURM_ARRAY_TASK_MIN", "SLURM_ARRAY_TASK_MAX"}) ::unsetenv(name);
+  EXPECT_FALSE(std::filesystem::exists(root / "ws/out/p.manifest.json"));
+}
+
 // --shard auto reads a Slurm job array's task index and count (GitLab's CI_NODE_INDEX is 1-based; a Kubernetes
 // Indexed Job's JOB_COMPLETION_INDEX with KILN_SHARD_COUNT).
 TEST(RemoteCli, ShardAutoReadsTheSchedulersIndexAndCountFromTheEnvironment) {
@@ -816,6 +913,25 @@ TEST_F(RemoteSlurm, AFailedShardKeepsTheMergeFromRunning) {
   EXPECT_EQ(slurm.job_state(job_id(merge)), "CANCELLED DependencyNeverSatisfied") << merge.err << slurm.logs();
   EXPECT_FALSE(std::filesystem::exists(root / "merge.log")) << "the merge ran";
   EXPECT_FALSE(std::filesystem::exists(root / "ws/out/p.manifest.json")) << "a pack was written";
+}
+
+// A daemon that fails to start (here slurmd, as in a chroot without cgroups) must not leave the others running:
+// the constructor that throws stops and reaps munged and slurmctld itself. Not root-only: no job runs.
+bool process_exists(pid_t pid) { return ::kill(pid, 0) == 0 || errno != ESRCH; }
+
+TEST(RemoteSlurmCleanUp, EveryDaemonIsStoppedWhenOneFailsToStart) {
+  std::vector<pid_t> spawned;
+  std::string message;
+  try {
+    testing::SlurmCluster slurm({"/bin/false", &spawned});
+    ADD_FAILURE() << "a cluster whose slurmd exits at once started";
+  } catch (const std::runtime_error& error) {
+    message = error.what();
+  }
+  EXPECT_EQ(message.rfind("a Slurm daemon exited before idle node", 0), 0u) << message;
+  ASSERT_EQ(spawned.size(), 3u) << "munged, slurmctld and the failing slurmd";
+  for (pid_t pid : spawned) EXPECT_FALSE(process_exists(pid)) << "daemon " << pid << " is still running";
+  EXPECT_EQ(std::getenv("SLURM_CONF"), nullptr) << "the cluster's configuration outlived it";
 }
 
 TEST(RemoteCli, RemoteRequiredMakesAnUnreachableServerAnError) {

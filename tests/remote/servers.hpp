@@ -13,6 +13,7 @@
 #include <netinet/in.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -57,6 +58,26 @@ inline bool accepts_connections(uint16_t port) {
   return ok;
 }
 
+// Stops a server the test started: SIGTERM, then SIGKILL if it has not exited within `grace` (a daemon that hangs on
+// its way out must not hang the test or outlive it), and reaps it, so its PID is gone when this returns.
+inline void stop_process(pid_t pid, std::chrono::milliseconds grace = std::chrono::seconds(10)) {
+  if (pid <= 0) return;
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  const auto deadline = std::chrono::steady_clock::now() + grace;
+  while (::waitpid(pid, &status, WNOHANG) == 0) {
+    if (std::chrono::steady_clock::now() >= deadline) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      return;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
+
+// In a forked child before exec: the server dies with the test process, also when ctest's timeout kills it.
+inline void die_with_parent() { ::prctl(PR_SET_PDEATHSIG, SIGKILL); }
+
 inline int run_quietly(const std::vector<std::string>& argv, const std::filesystem::path& cwd) {
   return run(argv, cwd).exit_code;
 }
@@ -84,7 +105,14 @@ struct NginxConfig {
 
 class Nginx {
  public:
-  explicit Nginx(NginxConfig config = {}) : config_(std::move(config)) { start(); }
+  explicit Nginx(NginxConfig config = {}) : config_(std::move(config)) {
+    try {
+      start();
+    } catch (...) {
+      stop();  // the destructor does not run for a constructor that throws
+      throw;
+    }
+  }
   ~Nginx() { stop(); }
   Nginx(const Nginx&) = delete;
   Nginx& operator=(const Nginx&) = delete;
@@ -96,10 +124,7 @@ class Nginx {
   uint16_t port() const { return port_; }
 
   void stop() {
-    if (pid_ <= 0) return;
-    ::kill(pid_, SIGTERM);
-    int status = 0;
-    ::waitpid(pid_, &status, 0);
+    stop_process(pid_);
     pid_ = -1;
   }
 
@@ -134,6 +159,7 @@ class Nginx {
     args.push_back(nullptr);
     pid_ = ::fork();
     if (pid_ == 0) {
+      die_with_parent();
       ::execv(args[0], args.data());
       ::_exit(127);
     }
@@ -240,9 +266,23 @@ class FaultServer {
 // slurmctld and slurmd, all in the foreground and started by fork/exec, so that the PIDs the destructor stops are
 // theirs. Nothing of the machine's own Slurm or MUNGE configuration is read: SLURM_CONF points at this cluster's
 // file while it runs (client commands and the jobs it starts read it). slurmd runs jobs as their user only as root.
+// Every daemon it started is stopped on every path: by the destructor, and by the constructor itself when one fails
+// to start (tested by RemoteSlurm.EveryDaemonIsStoppedWhenOneFailsToStart).
+struct SlurmOptions {
+  std::string slurmd = "/usr/sbin/slurmd";  // a test names a program that exits at once, to see the clean-up
+  std::vector<pid_t>* spawned = nullptr;     // if set, receives the PID of every daemon started
+};
+
 class SlurmCluster {
  public:
-  SlurmCluster() { start(); }
+  explicit SlurmCluster(SlurmOptions options = {}) : options_(std::move(options)) {
+    try {
+      start();
+    } catch (...) {
+      stop();  // the destructor does not run for a constructor that throws
+      throw;
+    }
+  }
   ~SlurmCluster() { stop(); }
   SlurmCluster(const SlurmCluster&) = delete;
   SlurmCluster& operator=(const SlurmCluster&) = delete;
@@ -276,6 +316,7 @@ class SlurmCluster {
     const std::string log_path = (dir_ / log).string();
     pid_t pid = ::fork();
     if (pid == 0) {
+      die_with_parent();
       int fd = ::open(log_path.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
       ::dup2(fd, 1);
       ::dup2(fd, 2);
@@ -283,6 +324,7 @@ class SlurmCluster {
       ::_exit(127);
     }
     pids_.push_back(pid);
+    if (options_.spawned) options_.spawned->push_back(pid);
     return pid;
   }
   // Polls `ready` (bounded: a daemon that never gets ready fails the test with the logs, it does not hang it).
@@ -290,9 +332,12 @@ class SlurmCluster {
   void wait_until(const std::string& what, Ready ready) {
     for (int attempt = 0; attempt < 3000; ++attempt) {
       if (ready()) return;
-      for (pid_t pid : pids_) {
+      for (auto pid = pids_.begin(); pid != pids_.end(); ++pid) {
         int status = 0;
-        if (::waitpid(pid, &status, WNOHANG) == pid) throw std::runtime_error("a Slurm daemon exited before " + what + "\n" + logs());
+        if (::waitpid(*pid, &status, WNOHANG) == *pid) {
+          pids_.erase(pid);  // reaped: its PID is no longer ours to stop
+          throw std::runtime_error("a Slurm daemon exited before " + what + "\n" + logs());
+        }
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
@@ -335,7 +380,7 @@ class SlurmCluster {
     const std::string conf = (d / "slurm.conf").string();
     ::setenv("SLURM_CONF", conf.c_str(), 1);
     spawn({"/usr/sbin/slurmctld", "-D", "-i", "-f", conf}, "slurmctld.out");
-    spawn({"/usr/sbin/slurmd", "-D", "-N", "kilnnode", "-f", conf}, "slurmd.out");
+    spawn({options_.slurmd, "-D", "-N", "kilnnode", "-f", conf}, "slurmd.out");
     wait_until("idle node", [&] {
       RunResult r = command({"/usr/bin/sinfo", "-h", "-N", "-o", "%t"}, d);
       return r.exit_code == 0 && r.out == "idle\n";
@@ -344,15 +389,12 @@ class SlurmCluster {
 
   void stop() {
     // The node first, then the controller, then MUNGE, which both authenticate with.
-    for (auto pid = pids_.rbegin(); pid != pids_.rend(); ++pid) {
-      ::kill(*pid, SIGTERM);
-      int status = 0;
-      ::waitpid(*pid, &status, 0);
-    }
+    for (auto pid = pids_.rbegin(); pid != pids_.rend(); ++pid) stop_process(*pid);
     pids_.clear();
     ::unsetenv("SLURM_CONF");
   }
 
+  SlurmOptions options_;
   TempDir dir_;
   std::vector<pid_t> pids_;
 };

@@ -132,7 +132,7 @@ TEST(Pack, NewerFormatVersionIsRefused) {
   auto manifest = write_sample_pack(dir);
   json m = json::parse(testing::read_file(manifest));
   m["format_version"] = kPackFormatVersion + 1;
-  dir.write("sample.manifest.json", m.dump());
+  dir.write("sample.manifest.json", testing::resealed_manifest(m.dump(1)));  // a newer kiln seals what it writes
   try {
     PackReader::open(manifest);
     FAIL();
@@ -294,6 +294,41 @@ TEST(HostilePack, ABlobClaimingAHugeRawSizeIsRefusedAtOpenWithoutAllocatingIt) {
   }
 }
 
+// A manifest is checked before it is parsed, and the room its tree needs is asked for first: a resealed 120 MiB
+// manifest under a 2 GiB address-space limit is Code::OutOfMemory, where the parse used to run out half-way and end
+// the process (std::bad_alloc in a destructor) or escape as std::bad_alloc.
+TEST(HostilePack, AManifestTooLargeForTheAddressSpaceIsAnOutOfMemoryPackError) {
+  testing::TempDir dir;
+  const auto manifest = write_sample_pack(dir);
+  std::string text = testing::read_file(manifest);
+  std::string pad = "\"pad\": [0";
+  pad.reserve(size_t{120} << 20);
+  while (pad.size() < (size_t{120} << 20)) pad += ",0,0,0,0,0,0,0,0";
+  pad += "], ";
+  text.insert(text.find("\"format_version\""), pad);
+  std::ofstream(manifest, std::ios::binary) << testing::resealed_manifest(std::move(text));
+  expect_pack_error_within_limits([&] { PackReader::open(manifest); },
+                                  "PackError: the pack does not fit in the memory this process may use", dir);
+}
+
+// A manifest that records a 3 GiB archive used to make the reader read all of it before the 32-byte header said
+// it was no kiln archive; the header is read and checked first.
+TEST(HostilePack, AnArchiveHeaderIsCheckedBeforeTheArchiveIsRead) {
+  testing::TempDir dir;
+  const auto manifest = write_sample_pack(dir);
+  nlohmann::json m = nlohmann::json::parse(testing::read_file(manifest));
+  const uint64_t claimed = uint64_t{3} << 30;
+  m["archive"]["size"] = claimed;
+  std::ofstream(manifest, std::ios::binary) << testing::resealed_manifest(m.dump(1) + "\n");
+  const auto archive = testing::archive_named_by(manifest);
+  {
+    std::ofstream(archive, std::ios::binary) << "NOTAPACK, and then nothing but a hole";
+  }
+  std::filesystem::resize_file(archive, claimed);  // sparse: no disk space
+  expect_pack_error_within_limits([&] { PackReader::open(manifest); }, "PackError: archive of pack 'sample' has no KILNPACK header",
+                                  dir);
+}
+
 // A frame's header records its content size; a table that records another raw size (here one byte more, within
 // every limit) is refused at open, before a buffer of the recorded size is made for the frame.
 TEST(HostilePack, ABlobWhoseFrameHoldsAnotherSizeThanTheTableRecordsIsRefusedAtOpen) {
@@ -420,14 +455,14 @@ TEST(HostilePack, AManifestNumberTooLargeForADoubleIsAPackError) {
   const auto manifest = write_sample_pack(dir);
   std::string text = testing::read_file(manifest);
   text.replace(text.find("\"format_version\": "), 18, "\"format_version\": 3e999, \"v\": ");
-  dir.write("sample.manifest.json", text);
+  dir.write("sample.manifest.json", testing::resealed_manifest(text));
   try {
     PackReader::open(manifest);
     FAIL() << "opened";
   } catch (const PackError& e) {
     EXPECT_EQ(e.code(), PackError::Code::Format);
     EXPECT_EQ(std::string(e.what()), "not a kiln manifest: invalid JSON: number overflow parsing '3e999'");
-    EXPECT_EQ(e.file(), manifest.string());
+    EXPECT_EQ(e.file().rfind(manifest.string() + ":", 0), 0u) << e.file();  // at its line and column
   }
 }
 

@@ -47,6 +47,9 @@ char register_class_letter(RegisterClass register_class);  // 'b', 't', 's', 'u'
 std::optional<RegisterClass> parse_register_class(std::string_view letter);
 
 inline constexpr int64_t kAllSpaces = -1;
+// The largest shift, space, binding or set a pack or the command line may give: with any register number below
+// 2^31 (glslang's), register + shift stays below 2^32, so no binding wraps around to a small number.
+inline constexpr uint32_t kMaxBindingNumber = 999'999'999;
 
 // Every field is optional so that pack, pass and command line can each override the one before.
 struct BindingOptions {
@@ -69,8 +72,12 @@ struct Define {
   std::string value = "1";
   friend bool operator==(const Define&, const Define&) = default;
 };
-// "NAME" or "NAME=VALUE", as -D takes it; nothing when NAME is not a preprocessor identifier.
+// "NAME" or "NAME=VALUE", as -D takes it; nothing when define_problem finds one.
 std::optional<Define> parse_define(std::string_view text);
+// Why a define cannot be one `#define` line of the preamble, or "" when it can: a name that is not a preprocessor
+// identifier, or a value with a line break or another control character, or ending in a backslash (which would
+// continue the #define onto the next line and swallow it: -D DIR=C:\shaders\).
+std::string define_problem(const Define& define);
 bool is_identifier(std::string_view text);
 
 struct PassDefinition {

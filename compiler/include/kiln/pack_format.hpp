@@ -46,9 +46,21 @@ inline constexpr const char* kManifestFormat = "kiln-pack-manifest";
 inline constexpr const char* kManifestChecksumField = "\"manifest_xxh3_64\": \"";
 inline constexpr unsigned kManifestChecksumDigits = 16;
 
-// Pack names use only these characters, so a pack's file names are plain names in its directory.
+// Names that become file or directory names (a pack's, a pass's, a scene's: `--emit` and reproducers write under
+// pass names) use only these characters, 1 to kMaxNameLength of them, and are not "." or "..": each is a plain name
+// inside its directory. One rule, in one place: the definition checks it and the reader checks it again.
 inline constexpr std::string_view kPackNameCharacters =
     "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-.";
+inline constexpr size_t kMaxNameLength = 128;
+// Why `name` cannot be a pack, pass or scene name, or "" when it can.
+inline std::string name_problem(std::string_view name) {
+  if (name.empty()) return "is empty";
+  if (name.size() > kMaxNameLength) return "is longer than " + std::to_string(kMaxNameLength) + " characters";
+  if (name.find_first_not_of(kPackNameCharacters) != std::string_view::npos)
+    return "may only use letters, digits, '_', '-' and '.'";
+  if (name == "." || name == "..") return "is not a file name";
+  return "";
+}
 inline constexpr std::string_view kArchiveExtension = ".kpack";
 
 // Limits that the writer keeps and the reader enforces before it allocates, so a damaged or hostile pack

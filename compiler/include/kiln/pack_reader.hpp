@@ -29,7 +29,10 @@ namespace kiln {
 
 class PackError : public std::runtime_error {
  public:
-  enum class Code { Io, Format, Version, Checksum, UnknownPass, UnknownKeyword, ConflictingKeywords, MissingKeyword, Stripped };
+  enum class Code {
+    Io, Format, Version, Checksum, UnknownPass, UnknownKeyword, ConflictingKeywords, MissingKeyword, Stripped,
+    OutOfMemory  // open(): the pack does not fit in the memory (or address space) the process has
+  };
   PackError(Code code, const std::string& message, std::string file = {})
       : std::runtime_error(message), code_(code), file_(std::move(file)) {}
   Code code() const { return code_; }
@@ -62,7 +65,8 @@ struct SelectedVariant {
 
 class PackReader {
  public:
-  // `path` is a manifest file or a directory holding exactly one manifest.
+  // `path` is a manifest file or a directory holding exactly one manifest. Every failure is a PackError: sizes and
+  // checksums are checked before anything is parsed, and running out of memory is Code::OutOfMemory.
   static PackReader open(const std::filesystem::path& path);
 
   const std::string& name() const { return name_; }
@@ -83,6 +87,7 @@ class PackReader {
     std::map<std::string, size_t> by_key;          // joined sorted keywords -> variant index
   };
   const Pass& find_pass(std::string_view name) const;
+  static PackReader open_checked(const std::filesystem::path& path);  // open() less its std::bad_alloc guard
 
   struct Blob {
     uint64_t offset = 0;

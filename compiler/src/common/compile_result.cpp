@@ -2,6 +2,8 @@
 
 #include <stdexcept>
 
+#include "kiln/bounded_json.hpp"
+
 namespace kiln {
 namespace {
 
@@ -37,7 +39,8 @@ std::vector<uint8_t> encode_output(const JobOutput& output) {
 }
 
 JobOutput decode_output(const std::vector<uint8_t>& bytes) {
-  json j = json::from_cbor(bytes);
+  json j = decode_cbor_bounded(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()),
+                               {bytes.size(), kMaxJsonDepth});
   JobOutput out;
   out.ok = j.at("ok").get<bool>();
   const auto step = parse_step(j.at("failed_step").get<std::string>());

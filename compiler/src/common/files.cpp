@@ -1,6 +1,7 @@
 #include "common/files.hpp"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -143,6 +144,27 @@ std::optional<std::string> read_binary_file(const std::filesystem::path& path) {
   std::ostringstream buffer;
   buffer << in.rdbuf();
   return std::move(buffer).str();
+}
+
+std::filesystem::path make_scratch_directory(const std::filesystem::path& directory, std::string_view prefix) {
+  std::error_code ec;
+  for (std::filesystem::directory_iterator it(directory, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (!name.starts_with(prefix)) continue;
+    const std::string rest = name.substr(prefix.size());
+    const size_t dash = rest.find('-');
+    if (dash == 0 || dash == std::string::npos || dash > 10 || rest.find_first_not_of("0123456789") != dash) continue;
+    const long long pid = std::stoll(rest.substr(0, dash));
+    // Alive, or not ours to judge (EPERM: another user's live process), is left alone.
+    if (pid > 0 && pid <= INT32_MAX && (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH)) continue;
+    if (it->is_directory(ec) && !it->is_symlink(ec)) {
+      std::error_code ignored;
+      std::filesystem::remove_all(it->path(), ignored);
+    }
+  }
+  std::string scratch = (directory / (std::string(prefix) + std::to_string(::getpid()) + "-XXXXXX")).string();
+  if (!::mkdtemp(scratch.data())) return {};
+  return scratch;
 }
 
 std::string write_file_atomic(const std::filesystem::path& path, std::string_view bytes) {

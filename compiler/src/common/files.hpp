@@ -32,6 +32,11 @@ std::optional<std::string> read_binary_file(const std::filesystem::path& path);
 // The same for a file made of several parts, written one after the other (no concatenated copy).
 [[nodiscard]] std::string write_file_atomic(const std::filesystem::path& path, const std::vector<std::string_view>& parts);
 
+// A scratch directory `directory/<prefix><pid>-XXXXXX` of this process, made after removing every
+// `<prefix><pid>-*` left there by a process that no longer runs (killed mid-way: its scratch would otherwise stay
+// forever). Another live process's scratch is left alone. Empty when it cannot be made.
+std::filesystem::path make_scratch_directory(const std::filesystem::path& directory, std::string_view prefix);
+
 // A path as shown to users: relative to the working directory when below it.
 std::string display_path(const std::filesystem::path& path);
 

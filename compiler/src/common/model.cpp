@@ -51,9 +51,21 @@ std::optional<Define> parse_define(std::string_view text) {
   Define define;
   define.name = std::string(text.substr(0, equals));
   if (equals != std::string_view::npos) define.value = std::string(text.substr(equals + 1));
-  // A value is one line of the preamble: a newline would end the #define and start another directive.
-  if (!is_identifier(define.name) || define.value.find_first_of("\r\n") != std::string::npos) return std::nullopt;
+  if (!define_problem(define).empty()) return std::nullopt;
   return define;
+}
+
+std::string define_problem(const Define& define) {
+  if (!is_identifier(define.name))
+    return "'" + define.name + "' is not a preprocessor identifier: letters, digits and '_', not starting with a digit";
+  // A value is one line of the preamble: a newline would end the #define and start another directive.
+  for (unsigned char c : define.value)
+    if (c < 0x20 && c != '\t')
+      return "the value of '" + define.name + "' holds a line break or another control character";
+  if (define.value.ends_with('\\'))
+    return "the value of '" + define.name +
+           "' ends in a backslash, which would continue the #define onto the next line and swallow it";
+  return "";
 }
 
 std::string_view optimizer_recipe_name(OptimizerRecipe recipe) { return recipe == OptimizerRecipe::Kiln ? "kiln" : "O"; }

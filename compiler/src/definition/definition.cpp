@@ -1,5 +1,6 @@
 #include "definition/definition.hpp"
 
+#include "kiln/bounded_json.hpp"
 #include "kiln/pack_format.hpp"
 
 #include <nlohmann/json.hpp>
@@ -11,16 +12,14 @@ namespace {
 
 using nlohmann::json;
 
-// Parses JSON text, reporting a syntax error at its line and column.
+// Parses JSON text (bounded: kiln/bounded_json.hpp), reporting a syntax error, a number outside the double range, a
+// repeated key or nesting too deep at its line and column. The text's size was checked when it was read.
 std::optional<json> parse_json(const std::filesystem::path& file, const std::string& text, DiagnosticSink& sink) {
   try {
-    return json::parse(text);
-  } catch (const json::parse_error& error) {
-    size_t offset = error.byte > 0 ? error.byte - 1 : 0;
-    std::string message = error.what();
-    // nlohmann prefixes "[json.exception.parse_error.101] parse error at line 1, column 2: "; keep the reason.
-    if (size_t colon = message.find(": "); colon != std::string::npos) message = message.substr(colon + 2);
-    sink.report(DiagId::JsonSyntax, location_of_offset(file.string(), text, offset), "invalid JSON: " + message);
+    return parse_json_bounded(text, {text.size(), kMaxJsonDepth});
+  } catch (const JsonDecodeError& error) {
+    sink.report(DiagId::JsonSyntax, location_of_offset(file.string(), text, error.offset()),
+                std::string("invalid JSON: ") + error.what());
     return std::nullopt;
   }
 }
@@ -123,7 +122,10 @@ BindingOptions read_bindings(FieldReader& fields, const json& object, const std:
     return out;
   }
   fields.only(*it, definition_fields().bindings, "\"bindings\"");
-  auto non_negative = [](const json& value) { return value.is_number_unsigned() && value.get<uint64_t>() <= UINT32_MAX; };
+  auto non_negative = [](const json& value) {
+    return value.is_number_unsigned() && value.get<uint64_t>() <= kMaxBindingNumber;
+  };
+  const std::string up_to = " up to " + std::to_string(kMaxBindingNumber);
   if (auto shifts = it->find("shifts"); shifts != it->end()) {
     if (!shifts->is_array()) fields.fail("shifts", "\"shifts\" must be an array of {\"register\", \"shift\", \"space\"}");
     else
@@ -139,14 +141,14 @@ BindingOptions read_bindings(FieldReader& fields, const json& object, const std:
           fields.fail(*letter, "unknown register class '" + *letter + "' (expected b, t, s or u)");
         auto shift = item.find("shift");
         if (shift == item.end() || !non_negative(*shift)) {
-          fields.fail("shift", "a shift needs \"shift\": a non-negative integer");
+          fields.fail("shift", "a shift needs \"shift\": a non-negative integer" + up_to);
           continue;
         }
         int64_t space = kAllSpaces;
         if (auto s = item.find("space"); s != item.end()) {
           if (non_negative(*s)) space = s->get<int64_t>();
           else if (!(s->is_string() && s->get<std::string>() == "all"))
-            fields.fail("space", "\"space\" must be a non-negative integer or \"all\"");
+            fields.fail("space", "\"space\" must be a non-negative integer" + up_to + " or \"all\"");
         }
         if (register_class) out.shifts[{*register_class, space}] = shift->get<uint32_t>();
       }
@@ -161,7 +163,8 @@ BindingOptions read_bindings(FieldReader& fields, const json& object, const std:
     auto binding = global->is_object() ? global->find("binding") : global->end();
     if (!global->is_object() || binding == global->end() || !non_negative(*binding) ||
         (global->contains("set") && !non_negative(global->at("set"))) || global->size() > (global->contains("set") ? 2u : 1u))
-      fields.fail("global_uniform", "\"global_uniform\" must be {\"binding\": N, \"set\": M} (\"set\" defaults to 0)");
+      fields.fail("global_uniform", "\"global_uniform\" must be {\"binding\": N, \"set\": M} (\"set\" defaults to 0; each a "
+                                    "non-negative integer" + up_to + ")");
     else
       out.global_uniform = std::make_pair(binding->get<uint32_t>(), global->value("set", uint32_t{0}));
   }
@@ -182,8 +185,7 @@ std::vector<Define> read_defines(FieldReader& fields, const json& object, const 
     else if (value.is_number_integer()) define.value = value.dump();
     else if (value.is_boolean()) define.value = value.get<bool>() ? "1" : "0";
     else fields.fail(name, "define '" + name + "' must have a string, integer or boolean value");
-    if (!parse_define(define.name + "=" + define.value))
-      fields.fail(name, "define '" + name + "' is not a preprocessor identifier (or its value spans lines)");
+    if (std::string problem = define_problem(define); !problem.empty()) fields.fail(name, "define: " + problem);
     out.push_back(std::move(define));
   }
   return out;
@@ -207,9 +209,11 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
   pack.file = file;
   pack.text = *text;
   const std::filesystem::path base = file.parent_path().empty() ? "." : file.parent_path();
-  pack.name = fields.string(*root, "name", true).value_or("");
-  if (!pack.name.empty() && pack.name.find_first_not_of(kPackNameCharacters) != std::string::npos)
-    fields.fail("name", "pack name '" + pack.name + "' may only use letters, digits, '_', '-' and '.'");
+  if (auto name = fields.string(*root, "name", true)) {
+    pack.name = *name;
+    if (std::string problem = name_problem(pack.name); !problem.empty())
+      fields.fail("name", "pack name '" + pack.name + "' " + problem);
+  }
   auto default_source = fields.string(*root, "shader", false);
   for (const std::string& dir : fields.strings(*root, "include_dirs")) pack.include_dirs.push_back(base / dir);
 
@@ -257,6 +261,9 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
       PassDefinition pass;
       pass.name = fields.string(item, "name", true).value_or("");
       pass.defined_at = fields.at(pass.name);
+      if (item.contains("name") && item["name"].is_string())
+        if (std::string problem = name_problem(pass.name); !problem.empty())
+          fields.fail(pass.name, "pass name '" + pass.name + "' " + problem + " (it names the pass's --emit directory)");
       auto source = fields.string(item, "source", false);
       if (source || default_source) pass.source = base / source.value_or(default_source.value_or(""));
       auto stages = item.find("stages");
@@ -359,7 +366,9 @@ namespace {
 
 const SourceLocation kCommandLine{"<command line>", 0, 0};
 
+// The JSON fields' rule (kMaxBindingNumber): up to 9 digits.
 std::optional<uint32_t> command_line_number(const std::string& text) {
+  static_assert(kMaxBindingNumber == 999'999'999, "the digit count below follows the limit");
   if (text.empty() || text.size() > 9 || text.find_first_not_of("0123456789") != std::string::npos) return std::nullopt;
   return static_cast<uint32_t>(std::stoul(text));
 }
@@ -375,10 +384,10 @@ std::optional<std::vector<Define>> parse_command_line_defines(const std::vector<
       defines.push_back(*define);
     } else {
       ok = false;
+      const size_t equals = text.find('=');
+      const Define refused{text.substr(0, equals), equals == std::string::npos ? "1" : text.substr(equals + 1)};
       sink.report(DiagId::InvalidCommandLineOption, kCommandLine,
-                  "-D '" + text + "': '" + text.substr(0, text.find('=')) +
-                      "' is not a preprocessor identifier (expected -D NAME or -D NAME=VALUE; NAME is letters, digits "
-                      "and '_', not starting with a digit)");
+                  "-D '" + text + "': " + define_problem(refused) + " (expected -D NAME or -D NAME=VALUE)");
     }
   }
   if (!ok) return std::nullopt;
@@ -437,7 +446,11 @@ std::optional<SceneProfile> load_scene_profile(const std::filesystem::path& file
   SceneProfile scene;
   scene.file = file;
   scene.text = *text;
-  scene.name = fields.string(*root, "name", true).value_or("");
+  if (auto name = fields.string(*root, "name", true)) {
+    scene.name = *name;
+    if (std::string problem = name_problem(scene.name); !problem.empty())
+      fields.fail("name", "scene name '" + scene.name + "' " + problem);
+  }
   if (!root->contains("keywords") && !root->contains("uses") && !root->contains("materials"))
     fields.fail("name", "a scene profile needs \"uses\", \"materials\" or \"keywords\"");
   for (const std::string& keyword : fields.strings(*root, "keywords")) scene.keywords.insert(keyword);

@@ -49,11 +49,14 @@ struct BuildSettings {
   // fields. "binding model 1" marks keys made since kiln's own resolver assigns glslang's bindings (a resource
   // without a register was at binding 0 before): cache entries of older builds are not reused. It is not a
   // kCompileJobRevision bump because that revision is in the inputs hash, which the manifest records: packs
-  // whose bindings did not change keep their bytes.
+  // whose bindings did not change keep their bytes. "hlsl compat 1" likewise marks keys made since the front end
+  // rewrites DXC's spellings (frontend/hlsl_compat.hpp), gives files a final newline and checks thread groups and
+  // block sizes: a cached push-constant struct of an older build was a $Global uniform buffer.
   template <typename KeyHasher>
   KeyHasher& add_compile_options(KeyHasher& hasher, const PassDefinition& pass, Stage stage) const {
     return hasher.add(fingerprint).add(optimize ? 1 : 0).add(optimizer_recipe_name(optimizer_recipe)).add(target_names_for(pass)).add(stage_name(stage))
-        .add(pass.entry_points[static_cast<size_t>(stage)]).add("binding model 1").add(pass.bindings.canonical());
+        .add(pass.entry_points[static_cast<size_t>(stage)]).add("binding model 1").add("hlsl compat 1")
+        .add(pass.bindings.canonical());
   }
 };
 

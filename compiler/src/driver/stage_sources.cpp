@@ -135,6 +135,7 @@ void Preprocessor::finished(StageSource& s, WorkerOutcome outcome) const {
   if (outcome.kind == WorkerOutcome::Kind::Done && outcome.output.failed_step == CompileStep::Internal) {
     s.internal_error = "threw an exception (" +
                        (outcome.output.messages.empty() ? std::string("no message") : outcome.output.messages[0].text) + ")";
+    write_reproducer(s);
   } else if (outcome.kind == WorkerOutcome::Kind::Done) {
     s.ok = outcome.output.ok;
     s.text = std::move(outcome.output.preprocessed);
@@ -151,7 +152,38 @@ void Preprocessor::finished(StageSource& s, WorkerOutcome outcome) const {
                        std::to_string(options_.worker_timeout.count() / 1000) + " s (a macro that expands exponentially?)"}};
   } else {
     s.internal_error = outcome.detail;  // the preprocessor crashed: a bug in it, not in the shader
+    write_reproducer(s);
   }
+}
+
+void Preprocessor::write_reproducer(StageSource& s) const {
+  const std::filesystem::path entry = plan_.declarations[s.pass].stage_entry[static_cast<size_t>(s.stage)];
+  const SourceFile* file = plan_.sources.find(entry);
+  std::vector<std::string> defines = pass_defines(plan_.pack.passes[s.pass]);
+  defines.insert(defines.end(), s.defines.begin(), s.defines.end());
+  std::string command = "glslangValidator -E";
+  std::string preamble;
+  for (const std::string& define : defines) {
+    const size_t equals = define.find('=');
+    command += " -D" + define;
+    // As the front end's preamble writes it: a keyword is defined as 1.
+    preamble += "#define " + define.substr(0, equals) + (equals == std::string::npos ? " 1" : " " + define.substr(equals + 1)) + "\n";
+  }
+  const std::filesystem::path dir = options_.output_dir / "kiln-ice";
+  const std::filesystem::path repro =
+      dir / (plan_.pack.passes[s.pass].name + "." + std::string(stage_name(s.stage)) + "." + keywords_slug(s.defines) +
+             ".preprocess.hlsl");
+  const std::string text = "// kiln internal compiler error: the compiler worker " + s.internal_error +
+                           " while preprocessing " + variant_description(plan_, s) + "\n// reproduce (from " +
+                           display_path(entry.parent_path()) + "): " + command + " " + entry.filename().string() +
+                           "\n// below: the defines, then " + display_path(entry) + " as the build read it\n" +
+                           preamble + "#line 1\n" + (file ? file->text : std::string());
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (std::string error = write_file_atomic(repro, text); error.empty())
+    s.internal_notes.push_back("reproducer written to " + repro.string());
+  else
+    s.internal_notes.push_back("the reproducer could not be written: " + error);
 }
 
 void Preprocessor::run(StageSources& sources, const std::vector<size_t>& which) {
@@ -189,10 +221,12 @@ void report_preprocess_failure(const StageSource& s, size_t order, const Plan& p
   const std::string entry_name = display_path(plan.declarations[s.pass].stage_entry[static_cast<size_t>(s.stage)]);
   if (!s.internal_error.empty()) {
     report.internal_errors = true;
+    std::vector<std::string> notes = s.internal_notes;
+    notes.push_back("this is a bug in the compiler, not in your shader");
     sink.report(DiagId::InternalCompilerError, SourceLocation{entry_name, 0, 0},
                 "internal compiler error: the compiler worker " + s.internal_error + " while preprocessing " +
                     variant_description(plan, s),
-                {"this is a bug in the compiler, not in your shader"});
+                notes);
     return;
   }
   auto first = std::find_if(s.messages.begin(), s.messages.end(),

@@ -37,6 +37,7 @@ struct StageSource {
   Hash128 memo;                         // where its preprocessing memo is cached
   std::vector<std::string> files_read;  // display names, when preprocessed in this build
   std::string internal_error;           // the worker preprocessing it crashed: how
+  std::vector<std::string> internal_notes;  // then: where its reproducer is (or why it could not be written)
 };
 
 struct StageSources {
@@ -76,6 +77,9 @@ class Preprocessor {
  private:
   // The files a stage's preprocessing may read, its own entry file first.
   std::shared_ptr<const std::vector<IncludableFile>> files_of(uint32_t pass, Stage stage);
+  // A worker died or threw while preprocessing `source`: its entry file with the job's defines written before it,
+  // in <output>/kiln-ice/, as compile.cpp writes one for a death in a compile.
+  void write_reproducer(StageSource& source) const;
 
   const Plan& plan_;
   const BuildSettings& settings_;

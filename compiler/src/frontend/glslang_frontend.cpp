@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "common/target_environment.hpp"
+#include "frontend/hlsl_compat.hpp"
 #include "frontend/frontend.hpp"
 #include "common/hash.hpp"
 #include "frontend/glslang_bindings.hpp"
@@ -86,6 +87,15 @@ std::optional<std::string> without_pragma_once(std::string_view text) {
   return out;
 }
 
+// glslang's preprocess-only mode rejects `#include "x"` on a last line without a newline ("expected newline after
+// header name"), which its full compile, glslangValidator and glslc accept: a file that does not end in a newline
+// is given one (`served`: the text as rewritten so far, or null for `original` itself).
+void with_final_newline(std::shared_ptr<const std::string>& served, std::string_view original) {
+  const std::string_view text = served ? std::string_view(*served) : original;
+  if (text.empty() || text.back() == '\n') return;
+  served = std::make_shared<const std::string>(std::string(text) + "\n");
+}
+
 // protect_literals is a pure function of a file's text, and a build preprocesses the same few files for
 // every stage source: each distinct text is rewritten once. Shared by the preprocessing threads.
 class ProtectedTexts {
@@ -139,6 +149,7 @@ class Includer final : public glslang::TShader::Includer {
     }
     if (auto rewritten = protected_texts_.get(served ? std::string_view(*served) : std::string_view(found.text)))
       served = std::move(rewritten);
+    with_final_newline(served, found.text);
     if (served) {
       auto* owner = new Text(std::move(served));  // before the result reads its data: argument order is unspecified
       return new IncludeResult(found.name, (*owner)->data(), (*owner)->size(), owner);
@@ -188,6 +199,7 @@ class GlslangFrontend final : public Frontend {
     if (auto blanked = without_pragma_once(request.entry_text)) entry_served = std::make_shared<const std::string>(std::move(*blanked));
     if (auto rewritten = protected_texts_.get(entry_served ? std::string_view(*entry_served) : request.entry_text))
       entry_served = std::move(rewritten);
+    with_final_newline(entry_served, request.entry_text);
     const std::string_view entry = entry_served ? std::string_view(*entry_served) : request.entry_text;
     const char* text = entry.data();
     const int length = static_cast<int>(entry.size());
@@ -213,8 +225,13 @@ class GlslangFrontend final : public Frontend {
   CompileResult compile(const CompileRequest& request) override {
     CompileResult result;
     glslang::TShader shader(to_glslang(request.stage));
-    const char* text = request.source.data();
-    const int length = static_cast<int>(request.source.size());
+    // DXC's meanings that glslang 12 would change (frontend/hlsl_compat.hpp).
+    std::optional<std::string> compatible = rewrite_push_constants(request.source);
+    if (auto rewritten = rewrite_hlsl2021_intrinsics(compatible ? std::string_view(*compatible) : std::string_view(request.source)))
+      compatible = std::move(rewritten);
+    const std::string_view source = compatible ? std::string_view(*compatible) : std::string_view(request.source);
+    const char* text = source.data();
+    const int length = static_cast<int>(source.size());
     const char* name = request.source_name.c_str();
     shader.setStringsWithLengthsAndNames(&text, &length, &name, 1);
     shader.setEntryPoint(request.entry_point.c_str());
@@ -278,6 +295,12 @@ std::vector<FrontendMessage> parse_frontend_log(std::string_view log, std::strin
       std::string text = m[4];
       // glslang quotes the offending token first; with no token ("'' : missing #endif") that says nothing.
       if (text.starts_with("'' : ")) text.erase(0, 5);
+      // Source string -1 is glslang's preamble: the #define lines of the pass's defines (-D, the pack's
+      // "defines") and keywords. It is no file.
+      if (m[2] == "-1") {
+        messages.push_back({severity, "<command line>", 0, text + " (in a define: -D or the pack's \"defines\")"});
+        continue;
+      }
       messages.push_back({severity, m[2], std::stoi(m[3]), std::move(text)});
     } else if (std::regex_match(line, m, grammar)) {
       // Its column counts in the preprocessed text, whose spacing is not the file's: the line only.

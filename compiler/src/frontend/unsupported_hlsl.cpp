@@ -25,10 +25,8 @@ struct Row {
 
 // In the order checked: the first row that matches names the construct.
 constexpr std::array kRows{
-    Row{Seen::Quoted, "select", "HLSL 2021 `select()`",
-        "glslang 12 implements HLSL 2018, where `?:` is componentwise on vectors: write `cond ? a : b`"},
-    Row{Seen::Quoted, "and", "HLSL 2021 `and()`", "write `a && b` (componentwise on vectors in HLSL 2018)"},
-    Row{Seen::Quoted, "or", "HLSL 2021 `or()`", "write `a || b` (componentwise on vectors in HLSL 2018)"},
+    // HLSL 2021's select/and/or are rewritten before glslang parses (frontend/hlsl_compat.hpp): glslang's own
+    // message for a call with a wrong argument count is the right one.
     Row{Seen::Quoted, "template", "templates (HLSL 2021)", "write one function per type, or generate them with a macro"},
     Row{Seen::Quoted, "enum", "`enum`", "use `static const uint` constants"},
     Row{Seen::Quoted, "using", "type aliases with `using`", "write `typedef float real;`"},

@@ -105,6 +105,7 @@ kiln_result code_of(PackError::Code code) {
     case PackError::Code::ConflictingKeywords: return KILN_ERROR_CONFLICTING_KEYWORDS;
     case PackError::Code::MissingKeyword: return KILN_ERROR_MISSING_KEYWORD;
     case PackError::Code::Stripped: return KILN_ERROR_STRIPPED;
+    case PackError::Code::OutOfMemory: return KILN_ERROR_OUT_OF_MEMORY;
   }
   return KILN_ERROR_FORMAT;
 }

@@ -175,7 +175,17 @@ std::string RemoteCache::configure() {
   http_.ca_file = options_.ca_file.string();
   http_.netrc_file = options_.netrc_file.string();
   http_.https_only = scheme == "https";
+  // A token is one header value: a CR or LF in it would end the Authorization header and start one of the
+  // token's choosing. The variable is held to the token file's rule.
+  auto is_one_token = [](const std::string& token) {
+    return !token.empty() && std::all_of(token.begin(), token.end(), [](char c) { return c > ' ' && c < 127; });
+  };
   http_.bearer_token = options_.bearer_token;
+  if (!http_.bearer_token.empty() && !is_one_token(http_.bearer_token)) {
+    http_.bearer_token.clear();
+    return "the remote cache token (KILN_REMOTE_TOKEN) is not one token: it holds a space, a line break or another "
+           "character outside printable ASCII";
+  }
   if (http_.bearer_token.empty() && !options_.token_file.empty()) {
     ReadLimits limits{4096};
     DiagnosticSink ignored;
@@ -185,8 +195,7 @@ std::string RemoteCache::configure() {
     if (!text) return "the token file '" + options_.token_file.string() + "' cannot be read (or is over 4 KiB)";
     std::string token = *text;
     while (!token.empty() && std::isspace(static_cast<unsigned char>(token.back()))) token.pop_back();
-    const bool printable = std::all_of(token.begin(), token.end(), [](char c) { return c > ' ' && c < 127; });
-    if (token.empty() || !printable) return "the token file '" + options_.token_file.string() + "' does not hold one token";
+    if (!is_one_token(token)) return "the token file '" + options_.token_file.string() + "' does not hold one token";
     http_.bearer_token = token;
   }
   // A token sent in clear text is a token given away; loopback is the exception tests and local proxies need.
@@ -476,8 +485,8 @@ std::optional<std::string> RemoteCache::fetch_pack(const RemoteKey& key, const s
   if (!manifest || !archive) return std::nullopt;
 
   // Opened whole by the reader (checksums, sizes, structure) in a scratch directory before it replaces anything.
-  std::string scratch = (directory / ".kiln-remote-XXXXXX").string();
-  if (!::mkdtemp(scratch.data())) return std::nullopt;
+  const std::string scratch = make_scratch_directory(directory, ".kiln-remote-").string();
+  if (scratch.empty()) return std::nullopt;
   std::error_code ec;
   bool good = write_file_atomic(std::filesystem::path(scratch) / archive_file, *archive).empty() &&
               write_file_atomic(manifest_path(scratch, pack_name), *manifest).empty();

@@ -1,8 +1,11 @@
 #include "workers/compile_job.hpp"
 
 #include "cross/targets.hpp"
+#include "frontend/module_limits.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "reflect/reflect.hpp"
+
+#include "kiln/bounded_json.hpp"
 
 #include <set>
 #include <stdexcept>
@@ -15,12 +18,30 @@ namespace {
 
 JobOutput run_front_end(Frontend& frontend, const CompileJob& job) {
   JobOutput out;
+  if (job.stage == Stage::Compute) {
+    // Thread-group sizes that glslang takes and then mistranslates (0, past 2^31) are the source's error, not a
+    // crash of the back end.
+    out.messages = check_numthreads_source(job.source, job.source_name, job.entry_point);
+    if (!out.messages.empty()) {
+      out.failed_step = CompileStep::Frontend;
+      return out;
+    }
+  }
   CompileResult compiled = frontend.compile({job.stage, job.entry_point, job.source_name, job.source, job.bindings});
   out.messages = std::move(compiled.messages);
   if (compiled.missing_entry_point) {
     out.failed_step = CompileStep::EntryPoint;
   } else if (!compiled.ok) {
     out.failed_step = CompileStep::Frontend;
+  } else if (std::vector<FrontendMessage> blocks = check_buffer_blocks(compiled.spirv); !blocks.empty()) {
+    out.failed_step = CompileStep::Reflect;  // K1409, located at the block's declaration by its name
+    out.messages = std::move(blocks);
+  } else if (std::vector<FrontendMessage> limits = job.stage == Stage::Compute
+                                                       ? check_compute_module(compiled.spirv, job.source, job.source_name)
+                                                       : std::vector<FrontendMessage>{};
+             !limits.empty()) {
+    out.failed_step = CompileStep::Frontend;
+    out.messages.insert(out.messages.end(), limits.begin(), limits.end());
   } else {
     out.ok = true;
     out.spirv = std::move(compiled.spirv);
@@ -198,7 +219,8 @@ std::vector<uint8_t> encode_job(const CompileJob& job) {
 }
 
 CompileJob decode_job(const std::vector<uint8_t>& bytes) {
-  json j = json::from_cbor(bytes);
+  json j = decode_cbor_bounded(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()),
+                               {bytes.size(), kMaxJsonDepth});
   CompileJob job;
   job.id = j.at("id").get<uint64_t>();
   int kind = j.at("kind").get<int>();

@@ -293,7 +293,8 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
 namespace {
 
 // Test-only fault injection, enabled by KILN_WORKER_FAULT_INJECTION=1: a source containing
-// "kiln-fault: hang" or "kiln-fault: oom" makes this worker hang or exhaust its memory; one naming
+// "kiln-fault: hang" or "kiln-fault: oom" makes this worker hang or exhaust its memory; a preprocessing job whose
+// entry file holds "kiln-fault: crash-preprocess" crashes it (SIGSEGV), as a preprocessor bug would; one naming
 // kiln_fault_throw (an identifier, so it survives preprocessing) makes it throw, as a library bug would; a
 // back end whose
 // module names a function KilnFaultCrashBackEnd crashes it (SIGSEGV), as a SPIRV-Tools bug would; one whose
@@ -306,6 +307,9 @@ void inject_fault(CompileJob& job) {
     return env && std::string(env) == "1";
   }();
   if (!enabled) return;
+  if (job.kind == JobKind::Preprocess && job.files && !job.files->empty() &&
+      job.files->front().text.find("kiln-fault: crash-preprocess") != std::string::npos)
+    std::raise(SIGSEGV);
   if (job.source.find("kiln-fault: hang") != std::string::npos)
     for (;;) std::this_thread::sleep_for(std::chrono::seconds(1));
   if (job.source.find("kiln_fault_throw") != std::string::npos) throw std::runtime_error("injected worker exception");

@@ -1,0 +1,163 @@
+#include "frontend/hlsl_compat.hpp"
+
+#include <cctype>
+#include <vector>
+
+namespace kiln {
+namespace {
+
+bool is_word_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
+
+size_t skip_blanks(std::string_view text, size_t at) {
+  while (at < text.size() && (text[at] == ' ' || text[at] == '\t')) ++at;
+  return at;
+}
+
+// The end of the word at `at` (at itself when none starts there).
+size_t word_end(std::string_view text, size_t at) {
+  while (at < text.size() && is_word_char(text[at])) ++at;
+  return at;
+}
+
+// `[[vk::push_constant]]` with any blanks between its tokens (glslang's preprocessed text writes
+// `[[vk :: push_constant]]`): the offset just past it, or npos.
+size_t push_constant_attribute_end(std::string_view text, size_t at) {
+  for (std::string_view token : {"[", "[", "vk", ":", ":", "push_constant", "]", "]"}) {
+    at = skip_blanks(text, at);
+    if (text.substr(at, token.size()) != token) return std::string_view::npos;
+    if (is_word_char(token[0]) && word_end(text, at) != at + token.size()) return std::string_view::npos;
+    at += token.size();
+  }
+  return at;
+}
+
+}  // namespace
+
+std::optional<std::string> rewrite_push_constants(std::string_view text) {
+  std::optional<std::string> out;
+  size_t copied = 0;
+  for (size_t at = text.find("push_constant"); at != std::string_view::npos; at = text.find("push_constant", at + 1)) {
+    // Back to the attribute's first '[' on this line, then forward over it.
+    const size_t line_start = text.rfind('\n', at) == std::string_view::npos ? 0 : text.rfind('\n', at) + 1;
+    const size_t open = text.rfind("[", at);
+    if (open == std::string_view::npos || open < line_start || open == 0 || text[open - 1] != '[' ) continue;
+    const size_t end = push_constant_attribute_end(text, open - 1);
+    if (end == std::string_view::npos) continue;
+    // `T name ;` (or `T name :` / `T name [`) with T a plain type name, not ConstantBuffer<...>, cbuffer or a keyword
+    // that glslang already reads as DXC does.
+    const size_t type_at = skip_blanks(text, end), type_end = word_end(text, type_at);
+    if (type_end == type_at) continue;
+    const std::string_view type = text.substr(type_at, type_end - type_at);
+    if (type == "ConstantBuffer" || type == "cbuffer" || type == "struct" || type == "const" || type == "static" ||
+        type == "uniform")
+      continue;
+    const size_t name_at = skip_blanks(text, type_end), name_end = word_end(text, name_at);
+    if (name_end == name_at) continue;
+    const size_t after = skip_blanks(text, name_end);
+    if (after >= text.size() || (text[after] != ';' && text[after] != ':' && text[after] != '[')) continue;
+    if (!out) out.emplace();
+    out->append(text.substr(copied, type_at - copied));
+    out->append("ConstantBuffer<").append(type).append(">");
+    copied = type_end;
+  }
+  if (out) out->append(text.substr(copied));
+  return out;
+}
+
+namespace {
+
+// The arguments of the call whose '(' is at `open`: each one's text, split at depth-0 commas; `close` gets the
+// offset of the matching ')'. Nothing when the parentheses do not balance (an unfinished call, a string).
+std::optional<std::vector<std::string_view>> call_arguments(std::string_view text, size_t open, size_t& close) {
+  std::vector<std::string_view> arguments;
+  int depth = 0;
+  size_t start = open + 1;
+  for (size_t at = open; at < text.size(); ++at) {
+    const char c = text[at];
+    if (c == '"' || c == ';' || c == '{' || c == '}') return std::nullopt;  // no call spans these
+    if (c == '(' || c == '[') ++depth;
+    if (c == ')' || c == ']') --depth;
+    if (depth == 1 && c == ',') {
+      arguments.push_back(text.substr(start, at - start));
+      start = at + 1;
+    }
+    if (depth == 0) {
+      if (c != ')') return std::nullopt;
+      arguments.push_back(text.substr(start, at - start));
+      close = at;
+      return arguments;
+    }
+  }
+  return std::nullopt;
+}
+
+// Whether `text` declares a function or variable named `name` (a type word, then the name): its own, kept.
+bool declares(std::string_view text, std::string_view name) {
+  for (size_t at = text.find(name); at != std::string_view::npos; at = text.find(name, at + 1)) {
+    if ((at > 0 && is_word_char(text[at - 1])) || is_word_char(text[std::min(text.size() - 1, at + name.size())])) continue;
+    size_t before = at;
+    while (before > 0 && (text[before - 1] == ' ' || text[before - 1] == '\t' || text[before - 1] == '\n')) --before;
+    if (before == at || before == 0 || !is_word_char(text[before - 1])) continue;
+    size_t word = before;
+    while (word > 0 && is_word_char(text[word - 1])) --word;
+    const std::string_view previous = text.substr(word, before - word);
+    if (previous != "return" && previous != "else" && previous != "case") return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+std::optional<std::string> rewrite_hlsl2021_intrinsics(std::string_view text) {
+  struct Intrinsic {
+    std::string_view name;
+    size_t arguments;
+    std::string_view open, separator1, separator2, close;
+  };
+  static constexpr Intrinsic kIntrinsics[] = {
+      {"select", 3, "((", ") ? (", ") : (", "))"},
+      {"and", 2, "((", ") && (", "", "))"},
+      {"or", 2, "((", ") || (", "", "))"},
+  };
+  std::optional<std::string> out;
+  std::string current(text);
+  for (const Intrinsic& intrinsic : kIntrinsics) {
+    if (current.find(intrinsic.name) == std::string::npos || declares(current, intrinsic.name)) continue;
+    // Innermost calls first (a call in an argument is rewritten before the call around it): repeat until none is
+    // left, each pass rewriting the calls whose arguments hold no other call of this name.
+    for (int pass = 0; pass < 64; ++pass) {
+      std::string next;
+      size_t copied = 0;
+      bool changed = false;
+      const std::string_view view(current);
+      for (size_t at = view.find(intrinsic.name); at != std::string_view::npos; at = view.find(intrinsic.name, at + 1)) {
+        if (at < copied) continue;
+        if ((at > 0 && (is_word_char(view[at - 1]) || view[at - 1] == '.'))) continue;
+        const size_t open = skip_blanks(view, at + intrinsic.name.size());
+        if (word_end(view, at) != at + intrinsic.name.size() || open >= view.size() || view[open] != '(') continue;
+        size_t close = 0;
+        auto arguments = call_arguments(view, open, close);
+        if (!arguments || arguments->size() != intrinsic.arguments) continue;
+        bool nested = false;
+        for (std::string_view argument : *arguments)
+          for (size_t inner = argument.find(intrinsic.name); inner != std::string_view::npos; inner = argument.find(intrinsic.name, inner + 1))
+            nested = nested || ((inner == 0 || !is_word_char(argument[inner - 1])) &&
+                                word_end(argument, inner) == inner + intrinsic.name.size());
+        if (nested) continue;
+        next.append(view.substr(copied, at - copied));
+        next.append(intrinsic.open).append((*arguments)[0]).append(intrinsic.separator1).append((*arguments)[1]);
+        if (intrinsic.arguments == 3) next.append(intrinsic.separator2).append((*arguments)[2]);
+        next.append(intrinsic.close);
+        copied = close + 1;
+        changed = true;
+      }
+      if (!changed) break;
+      next.append(view.substr(copied));
+      current = std::move(next);
+      out = current;
+    }
+  }
+  return out;
+}
+
+}  // namespace kiln

@@ -1,0 +1,25 @@
+// Rewrites of the preprocessed HLSL that glslang 12 compiles with another meaning than DXC's, applied before its
+// parse. Each keeps the line structure (diagnostics keep their lines) and is tested to give the SPIR-V of the
+// spelling glslang reads as DXC does (docs/bindings.md lists them).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace kiln {
+
+// `[[vk::push_constant]] T name;` with a struct type T: glslang 12 makes it a member of the `$Global` uniform
+// buffer at set 0, binding 0 (silently); DXC makes it a push-constant block. Rewritten to
+// `[[vk::push_constant]] ConstantBuffer<T> name;`, which glslang makes a push-constant block. Nothing when the
+// text has no such declaration.
+std::optional<std::string> rewrite_push_constants(std::string_view text);
+
+// HLSL 2021's `select(c, a, b)`, `and(a, b)` and `or(a, b)`, which glslang 12 does not have: rewritten to HLSL 2018's
+// componentwise `((c) ? (a) : (b))`, `((a) && (b))` and `((a) || (b))`, which DXC gives the same meaning and glslang
+// compiles to OpSelect, OpLogicalAnd and OpLogicalOr. A call is rewritten only when its arguments are complete (the
+// parentheses balance within it) and their count is right; a text that declares a function of one of these names
+// keeps its own. Nothing when the text calls none of them.
+std::optional<std::string> rewrite_hlsl2021_intrinsics(std::string_view text);
+
+}  // namespace kiln

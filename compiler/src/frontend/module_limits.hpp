@@ -1,0 +1,35 @@
+// Limits of a front end's module that glslang does not check, checked where kiln can still name the source.
+// A compute shader's thread group: numthreads of
+// 0 (which glslang accepts and SPIR-V cannot express) or beyond what D3D guarantees and DXC enforces (x and y at
+// most 1024, z at most 64, x*y*z at most 1024; Vulkan, GL and Metal guarantee no more), and groupshared memory
+// beyond D3D's 32 KiB (Vulkan guarantees 16 KiB). glslang accepted all of these silently or failed in the back end
+// with an internal error.
+// Buffer blocks (cbuffer, tbuffer, structured and byte-address buffers, push constants): under 4 GiB, as SPIR-V's
+// 32-bit offsets need. A 4 GiB block of two members wrapped its offsets (spirv-val's error), a 4 GiB tbuffer lost
+// its name in the back end, a 4 GiB structured-buffer element made SPIRV-Cross throw (an internal error).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/compile_result.hpp"
+
+namespace kiln {
+
+// Before the front end: the literal numthreads(x, y, z) of `entry` in the preprocessed `source` (named
+// `source_name`, #line directives followed). Empty when they are within the limits or not literal integers.
+std::vector<FrontendMessage> check_numthreads_source(std::string_view source, const std::string& source_name,
+                                                     const std::string& entry);
+
+// After the front end: the module's thread-group size (whatever expression gave it) and its groupshared bytes.
+// Messages are located at the first numthreads or groupshared of `source` when it has one.
+std::vector<FrontendMessage> check_compute_module(const std::vector<uint32_t>& spirv, std::string_view source,
+                                                  const std::string& source_name);
+
+// After the front end, any stage: each buffer block of 4 GiB or more, as "buffer block 'NAME' is N bytes; ..." (the
+// driver reports it as K1409 at the declaration of NAME). A runtime array counts one element.
+std::vector<FrontendMessage> check_buffer_blocks(const std::vector<uint32_t>& spirv);
+
+}  // namespace kiln
