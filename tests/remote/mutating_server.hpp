@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "remote/remote_cache.hpp"
+#include "servers.hpp"
 #include "test_support.hpp"
 
 namespace kiln::testing {
@@ -29,15 +30,7 @@ class MutatingServer {
  public:
   // `data`: the directory nginx stored the entries in (Nginx::data()); `seed`: the generator's, so a run repeats.
   MutatingServer(std::filesystem::path data, uint32_t seed) : data_(std::move(data)), random_(seed) {
-    listener_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    sockaddr_in address{};
-    address.sin_family = AF_INET;
-    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t size = sizeof address;
-    if (::bind(listener_, reinterpret_cast<sockaddr*>(&address), size) != 0 || ::listen(listener_, 64) != 0 ||
-        ::getsockname(listener_, reinterpret_cast<sockaddr*>(&address), &size) != 0)
-      throw std::runtime_error("cannot listen on loopback");
-    port_ = ntohs(address.sin_port);
+    listener_ = listen_on_loopback(port_);
     thread_ = std::thread([this] { serve(); });
   }
   ~MutatingServer() {

@@ -120,6 +120,16 @@ struct Remote : ::testing::Test {
     }
     return {};
   }
+  // A build of this checkout into `out` (with a local cache of its own) that reads `server`: it fetches the pack.
+  BuildOptions fetch_options(const testing::Nginx& server, const std::filesystem::path& out) const {
+    BuildOptions options;
+    options.pack_file = dir / "p.pack.json";
+    options.output_dir = out;
+    options.cache_dir = dir / "fetched-cache";
+    options.worker_executable = KILN_WORKER_PATH;
+    options.remote = serial(server.url());
+    return options;
+  }
   static void forget_pack(const testing::Nginx& server) {
     PackEntry entry = pack_entry(server);
     ASSERT_FALSE(entry.record.empty());
@@ -212,12 +222,7 @@ TEST_F(Remote, AnUnchangedCheckoutFetchesTheFinishedPackInThreeRequests) {
     return std::count(log.begin(), log.end(), '\n');
   };
   const auto before = requests();
-  BuildOptions options;
-  options.pack_file = dir / "p.pack.json";
-  options.output_dir = dir / "fetched";
-  options.cache_dir = dir / "fetched-cache";
-  options.worker_executable = KILN_WORKER_PATH;
-  options.remote = serial(server.url());
+  const BuildOptions options = fetch_options(server, dir / "fetched");
   DiagnosticSink sink;
   BuildReport report = build_pack(options, sink);
   ASSERT_TRUE(report.ok) << text_of(sink);
@@ -243,14 +248,8 @@ TEST_F(Remote, AFetchRemovesTheScratchOfAKilledFetch) {
     std::filesystem::create_directories(scratch);
     std::ofstream(scratch / "p.0123456789abcdef.kpack") << "half an archive";
   }
-  BuildOptions options;
-  options.pack_file = dir / "p.pack.json";
-  options.output_dir = out;
-  options.cache_dir = dir / "fetched-cache";
-  options.worker_executable = KILN_WORKER_PATH;
-  options.remote = serial(server.url());
   DiagnosticSink sink;
-  BuildReport report = build_pack(options, sink);
+  BuildReport report = build_pack(fetch_options(server, out), sink);
   ASSERT_TRUE(report.ok) << text_of(sink);
   EXPECT_TRUE(report.remote.pack_fetched);
   EXPECT_FALSE(std::filesystem::exists(dead)) << "a dead process's scratch is still there";

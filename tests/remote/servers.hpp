@@ -47,6 +47,20 @@ inline uint16_t free_port() {
   return ntohs(address.sin_port);
 }
 
+// A listening socket on a loopback port of the kernel's choice, and that port.
+inline int listen_on_loopback(uint16_t& port) {
+  int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t size = sizeof address;
+  if (::bind(fd, reinterpret_cast<sockaddr*>(&address), size) != 0 || ::listen(fd, 64) != 0 ||
+      ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &size) != 0)
+    throw std::runtime_error("cannot listen on loopback");
+  port = ntohs(address.sin_port);
+  return fd;
+}
+
 inline bool accepts_connections(uint16_t port) {
   int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
   sockaddr_in address{};
@@ -189,16 +203,12 @@ class FaultServer {
  public:
   enum class Mode { Truncated, Silent, Backlogged };
   explicit FaultServer(Mode mode) : mode_(mode) {
-    listener_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    sockaddr_in address{};
-    address.sin_family = AF_INET;
-    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t size = sizeof address;
-    if (::bind(listener_, reinterpret_cast<sockaddr*>(&address), size) != 0 || ::listen(listener_, 64) != 0 ||
-        ::getsockname(listener_, reinterpret_cast<sockaddr*>(&address), &size) != 0)
-      throw std::runtime_error("cannot listen on loopback");
-    port_ = ntohs(address.sin_port);
+    listener_ = listen_on_loopback(port_);
     if (mode_ == Mode::Backlogged) {
+      sockaddr_in address{};
+      address.sin_family = AF_INET;
+      address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+      address.sin_port = htons(port_);
       // Connections are made until one does not complete: the queue is full from then on (how many it holds
       // differs between kernels). The 200 ms wait decides nothing but how soon the probing stops.
       ::listen(listener_, 0);
