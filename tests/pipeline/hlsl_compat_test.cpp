@@ -107,5 +107,30 @@ TEST(HlslCompat, TheIntrinsicRewriteKeepsUserFunctionsAndUnfinishedCalls) {
   EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), std::count(rewritten.begin(), rewritten.end(), '\n'));
 }
 
+// Swizzles of scalar literals, which DXC takes and glslang's preprocessor splits apart (`0. xxxx`): the SPIR-V of
+// the parenthesized spelling.
+TEST(HlslCompat, LiteralSwizzlesGiveTheSpirvOfTheirParenthesizedSpelling) {
+  testing::TempDir dir;
+  PackReader dxc = build_source(dir, "dxc",
+      "float4 V(float4 p : POSITION) : SV_Position { return p + 0.xxxx; }\n"
+      "float4 F() : SV_Target { return 1.0.xxxx * 0.5f.rrrr + 2.xxxx + 1e-3.xxxx; }\n");
+  PackReader glslang = build_source(dir, "glslang",
+      "float4 V(float4 p : POSITION) : SV_Position { return p + (0).xxxx; }\n"
+      "float4 F() : SV_Target { return (1.0).xxxx * (0.5f).rrrr + (2).xxxx + (1e-3).xxxx; }\n");
+  for (const char* stage : {"vertex", "fragment"}) {
+    const StageView* mine = dxc.select("P", {}).stage(stage);
+    const StageView* reference = glslang.select("P", {}).stage(stage);
+    ASSERT_TRUE(mine && reference);
+    EXPECT_EQ(mine->spirv, reference->spirv) << stage;
+  }
+}
+
+TEST(HlslCompat, TheSwizzleRewriteTouchesOnlyLiterals) {
+  EXPECT_EQ(rewrite_literal_swizzles("return 1.0 . xxxx * 0. rg + 2u . x;"), "return (1.0).xxxx * (0).rg + (2u).x;");
+  EXPECT_FALSE(rewrite_literal_swizzles("return p.xxxx + a1.xy + v[0].x + 0.5 + s.member;"));
+  EXPECT_FALSE(rewrite_literal_swizzles("#line 12 \"x.hlsl\"\nfloat a = 1.0 . length;"));  // not a swizzle
+  EXPECT_EQ(rewrite_literal_swizzles("#line 3\nx = 3. xy;"), "#line 3\nx = (3).xy;");
+}
+
 }  // namespace
 }  // namespace kiln

@@ -229,6 +229,8 @@ class GlslangFrontend final : public Frontend {
     std::optional<std::string> compatible = rewrite_push_constants(request.source);
     if (auto rewritten = rewrite_hlsl2021_intrinsics(compatible ? std::string_view(*compatible) : std::string_view(request.source)))
       compatible = std::move(rewritten);
+    if (auto rewritten = rewrite_literal_swizzles(compatible ? std::string_view(*compatible) : std::string_view(request.source)))
+      compatible = std::move(rewritten);
     const std::string_view source = compatible ? std::string_view(*compatible) : std::string_view(request.source);
     const char* text = source.data();
     const int length = static_cast<int>(source.size());

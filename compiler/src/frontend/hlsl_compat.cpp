@@ -160,4 +160,82 @@ std::optional<std::string> rewrite_hlsl2021_intrinsics(std::string_view text) {
   return out;
 }
 
+namespace {
+
+bool is_swizzle(std::string_view word) {
+  if (word.empty() || word.size() > 4) return false;
+  const std::string_view set = std::string_view("xyzw").find(word[0]) != std::string_view::npos ? "xyzw" : "rgba";
+  for (char c : word)
+    if (set.find(c) == std::string_view::npos) return false;
+  return true;
+}
+
+size_t skip_spaces(std::string_view text, size_t at) {
+  while (at < text.size() && (text[at] == ' ' || text[at] == '\t')) ++at;
+  return at;
+}
+
+}  // namespace
+
+std::optional<std::string> rewrite_literal_swizzles(std::string_view text) {
+  std::optional<std::string> out;
+  size_t copied = 0;
+  bool directive = false;  // on a preprocessor line (#line 12 "x"): left alone
+  size_t line_start = 0;
+  for (size_t at = 0; at < text.size(); ++at) {
+    const char c = text[at];
+    if (c == '\n') {
+      directive = false;
+      line_start = at + 1;
+      continue;
+    }
+    if (c == '#' && skip_spaces(text, line_start) == at) directive = true;
+    if (directive || !std::isdigit(static_cast<unsigned char>(c)) || (at > 0 && (is_word_char(text[at - 1]) || text[at - 1] == '.')))
+      continue;
+    // The number: digits, a fraction, an exponent, a suffix.
+    size_t end = at;
+    while (end < text.size() && std::isdigit(static_cast<unsigned char>(text[end]))) ++end;
+    bool ends_in_dot = false;
+    if (end < text.size() && text[end] == '.') {
+      ++end;
+      const size_t digits = end;
+      while (end < text.size() && std::isdigit(static_cast<unsigned char>(text[end]))) ++end;
+      ends_in_dot = end == digits;
+    }
+    if (!ends_in_dot && end < text.size() && (text[end] == 'e' || text[end] == 'E')) {
+      size_t exponent = end + 1;
+      if (exponent < text.size() && (text[exponent] == '+' || text[exponent] == '-')) ++exponent;
+      if (exponent < text.size() && std::isdigit(static_cast<unsigned char>(text[exponent]))) {
+        end = exponent;
+        while (end < text.size() && std::isdigit(static_cast<unsigned char>(text[end]))) ++end;
+      }
+    }
+    if (!ends_in_dot && end < text.size() && std::string_view("fFhHlLuU").find(text[end]) != std::string_view::npos) ++end;
+    // Then `. swizzle` (or, after "0.", only blanks and the swizzle: the preprocessor took the dot into the number).
+    size_t word = skip_spaces(text, end);
+    if (!ends_in_dot) {
+      if (word >= text.size() || text[word] != '.') {
+        at = end - 1;
+        continue;
+      }
+      word = skip_spaces(text, word + 1);
+    } else if (word == end) {
+      at = end - 1;
+      continue;  // "0.x..." with no blank is one token the preprocessor kept: glslang reads it as it reads DXC's
+    }
+    const size_t word_finish = word_end(text, word);
+    if (!is_swizzle(text.substr(word, word_finish - word))) {
+      at = end - 1;
+      continue;
+    }
+    const std::string_view number = text.substr(at, (ends_in_dot ? end - 1 : end) - at);
+    if (!out) out.emplace();
+    out->append(text.substr(copied, at - copied)).append("(").append(number).append(").").append(text.substr(word, word_finish - word));
+    copied = word_finish;
+    at = word_finish - 1;
+  }
+  if (out) out->append(text.substr(copied));
+  return out;
+}
+
 }  // namespace kiln

@@ -22,4 +22,9 @@ std::optional<std::string> rewrite_push_constants(std::string_view text);
 // keeps its own. Nothing when the text calls none of them.
 std::optional<std::string> rewrite_hlsl2021_intrinsics(std::string_view text);
 
+// Swizzles of scalar literals (`0.xxxx`, `1.0.xxxx`, `0.5f.rg`), which DXC takes and glslang's preprocessor splits
+// into a number and a word (`0. xxxx`, `1.0 . xxxx`): rewritten to `(0).xxxx`, `(1.0).xxxx`. Nothing when the text
+// has none.
+std::optional<std::string> rewrite_literal_swizzles(std::string_view text);
+
 }  // namespace kiln
