@@ -178,74 +178,6 @@ int run_verify(int argc, char** argv) {
   return 1;
 }
 
-// --shard I/N (0 <= I < N), or auto: Slurm job arrays (SLURM_ARRAY_TASK_ID with SLURM_ARRAY_TASK_COUNT, or with
-// SLURM_ARRAY_TASK_MIN/MAX), GitLab parallel jobs (CI_NODE_INDEX, 1-based, and CI_NODE_TOTAL), Kubernetes Indexed
-// Jobs (JOB_COMPLETION_INDEX; Kubernetes exports no count, so the job passes its completions as KILN_SHARD_COUNT).
-// Empty, or the error.
-// Counts and indices are plain decimal numbers of at most 9 digits (no sign, no suffix, nothing that a 32-bit
-// conversion could wrap), and a count is at most kMaxShardCount.
-constexpr long kMaxShardCount = 100000;
-
-std::optional<long> shard_number(std::string_view text) {
-  if (text.empty() || text.size() > 9 || text.find_first_not_of("0123456789") != std::string_view::npos) return std::nullopt;
-  return std::stol(std::string(text));
-}
-
-std::string parse_shard(const std::string& text, kiln::BuildOptions& options) {
-  std::string bad_variable;  // the first variable that is set but not a number
-  auto number = [&](const char* name) -> std::optional<long> {
-    const char* value = std::getenv(name);
-    if (!value || !*value) return std::nullopt;
-    auto n = shard_number(value);
-    if (!n && bad_variable.empty()) bad_variable = name + std::string("='") + value + "'";
-    return n;
-  };
-  long index = -1, count = 0;
-  std::string read;  // what --shard auto read, for its error
-  auto variable = [](const char* name) { return std::string(name) + "=" + std::getenv(name); };
-  if (text == "auto") {
-    for (const char* name : {"SLURM_ARRAY_TASK_ID", "SLURM_ARRAY_TASK_COUNT", "SLURM_ARRAY_TASK_MIN", "SLURM_ARRAY_TASK_MAX",
-                             "CI_NODE_INDEX", "CI_NODE_TOTAL", "JOB_COMPLETION_INDEX", "KILN_SHARD_COUNT"})
-      number(name);
-    if (!bad_variable.empty())
-      return "--shard auto read " + bad_variable + ", which is not a number (a decimal integer of at most 9 digits)";
-    if (auto id = number("SLURM_ARRAY_TASK_ID")) {
-      if (auto n = number("SLURM_ARRAY_TASK_COUNT")) index = *id, count = *n, read = variable("SLURM_ARRAY_TASK_COUNT");
-      auto min = number("SLURM_ARRAY_TASK_MIN"), max = number("SLURM_ARRAY_TASK_MAX");
-      if (min && max)
-        index = *id - *min, count = *max - *min + 1,
-        read = variable("SLURM_ARRAY_TASK_MIN") + ", " + variable("SLURM_ARRAY_TASK_MAX");
-      read = variable("SLURM_ARRAY_TASK_ID") + (read.empty() ? "" : ", " + read);
-    } else if (auto node = number("CI_NODE_INDEX"), total = number("CI_NODE_TOTAL"); node && total) {
-      index = *node - 1, count = *total, read = variable("CI_NODE_INDEX") + ", " + variable("CI_NODE_TOTAL");
-    } else if (auto completion = number("JOB_COMPLETION_INDEX")) {
-      auto n = number("KILN_SHARD_COUNT");
-      if (!n)
-        return "--shard auto found JOB_COMPLETION_INDEX (a Kubernetes Indexed Job) but no KILN_SHARD_COUNT: set it to "
-               "the job's completions";
-      index = *completion, count = *n, read = variable("JOB_COMPLETION_INDEX") + ", " + variable("KILN_SHARD_COUNT");
-    } else {
-      return "--shard auto found no SLURM_ARRAY_TASK_ID, CI_NODE_INDEX/CI_NODE_TOTAL or JOB_COMPLETION_INDEX in the "
-             "environment";
-    }
-  } else if (const size_t slash = text.find('/'); slash != std::string::npos) {
-    auto i = shard_number(std::string_view(text).substr(0, slash)), n = shard_number(std::string_view(text).substr(slash + 1));
-    if (i && n) index = *i, count = *n;
-  }
-  if (count > kMaxShardCount)
-    return "--shard: " + std::to_string(count) + " shards is more than kiln splits a build into (" +
-           std::to_string(kMaxShardCount) + ")" + (read.empty() ? "" : ", read from " + read);
-  if (count < 1 || index < 0 || index >= count) {
-    if (!read.empty())
-      return "--shard auto read shard " + std::to_string(index) + " of " + std::to_string(count) + " from " + read +
-             ": a shard's index must be at least 0 and below the count (does the count match the scheduler's?)";
-    return "--shard wants I/N with I < N, or auto (got '" + text + "')";
-  }
-  options.shard_index = static_cast<unsigned>(index);
-  options.shard_count = static_cast<unsigned>(count);
-  return {};
-}
-
 int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cache_dir, bool quiet, const std::string& summary_file) {
   kiln::DiagnosticSink sink;
   if (!no_cache) options.cache_dir = cache_dir.empty() ? std::filesystem::path(".kiln-cache") : std::filesystem::path(cache_dir);
@@ -626,7 +558,9 @@ int main(int argc, char** argv) {
     remote.connect_timeout = std::chrono::milliseconds(static_cast<long>(remote_connect_s * 1000));
     remote.operation_timeout = std::chrono::milliseconds(static_cast<long>(remote_timeout_s * 1000));
     if (!shard_text.empty()) {
-      if (std::string error = parse_shard(shard_text, options); !error.empty()) {
+      auto process_environment = [](const char* name) { return std::getenv(name); };
+      if (std::string error = kiln::parse_shard_option(shard_text, process_environment, options.shard_index, options.shard_count);
+          !error.empty()) {
         std::cerr << "kiln: error: " << error << "\n";
         return 1;
       }

@@ -4,7 +4,8 @@
 //   1: a pack definition, 2: a scene profile (the JSON parsers, from a file as kiln reads them; the scene is also
 //      resolved against the pack's features and materials);
 //   3: command-line option values, one per line: -D values, then a --fvk-*-shift pair and a --fvk-bind-globals pair
-//      from the first two lines.
+//      from the first two lines, and --shard: the first line as its value, the next lines as the scheduler's
+//      variables (SLURM_ARRAY_TASK_ID, ..._COUNT, ..._MIN, ..._MAX, CI_NODE_INDEX, CI_NODE_TOTAL, ...).
 // Findings: a crash, an escaped exception (the parsers report to their sink and never throw; decode_output throws
 // only std::exception), ASan/UBSan.
 #include <cstdint>
@@ -84,6 +85,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       }
       for (const auto& [key, shift] : options.shifts)
         if (shift > kiln::kMaxBindingNumber) std::abort();  // over the limit the pack also keeps
+      if (!lines.empty()) {
+        static constexpr const char* kVariables[] = {"SLURM_ARRAY_TASK_ID", "SLURM_ARRAY_TASK_COUNT", "SLURM_ARRAY_TASK_MIN",
+                                                     "SLURM_ARRAY_TASK_MAX", "CI_NODE_INDEX", "CI_NODE_TOTAL",
+                                                     "JOB_COMPLETION_INDEX", "KILN_SHARD_COUNT"};
+        auto environment = [&](const char* name) -> const char* {
+          for (size_t i = 0; i < std::size(kVariables); ++i)
+            if (std::string_view(name) == kVariables[i]) return i + 1 < lines.size() ? lines[i + 1].c_str() : nullptr;
+          return nullptr;
+        };
+        unsigned index = 0, count = 0;
+        if (kiln::parse_shard_option(lines[0], environment, index, count).empty() && (count == 0 || index >= count))
+          std::abort();  // accepted a shard outside its count
+      }
       break;
     }
   }

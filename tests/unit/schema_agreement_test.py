@@ -72,6 +72,11 @@ pack_cases = [
     ("no passes", pack(passes=[])),
     ("no name", {"passes": [PASS]}),
     ("bad name", pack(name="my pack")),
+    ("empty name", pack(name="")),
+    ("name that is a path", pack(name="..")),
+    ("pass name that is a path", with_pass(name="../../x")),
+    ("pass name too long", with_pass(name="P" * 129)),
+    ("shift over the limit", pack(bindings={"shifts": [{"register": "t", "shift": 4294967295}]})),
     ("zero budget", pack(budget=0)),
     ("string budget", pack(budget="8")),
     ("unknown target", pack(targets=["vulkan"])),
@@ -102,6 +107,7 @@ scene_cases = [
     ("no name", {"keywords": ["A"]}),
     ("unknown field", {"name": "s", "keywords": ["A"], "material": ["m"]}),
     ("keywords not strings", {"name": "s", "keywords": [1]}),
+    ("name that is a path", {"name": "../s", "keywords": ["A"]}),
 ]
 
 SHADER = ("#pragma multi_compile _ A\n#pragma multi_compile _ B\n#pragma shader_feature _ C\n"

@@ -1,6 +1,7 @@
 // Loading pack definitions (variants/*.pack.json) and scene profiles (variants/scenes/*.json).
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <string_view>
 #include <vector>
@@ -36,6 +37,13 @@ bool parse_command_line_globals(const std::string& binding, const std::string& s
 
 // Turns a profile's "uses" and "materials" into keywords with the pack's scene_features table and
 // material presets (both as JSON text, as recorded in a pack definition or a manifest).
+// --shard I/N (0 <= I < N), or auto, read from the scheduler's variables through `environment` (getenv, or a
+// test's): Slurm job arrays (SLURM_ARRAY_TASK_ID with SLURM_ARRAY_TASK_COUNT, or with SLURM_ARRAY_TASK_MIN/MAX),
+// GitLab parallel jobs (CI_NODE_INDEX, 1-based, and CI_NODE_TOTAL), Kubernetes Indexed Jobs (JOB_COMPLETION_INDEX
+// with KILN_SHARD_COUNT, which the job sets to its completions). Empty, or the error.
+std::string parse_shard_option(const std::string& text, const std::function<const char*(const char*)>& environment,
+                               unsigned& shard_index, unsigned& shard_count);
+
 bool resolve_scene_profile(SceneProfile& scene, const std::string& scene_features_json,
                            const std::vector<MaterialPreset>& materials, DiagnosticSink& sink);
 
