@@ -941,6 +941,34 @@ TEST_F(Cli, AnIncludeOnALastLineWithoutANewlineBuilds) {
 }
 
 
+// [[vk::...]] attributes that change the interface in DXC and that glslang 12 ignores with a warning: a pack built
+// with them had another interface than the author wrote. Each is an error naming the attribute at its column.
+TEST_F(Cli, VkAttributesGlslangWouldDropAreErrors) {
+  const struct {
+    const char* declaration;
+    const char* attribute;
+    int column;
+  } cases[] = {
+      {"struct PC { [[vk::offset(16)]] float4 tint; };\nConstantBuffer<PC> pc;\n", "offset", 19},
+      {"[[vk::image_format(\"rgba8\")]] RWTexture2D<float4> img;\n", "image_format", 7},
+      {"[[vk::combinedImageSampler]] Texture2D tex;\n", "combinedImageSampler", 7},
+      {"[[vk::counter_binding(3)]] RWStructuredBuffer<float> items;\n", "counter_binding", 7},
+  };
+  for (const auto& c : cases) {
+    dir.write("S.hlsl", std::string(c.declaration) + kEntries);
+    auto r = build();
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    const std::string expected = "S.hlsl:1:" + std::to_string(c.column) + ": error[K1401]: '" + c.attribute +
+                                 "' : [[vk::" + c.attribute + "]] changes the interface in DXC (it ";
+    EXPECT_EQ(r.err.rfind(expected, 0), 0u) << r.err;
+  }
+  // An attribute glslang does not know that changes no interface stays a warning.
+  dir.write("S.hlsl", std::string("[[vk::made_up]] float4 unused;\n") + kEntries);
+  auto other = build();
+  EXPECT_EQ(other.exit_code, 0) << other.err;
+}
+
+
 // A define glslang's preamble cannot take was located in a file named "-1" (glslang's name for its preamble).
 TEST_F(Cli, AnErrorInADefinesValueIsLocatedOnTheCommandLine) {
   dir.write("S.hlsl", "float4 V(float4 p : POSITION) : SV_Position { return p; }\nfloat4 F() : SV_Target { return X; }\n");

@@ -84,8 +84,9 @@ TEST(HlslCompat, Hlsl2021SelectAndOrGiveTheSpirvOfTheirHlsl2018Spelling) {
   PackReader hlsl2018 = build_source(dir, "hlsl2018", head +
       "  float4 a = (lit && !dark) ? c : float4(0, 0, 0, 1);\n"
       "  return (dark || (lit ? dark : lit)) ? a : c * 2;\n}\n");
-  const StageView* mine = hlsl2021.select("P", {}).stage("fragment");
-  const StageView* reference = hlsl2018.select("P", {}).stage("fragment");
+  const SelectedVariant selected = hlsl2021.select("P", {}), expected = hlsl2018.select("P", {});
+  const StageView* mine = selected.stage("fragment");
+  const StageView* reference = expected.stage("fragment");
   ASSERT_TRUE(mine && reference);
   EXPECT_FALSE(mine->spirv.empty());
   EXPECT_EQ(mine->spirv, reference->spirv);
@@ -117,9 +118,10 @@ TEST(HlslCompat, LiteralSwizzlesGiveTheSpirvOfTheirParenthesizedSpelling) {
   PackReader glslang = build_source(dir, "glslang",
       "float4 V(float4 p : POSITION) : SV_Position { return p + (0).xxxx; }\n"
       "float4 F() : SV_Target { return (1.0).xxxx * (0.5f).rrrr + (2).xxxx + (1e-3).xxxx; }\n");
+  const SelectedVariant selected = dxc.select("P", {}), expected = glslang.select("P", {});
   for (const char* stage : {"vertex", "fragment"}) {
-    const StageView* mine = dxc.select("P", {}).stage(stage);
-    const StageView* reference = glslang.select("P", {}).stage(stage);
+    const StageView* mine = selected.stage(stage);
+    const StageView* reference = expected.stage(stage);
     ASSERT_TRUE(mine && reference);
     EXPECT_EQ(mine->spirv, reference->spirv) << stage;
   }

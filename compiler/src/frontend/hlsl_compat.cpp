@@ -6,7 +6,7 @@
 namespace kiln {
 namespace {
 
-bool is_word_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
+bool is_token_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
 
 size_t skip_blanks(std::string_view text, size_t at) {
   while (at < text.size() && (text[at] == ' ' || text[at] == '\t')) ++at;
@@ -15,7 +15,7 @@ size_t skip_blanks(std::string_view text, size_t at) {
 
 // The end of the word at `at` (at itself when none starts there).
 size_t word_end(std::string_view text, size_t at) {
-  while (at < text.size() && is_word_char(text[at])) ++at;
+  while (at < text.size() && is_token_char(text[at])) ++at;
   return at;
 }
 
@@ -25,7 +25,7 @@ size_t push_constant_attribute_end(std::string_view text, size_t at) {
   for (std::string_view token : {"[", "[", "vk", ":", ":", "push_constant", "]", "]"}) {
     at = skip_blanks(text, at);
     if (text.substr(at, token.size()) != token) return std::string_view::npos;
-    if (is_word_char(token[0]) && word_end(text, at) != at + token.size()) return std::string_view::npos;
+    if (is_token_char(token[0]) && word_end(text, at) != at + token.size()) return std::string_view::npos;
     at += token.size();
   }
   return at;
@@ -94,12 +94,12 @@ std::optional<std::vector<std::string_view>> call_arguments(std::string_view tex
 // Whether `text` declares a function or variable named `name` (a type word, then the name): its own, kept.
 bool declares(std::string_view text, std::string_view name) {
   for (size_t at = text.find(name); at != std::string_view::npos; at = text.find(name, at + 1)) {
-    if ((at > 0 && is_word_char(text[at - 1])) || is_word_char(text[std::min(text.size() - 1, at + name.size())])) continue;
+    if ((at > 0 && is_token_char(text[at - 1])) || is_token_char(text[std::min(text.size() - 1, at + name.size())])) continue;
     size_t before = at;
     while (before > 0 && (text[before - 1] == ' ' || text[before - 1] == '\t' || text[before - 1] == '\n')) --before;
-    if (before == at || before == 0 || !is_word_char(text[before - 1])) continue;
+    if (before == at || before == 0 || !is_token_char(text[before - 1])) continue;
     size_t word = before;
-    while (word > 0 && is_word_char(text[word - 1])) --word;
+    while (word > 0 && is_token_char(text[word - 1])) --word;
     const std::string_view previous = text.substr(word, before - word);
     if (previous != "return" && previous != "else" && previous != "case") return true;
   }
@@ -132,7 +132,7 @@ std::optional<std::string> rewrite_hlsl2021_intrinsics(std::string_view text) {
       const std::string_view view(current);
       for (size_t at = view.find(intrinsic.name); at != std::string_view::npos; at = view.find(intrinsic.name, at + 1)) {
         if (at < copied) continue;
-        if ((at > 0 && (is_word_char(view[at - 1]) || view[at - 1] == '.'))) continue;
+        if ((at > 0 && (is_token_char(view[at - 1]) || view[at - 1] == '.'))) continue;
         const size_t open = skip_blanks(view, at + intrinsic.name.size());
         if (word_end(view, at) != at + intrinsic.name.size() || open >= view.size() || view[open] != '(') continue;
         size_t close = 0;
@@ -141,7 +141,7 @@ std::optional<std::string> rewrite_hlsl2021_intrinsics(std::string_view text) {
         bool nested = false;
         for (std::string_view argument : *arguments)
           for (size_t inner = argument.find(intrinsic.name); inner != std::string_view::npos; inner = argument.find(intrinsic.name, inner + 1))
-            nested = nested || ((inner == 0 || !is_word_char(argument[inner - 1])) &&
+            nested = nested || ((inner == 0 || !is_token_char(argument[inner - 1])) &&
                                 word_end(argument, inner) == inner + intrinsic.name.size());
         if (nested) continue;
         next.append(view.substr(copied, at - copied));
@@ -190,7 +190,7 @@ std::optional<std::string> rewrite_literal_swizzles(std::string_view text) {
       continue;
     }
     if (c == '#' && skip_spaces(text, line_start) == at) directive = true;
-    if (directive || !std::isdigit(static_cast<unsigned char>(c)) || (at > 0 && (is_word_char(text[at - 1]) || text[at - 1] == '.')))
+    if (directive || !std::isdigit(static_cast<unsigned char>(c)) || (at > 0 && (is_token_char(text[at - 1]) || text[at - 1] == '.')))
       continue;
     // The number: digits, a fraction, an exponent, a suffix.
     size_t end = at;
@@ -236,6 +236,37 @@ std::optional<std::string> rewrite_literal_swizzles(std::string_view text) {
   }
   if (out) out->append(text.substr(copied));
   return out;
+}
+
+std::optional<std::string> interface_attribute_error(std::string_view warning) {
+  struct Row {
+    std::string_view attribute, dxc, instead;
+  };
+  static constexpr Row kRows[] = {
+      {"offset", "sets a block member's byte offset",
+       "order and pad the members so that HLSL's packing gives the offsets (or use packoffset in a cbuffer)"},
+      {"image_format", "sets a storage image's format, which Vulkan requires to match the view's",
+       "glslang infers the format from the texel type: use a texel type that implies it"},
+      {"combinedImageSampler", "pairs a texture and a sampler into one combined image sampler",
+       "set \"bindings\": {\"combined_image_samplers\": true} (or --combined-image-samplers), which pairs a texture and a "
+       "sampler that share a register number"},
+      {"counter_binding", "places a UAV's counter buffer at that binding", "drop the counter (an explicit RWByteAddressBuffer)"},
+      {"shader_record_ext", "places a buffer in the ray tracing shader record", "compile ray tracing shaders with DXC"},
+      {"ext_decorate", "adds a SPIR-V decoration", "compile this shader with DXC"},
+      {"ext_decorate_id", "adds a SPIR-V decoration", "compile this shader with DXC"},
+      {"ext_decorate_string", "adds a SPIR-V decoration", "compile this shader with DXC"},
+      {"ext_storage_class", "sets a variable's SPIR-V storage class", "compile this shader with DXC"},
+  };
+  constexpr std::string_view kSuffix = "' : unrecognized attribute";
+  if (!warning.starts_with('\'') || !warning.ends_with(kSuffix)) return std::nullopt;
+  const std::string_view name = warning.substr(1, warning.size() - 1 - kSuffix.size());
+  for (const Row& row : kRows)
+    if (name == row.attribute)
+      // Quoting the word first, as glslang does, lets the driver find its column.
+      return "'" + std::string(name) + "' : [[vk::" + std::string(name) + "]] changes the interface in DXC (it " +
+             std::string(row.dxc) + "); glslang 12 ignores it, so the shader would be built with another interface: " +
+             std::string(row.instead);
+  return std::nullopt;
 }
 
 }  // namespace kiln

@@ -27,4 +27,10 @@ std::optional<std::string> rewrite_hlsl2021_intrinsics(std::string_view text);
 // has none.
 std::optional<std::string> rewrite_literal_swizzles(std::string_view text);
 
+// `[[vk::...]]` attributes that change a shader's interface in DXC and that glslang 12 ignores with only a warning
+// ("'offset' : unrecognized attribute"): the interface kiln would build is not the one the author wrote, so each
+// is an error, saying what DXC does with it and what to write instead. `warning` is the front end's message text;
+// nothing when it is no such attribute.
+std::optional<std::string> interface_attribute_error(std::string_view warning);
+
 }  // namespace kiln

@@ -65,14 +65,14 @@ std::optional<FrontendMessage> judge(uint64_t x, uint64_t y, uint64_t z, const s
   return std::nullopt;
 }
 
-bool is_word_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
+bool is_name_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
 
 // The offset of `word` as a whole word at or after `from`, followed (after blanks) by `next`; npos when none.
 size_t find_word(std::string_view text, std::string_view word, char next, size_t from = 0) {
   for (size_t at = text.find(word, from); at != std::string_view::npos; at = text.find(word, at + 1)) {
-    if (at > 0 && is_word_char(text[at - 1])) continue;
+    if (at > 0 && is_name_char(text[at - 1])) continue;
     size_t after = at + word.size();
-    if (after < text.size() && is_word_char(text[after])) continue;
+    if (after < text.size() && is_name_char(text[after])) continue;
     while (after < text.size() && (text[after] == ' ' || text[after] == '\t' || text[after] == '\n' || text[after] == '\r')) ++after;
     if (after < text.size() && text[after] == next) return at;
   }

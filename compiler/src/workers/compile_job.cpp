@@ -1,12 +1,14 @@
 #include "workers/compile_job.hpp"
 
 #include "cross/targets.hpp"
+#include "frontend/hlsl_compat.hpp"
 #include "frontend/module_limits.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "reflect/reflect.hpp"
 
 #include "kiln/bounded_json.hpp"
 
+#include <algorithm>
 #include <set>
 #include <stdexcept>
 
@@ -29,6 +31,22 @@ JobOutput run_front_end(Frontend& frontend, const CompileJob& job) {
   }
   CompileResult compiled = frontend.compile({job.stage, job.entry_point, job.source_name, job.source, job.bindings});
   out.messages = std::move(compiled.messages);
+  // A [[vk::...]] attribute glslang ignores where DXC changes the interface: the author's error, never a build with
+  // another interface (frontend/hlsl_compat.hpp).
+  bool dropped_attribute = false;
+  for (FrontendMessage& message : out.messages)
+    if (auto error = message.severity == Severity::Warning ? interface_attribute_error(message.text) : std::nullopt) {
+      message.severity = Severity::Error;
+      message.text = std::move(*error);
+      dropped_attribute = true;
+    }
+  if (dropped_attribute) {
+    // The error first: the driver reports a stage's first error.
+    std::stable_partition(out.messages.begin(), out.messages.end(),
+                          [](const FrontendMessage& m) { return m.severity == Severity::Error; });
+    out.failed_step = CompileStep::Frontend;
+    return out;
+  }
   if (compiled.missing_entry_point) {
     out.failed_step = CompileStep::EntryPoint;
   } else if (!compiled.ok) {
