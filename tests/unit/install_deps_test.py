@@ -92,13 +92,13 @@ for line in installed.splitlines():
     depends[name] = re.findall(r"(?:^|[,|]\s*)([a-z0-9][\w.+-]*)", requires)
     for virtual in re.findall(r"(?:^|,\s*)([a-z0-9][\w.+-]*)", provides):
         provided_by.setdefault(virtual, []).append(name)
-closure, todo = set(), list(packages)
-while todo:
-    package = todo.pop()
+closure, pending = set(), list(packages)
+while pending:
+    package = pending.pop()
     if package in closure:
         continue
     closure.add(package)
-    todo += depends.get(package, []) + provided_by.get(package, [])
+    pending += depends.get(package, []) + provided_by.get(package, [])
 
 # 1. The audit's rows.
 for program, package in sorted(audit.items()):
