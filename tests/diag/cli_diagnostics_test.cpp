@@ -391,7 +391,7 @@ TEST_F(Cli, ConstraintsThatLeaveAPassNoVariantAreAnError) {
 TEST_F(Cli, CodeATargetCannotExpressIsAnErrorNamingTheTarget) {
   // ddx_fine is SPIR-V's DPdxFine: fine for Vulkan, desktop GL and Metal; OpenGL ES has no derivative control.
   dir.write("S.hlsl", "#pragma multi_compile_fragment _ FINE\n"
-                      "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "float4 V(float4 p : POSITION, inout float4 c : COLOR0) : SV_Position { return p; }\n"
                       "float4 F(float4 c : COLOR0) : SV_Target {\n"
                       "#ifdef FINE\n  return float4(ddx_fine(c.x), 0.0, 0.0, 1.0);\n#else\n  return c;\n#endif\n}\n");
   expect_build_error("S.hlsl: error[K1405]: cross-gles: GL_ARB_derivative_control is unavailable in OpenGL ES.\n"
@@ -811,7 +811,7 @@ TEST_F(Cli, AnAutomaticBindingMovedByAKeywordIsOneErrorAboutTheMove) {
       "1 variant [EXTRA]\n"
       "    Texture2D albedo;\n"
       "              ^\n"
-      "  note: a resource must have one binding in every stage and variant of a pass; one declared without a register is "
+      "  note: a resource must have one binding in every variant of a pass; one declared without a register is "
       "bound automatically in declaration order, so a keyword that removes a declaration before it moves it: give it a "
       "register or [[vk::binding(N, S)]]\n"
       "kiln: 1 error(s)\n");

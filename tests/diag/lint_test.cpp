@@ -371,7 +371,7 @@ TEST_F(Lint, SarifRulesHaveDescriptionsAndHelpIntoDocsAnchors) {
   dir.write("S.hlsl", "float4 F() : SV_Target { return 1.0; }\n");
   json log = json::parse(lint_sarif({"S.hlsl"}).out);
   const json& rules_json = log["runs"][0]["tool"]["driver"]["rules"];
-  ASSERT_EQ(rules_json.size(), 11u);
+  ASSERT_EQ(rules_json.size(), 12u);
   const std::set<std::string> anchors = lint_doc_anchors();
   for (const json& rule : rules_json) {
     const std::string id = rule["id"];

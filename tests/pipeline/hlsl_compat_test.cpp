@@ -2,7 +2,15 @@
 // gives the SPIR-V of the spelling glslang already reads as DXC does.
 #include <gtest/gtest.h>
 
+#include <cstring>
+#include <map>
+#include <set>
+
+#include <spirv-tools/optimizer.hpp>
+
+#include "frontend/dxc_semantics.hpp"
 #include "frontend/hlsl_compat.hpp"
+#include "frontend/nonuniform.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
 #include "test_support.hpp"
@@ -10,11 +18,13 @@
 namespace kiln {
 namespace {
 
-// Builds `source` as pass P (vertex V, fragment F) in `dir`/<name>/ and opens the pack.
-PackReader build_source(const testing::TempDir& dir, const std::string& name, const std::string& source) {
+// Builds `source` as pass P (vertex V, fragment F) in `dir`/<name>/ for `targets` (a JSON array, or all four) and
+// opens the pack.
+PackReader build_source(const testing::TempDir& dir, const std::string& name, const std::string& source,
+                        const std::string& targets = R"(["spirv", "glsl", "gles", "msl"])") {
   dir.write(name + "/S.hlsl", source);
-  dir.write(name + "/p.pack.json",
-            R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  dir.write(name + "/p.pack.json", R"({"name": "p", "targets": )" + targets +
+                                       R"(, "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
   BuildOptions options;
   options.pack_file = dir / name / "p.pack.json";
   options.output_dir = dir / name / "out";
@@ -76,7 +86,7 @@ TEST(HlslCompat, ThePushConstantRewriteTouchesOnlyThatDeclaration) {
 // same SPIR-V as HLSL 2018's componentwise ?:, && and ||.
 TEST(HlslCompat, Hlsl2021SelectAndOrGiveTheSpirvOfTheirHlsl2018Spelling) {
   testing::TempDir dir;
-  const std::string head = "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+  const std::string head = "float4 V(float4 p : POSITION, inout float4 c : COLOR0) : SV_Position { return p; }\n"
                            "float4 F(float4 c : COLOR0) : SV_Target {\n  bool4 lit = c > 0.5;\n  bool4 dark = c < 0.1;\n";
   PackReader hlsl2021 = build_source(dir, "hlsl2021", head +
       "  float4 a = select(and(lit, !dark), c, float4(0, 0, 0, 1));\n"
@@ -132,6 +142,170 @@ TEST(HlslCompat, TheSwizzleRewriteTouchesOnlyLiterals) {
   EXPECT_FALSE(rewrite_literal_swizzles("return p.xxxx + a1.xy + v[0].x + 0.5 + s.member;"));
   EXPECT_FALSE(rewrite_literal_swizzles("#line 12 \"x.hlsl\"\nfloat a = 1.0 . length;"));  // not a swizzle
   EXPECT_EQ(rewrite_literal_swizzles("#line 3\nx = 3. xy;"), "#line 3\nx = (3).xy;");
+}
+
+// ---- NonUniformResourceIndex ------------------------------------------------------------------------------------
+
+constexpr uint32_t kOpCapability = 17, kOpDecorate = 71, kDecorationNonUniform = 5300;
+constexpr uint32_t kShaderNonUniform = 5301, kUniformBufferArrayNonUniformIndexing = 5306,
+                   kSampledImageArrayNonUniformIndexing = 5307;
+
+struct SpirvFacts {
+  std::set<uint32_t> capabilities;
+  std::set<uint32_t> nonuniform;             // decorated ids
+  std::set<uint32_t> builtins;               // the BuiltIn decorations' values
+  std::map<uint32_t, uint32_t> opcode_of;    // result id -> the opcode that defines it (function bodies)
+  std::vector<uint32_t> without_nonuniform;  // the module without NonUniform and its capabilities
+};
+
+SpirvFacts facts_of(std::string_view bytes) {
+  std::vector<uint32_t> words(bytes.size() / 4);
+  std::memcpy(words.data(), bytes.data(), words.size() * 4);
+  SpirvFacts facts;
+  facts.without_nonuniform.assign(words.begin(), words.begin() + 5);
+  for (size_t at = 5; at < words.size();) {
+    const uint32_t count = words[at] >> 16, op = words[at] & 0xffff;
+    bool keep = true;
+    if (op == kOpCapability) {
+      facts.capabilities.insert(words[at + 1]);
+      keep = words[at + 1] != kShaderNonUniform && (words[at + 1] < 5306 || words[at + 1] > 5312);  // the *NonUniformIndexing
+    }
+    if (op == kOpDecorate && words[at + 2] == 11) facts.builtins.insert(words[at + 3]);  // BuiltIn
+    if (op == kOpDecorate && words[at + 2] == kDecorationNonUniform) {
+      facts.nonuniform.insert(words[at + 1]);
+      keep = false;
+    }
+    // Result-bearing body instructions kiln decorates: OpAccessChain 65, OpLoad 61, OpSampledImage 86, OpImage 100.
+    if ((op == 65 || op == 61 || op == 86 || op == 100) && count >= 3) facts.opcode_of[words[at + 2]] = op;
+    if (keep) facts.without_nonuniform.insert(facts.without_nonuniform.end(), words.begin() + at, words.begin() + at + count);
+    at += count;
+  }
+  return facts;
+}
+
+// A module with its ids renumbered in order of first appearance (SPIRV-Tools' compact-ids).
+std::vector<uint32_t> compacted(const std::vector<uint32_t>& words) {
+  spvtools::Optimizer optimizer(SPV_ENV_VULKAN_1_1);
+  optimizer.RegisterPass(spvtools::CreateCompactIdsPass());
+  std::vector<uint32_t> out;
+  EXPECT_TRUE(optimizer.Run(words.data(), words.size(), &out));
+  return out;
+}
+
+// The index's value is followed into a helper function and through a local variable, as DXC's inlining would:
+// every access it selects is decorated, and the rest of the module is the SPIR-V of the plain index. SPIR-V only:
+// GL and GL ES have no non-uniform qualifier outside Vulkan GLSL, Metal binds unbounded arrays through argument
+// buffers (each a clear K1405, pipeline.HlslCompat.AnUnboundedResourceArrayIsARuntimeDescriptorArray).
+const char* kBindlessHead =
+    "struct Material { float4 tint; };\n"
+    "Texture2D textures[] : register(t0, space1);\n"
+    "ConstantBuffer<Material> materials[] : register(b0, space2);\n"
+    "SamplerState linearSampler : register(s0);\n"
+    "void V(float4 p : POSITION, inout float2 uv : TEXCOORD0, inout uint id : TEXCOORD1, out float4 pos : SV_Position) { pos = p; }\n"
+    "float4 Fetch(uint index, float2 uv) { return textures[index].Sample(linearSampler, uv); }\n"
+    "float4 F(float2 uv : TEXCOORD0, nointerpolation uint id : TEXCOORD1) : SV_Target {\n";
+
+TEST(HlslCompat, NonUniformResourceIndexDecoratesTheAccessesItSelects) {
+  testing::TempDir dir;
+  PackReader dxc = build_source(dir, "dxc", std::string(kBindlessHead) +
+      "  uint material = NonUniformResourceIndex(id + 1);\n"
+      "  return Fetch(NonUniformResourceIndex(id), uv) * materials[material].tint;\n}\n", R"(["spirv"])");
+  PackReader plain = build_source(dir, "plain", std::string(kBindlessHead) +
+      "  uint material = id + 1;\n"
+      "  return Fetch(id, uv) * materials[material].tint;\n}\n", R"(["spirv"])");
+  const SelectedVariant a = dxc.select("P", {}), b = plain.select("P", {});
+  const SpirvFacts mine = facts_of(a.stage("fragment")->spirv), reference = facts_of(b.stage("fragment")->spirv);
+  EXPECT_TRUE(reference.nonuniform.empty());
+  EXPECT_FALSE(reference.capabilities.count(kShaderNonUniform));
+  EXPECT_TRUE(mine.capabilities.count(kShaderNonUniform));
+  EXPECT_TRUE(mine.capabilities.count(kSampledImageArrayNonUniformIndexing));
+  EXPECT_TRUE(mine.capabilities.count(kUniformBufferArrayNonUniformIndexing));
+  // The texture's access chain, the image loaded through it and the sampled image made of it; the buffer's access
+  // chain and the member loaded through it.
+  std::multiset<uint32_t> opcodes;
+  for (uint32_t id : mine.nonuniform) opcodes.insert(mine.opcode_of.count(id) ? mine.opcode_of.at(id) : 0);
+  EXPECT_EQ(opcodes, (std::multiset<uint32_t>{65, 65, 61, 61, 86})) << ::testing::PrintToString(opcodes);
+  EXPECT_EQ(compacted(mine.without_nonuniform), compacted(reference.without_nonuniform)) << "not the SPIR-V of the plain index";
+}
+
+TEST(HlslCompat, TheNonUniformRewriteKeepsColumnsAndTheTextsOwnFunction) {
+  const std::string text = "x = t[NonUniformResourceIndex(i)].Sample(s, uv) + q.NonUniformResourceIndex(j);";
+  const std::optional<std::string> rewritten = rewrite_nonuniform_index(text);
+  ASSERT_TRUE(rewritten);
+  EXPECT_EQ(*rewritten, "x = t[kiln_NonUniformResIndex(i)].Sample(s, uv) + q.NonUniformResourceIndex(j);");
+  EXPECT_EQ(rewritten->size(), text.size());
+  EXPECT_FALSE(rewrite_nonuniform_index("uint NonUniformResourceIndex(uint i) { return i; }\nx = t[NonUniformResourceIndex(i)];"));
+  EXPECT_FALSE(rewrite_nonuniform_index("NonUniformResourceIndexCount = 3;"));
+}
+
+// An unbounded resource array is a runtime descriptor array, as in DXC: glslang 12 sized it by the largest
+// constant index (1 when indexed dynamically), so the host's descriptor count and every index past it were wrong.
+TEST(HlslCompat, AnUnboundedResourceArrayIsARuntimeDescriptorArray) {
+  testing::TempDir dir;
+  PackReader pack = build_source(dir, "bindless", std::string(kBindlessHead) +
+      "  return Fetch(id, uv) * materials[id + 1].tint * textures[3].Sample(linearSampler, uv);\n}\n", R"(["spirv"])");
+  const SelectedVariant variant = pack.select("P", {});
+  const StageView* fragment = variant.stage("fragment");
+  ASSERT_TRUE(fragment);
+  std::map<std::string, uint32_t> counts;
+  for (const Resource& r : fragment->reflection->resources) counts[r.name] = r.count;
+  EXPECT_EQ(counts, (std::map<std::string, uint32_t>{{"linearSampler", 1}, {"materials", 0}, {"textures", 0}}));
+  EXPECT_TRUE(facts_of(fragment->spirv).capabilities.count(5302));  // RuntimeDescriptorArray
+  // Targets that cannot bind them say so (SPIRV-Cross's MSL writer aborted on them).
+  dir.write("bindless/p.pack.json", R"({"name": "p", "targets": ["msl"], "passes": [{"name": "P", "source": "S.hlsl",
+      "stages": {"vertex": "V", "fragment": "F"}}]})");
+  auto msl = testing::run_kiln({"build", "p.pack.json", "-o", "msl", "--no-cache", "-q"}, dir / "bindless");
+  EXPECT_EQ(msl.exit_code, 1);
+  EXPECT_NE(msl.err.find("' is an unbounded resource array, which Metal binds only through argument buffers"), std::string::npos)
+      << msl.err;
+  EXPECT_EQ(msl.err.find("K1501"), std::string::npos) << msl.err;
+  // A sized array keeps its size.
+  EXPECT_TRUE(unbounded_resource_arrays("Texture2D a[4]; float b[];").empty());
+  EXPECT_EQ(unbounded_resource_arrays("Texture2D<float4> a[] : register(t0, space1);\nStructuredBuffer<Light> lights [ ];\n"
+                                      "void f() { Texture2D local[]; }"),
+            (std::vector<std::string>{"a", "lights"}));
+}
+
+// Arrays of structured and byte-address buffers crash glslang 12 (or fail its parse): an error at the declaration.
+TEST(HlslCompat, AnArrayOfStructuredBuffersIsAnErrorNotACrash) {
+  testing::TempDir dir;
+  dir.write("S.hlsl", "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "StructuredBuffer<float4> tints[4] : register(t0, space2);\n"
+                      "float4 F(nointerpolation uint id : TEXCOORD1) : SV_Target { return tints[id][0]; }\n");
+  dir.write("p.pack.json", R"({"name": "p", "targets": ["spirv"], "passes": [{"name": "P", "source": "S.hlsl",
+      "stages": {"fragment": "F"}}]})");
+  auto r = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--no-cache", "-q"}, dir.path());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("S.hlsl:2:26: error[K1401]: 'tints' : an array of StructuredBuffer (DXC: a descriptor array of storage "
+                       "buffers) is beyond glslang 12, which crashes on an access to it"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("K1501"), std::string::npos) << r.err;
+}
+
+// SV_ViewID and SV_ShadingRate are built-ins, as in DXC: glslang 12 made them user inputs with locations, and
+// every later location moved (the vertex stage, which does not write them, no longer matched).
+TEST(HlslCompat, ViewIdAndShadingRateAreBuiltInsAndLaterLocationsDoNotMove) {
+  testing::TempDir dir;
+  const std::string vertex = "void V(float4 p : POSITION, inout float2 uv : TEXCOORD0, inout float4 color : COLOR0, "
+                             "out float4 pos : SV_Position) { pos = p; }\n";
+  // SPIR-V and MSL: GL and GL ES write multiview with GL_OVR_multiview2, which needs the view count (a K1405).
+  PackReader builtins = build_source(dir, "builtins", vertex +
+      "float4 F(float2 uv : TEXCOORD0, uint view : SV_ViewID, uint rate : SV_ShadingRate, float4 color : COLOR0) : SV_Target {\n"
+      "  return color * float(view + rate) + uv.xyxy;\n}\n", R"(["spirv", "msl"])");
+  PackReader plain = build_source(dir, "plain", vertex +
+      "float4 F(float2 uv : TEXCOORD0, float4 color : COLOR0) : SV_Target { return color * 3.0 + uv.xyxy; }\n",
+      R"(["spirv", "msl"])");
+  const SelectedVariant a = builtins.select("P", {}), b = plain.select("P", {});
+  const StageView* mine = a.stage("fragment");
+  const StageView* reference = b.stage("fragment");
+  ASSERT_TRUE(mine && reference);
+  EXPECT_EQ(mine->reflection->inputs, reference->reflection->inputs);  // uv at 0, color at 1: only the user's inputs
+  const SpirvFacts facts = facts_of(mine->spirv);
+  EXPECT_TRUE(facts.capabilities.count(4439));  // MultiView
+  EXPECT_TRUE(facts.capabilities.count(4422));  // FragmentShadingRateKHR
+  EXPECT_TRUE(facts.builtins.count(4440));      // ViewIndex
+  EXPECT_TRUE(facts.builtins.count(4444));      // ShadingRateKHR
+  EXPECT_FALSE(std::string(mine->msl).empty());
+  EXPECT_EQ(std::string(mine->spirv).find("hlsl_functionality1"), std::string::npos);  // glslang's semantics are gone
 }
 
 }  // namespace

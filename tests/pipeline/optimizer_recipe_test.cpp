@@ -54,7 +54,7 @@ std::vector<Module> front_end_modules(const std::filesystem::path& pack_file) {
     job.source_name = "source";
     job.source = source.text;
     job.targets = settings->targets;
-    job.bindings = plan->pack.passes[source.pass].bindings;
+    job.bindings = plan->pack.passes[source.pass].bindings_for(source.stage);
     jobs.push_back(std::move(job));
   }
   std::set<Module> modules;

@@ -3,6 +3,8 @@
 // declare it, and the interface between the two files is still checked.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <nlohmann/json.hpp>
 
 #include "kiln/pack_reader.hpp"
@@ -55,17 +57,81 @@ TEST_F(StagePerFile, EachStageCompilesItsOwnFileAndItsKeywordsReachOnlyItsStage)
   EXPECT_EQ(variant["stages"]["fragment"], nlohmann::json({"SUN_DISC"})) << variant.dump();
 }
 
-// Two files are two chances to disagree: lint's interface check compares them as it compares the stages of one file.
-TEST_F(StagePerFile, AMismatchedPairIsAnInterfaceMismatch) {
+// Two files are two chances to disagree: the build checks their interface as it checks the stages of one file,
+// and lint reports the build's finding (one check).
+TEST_F(StagePerFile, AMismatchedPairIsAnInterfaceMismatchForBuildAndLint) {
   auto clean = testing::run_kiln({"lint", "p.pack.json", "--no-cache", "--format", "json"}, dir.path());
   EXPECT_EQ(nlohmann::json::parse(clean.out)["errors"], 0) << clean.out;
   write_fragment("float2 dir : TEXCOORD0");
+  const std::string message =
+      "pass 'Sky', 4 variants, the first [<none>]: location 0 is float3 ('dir') in the vertex stage and float2 ('dir') "
+      "in the fragment stage";
   auto mismatched = testing::run_kiln({"lint", "p.pack.json", "--no-cache", "--format", "json"}, dir.path());
   const auto report = nlohmann::json::parse(mismatched.out);
   ASSERT_FALSE(report["findings"].empty()) << mismatched.out;
   EXPECT_EQ(report["findings"][0]["rule"], "interface-mismatch");
-  EXPECT_EQ(report["findings"][0]["message"],
-            "pass 'Sky' [<none>]: location 0 is float3 in the vertex stage and float2 in the fragment stage");
+  EXPECT_EQ(report["findings"][0]["message"], message);
+  auto built = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--no-cache", "-q"}, dir.path());
+  EXPECT_EQ(built.exit_code, 1);
+  EXPECT_NE(built.err.find("error[K1410]: " + message), std::string::npos) << built.err;
+  EXPECT_EQ(std::count(built.err.begin(), built.err.end(), '^'), 1) << "one mismatch, one error: " << built.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "out/sky.manifest.json"));
+}
+
+// Vulkan's rule for one pipeline layout, not names: each stage file may call a binding by its own name and
+// declare fewer members of a block; a descriptor of another type at a binding is an error; block members that
+// overlap but disagree are a warning (K1411). A stage file written for another register convention takes its own
+// "bindings".
+struct StageLayouts : ::testing::Test {
+  testing::TempDir dir;
+  testing::RunResult build(const std::string& vertex_decls, const std::string& vertex_use, const std::string& fragment_decls,
+                               const std::string& fragment_use, const std::string& fragment_bindings = "") {
+    dir.write("V.hlsl", vertex_decls + "float4 main(float4 p : POSITION) : SV_Position { return p * " + vertex_use + "; }\n");
+    dir.write("F.hlsl", fragment_decls + "float4 main() : SV_Target { return " + fragment_use + "; }\n");
+    dir.write("p.pack.json", R"({"name": "p", "targets": ["spirv"], "passes": [{"name": "P", "stages": {
+        "vertex": {"source": "V.hlsl"}, "fragment": {"source": "F.hlsl")" +
+                                 (fragment_bindings.empty() ? "" : ", \"bindings\": " + fragment_bindings) + "}}}]}");
+    return testing::run_kiln({"build", "p.pack.json", "-o", "out", "--no-cache", "-q"}, dir.path());
+  }
+};
+
+TEST_F(StageLayouts, OneBindingByTwoNamesAndABlockWithFewerMembersBuild) {
+  auto r = build("cbuffer Frame : register(b0) { float4 scale; };\n", "scale",
+                 "cbuffer FrameConstants : register(b0) { float4 scale2; float4 tint; };\n", "scale2 * tint");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+  const auto manifest = nlohmann::json::parse(testing::read_file(dir / "out/p.manifest.json"));
+  const auto& resources = manifest["passes"][0]["layout"]["resources"];
+  ASSERT_EQ(resources.size(), 1u) << resources.dump();
+  EXPECT_EQ(resources[0]["size"], 32);  // the merged block covers both declarations
+}
+
+TEST_F(StageLayouts, AnotherDescriptorTypeAtOneBindingIsAnError) {
+  auto r = build("cbuffer Frame : register(b0) { float4 scale; };\n", "scale",
+                 "Texture2D<float4> albedo : register(t0);\n", "albedo.Load(int3(0, 0, 0))");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("error[K1406]: pass 'P': set 0 binding 0 holds 'Frame' (uniform_buffer) in the vertex stage and 'albedo' "
+                       "(texture) in the fragment stage of the same variant, in 1 variant"),
+            std::string::npos) << r.err;
+  // The fragment file was written for a D3D11 convention: its own t shift moves its texture out of the way.
+  r = build("cbuffer Frame : register(b0) { float4 scale; };\n", "scale", "Texture2D<float4> albedo : register(t0);\n",
+            "albedo.Load(int3(0, 0, 0))", R"({"shifts": [{"register": "t", "shift": 16}]})");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto manifest = nlohmann::json::parse(testing::read_file(dir / "out/p.manifest.json"));
+  const auto& resources = manifest["passes"][0]["layout"]["resources"];
+  ASSERT_EQ(resources.size(), 2u) << resources.dump();
+  EXPECT_EQ(resources[1]["name"], "albedo");
+  EXPECT_EQ(resources[1]["binding"], 16);
+}
+
+TEST_F(StageLayouts, OverlappingMembersThatDisagreeAreAWarning) {
+  auto r = build("cbuffer Frame : register(b0) { float4 scale; };\n", "scale",
+                 "cbuffer Frame : register(b0) { float2 uvScale; float2 uvBias; };\n", "float4(uvScale, uvBias)");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("V.hlsl:1:9: warning[K1411]: pass 'P': the uniform_buffer at set 0 binding 0 ('Frame') is declared in "
+                       "the vertex and fragment stages with overlapping members that disagree: 'scale' (float4, bytes 0-15) "
+                       "and 'uvScale' (float2, bytes 0-7)"),
+            std::string::npos) << r.err;
 }
 
 TEST_F(StagePerFile, AMissingStageFileIsNamedWithItsStage) {

@@ -131,38 +131,74 @@ TEST(Reflect, ListsResourcesBlocksAndInterfacesInOrder) {
   EXPECT_FALSE(r.glsl || r.gles || r.msl);  // the targets' records are the cross stage's
 }
 
-TEST(Reflect, MergesAPassLayoutAndFindsEachKindOfClash) {
-  const Reflection a = reflect_spirv(optimized("Texture2D t : register(t0); SamplerState s : register(s1);\n"
-                                               "float4 F(float2 uv : TEXCOORD0) : SV_Target { return t.Sample(s, uv); }\n"));
-  const Reflection b = reflect_spirv(optimized("cbuffer K : register(b2) { float4 k; };\n"
-                                               "float4 F() : SV_Target { return k; }\n"));
-  MergedLayout merged = merge_layouts({&a, &b, &a});
+Reflection reflect_fragment(const std::string& hlsl) { return reflect_spirv(optimized(hlsl)); }
+
+TEST(Reflect, MergesAPassLayoutByVulkansRuleNotByNames) {
+  const Reflection a = reflect_fragment("Texture2D t : register(t0); SamplerState s : register(s1);\n"
+                                        "float4 F(float2 uv : TEXCOORD0) : SV_Target { return t.Sample(s, uv); }\n");
+  const Reflection b = reflect_fragment("cbuffer K : register(b2) { float4 k; };\n"
+                                        "float4 F() : SV_Target { return k; }\n");
+  MergedLayout merged = merge_layouts({{Stage::Vertex, &a}, {Stage::Fragment, &b}, {Stage::Vertex, &a}});
   EXPECT_TRUE(merged.clashes.empty());
   ASSERT_EQ(merged.layout.resources.size(), 3u);
   EXPECT_EQ(merged.layout.resources[2].name, "K");
   EXPECT_TRUE(a.holds(merged.layout.resources[0]));
   EXPECT_FALSE(a.holds(merged.layout.resources[2]));
 
-  // Another resource at t's slot, and t itself moved: one clash each, each pair once.
-  const Reflection shared = reflect_spirv(optimized("Texture2D u : register(t0); SamplerState s : register(s1);\n"
-                                                    "float4 F(float2 uv : TEXCOORD0) : SV_Target { return u.Sample(s, uv); }\n"));
-  const Reflection moved = reflect_spirv(optimized("Texture2D t : register(t9); SamplerState s : register(s1);\n"
-                                                   "float4 F(float2 uv : TEXCOORD0) : SV_Target { return t.Sample(s, uv); }\n"));
-  merged = merge_layouts({&a, &shared, &shared, &moved});
+  // One texture by another name in another stage: one descriptor for Vulkan, no clash.
+  const Reflection renamed = reflect_fragment("Texture2D u : register(t0); SamplerState s : register(s1);\n"
+                                              "float4 F(float2 uv : TEXCOORD0) : SV_Target { return u.Sample(s, uv); }\n");
+  EXPECT_TRUE(merge_layouts({{Stage::Vertex, &a}, {Stage::Fragment, &renamed}}).clashes.empty());
+  // A buffer, or an array texture, where the texture is: two descriptors at one binding.
+  const Reflection buffer = reflect_fragment("cbuffer C : register(b0) { float4 c; };\n"
+                                             "float4 F() : SV_Target { return c; }\n");
+  const Reflection array = reflect_fragment("Texture2DArray t : register(t0); SamplerState s : register(s1);\n"
+                                            "float4 F(float2 uv : TEXCOORD0) : SV_Target { return t.Sample(s, uv.xyx); }\n");
+  merged = merge_layouts({{Stage::Vertex, &a}, {Stage::Fragment, &buffer}, {Stage::Fragment, &array}});
   ASSERT_EQ(merged.clashes.size(), 2u);
   EXPECT_EQ(merged.clashes[0].kind, LayoutClash::Kind::SharedSlot);
   EXPECT_EQ(merged.clashes[0].first.name, "t");
-  EXPECT_EQ(merged.clashes[0].second.name, "u");
-  EXPECT_EQ(merged.clashes[1].kind, LayoutClash::Kind::MovedResource);
-  EXPECT_EQ(merged.clashes[1].second.binding, 9u);
+  EXPECT_EQ(merged.clashes[0].second.name, "C");
+  EXPECT_EQ(merged.clashes[1].second.dimension, "2DArray");
 
-  Reflection other_push = b;
-  other_push.push_constants = {{"P", 4, {}}};
-  Reflection push = b;
-  push.push_constants = {{"P", 8, {}}};
-  merged = merge_layouts({&push, &other_push});
+  // A stage's resource at another binding in another variant: moved (a keyword shifted it); in another stage: fine.
+  const Reflection moved = reflect_fragment("Texture2D t : register(t9); SamplerState s : register(s1);\n"
+                                            "float4 F(float2 uv : TEXCOORD0) : SV_Target { return t.Sample(s, uv); }\n");
+  merged = merge_layouts({{Stage::Fragment, &a}, {Stage::Fragment, &moved}});
   ASSERT_EQ(merged.clashes.size(), 1u);
-  EXPECT_EQ(merged.clashes[0].kind, LayoutClash::Kind::PushConstants);
+  EXPECT_EQ(merged.clashes[0].kind, LayoutClash::Kind::MovedResource);
+  EXPECT_EQ(merged.clashes[0].second.binding, 9u);
+  EXPECT_TRUE(merge_layouts({{Stage::Vertex, &a}, {Stage::Fragment, &moved}}).clashes.empty());
+
+  // A block with fewer members in one stage: fine, and the merged block covers both; overlapping members that
+  // disagree: a warning's clash.
+  const Reflection longer = reflect_fragment("cbuffer K : register(b2) { float4 k; float4 extra; };\n"
+                                             "float4 F() : SV_Target { return k + extra; }\n");
+  const Reflection split = reflect_fragment("cbuffer K : register(b2) { float2 x; float2 y; };\n"
+                                            "float4 F() : SV_Target { return float4(x, y); }\n");
+  merged = merge_layouts({{Stage::Vertex, &b}, {Stage::Fragment, &longer}});
+  EXPECT_TRUE(merged.clashes.empty());
+  ASSERT_EQ(merged.layout.resources.size(), 1u);
+  EXPECT_EQ(merged.layout.resources[0].size, 32u);
+  EXPECT_EQ(merged.layout.resources[0].members.size(), 2u);
+  merged = merge_layouts({{Stage::Vertex, &b}, {Stage::Fragment, &split}});
+  ASSERT_EQ(merged.clashes.size(), 1u);
+  EXPECT_EQ(merged.clashes[0].kind, LayoutClash::Kind::MemberMismatch);
+  EXPECT_EQ(merged.clashes[0].member, "'k' (float4, bytes 0-15) and 'x' (float2, bytes 0-7)");
+
+  // Push constants: one block per stage, merged the same way.
+  Reflection push = b, other_push = b, clashing_push = b;
+  push.push_constants = {{"P", 16, {{"color", 0, 16, "float4", std::nullopt}}}};
+  other_push.push_constants = {{"Q", 32, {{"color", 0, 16, "float4", std::nullopt}, {"scale", 16, 4, "float", std::nullopt}}}};
+  clashing_push.push_constants = {{"P", 4, {{"index", 0, 4, "uint", std::nullopt}}}};
+  merged = merge_layouts({{Stage::Vertex, &push}, {Stage::Fragment, &other_push}});
+  EXPECT_TRUE(merged.clashes.empty());
+  ASSERT_EQ(merged.layout.push_constants.size(), 1u);
+  EXPECT_EQ(merged.layout.push_constants[0].size, 32u);
+  merged = merge_layouts({{Stage::Vertex, &push}, {Stage::Fragment, &clashing_push}});
+  ASSERT_EQ(merged.clashes.size(), 1u);
+  EXPECT_TRUE(merged.clashes[0].push_constants);
+  EXPECT_EQ(merged.clashes[0].kind, LayoutClash::Kind::MemberMismatch);
 }
 
 // ---- widen_float16 --------------------------------------------------------------------------------------------

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 
+#include "layouts/interface_check.hpp"
 #include "lint/lint.hpp"
 
 namespace kiln {
@@ -96,26 +97,39 @@ TEST(LintRules, MultiCompileCouldBeFeatureWhenNoSceneEnablesAnyOfItsKeywords) {
   EXPECT_TRUE(run(lint_rule(RuleId::MultiCompileCouldBeFeature), context).findings.empty());
 }
 
-TEST(LintRules, InterfaceMismatchIsAFragmentInputTheVertexStageDoesNotWriteAlike) {
-  PlanListing plan;
-  plan.pass_groups.push_back({"Forward", {}});
-  plan.pass_locations.push_back(SourceLocation{"p.pack.json", 3, 15});
-  PackView pack;
-  pack.binaries = {{"vertex", {}, {{0, "uv", "vec2"}}}, {"fragment", {{0, "uv", "vec2"}, {1, "n", "vec3"}}, {}},
-                   {"fragment", {{0, "uv", "vec3"}}, {}}, {"fragment", {{0, "uv", "vec2"}}, {}}};
-  pack.passes.push_back({"Forward", {{{}, {{"vertex", 0}, {"fragment", 1}}}, {{"B"}, {{"vertex", 0}, {"fragment", 2}}}}});
-  LintContext context;
-  context.plan = &plan;
-  context.pack = &pack;
-  context.pack_file = "p.pack.json";
-  LintReport report = run(lint_rule(RuleId::InterfaceMismatch), context);
-  ASSERT_EQ(rules_of(report), (std::vector<RuleId>{RuleId::InterfaceMismatch, RuleId::InterfaceMismatch}));
-  EXPECT_EQ(report.findings[0].message, "pass 'Forward' [<none>]: fragment input 'n' at location 1 is not written by the vertex stage");
-  EXPECT_EQ(report.findings[1].message, "pass 'Forward' [B]: location 0 is vec2 in the vertex stage and vec3 in the fragment stage");
-  EXPECT_EQ(report.findings[0].location.line, 3);
-  EXPECT_EQ(report.findings[0].location.column, 15);
-  pack.passes[0].variants = {{{}, {{"vertex", 0}, {"fragment", 3}}}};
-  EXPECT_TRUE(run(lint_rule(RuleId::InterfaceMismatch), context).findings.empty());
+// The build's check (layouts/interface_check.cpp), which interface-mismatch reports: each distinct pair of the
+// fragment binary and the one before it, once, with the variants that use it.
+TEST(LintRules, InterfaceMismatchIsAFragmentInputTheStageBeforeDoesNotWriteAlike) {
+  Reflection vertex, both, other_type, matching, geometry;
+  vertex.outputs = {{"uv", 0, "float2"}};
+  both.inputs = {{"uv", 0, "float2"}, {"n", 1, "float3"}};
+  other_type.inputs = {{"uv", 0, "float3"}};
+  matching.inputs = {{"tex", 0, "float2"}};  // names do not matter
+  geometry.outputs = {{"uv", 0, "float2"}, {"n", 1, "float3"}};
+  PassLayoutInput input;
+  input.pass = "Forward";
+  input.pass_location = SourceLocation{"p.pack.json", 3, 15};
+  input.variant_names = {"<none>", "B", "C", "B C"};
+  input.binaries = {{Stage::Vertex, &vertex, {0, 1, 2, 3}}, {Stage::Fragment, &both, {0}},
+                    {Stage::Fragment, &other_type, {1, 3}}, {Stage::Fragment, &matching, {2}}};
+  DiagnosticSink sink;
+  EXPECT_FALSE(check_stage_interfaces(input, sink));
+  ASSERT_EQ(sink.diagnostics().size(), 2u);
+  EXPECT_EQ(sink.diagnostics()[0].id, DiagId::InterfaceMismatch);
+  EXPECT_EQ(sink.diagnostics()[0].message,
+            "pass 'Forward', variant [<none>]: fragment input 'n' (location 1) is not written by the vertex stage");
+  EXPECT_EQ(sink.diagnostics()[1].message,
+            "pass 'Forward', 2 variants, the first [B]: location 0 is float2 ('uv') in the vertex stage and float3 ('uv') "
+            "in the fragment stage");
+  EXPECT_EQ(sink.diagnostics()[0].location.line, 3);
+  EXPECT_EQ(sink.diagnostics()[0].location.column, 15);
+  EXPECT_EQ(rule_for_diagnostic(DiagId::InterfaceMismatch), RuleId::InterfaceMismatch);
+  // A geometry stage is what the fragment stage reads from.
+  input.binaries = {{Stage::Vertex, &vertex, {0}}, {Stage::Geometry, &geometry, {0}}, {Stage::Fragment, &both, {0}}};
+  input.variant_names = {"<none>"};
+  DiagnosticSink quiet;
+  EXPECT_TRUE(check_stage_interfaces(input, quiet));
+  EXPECT_TRUE(quiet.diagnostics().empty());
 }
 
 TEST(LintRules, Fp16UnguardedIsARiskyOperationIn16BitCodeWithNoVisibleGuard) {
@@ -135,6 +149,8 @@ TEST(LintRules, BuildDiagnosticsAreReportedUnderTheRuleThatClaimsThem) {
   EXPECT_EQ(rule_for_diagnostic(DiagId::BudgetExceeded), RuleId::BudgetExceeded);
   EXPECT_EQ(rule_for_diagnostic(DiagId::MissingEntryPoint), RuleId::MissingEntryPoint);
   EXPECT_EQ(rule_for_diagnostic(DiagId::LayoutMismatch), RuleId::LayoutMismatch);
+  EXPECT_EQ(rule_for_diagnostic(DiagId::BlockMemberMismatch), RuleId::BlockMemberMismatch);
+  EXPECT_EQ(lint_rule(RuleId::BlockMemberMismatch).severity, Severity::Warning);
   EXPECT_EQ(rule_for_diagnostic(DiagId::SpirvInvalid), RuleId::SpirvInvalid);
   EXPECT_EQ(rule_for_diagnostic(DiagId::HlslWarning), RuleId::HlslWarning);
   EXPECT_EQ(rule_for_diagnostic(DiagId::HlslError), RuleId::BuildError);

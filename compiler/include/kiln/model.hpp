@@ -88,7 +88,15 @@ struct PassDefinition {
   std::vector<Target> targets;  // the pass's own "targets" (sorted, SPIR-V in); empty: the pack's
   SourceLocation defined_at;
   BindingOptions bindings;      // the pack's, with the pass's own overrides applied
+  // A stage's own "bindings" (a stage file written for another register convention), applied over the pass's;
+  // absent: the pass's.
+  std::array<std::optional<BindingOptions>, kStageCount> stage_bindings;
   std::vector<Define> defines;  // the pack's, then the pass's own
+
+  const BindingOptions& bindings_for(Stage stage) const {
+    const auto& own = stage_bindings[static_cast<size_t>(stage)];
+    return own ? *own : bindings;
+  }
 };
 
 // "keyword" may only appear with all of `requires_all`, at least one of `requires_any`, none of `excludes`.

@@ -33,8 +33,15 @@ std::string translate_msl(CrossModules& modules, Reflection& reflection) {
   spirv_cross::ShaderResources resources = compiler.get_shader_resources();
   std::map<uint32_t, std::string> declared;
   for (const auto* list : {&resources.uniform_buffers, &resources.storage_buffers, &resources.separate_images,
-                           &resources.separate_samplers, &resources.sampled_images})
-    for (const auto& resource : *list) declared[resource.id] = resource.name;
+                           &resources.separate_samplers, &resources.sampled_images, &resources.storage_images})
+    for (const auto& resource : *list) {
+      declared[resource.id] = resource.name;
+      // SPIRV-Cross 2023 asserts (aborts) on a runtime array without argument buffers, which kiln's MSL does not use.
+      const spirv_cross::SPIRType& type = compiler.get_type(resource.type_id);
+      if (!type.array.empty() && type.array_size_literal.back() && type.array.back() == 0)
+        throw std::runtime_error("'" + resource.name + "' is an unbounded resource array, which Metal binds only through "
+                                 "argument buffers; kiln's MSL target binds each resource at its own index");
+    }
   std::string source = compiler.compile();
   std::vector<MslResource>& indices = reflection.msl.emplace().resources;
   auto record = [&](const spirv_cross::SmallVector<spirv_cross::Resource>& list, MslResourceKind kind) {

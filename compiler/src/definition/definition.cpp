@@ -276,14 +276,18 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
       }
       // A stage names its entry point in the pass's source ("vertex": "VSMain"), or a file of its own with its entry
       // point ("vertex": {"source": "Sky.vert.hlsl", "entry": "main"}), as stage-per-file projects write them.
+      // A stage of its own file may have "bindings" of its own, over the pass's.
+      std::array<std::optional<BindingOptions>, kStageCount> own_bindings;
       for (auto& [stage_text, value] : stages->items()) {
         auto stage = parse_stage(stage_text);
         std::string entry;
         std::optional<std::string> own_source;
         if (value.is_object()) {
-          fields.only(value, {"source", "entry"}, "a stage");
+          fields.only(value, {"source", "entry", "bindings"}, "a stage");
           own_source = fields.string(value, "source", true);
           entry = fields.string(value, "entry", false).value_or("main");
+          if (stage && value.contains("bindings"))
+            own_bindings[static_cast<size_t>(*stage)] = read_bindings(fields, value, "stage '" + stage_text + "' of pass '" + pass.name + "'");
         } else if (value.is_string()) {
           entry = value.get<std::string>();
         }
@@ -304,6 +308,11 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
       if (item.contains("targets")) pass.targets = read_targets(item);  // the pass's own, instead of the pack's
       pass.bindings = pack.bindings;
       pass.bindings.override_with(read_bindings(fields, item, "pass '" + pass.name + "'"));
+      for (size_t s = 0; s < kStageCount; ++s)
+        if (own_bindings[s]) {
+          pass.stage_bindings[s] = pass.bindings;
+          pass.stage_bindings[s]->override_with(*own_bindings[s]);
+        }
       pass.defines = pack.defines;
       for (Define& define : read_defines(fields, item, "pass '" + pass.name + "'")) {
         std::erase_if(pass.defines, [&](const Define& d) { return d.name == define.name; });  // the pass's value wins
@@ -427,6 +436,8 @@ void apply_command_line(PackDefinition& pack, const BindingOptions& bindings, co
   pack.bindings.override_with(bindings);
   for (PassDefinition& pass : pack.passes) {
     pass.bindings.override_with(bindings);
+    for (std::optional<BindingOptions>& own : pass.stage_bindings)
+      if (own) own->override_with(bindings);
     for (const Define& define : defines) {
       std::erase_if(pass.defines, [&](const Define& d) { return d.name == define.name; });
       pass.defines.push_back(define);

@@ -142,7 +142,7 @@ class Scheduler {
     job.targets = settings_.targets_for(plan_.pack.passes[s.pass]);
     job.optimize = settings_.optimize;
     job.optimizer_recipe = settings_.optimizer_recipe;
-    job.bindings = plan_.pack.passes[s.pass].bindings;
+    job.bindings = plan_.pack.passes[s.pass].bindings_for(s.stage);
     jobs_.push_back(std::move(job));
     job_subject_.push_back(index);
     ++front_ends_;

@@ -4,6 +4,7 @@
 
 #include "common/files.hpp"
 #include "driver/stage_timer.hpp"
+#include "layouts/interface_check.hpp"
 #include "layouts/layout_check.hpp"
 
 namespace kiln {
@@ -43,9 +44,11 @@ std::optional<std::vector<PassLayout>> check_pass_layouts(const Plan& plan, cons
   StageTimer timer(report, "reflect");
   const int errors_before = sink.error_count();
   std::vector<PassLayout> layouts(plan.passes.size());
-  for (uint32_t p = 0; p < plan.passes.size(); ++p)
-    if (std::optional<PassLayout> layout = check_pass_layout(layout_input(plan, locator, p, sources, binaries), sink))
-      layouts[p] = std::move(*layout);
+  for (uint32_t p = 0; p < plan.passes.size(); ++p) {
+    const PassLayoutInput input = layout_input(plan, locator, p, sources, binaries);
+    if (std::optional<PassLayout> layout = check_pass_layout(input, sink)) layouts[p] = std::move(*layout);
+    check_stage_interfaces(input, sink);
+  }
   if (sink.error_count() != errors_before) return std::nullopt;
   return layouts;
 }

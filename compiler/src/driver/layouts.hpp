@@ -1,4 +1,5 @@
-// Stage 7 (second half): every variant and stage of a pass must agree on its resource layout.
+// Stage 7 (second half): every variant and stage of a pass must agree on its resource layout, and each fragment
+// stage must read what the stage before it writes.
 #pragma once
 
 #include <optional>
@@ -11,7 +12,8 @@
 
 namespace kiln {
 
-// Each pass's merged layout; nothing when a pass's binaries disagree (reported).
+// Each pass's merged layout; nothing when a pass's binaries disagree or its stages' interfaces do not match
+// (reported).
 std::optional<std::vector<PassLayout>> check_pass_layouts(const Plan& plan, const SourceLocator& locator,
                                                               const StageSources& sources,
                                                               const std::vector<Binary>& binaries, DiagnosticSink& sink,

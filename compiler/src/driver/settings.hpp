@@ -51,12 +51,14 @@ struct BuildSettings {
   // kCompileJobRevision bump because that revision is in the inputs hash, which the manifest records: packs
   // whose bindings did not change keep their bytes. "hlsl compat 1" likewise marks keys made since the front end
   // rewrites DXC's spellings (frontend/hlsl_compat.hpp), gives files a final newline and checks thread groups and
-  // block sizes: a cached push-constant struct of an older build was a $Global uniform buffer.
+  // block sizes: a cached push-constant struct of an older build was a $Global uniform buffer. "hlsl compat 2":
+  // unbounded resource arrays are runtime arrays, SV_ViewID and SV_ShadingRate built-ins (frontend/dxc_semantics.hpp),
+  // and NonUniformResourceIndex is DXC's (frontend/nonuniform.hpp): an older build's module had other interfaces.
   template <typename KeyHasher>
   KeyHasher& add_compile_options(KeyHasher& hasher, const PassDefinition& pass, Stage stage) const {
     return hasher.add(fingerprint).add(optimize ? 1 : 0).add(optimizer_recipe_name(optimizer_recipe)).add(target_names_for(pass)).add(stage_name(stage))
-        .add(pass.entry_points[static_cast<size_t>(stage)]).add("binding model 1").add("hlsl compat 1")
-        .add(pass.bindings.canonical());
+        .add(pass.entry_points[static_cast<size_t>(stage)]).add("binding model 1").add("hlsl compat 2")
+        .add(pass.bindings_for(stage).canonical());
   }
 };
 

@@ -33,6 +33,12 @@ std::vector<ManifestMaterial> material_records(const PackDefinition& pack) {
 // are left out of the file, which keeps the manifests of packs that use neither as they were.
 void add_pass_settings(ManifestPass& record, const PassDefinition& pass) {
   record.bindings = pass.bindings.canonical();
+  for (Stage stage : kAllStages)
+    if (const auto& own = pass.stage_bindings[static_cast<size_t>(stage)]; own && own->canonical() != record.bindings) {
+      const std::string text = own->canonical();
+      record.bindings += (record.bindings.empty() ? "" : " ") + ("[" + std::string(stage_name(stage)) + ": " +
+                         (text.empty() ? std::string("defaults") : text) + "]");
+    }
   for (const Define& define : pass.defines) record.defines[define.name] = define.value;
 }
 

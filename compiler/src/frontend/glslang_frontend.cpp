@@ -14,10 +14,13 @@
 
 #include "common/target_environment.hpp"
 #include "frontend/hlsl_compat.hpp"
+#include "frontend/dxc_semantics.hpp"
+#include "frontend/nonuniform.hpp"
 #include "frontend/frontend.hpp"
 #include "common/hash.hpp"
 #include "frontend/glslang_bindings.hpp"
 #include "frontend/glslang_literals.hpp"
+#include "frontend/glslang_shader.hpp"
 
 namespace kiln {
 namespace {
@@ -224,20 +227,26 @@ class GlslangFrontend final : public Frontend {
 
   CompileResult compile(const CompileRequest& request) override {
     CompileResult result;
-    glslang::TShader shader(to_glslang(request.stage));
     // DXC's meanings that glslang 12 would change (frontend/hlsl_compat.hpp).
     std::optional<std::string> compatible = rewrite_push_constants(request.source);
     if (auto rewritten = rewrite_hlsl2021_intrinsics(compatible ? std::string_view(*compatible) : std::string_view(request.source)))
       compatible = std::move(rewritten);
     if (auto rewritten = rewrite_literal_swizzles(compatible ? std::string_view(*compatible) : std::string_view(request.source)))
       compatible = std::move(rewritten);
+    const auto nonuniform = rewrite_nonuniform_index(compatible ? std::string_view(*compatible) : std::string_view(request.source));
+    if (nonuniform) compatible = *nonuniform;
     const std::string_view source = compatible ? std::string_view(*compatible) : std::string_view(request.source);
+    // With SV_ViewID or SV_ShadingRate, the semantics in the SPIR-V, for restore_builtin_semantics.
+    const bool builtin_semantics = names_builtin_semantics(source);
+    const std::unique_ptr<glslang::TShader> made = make_glslang_shader(to_glslang(request.stage), builtin_semantics);
+    glslang::TShader& shader = *made;
     const char* text = source.data();
     const int length = static_cast<int>(source.size());
     const char* name = request.source_name.c_str();
     shader.setStringsWithLengthsAndNames(&text, &length, &name, 1);
     shader.setEntryPoint(request.entry_point.c_str());
     configure(shader, request.stage);
+    if (nonuniform) shader.setPreamble(kNonUniformMarkerDefinition.data());  // a string literal: terminated
     bool parsed = shader.parse(GetDefaultResources(), 100, false, kMessages);
     result.messages = parse_frontend_log(shader.getInfoLog(), request.source_name);
     if (!parsed) return result;
@@ -264,6 +273,14 @@ class GlslangFrontend final : public Frontend {
     options.validate = false;
     spv::SpvBuildLogger logger;
     glslang::GlslangToSpv(*program.getIntermediate(to_glslang(request.stage)), result.spirv, &logger, &options);
+    // DXC's meanings that glslang 12 would change without a word (frontend/dxc_semantics.hpp, nonuniform.hpp).
+    for (const std::string& error : {make_arrays_unbounded(result.spirv, unbounded_resource_arrays(source)),
+                                     builtin_semantics ? restore_builtin_semantics(result.spirv) : std::string()})
+      if (!error.empty()) {
+        result.messages.push_back({Severity::Error, request.source_name, 0, error});
+        return result;
+      }
+    if (nonuniform) decorate_nonuniform(result.spirv);
     if (std::string messages = logger.getAllMessages(); !messages.empty()) {
       std::istringstream lines(messages);
       for (std::string line; std::getline(lines, line);)

@@ -6,6 +6,7 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <regex>
 #include <sstream>
 
 namespace kiln {
@@ -183,6 +184,33 @@ std::vector<FrontendMessage> check_numthreads_source(std::string_view source, co
     return {*problem};
   }
   return {};
+}
+
+std::vector<FrontendMessage> check_buffer_arrays_source(std::string_view source, const std::string& source_name) {
+  static const std::regex declaration(
+      R"(\b((?:RW|RasterizerOrdered|Append|Consume)?StructuredBuffer\s*<[^;{}()]*>|(?:RW|RasterizerOrdered)?ByteAddressBuffer))"
+      R"(\s+([A-Za-z_]\w*)\s*\[)");
+  std::vector<FrontendMessage> messages;
+  if (source.find("Buffer") == std::string_view::npos) return messages;
+  const std::string text(source);
+  for (auto it = std::sregex_iterator(text.begin(), text.end(), declaration); it != std::sregex_iterator(); ++it) {
+    const size_t at = static_cast<size_t>(it->position(0));
+    const std::string_view before = source.substr(0, at);
+    if (std::count(before.begin(), before.end(), '{') != std::count(before.begin(), before.end(), '}')) continue;
+    std::string type = (*it)[1];
+    type = type.substr(0, type.find('<'));
+    while (!type.empty() && (type.back() == ' ' || type.back() == '\t')) type.pop_back();
+    // The line from the #line directives; the column from the user's line (the driver finds the quoted name in it:
+    // the preprocessed text's spacing is not the file's).
+    FrontendMessage& message = messages.emplace_back(located(source, static_cast<size_t>(it->position(2)), source_name,
+                               "'" + std::string((*it)[2]) + "' : an array of " + type + " (DXC: a descriptor array of storage "
+                               "buffers) is beyond glslang 12, which " +
+                                   (type.find("ByteAddress") != std::string::npos ? std::string("cannot parse it")
+                                                                                  : std::string("crashes on an access to it")) +
+                                   ": declare one buffer per binding, or compile this shader with DXC"));
+    message.column = 0;
+  }
+  return messages;
 }
 
 std::vector<FrontendMessage> check_compute_module(const std::vector<uint32_t>& spirv, std::string_view source,

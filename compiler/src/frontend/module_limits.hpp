@@ -23,6 +23,12 @@ namespace kiln {
 std::vector<FrontendMessage> check_numthreads_source(std::string_view source, const std::string& source_name,
                                                      const std::string& entry);
 
+// Before the front end, any stage: each file-scope array of structured or byte-address buffers
+// (`StructuredBuffer<T> lights[4]`, `RWByteAddressBuffer buffers[]`), which DXC makes a descriptor array of storage
+// buffers and glslang 12 cannot: it crashes generating SPIR-V for an access to a structured one (a worker crash,
+// K1501) and fails to parse a byte-address one with unrelated errors. One message per declaration, at its name.
+std::vector<FrontendMessage> check_buffer_arrays_source(std::string_view source, const std::string& source_name);
+
 // After the front end: the module's thread-group size (whatever expression gave it) and its groupshared bytes.
 // Messages are located at the first numthreads or groupshared of `source` when it has one.
 std::vector<FrontendMessage> check_compute_module(const std::vector<uint32_t>& spirv, std::string_view source,

@@ -31,6 +31,14 @@ std::string slot_text(const Resource& resource) {
   return "set " + std::to_string(resource.set) + " binding " + std::to_string(resource.binding);
 }
 
+// "texture (2D)", "texture (2D, array of 4)", "uniform_buffer"
+std::string descriptor_text(const Resource& resource) {
+  std::string detail = resource.dimension;
+  if (resource.count != 1)
+    detail += (detail.empty() ? "" : ", ") + (resource.count == 0 ? std::string("unbounded array") : "array of " + std::to_string(resource.count));
+  return "a " + std::string(resource_kind_name(resource.kind)) + (detail.empty() ? "" : " (" + detail + ")");
+}
+
 std::string count_text(size_t n) { return std::to_string(n) + (n == 1 ? " variant" : " variants"); }
 
 class Checker {
@@ -38,67 +46,110 @@ class Checker {
   Checker(const PassLayoutInput& input, DiagnosticSink& sink) : in_(input), sink_(sink) {}
 
   void report(const LayoutClash& clash) {
-    if (clash.kind == LayoutClash::Kind::PushConstants) {
-      sink_.report(DiagId::LayoutMismatch, in_.pass_location, "pass '" + in_.pass + "': push constant blocks differ between its stages or variants",
-                   {"every stage and variant of a pass must declare the same push constant block"});
+    if (clash.kind == LayoutClash::Kind::MemberMismatch) {
+      report_members(clash);
       return;
     }
     const Resource& a = clash.first;
     const Resource& b = clash.second;
+    const Together together = find_together(a, b);
+    std::string message = "pass '" + in_.pass + "': ";
+    std::vector<std::string> notes;
+    if (clash.kind == LayoutClash::Kind::SharedSlot && a.name == b.name) {
+      if (!together.stage_pairs.empty()) {
+        const auto [sa, sb] = *together.stage_pairs.begin();
+        message += "'" + a.name + "' is " + descriptor_text(a) + " in the " + std::string(stage_name(sa)) + " stage and " +
+                   descriptor_text(b) + " in the " + std::string(stage_name(sb)) + " stage of the same variant (" +
+                   slot_text(a) + "), in " + count_text(together.variants.size());
+        notes.push_back("Vulkan needs one descriptor type, count and image dimension per binding in every stage of a "
+                        "pipeline: declare the resource once, in a file both stages include");
+      } else {
+        message += "'" + a.name + "' is " + descriptor_text(a) + " in " + first_variants(holders(a)) + " and " +
+                   descriptor_text(b) + " in " + first_variants(holders(b)) + " (" + slot_text(a) + ")";
+        notes.push_back("a resource's descriptor type, count and dimension must not depend on keywords: give each form "
+                        "its own name and binding");
+      }
+    } else if (clash.kind == LayoutClash::Kind::SharedSlot) {
+      message += slot_text(a) + " holds both " + describe(a) + " and " + describe(b);
+      if (together.same_binary) {
+        message += " in the " + std::string(stage_name(stage_of(holders(a), holders(b)))) + " stage, in " +
+                   count_text(together.variants.size());
+      } else if (!together.stage_pairs.empty()) {
+        const auto [sa, sb] = *together.stage_pairs.begin();
+        message = "pass '" + in_.pass + "': " + slot_text(a) + " holds " + describe(a) + " in the " + std::string(stage_name(sa)) +
+                  " stage and " + describe(b) + " in the " + std::string(stage_name(sb)) + " stage of the same variant, in " +
+                  count_text(together.variants.size());
+      } else {
+        message += ", in different variants: " + describe(a) + " in " + first_variants(holders(a)) + ", " + describe(b) +
+                   " in " + first_variants(holders(b));
+      }
+      if (!together.variants.empty()) notes.push_back("first in variant [" + in_.variant_names[together.variants.front()] + "]");
+      notes.push_back(fix_for_shared_slot(a, b));
+    } else {
+      message += "'" + a.name + "' is at " + slot_text(a) + " in " + first_variants(holders(a)) + " and at " + slot_text(b) +
+                 " in " + first_variants(holders(b));
+      notes.push_back("a resource must have one binding in every variant of a pass; one declared without a register "
+                      "is bound automatically in declaration order, so a keyword that removes a declaration before it moves "
+                      "it: give it a register or [[vk::binding(N, S)]]");
+    }
+    SourceLocation at = locate(a);
+    sink_.report(DiagId::LayoutMismatch, at, message, notes);
+    note_other_declaration(DiagId::LayoutMismatch, a, b);
+  }
+
+ private:
+  // The variants in which some binary holds `a` and another (or the same) holds `b`, and how.
+  struct Together {
+    std::vector<size_t> variants;
+    std::set<std::pair<Stage, Stage>> stage_pairs;  // held by two stages of one variant
+    bool same_binary = false;                       // held by one binary
+  };
+  Together find_together(const Resource& a, const Resource& b) const {
+    Together out;
     const std::vector<size_t> holding_a = holders(a), holding_b = holders(b);
-    // Variants in which some binary holds `a` and another (or the same) holds `b`.
-    std::vector<size_t> together;
-    std::set<std::pair<Stage, Stage>> stage_pairs;
-    bool same_binary = false;
     for (size_t v = 0; v < in_.variant_names.size(); ++v) {
       bool found = false;
       for (size_t i : holding_a)
         for (size_t j : holding_b)
           if (uses(i, v) && uses(j, v)) {
             found = true;
-            if (i == j) same_binary = true;
-            else stage_pairs.emplace(in_.binaries[i].stage, in_.binaries[j].stage);
+            if (i == j) out.same_binary = true;
+            else if (in_.binaries[i].stage != in_.binaries[j].stage) out.stage_pairs.emplace(in_.binaries[i].stage, in_.binaries[j].stage);
           }
-      if (found) together.push_back(v);
+      if (found) out.variants.push_back(v);
     }
-    std::string message = "pass '" + in_.pass + "': ";
-    std::vector<std::string> notes;
-    if (clash.kind == LayoutClash::Kind::SharedSlot && a.name == b.name) {
-      message += describe(a) + " has a different layout in different variants (" + slot_text(a) + ")";
-      notes.push_back("in " + first_variants(holding_a) + "; and another layout in " + first_variants(holding_b));
-      notes.push_back("a resource's type and block members must not depend on keywords: give each layout its own name and binding");
-    } else if (clash.kind == LayoutClash::Kind::SharedSlot) {
-      message += slot_text(a) + " holds both " + describe(a) + " and " + describe(b);
-      if (same_binary) {
-        message += " in the " + std::string(stage_name(stage_of(holding_a, holding_b))) + " stage, in " + count_text(together.size());
-      } else if (!stage_pairs.empty()) {
-        const auto [sa, sb] = *stage_pairs.begin();
-        message = "pass '" + in_.pass + "': " + slot_text(a) + " holds " + describe(a) + " in the " + std::string(stage_name(sa)) +
-                  " stage and " + describe(b) + " in the " + std::string(stage_name(sb)) + " stage of the same variant, in " +
-                  count_text(together.size());
-      } else {
-        message += ", in different variants: " + describe(a) + " in " + first_variants(holding_a) + ", " + describe(b) + " in " +
-                   first_variants(holding_b);
-      }
-      if (!together.empty()) notes.push_back("first in variant [" + in_.variant_names[together.front()] + "]");
-      notes.push_back(fix_for_shared_slot(a, b));
-    } else {
-      message += "'" + a.name + "' is at " + slot_text(a) + " in " + first_variants(holding_a) + " and at " +
-                 slot_text(b) + " in " + first_variants(holding_b);
-      notes.push_back("a resource must have one binding in every stage and variant of a pass; one declared without a register "
-                      "is bound automatically in declaration order, so a keyword that removes a declaration before it moves "
-                      "it: give it a register or [[vk::binding(N, S)]]");
-    }
-    SourceLocation at = locate(a);
-    sink_.report(DiagId::LayoutMismatch, at, message, notes);
-    if (a.name != b.name && in_.locate) {
-      SourceLocation other = in_.locate(b.name);
-      if (other.line > 0)
-        sink_.report(Diagnostic{DiagId::LayoutMismatch, Severity::Note, other, describe(b) + " is declared here", {}});
-    }
+    return out;
   }
 
- private:
+  // K1411, a warning: one binding's block (or the push constants) declared with overlapping members that disagree.
+  void report_members(const LayoutClash& clash) {
+    const Resource& a = clash.first;
+    const Resource& b = clash.second;
+    std::string message = "pass '" + in_.pass + "': ";
+    if (clash.push_constants) {
+      message += "its push-constant blocks ('" + a.name + "', '" + b.name + "') declare overlapping members that disagree: " + clash.member;
+    } else {
+      const Together together = find_together(a, b);
+      std::string where = "in different variants";
+      if (!together.stage_pairs.empty())
+        where = "in the " + std::string(stage_name(together.stage_pairs.begin()->first)) + " and " +
+                std::string(stage_name(together.stage_pairs.begin()->second)) + " stages";
+      message += "the " + std::string(resource_kind_name(a.kind)) + " at " + slot_text(a) + " (" +
+                 (a.name == b.name ? "'" + a.name + "'" : "'" + a.name + "' and '" + b.name + "'") + ") is declared " + where +
+                 " with overlapping members that disagree: " + clash.member;
+    }
+    sink_.report(Diagnostic{DiagId::BlockMemberMismatch, Severity::Warning, clash.push_constants ? in_.pass_location : locate(a), message,
+                            {"Vulkan accepts it, but one declaration reads as one type the bytes another declaration writes as "
+                             "another: declare the block once, in a file every stage and variant includes"}});
+    if (!clash.push_constants) note_other_declaration(DiagId::BlockMemberMismatch, a, b);
+  }
+
+  void note_other_declaration(DiagId id, const Resource& a, const Resource& b) {
+    if (a.name == b.name || !in_.locate) return;
+    SourceLocation other = in_.locate(b.name);
+    if (other.line > 0) sink_.report(Diagnostic{id, Severity::Note, other, describe(b) + " is declared here", {}});
+  }
+
   std::vector<size_t> holders(const Resource& resource) const {
     std::vector<size_t> out;
     for (size_t i = 0; i < in_.binaries.size(); ++i)
@@ -157,9 +208,9 @@ class Checker {
 }  // namespace
 
 std::optional<PassLayout> check_pass_layout(const PassLayoutInput& input, DiagnosticSink& sink) {
-  std::vector<const Reflection*> reflections;
-  for (const auto& binary : input.binaries) reflections.push_back(binary.reflection);
-  MergedLayout merged = merge_layouts(reflections);
+  std::vector<LayoutSource> sources;
+  for (const auto& binary : input.binaries) sources.push_back({binary.stage, binary.reflection});
+  MergedLayout merged = merge_layouts(sources);
   Checker checker(input, sink);
   // A resource that moved (an automatic binding shifted by an #ifdef before it) makes the slot it left or
   // took look shared too: the move is the root cause, reported alone.
@@ -171,7 +222,9 @@ std::optional<PassLayout> check_pass_layout(const PassLayoutInput& input, Diagno
                              (moved.count(clash.first.name) || moved.count(clash.second.name));
     if (!consequence) checker.report(clash);
   }
-  if (!merged.clashes.empty()) return std::nullopt;
+  const bool errors = std::any_of(merged.clashes.begin(), merged.clashes.end(),
+                                  [](const LayoutClash& c) { return c.kind != LayoutClash::Kind::MemberMismatch; });
+  if (errors) return std::nullopt;
   return std::move(merged.layout);
 }
 

@@ -22,6 +22,7 @@ const std::array<const LintRule*, kRuleCount> kRules{
     &fp16_unguarded,
     &hlsl_warning,
     &build_error,
+    &block_member_mismatch,
 };
 
 // The array's size is checked by the compiler; its order is checked once, here, and by unit.LintRules.

@@ -22,14 +22,15 @@ enum class RuleId : unsigned char {
   Fp16Unguarded,
   HlslWarning,
   BuildError,
+  BlockMemberMismatch,
 };
-inline constexpr size_t kRuleCount = static_cast<size_t>(RuleId::BuildError) + 1;
+inline constexpr size_t kRuleCount = static_cast<size_t>(RuleId::BlockMemberMismatch) + 1;
 
 // Indexed by RuleId; the order is the rule table's (and SARIF's tool.driver.rules).
 inline constexpr std::array<std::string_view, kRuleCount> kRuleIdTexts{
     "unused-keyword", "undeclared-keyword", "multi-compile-could-be-feature", "budget-exceeded",
     "missing-entry-point", "interface-mismatch", "layout-mismatch", "spirv-invalid",
-    "fp16-unguarded", "hlsl-warning", "build-error",
+    "fp16-unguarded", "hlsl-warning", "build-error", "block-member-mismatch",
 };
 
 constexpr std::string_view rule_id_text(RuleId id) { return kRuleIdTexts[static_cast<size_t>(id)]; }

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <map>
+#include <optional>
 #include <set>
 
 namespace kiln {
@@ -151,32 +152,96 @@ Reflection reflect_spirv(const std::vector<uint32_t>& spirv) {
   return out;
 }
 
-MergedLayout merge_layouts(const std::vector<const Reflection*>& reflections) {
-  MergedLayout out;
-  std::map<std::pair<uint32_t, uint32_t>, const Resource*> by_slot;  // (set, binding) -> first resource seen there
-  std::map<std::string, const Resource*> by_name;
-  const std::vector<PushConstantBlock>* push_constants = nullptr;
-  std::set<std::pair<std::string, std::string>> reported;
-  auto clash = [&](LayoutClash::Kind kind, const Resource& first, const Resource& second) {
-    if (reported.emplace(nlohmann::json(first).dump(), nlohmann::json(second).dump()).second)
-      out.clashes.push_back({kind, first, second});
-  };
-  for (const Reflection* reflection : reflections) {
-    for (const Resource& resource : reflection->resources) {
-      auto [at_slot, new_slot] = by_slot.emplace(std::make_pair(resource.set, resource.binding), &resource);
-      if (!new_slot && *at_slot->second != resource) clash(LayoutClash::Kind::SharedSlot, *at_slot->second, resource);
-      auto [named, new_name] = by_name.emplace(resource.name, &resource);
-      if (!new_name && (named->second->set != resource.set || named->second->binding != resource.binding))
-        clash(LayoutClash::Kind::MovedResource, *named->second, resource);
+namespace {
+
+// One descriptor for Vulkan: the same descriptor type, count, image dimension and arrayness ("2DArray").
+bool same_descriptor(const Resource& a, const Resource& b) {
+  return a.kind == b.kind && a.count == b.count && a.dimension == b.dimension;
+}
+
+std::string member_text(const BlockMember& m) {
+  return "'" + m.name + "' (" + m.type + ", bytes " + std::to_string(m.offset) + "-" +
+         std::to_string(m.offset + std::max<uint64_t>(m.size, 1) - 1) + ")";
+}
+
+// The first pair of members of two declarations of one block that overlap in bytes without being the same member
+// (offset, size, type and array stride; the name may differ); empty when they agree wherever both have members.
+std::string member_mismatch(const std::vector<BlockMember>& a, const std::vector<BlockMember>& b) {
+  for (const BlockMember& x : a)
+    for (const BlockMember& y : b) {
+      const uint64_t x_end = x.offset + std::max<uint64_t>(x.size, 1), y_end = y.offset + std::max<uint64_t>(y.size, 1);
+      const bool overlap = x.offset < y_end && y.offset < x_end;
+      const bool same = x.offset == y.offset && x.size == y.size && x.type == y.type && x.array_stride == y.array_stride;
+      if (overlap && !same) return member_text(x) + " and " + member_text(y);
     }
-    const std::vector<PushConstantBlock>& push = reflection->push_constants;
-    if (push.empty()) continue;
-    if (!push_constants) push_constants = &push;
-    else if (push != *push_constants && reported.emplace("push constants", "").second)
-      out.clashes.push_back({LayoutClash::Kind::PushConstants, {}, {}});
+  return {};
+}
+
+// `into` grows to cover `from`: the larger size, and the members only `from` declares (by offset).
+void widen_block(uint64_t& size, std::vector<BlockMember>& members, uint64_t from_size, const std::vector<BlockMember>& from) {
+  size = std::max(size, from_size);
+  for (const BlockMember& m : from) {
+    const bool covered = std::any_of(members.begin(), members.end(), [&](const BlockMember& have) {
+      return m.offset < have.offset + std::max<uint64_t>(have.size, 1) && have.offset < m.offset + std::max<uint64_t>(m.size, 1);
+    });
+    if (!covered) members.push_back(m);
   }
-  for (const auto& [slot, resource] : by_slot) out.layout.resources.push_back(*resource);
-  if (push_constants) out.layout.push_constants = *push_constants;
+  std::stable_sort(members.begin(), members.end(), [](const BlockMember& x, const BlockMember& y) { return x.offset < y.offset; });
+}
+
+}  // namespace
+
+MergedLayout merge_layouts(const std::vector<LayoutSource>& sources) {
+  MergedLayout out;
+  std::map<std::pair<uint32_t, uint32_t>, Resource> by_slot;  // (set, binding) -> the merged resource there
+  std::map<std::pair<uint32_t, uint32_t>, const Resource*> first_at_slot;
+  std::map<std::pair<Stage, std::pair<uint32_t, uint32_t>>, const Resource*> by_stage_slot;
+  std::map<std::pair<Stage, std::string>, const Resource*> by_name;  // per stage: names are a stage's own
+  std::optional<PushConstantBlock> push;
+  const PushConstantBlock* first_push = nullptr;
+  std::set<std::pair<std::string, std::string>> reported;
+  auto clash = [&](LayoutClash item) {
+    const std::string key = item.push_constants ? "push constants" : nlohmann::json(item.first).dump();
+    if (reported.emplace(key, nlohmann::json(item.second).dump() + item.member).second) out.clashes.push_back(std::move(item));
+  };
+  for (const LayoutSource& source : sources) {
+    for (const Resource& resource : source.reflection->resources) {
+      const std::pair slot{resource.set, resource.binding};
+      auto [at_slot, new_slot] = by_slot.emplace(slot, resource);
+      // Within one stage, a name is one resource: two names at one binding alias two resources the author meant
+      // apart (register(t0) and register(u0) of a shift-less D3D layout), whatever their descriptor types.
+      auto [in_stage, new_in_stage] = by_stage_slot.emplace(std::make_pair(source.stage, slot), &resource);
+      if (new_slot) {
+        first_at_slot[slot] = &resource;
+      } else if (const Resource& first = *first_at_slot[slot]; !same_descriptor(first, resource)) {
+        clash({LayoutClash::Kind::SharedSlot, first, resource, false, {}});
+      } else if (!new_in_stage && in_stage->second->name != resource.name) {
+        clash({LayoutClash::Kind::SharedSlot, *in_stage->second, resource, false, {}});
+      } else if (is_block(resource.kind)) {
+        if (std::string why = member_mismatch(first.members, resource.members); !why.empty())
+          clash({LayoutClash::Kind::MemberMismatch, first, resource, false, why});
+        widen_block(at_slot->second.size, at_slot->second.members, resource.size, resource.members);
+      }
+      auto [named, new_name] = by_name.emplace(std::make_pair(source.stage, resource.name), &resource);
+      if (!new_name && (named->second->set != resource.set || named->second->binding != resource.binding))
+        clash({LayoutClash::Kind::MovedResource, *named->second, resource, false, {}});
+    }
+    for (const PushConstantBlock& block : source.reflection->push_constants) {
+      if (!push) {
+        push = block;
+        first_push = &block;
+        continue;
+      }
+      if (std::string why = member_mismatch(first_push->members, block.members); !why.empty()) {
+        Resource a{.name = first_push->name, .size = first_push->size, .members = first_push->members};
+        Resource b{.name = block.name, .size = block.size, .members = block.members};
+        clash({LayoutClash::Kind::MemberMismatch, std::move(a), std::move(b), true, why});
+      }
+      widen_block(push->size, push->members, block.size, block.members);
+    }
+  }
+  for (auto& [slot, resource] : by_slot) out.layout.resources.push_back(std::move(resource));
+  if (push) out.layout.push_constants = {std::move(*push)};
   return out;
 }
 

@@ -24,6 +24,11 @@ JobOutput run_front_end(Frontend& frontend, const CompileJob& job) {
     // Thread-group sizes that glslang takes and then mistranslates (0, past 2^31) are the source's error, not a
     // crash of the back end.
     out.messages = check_numthreads_source(job.source, job.source_name, job.entry_point);
+  }
+  {
+    // Arrays of structured and byte-address buffers, which crash glslang 12 or fail its parse (any stage).
+    std::vector<FrontendMessage> arrays = check_buffer_arrays_source(job.source, job.source_name);
+    out.messages.insert(out.messages.end(), arrays.begin(), arrays.end());
     if (!out.messages.empty()) {
       out.failed_step = CompileStep::Frontend;
       return out;

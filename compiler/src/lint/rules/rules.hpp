@@ -16,5 +16,6 @@ extern const LintRule spirv_invalid;
 extern const LintRule fp16_unguarded;
 extern const LintRule hlsl_warning;
 extern const LintRule build_error;
+extern const LintRule block_member_mismatch;
 
 }  // namespace kiln::rules

@@ -1,0 +1,170 @@
+#include "frontend/dxc_semantics.hpp"
+
+#include <glslang/SPIRV/spirv.hpp>
+
+#include <algorithm>
+#include <cctype>
+#include <map>
+#include <optional>
+#include <regex>
+#include <set>
+
+#include "frontend/spirv_module.hpp"
+
+namespace kiln {
+namespace {
+
+using spirv_edit::Instruction;
+using spirv_edit::make;
+
+std::string upper(std::string_view text) {
+  std::string out(text);
+  for (char& c : out) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return out;
+}
+
+// glslang's hlsl_functionality1 decorations, which kiln removes again (they would add an extension to every module).
+constexpr uint32_t kDecorationUserSemantic = 5635, kDecorationUserType = 5636, kDecorationCounterBuffer = 5634;
+
+}  // namespace
+
+std::vector<std::string> unbounded_resource_arrays(std::string_view text) {
+  // A resource type (with its template argument), a name, `[` `]`; at brace depth 0.
+  static const std::regex declaration(
+      R"(\b(?:RW|RasterizerOrdered)?(?:Texture(?:1D|2D|3D|Cube)(?:Array|MS|MSArray)?|Buffer|StructuredBuffer|ByteAddressBuffer)"
+      R"(|SamplerState|SamplerComparisonState|ConstantBuffer|AppendStructuredBuffer|ConsumeStructuredBuffer)"
+      R"(|SubpassInput(?:MS)?)\s*(?:<[^;{}()]*>)?\s+([A-Za-z_]\w*)\s*\[\s*\])");
+  std::vector<std::string> names;
+  if (text.find("[") == std::string_view::npos) return names;
+  const std::string source(text);
+  for (auto it = std::sregex_iterator(source.begin(), source.end(), declaration); it != std::sregex_iterator(); ++it) {
+    const size_t at = static_cast<size_t>(it->position(0));
+    const std::string_view before = text.substr(0, at);
+    if (std::count(before.begin(), before.end(), '{') != std::count(before.begin(), before.end(), '}')) continue;
+    names.push_back((*it)[1]);
+  }
+  return names;
+}
+
+bool names_builtin_semantics(std::string_view text) {
+  const std::string up = upper(text);
+  return up.find("SV_VIEWID") != std::string::npos || up.find("SV_SHADINGRATE") != std::string::npos;
+}
+
+std::string make_arrays_unbounded(std::vector<uint32_t>& spirv, const std::vector<std::string>& names) {
+  if (names.empty()) return {};
+  std::optional<spirv_edit::Module> parsed = spirv_edit::Module::parse(spirv);
+  if (!parsed) return "glslang's module does not parse";
+  spirv_edit::Module& module = *parsed;
+  const std::set<std::string> wanted(names.begin(), names.end());
+  bool changed = false;
+  for (bool again = true; again;) {  // each edit inserts instructions: look again from the start
+    again = false;
+    const std::map<uint32_t, size_t> definition = module.definitions();
+    auto defining = [&](uint32_t id) -> const Instruction* {
+      auto it = definition.find(id);
+      return it == definition.end() ? nullptr : &module.instructions()[it->second];
+    };
+    // The variables some function uses: an unused one (glslang keeps every declaration) is left alone, or its
+    // capability would stay after the optimizer removes it, and every target would have to express it.
+    std::set<uint32_t> used;
+    bool in_function = false;
+    for (const Instruction& in : module.instructions()) {
+      if (in.op() == spv::OpFunction) in_function = true;
+      if (in_function)
+        for (size_t w = 1; w < in.words.size(); ++w) used.insert(in.words[w]);
+    }
+    for (size_t i = 0; i < module.instructions().size() && !again; ++i) {
+      const Instruction& variable = module.instructions()[i];
+      if (variable.op() != spv::OpVariable || !used.count(variable.words[2]) || !wanted.count(module.name_of(variable.words[2])))
+        continue;
+      const Instruction* pointer = defining(variable.words[1]);
+      const Instruction* array = pointer && pointer->op() == spv::OpTypePointer ? defining(pointer->words[3]) : nullptr;
+      if (!array || array->op() != spv::OpTypeArray) continue;  // already a runtime array, or not an array
+      const uint32_t storage = pointer->words[2], element = array->words[2], variable_id = variable.words[2];
+      const uint32_t runtime = module.new_id(), runtime_pointer = module.new_id();
+      module.add_declaration(make(spv::OpTypeRuntimeArray, {runtime, element}));
+      module.add_declaration(make(spv::OpTypePointer, {runtime_pointer, storage, runtime}));
+      // The variable must follow its new type: move it after the declarations just added.
+      auto& code = module.instructions();
+      auto at = std::find_if(code.begin(), code.end(), [&](const Instruction& in) {
+        return in.op() == spv::OpVariable && in.words[2] == variable_id;
+      });
+      Instruction moved = *at;
+      moved.words[1] = runtime_pointer;
+      code.erase(at);
+      module.add_declaration(std::move(moved));
+      changed = again = true;
+    }
+  }
+  if (changed) {
+    module.add_capability(spv::CapabilityRuntimeDescriptorArray);
+    if (module.version() < 0x00010500u) module.add_extension("SPV_EXT_descriptor_indexing");
+    spirv = module.words();
+  }
+  return {};
+}
+
+std::string restore_builtin_semantics(std::vector<uint32_t>& spirv) {
+  std::optional<spirv_edit::Module> parsed = spirv_edit::Module::parse(spirv);
+  if (!parsed) return "glslang's module does not parse";
+  spirv_edit::Module& module = *parsed;
+  std::vector<Instruction>& code = module.instructions();
+  std::map<uint32_t, uint32_t> storage_classes;  // variable -> its storage class (by id: the edits below move instructions)
+  for (const Instruction& in : code)
+    if (in.op() == spv::OpVariable && in.words.size() > 3) storage_classes[in.words[2]] = in.words[3];
+  auto storage_of = [&](uint32_t id) -> uint32_t {
+    auto it = storage_classes.find(id);
+    return it == storage_classes.end() ? ~0u : it->second;
+  };
+  // The variables whose semantic is a built-in DXC knows and glslang 12 does not: id -> the built-in.
+  std::map<uint32_t, uint32_t> builtins;
+  for (const Instruction& in : code)
+    if (in.op() == spv::OpDecorateString && in.words.size() > 3 && in.words[2] == kDecorationUserSemantic) {
+      const std::string semantic = upper(in.string_at(3));
+      const uint32_t storage = storage_of(in.words[1]);
+      if (semantic == "SV_VIEWID" && storage == spv::StorageClassInput) builtins[in.words[1]] = spv::BuiltInViewIndex;
+      if (semantic == "SV_SHADINGRATE" && storage == spv::StorageClassInput) builtins[in.words[1]] = spv::BuiltInShadingRateKHR;
+      if (semantic == "SV_SHADINGRATE" && storage == spv::StorageClassOutput) builtins[in.words[1]] = spv::BuiltInPrimitiveShadingRateKHR;
+    }
+  // Their locations go, and the user variables after them move down, as if glslang had known them.
+  std::map<uint32_t, std::vector<uint32_t>> freed;  // storage class -> the locations the built-ins held
+  for (const Instruction& in : code)
+    if (in.op() == spv::OpDecorate && in.words.size() > 3 && in.words[2] == spv::DecorationLocation && builtins.count(in.words[1]))
+      freed[storage_of(in.words[1])].push_back(in.words[3]);
+  std::erase_if(code, [&](const Instruction& in) {
+    const uint32_t op = in.op();
+    if ((op == spv::OpDecorateString || op == spv::OpMemberDecorateString || op == spv::OpDecorateId) && in.words.size() > 2) {
+      const uint32_t decoration = in.words[op == spv::OpMemberDecorateString ? 3 : 2];
+      if (decoration == kDecorationUserSemantic || decoration == kDecorationUserType || decoration == kDecorationCounterBuffer) return true;
+    }
+    if (op == spv::OpExtension && (in.string_at(1) == "SPV_GOOGLE_hlsl_functionality1" || in.string_at(1) == "SPV_GOOGLE_user_type"))
+      return true;
+    return op == spv::OpDecorate && in.words.size() > 2 && in.words[2] == spv::DecorationLocation && builtins.count(in.words[1]);
+  });
+  for (Instruction& in : code)
+    if (in.op() == spv::OpDecorate && in.words.size() > 3 && in.words[2] == spv::DecorationLocation) {
+      const auto it = freed.find(storage_of(in.words[1]));
+      if (it == freed.end()) continue;
+      const uint32_t location = in.words[3];
+      in.words[3] -= static_cast<uint32_t>(std::count_if(it->second.begin(), it->second.end(), [&](uint32_t l) { return l < location; }));
+    }
+  bool view = false, shading_rate = false;
+  for (const auto& [id, builtin] : builtins) {
+    module.add_annotation(make(spv::OpDecorate, {id, spv::DecorationBuiltIn, builtin}));
+    view = view || builtin == spv::BuiltInViewIndex;
+    shading_rate = shading_rate || builtin != spv::BuiltInViewIndex;
+  }
+  if (view) {
+    module.add_capability(spv::CapabilityMultiView);
+    if (module.version() < 0x00010300u) module.add_extension("SPV_KHR_multiview");
+  }
+  if (shading_rate) {
+    module.add_capability(spv::CapabilityFragmentShadingRateKHR);
+    module.add_extension("SPV_KHR_fragment_shading_rate");
+  }
+  spirv = module.words();
+  return {};
+}
+
+}  // namespace kiln

@@ -1,0 +1,30 @@
+// Interfaces glslang 12 builds differently from DXC without a word, put back to DXC's on glslang's SPIR-V
+// (docs/bindings.md, "HLSL that glslang 12 reads differently"):
+//  - an unbounded resource array (`Texture2D textures[] : register(t0, space1)`) is a runtime descriptor array in
+//    DXC; glslang sizes it by the largest constant index it sees (1 when it is indexed dynamically), so the host's
+//    descriptor count and every index past it were wrong;
+//  - `SV_ViewID` and `SV_ShadingRate` are the ViewIndex and ShadingRateKHR built-ins in DXC (PrimitiveShadingRateKHR
+//    for an output); glslang makes them user inputs with locations, which moves every later location.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace kiln {
+
+// The names of the resource arrays the text declares unbounded at file scope (`T name[]`), in order.
+std::vector<std::string> unbounded_resource_arrays(std::string_view text);
+
+// Whether the text names SV_ViewID or SV_ShadingRate (semantics are case-insensitive): the front end then asks
+// glslang for the semantics in the SPIR-V (its hlsl_functionality1 decorations), which restore_builtin_semantics
+// reads and removes.
+bool names_builtin_semantics(std::string_view text);
+
+// The edits on glslang's module. An error text when the module cannot be edited as it should (never expected of
+// glslang's output); empty when done.
+std::string make_arrays_unbounded(std::vector<uint32_t>& spirv, const std::vector<std::string>& names);
+std::string restore_builtin_semantics(std::vector<uint32_t>& spirv);
+
+}  // namespace kiln
