@@ -48,6 +48,10 @@ const Case kCases[] = {
      "operator overloading (HLSL 2021)", 23},
     {"bit field", "struct S { uint a : 4; uint b : 28; }; float4 F() : SV_Target { S s; s.a = 1; return s.a; }",
      "bit fields (HLSL 2021)", 12},
+    {"status overload",
+     "Texture2D t; SamplerState s; float4 F(float2 uv : TEXCOORD0) : SV_Target { uint st; return t.Sample(s, uv, int2(0, 0), 0.0, st); }",
+     "this call of a texture method with these arguments (one it lacks: the `status` argument of Sample, SampleLevel, "
+     "SampleCmp, SampleGrad, Gather and Load, which DXC uses to read a tiled resource's residency)", 94},
     {"mesh", "[outputtopology(\"triangle\")] [numthreads(1, 1, 1)] void F(out indices uint3 t[1]) { SetMeshOutputCounts(3, 1); }",
      "mesh shaders", 2},
 };

@@ -57,6 +57,12 @@ constexpr std::array kRows{
         "unpack with shifts and masks"},
     Row{Seen::InLine, "static_assert", "`static_assert`", "check at preprocessing time with `#if ... #error ... #endif`"},
     Row{Seen::InLine, "constexpr", "`constexpr`", "write `static const`"},
+    // glslang names a texture method's built-in `__BI_<Method>`: a call with no overload (the `status` overloads).
+    Row{Seen::QuotedPrefix, "__BI_",
+        "this call of a texture method with these arguments (one it lacks: the `status` argument of Sample, SampleLevel, "
+        "SampleCmp, SampleGrad, Gather and Load, which DXC uses to read a tiled resource's residency)",
+        "if the call passes `status`, drop it and `CheckAccessFullyMapped`: kiln cannot keep its meaning (DXC's "
+        "OpImageSparse* instructions); otherwise check the arguments' count and types"},
     Row{Seen::Pattern, R"(\boperator\s*(\(\s*\)|[^\w\s(]+)\s*\()", "operator overloading (HLSL 2021)",
         "write a named function (`Add(a, b)`)"},
     Row{Seen::Pattern, R"(\b[A-Za-z_]\w*\s+[A-Za-z_]\w*\s*:\s*[0-9]+\s*[;,])", "bit fields (HLSL 2021)",
@@ -98,6 +104,7 @@ std::optional<UnsupportedHlsl> recognise_unsupported_hlsl(std::string_view messa
       case Seen::QuotedPrefix: {
         if (!quoted.starts_with(row.word)) continue;
         column = word_column(line, quoted);
+        if (column == 0 && quoted.starts_with("__BI_")) column = word_column(line, quoted.substr(5));  // `.Sample(`
         break;
       }
       case Seen::QuotedNamespaced:
