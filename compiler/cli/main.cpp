@@ -47,6 +47,13 @@ void print_diagnostics_as_they_come(kiln::DiagnosticSink& sink) {
   sink.set_listener([](const kiln::Diagnostic& d) { std::cerr << kiln::format_diagnostic(d, g_colour); });
 }
 
+// "120", "1", "0.5": a default in seconds as --help states it.
+std::string seconds_text(std::chrono::milliseconds duration) {
+  std::ostringstream out;
+  out << std::chrono::duration<double>(duration).count();
+  return out.str();
+}
+
 std::string format_ms(double ms) {
   char text[32];
   if (ms >= 1000) std::snprintf(text, sizeof text, "%.2f s", ms / 1000);
@@ -382,7 +389,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> scenes, emit;
   bool no_cache = false, quiet = false, as_json = false;
   unsigned jobs = 0;
-  double timeout_s = 120;
+  double timeout_s = std::chrono::duration<double>(kiln::defaults::kWorkerTimeout).count();
 
   // Binding model and defines (docs/bindings.md): DXC's spellings; build, list and lint take them alike.
   std::vector<std::string> define_texts;
@@ -430,7 +437,8 @@ int main(int argc, char** argv) {
   auto* cache_opt = build->add_option("--cache", cache_dir, "Cache directory (default: ./.kiln-cache)");
   build->add_flag("--no-cache", no_cache, "Do not read or write the cache")->excludes(cache_opt);
   uint64_t cache_max_mb = kiln::BuildOptions{}.cache_max_mb;
-  build->add_option("--cache-max-mb", cache_max_mb, "Cache size limit: least recently used entries go first (default: 1024)")
+  build->add_option("--cache-max-mb", cache_max_mb,
+                    "Cache size limit: least recently used entries go first (default: " + std::to_string(kiln::defaults::kCacheMaxMb) + ")")
       ->check(CLI::PositiveNumber);
   build->add_option("--emit", emit, "Dump a stage: variants, preprocessed, spvasm, glsl, msl, reflection (repeatable)")
       ->check(CLI::IsMember(kiln::emit_stage_names()))
@@ -449,7 +457,8 @@ int main(int argc, char** argv) {
                     "SPIR-V once IDs are compacted) or O (SPIRV-Tools' -O as spirv-opt runs it)")
       ->check(CLI::IsMember({std::string(kiln::optimizer_recipe_name(kiln::OptimizerRecipe::Kiln)),
                              std::string(kiln::optimizer_recipe_name(kiln::OptimizerRecipe::Stock))}));
-  build->add_option("--worker-timeout", timeout_s, "Seconds one compile job may take before it is an internal error");
+  build->add_option("--worker-timeout", timeout_s, "Seconds one compile job may take before it is an internal error (default: " +
+                                                     seconds_text(kiln::defaults::kWorkerTimeout) + ")");
   build->add_flag("-q,--quiet", quiet, "Print only diagnostics");
   build->add_option("--summary-json", summary_file, "Also write the build summary as JSON (funnel, cache and remote counts, "
                                                     "timings, diagnostics), whether the build succeeds or not");
@@ -461,15 +470,18 @@ int main(int argc, char** argv) {
   build->add_flag("--remote-required", remote.required, "Remote cache problems are errors, not warnings");
   build->add_option("--remote-instance", remote.instance, "Path prefix under the remote URL (instance name)");
   build->add_option("--remote-namespace", remote.key_namespace, "Mixed into every remote key: keeps caches apart on one server");
-  build->add_option("--remote-connect-timeout", remote_connect_s, "Seconds to connect to the remote cache (default: 1)")
+  build->add_option("--remote-connect-timeout", remote_connect_s,
+                    "Seconds to connect to the remote cache (default: " + seconds_text(kiln::defaults::kRemoteConnectTimeout) + ")")
       ->check(CLI::PositiveNumber);
-  build->add_option("--remote-timeout", remote_timeout_s, "Seconds one remote request may take (default: 30)")
+  build->add_option("--remote-timeout", remote_timeout_s,
+                    "Seconds one remote request may take (default: " + seconds_text(kiln::defaults::kRemoteTimeout) + ")")
       ->check(CLI::PositiveNumber);
   std::string shard_text;
   build->add_option("--shard", shard_text, "I/N: compile only share I of N of the compile jobs, upload them, write no pack "
                                            "(needs --remote); auto: from Slurm's, GitLab's or a Kubernetes Indexed Job's "
                                            "environment");
-  build->add_option("--remote-transfers", remote.parallel_transfers, "Remote requests in flight, one connection each (default: 32)")
+  build->add_option("--remote-transfers", remote.parallel_transfers,
+                    "Remote requests in flight, one connection each (default: " + std::to_string(kiln::defaults::kRemoteParallelTransfers) + ")")
       ->check(CLI::Range(1u, 64u));
 
   CLI::App* list = app.add_subcommand("list", "List every variant a pack would contain, with the keywords each stage sees");

@@ -18,14 +18,16 @@
 namespace kiln {
 namespace {
 
+// `worker`: the shipped worker, or the tests' fault-injecting one (tests/support/fault_worker.cpp).
 BuildReport build(const std::filesystem::path& pack, const std::filesystem::path& out,
-                  std::optional<std::filesystem::path> cache, unsigned jobs, DiagnosticSink& sink) {
+                  std::optional<std::filesystem::path> cache, unsigned jobs, DiagnosticSink& sink,
+                  const char* worker = KILN_WORKER_PATH) {
   BuildOptions options;
   options.pack_file = pack;
   options.output_dir = out;
   options.cache_dir = cache;
   options.jobs = jobs;
-  options.worker_executable = KILN_WORKER_PATH;
+  options.worker_executable = worker;
   return build_pack(options, sink);
 }
 
@@ -244,17 +246,14 @@ TEST_F(SmallLibrary, EditThatChangesNoReachableCodeRunsOnlyFrontEnds) {
 }
 
 // Two fragment sources that differ only in a function F never calls (so they share one module), F calling
-// `fault` (a function name the worker's test-only fault injection acts on), built with the injection on.
+// `fault` (a function name the fault-injecting worker acts on), built with that worker.
 BuildReport build_with_fault_injection(const testing::TempDir& dir, const std::string& fault, DiagnosticSink& sink) {
   dir.write("S.hlsl", "#pragma multi_compile_fragment _ UNUSED_BRANCH\nfloat " + fault + "(float x) { return x * 0.5; }\n"
                       "#ifdef UNUSED_BRANCH\nfloat NeverCalled() { return 2.0; }\n#endif\n"
                       "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
                       "float4 F(float4 c : COLOR0) : SV_Target { return " + fault + "(c.x).xxxx; }\n");
   dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
-  ::setenv("KILN_WORKER_FAULT_INJECTION", "1", 1);
-  BuildReport report = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
-  ::unsetenv("KILN_WORKER_FAULT_INJECTION");
-  return report;
+  return build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink, KILN_FAULT_WORKER_PATH);
 }
 
 // Thirty lines of macros expand to 2^31 tokens. Preprocessing runs in the compiler workers, so the bomb costs
@@ -301,10 +300,8 @@ TEST(TwoHalves, AWorkerThatDiesWhilePreprocessingLeavesAReproducer) {
                       "float4 F() : SV_Target { return 1.0; }\n");
   dir.write("p.pack.json", R"({"name": "p", "defines": {"LEVEL": 2},
     "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
-  ::setenv("KILN_WORKER_FAULT_INJECTION", "1", 1);
   DiagnosticSink sink;
-  BuildReport report = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink);
-  ::unsetenv("KILN_WORKER_FAULT_INJECTION");
+  BuildReport report = build(dir / "p.pack.json", dir / "out", dir / "cache", 2, sink, KILN_FAULT_WORKER_PATH);
   EXPECT_TRUE(report.internal_errors);
   EXPECT_EQ(exit_code(sink, report.internal_errors), 2);
   const auto repro = dir / "out/kiln-ice/P.fragment.FAST.preprocess.hlsl";

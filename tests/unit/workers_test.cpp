@@ -27,8 +27,10 @@ const char* kValid = "float4 main() : SV_Target { return float4(1.0, 0.5, 0.25, 
 // glslang 12.0.0 segfaults on this (ARCHITECTURE.md).
 const char* kCrash = "float4 main(float4) : SV_Target { return 0; }\n";
 
-std::vector<WorkerOutcome> run_jobs(std::vector<CompileJob> jobs, WorkerLimits limits = {}, unsigned workers = 2) {
-  WorkerPool pool(KILN_WORKER_PATH, workers, limits);
+// `worker`: the shipped worker, or the tests' fault-injecting one (tests/support/fault_worker.cpp).
+std::vector<WorkerOutcome> run_jobs(std::vector<CompileJob> jobs, WorkerLimits limits = {}, unsigned workers = 2,
+                                    const char* worker = KILN_WORKER_PATH) {
+  WorkerPool pool(worker, workers, limits);
   std::vector<WorkerOutcome> outcomes(jobs.size());
   pool.run(jobs, [&](size_t i, WorkerOutcome o) { outcomes[i] = std::move(o); });
   return outcomes;
@@ -202,26 +204,36 @@ TEST(Workers, PreprocessingServesIncludesOnlyFromTheJobsFiles) {
 }
 
 TEST(Workers, HungWorkerIsKilledAtTheTimeout) {
-  ::setenv("KILN_WORKER_FAULT_INJECTION", "1", 1);
   WorkerLimits limits;
   // The clock starts when the worker is spawned, so a good job's time includes a worker start-up
   // (loading glslang, SPIRV-Tools, SPIRV-Cross): generous, as only the hung job waits it out.
   limits.job_timeout = std::chrono::seconds(10);
   // One worker: the jobs after the hung one run in the worker started to replace it.
-  auto outcomes = run_jobs({job(kValid), job(std::string("// kiln-fault: hang\n") + kValid), job(kValid), job(kValid)}, limits, 1);
-  ::unsetenv("KILN_WORKER_FAULT_INJECTION");
+  auto outcomes = run_jobs({job(kValid), job(std::string("// kiln-fault: hang\n") + kValid), job(kValid), job(kValid)}, limits, 1,
+                           KILN_FAULT_WORKER_PATH);
   EXPECT_EQ(outcomes[0].kind, WorkerOutcome::Kind::Done);
   EXPECT_EQ(outcomes[1].kind, WorkerOutcome::Kind::TimedOut);
   EXPECT_EQ(outcomes[2].kind, WorkerOutcome::Kind::Done);
   EXPECT_TRUE(outcomes[3].output.ok);
 }
 
+// Fault injection lives in the tests' own worker: the shipped worker and CLI hold none of its triggers.
+TEST(Workers, TheShippedWorkerHasNoFaultInjection) {
+  for (const char* executable : {KILN_WORKER_PATH, KILN_CLI_PATH}) {
+    const std::string bytes = testing::read_file(executable);
+    ASSERT_GT(bytes.size(), 100000u) << executable;
+    for (const char* trigger : {"kiln-fault: hang", "kiln-fault: oom", "kiln-fault: crash-preprocess", "kiln_fault_throw",
+                                "KilnFaultCrashBackEnd"})
+      EXPECT_EQ(bytes.find(trigger), std::string::npos) << executable << " holds " << trigger;
+  }
+  EXPECT_NE(testing::read_file(KILN_FAULT_WORKER_PATH).find("kiln-fault: hang"), std::string::npos);
+}
+
 TEST(Workers, WorkerOverItsMemoryLimitIsAnInternalError) {
-  ::setenv("KILN_WORKER_FAULT_INJECTION", "1", 1);
   WorkerLimits limits;
   limits.memory_limit_mb = 512;
-  auto outcomes = run_jobs({job(std::string("// kiln-fault: oom\n") + kValid), job(kValid), job(kValid)}, limits, 1);
-  ::unsetenv("KILN_WORKER_FAULT_INJECTION");
+  auto outcomes = run_jobs({job(std::string("// kiln-fault: oom\n") + kValid), job(kValid), job(kValid)}, limits, 1,
+                           KILN_FAULT_WORKER_PATH);
   EXPECT_EQ(outcomes[0].kind, WorkerOutcome::Kind::OutOfMemory);
   EXPECT_EQ(outcomes[1].kind, WorkerOutcome::Kind::Done);
   EXPECT_TRUE(outcomes[2].output.ok);

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "kiln/defaults.hpp"
 #include "kiln/diagnostics.hpp"
 #include "kiln/model.hpp"
 
@@ -29,13 +30,13 @@ struct RemoteCacheOptions {
   std::string key_namespace;                        // mixed into every key: caches apart on one server
   bool upload = false;                              // write what this build compiled (read-only otherwise)
   bool required = false;                            // remote errors fail the build (CI shard jobs)
-  std::chrono::milliseconds connect_timeout{1'000};    // a server that is down costs at most this, once
-  std::chrono::milliseconds operation_timeout{30'000};  // one request, transfer included
+  std::chrono::milliseconds connect_timeout = defaults::kRemoteConnectTimeout;  // a server that is down costs at most this, once
+  std::chrono::milliseconds operation_timeout = defaults::kRemoteTimeout;      // one request, transfer included
   std::string bearer_token;                         // sent as "Authorization: Bearer"; never printed
   std::filesystem::path token_file;                 // read when bearer_token is empty
   std::filesystem::path ca_file;                    // empty: the system's CAs
   std::filesystem::path netrc_file;                 // basic auth; empty: libcurl's default (~/.netrc)
-  unsigned parallel_transfers = 32;                 // requests in flight (one kept-alive connection each)
+  unsigned parallel_transfers = defaults::kRemoteParallelTransfers;  // requests in flight (one kept-alive connection each)
 };
 
 struct BuildOptions {
@@ -44,17 +45,17 @@ struct BuildOptions {
   std::filesystem::path output_dir;
   unsigned jobs = 0;                                // 0: one worker per core
   std::optional<std::filesystem::path> cache_dir;  // nothing: no cache
-  uint64_t cache_max_mb = 1024;                     // least recently used segments go past this
+  uint64_t cache_max_mb = defaults::kCacheMaxMb;    // least recently used segments go past this
   std::set<std::string> emit;                       // stages to dump under <output>/emit/
   std::optional<std::filesystem::path> depfile;
   std::filesystem::path worker_executable;          // empty: default_worker_executable()
-  std::chrono::milliseconds worker_timeout{120'000};
-  uint64_t worker_memory_limit_mb = 4096;
+  std::chrono::milliseconds worker_timeout = defaults::kWorkerTimeout;
+  uint64_t worker_memory_limit_mb = defaults::kWorkerMemoryLimitMb;
   bool optimize = true;
   OptimizerRecipe optimizer_recipe = OptimizerRecipe::Kiln;  // --optimize=kiln|O (with `optimize`)
   std::string frontend = "glslang";                 // HLSL front end, by name (frontend_names())
   std::vector<Target> targets;                      // empty: the pack definition's targets
-  uint64_t max_file_bytes = 4u << 20;
+  uint64_t max_file_bytes = defaults::kMaxFileBytes;
   BindingOptions bindings;       // command line: overrides every pass's "bindings" field by field
   std::vector<Define> defines;   // command line (-D): added to every pass's, replacing a define of the same name
   RemoteCacheOptions remote;

@@ -15,7 +15,7 @@ namespace {
 using spirv_edit::Instruction;
 using spirv_edit::make;
 
-bool is_name_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
+bool in_identifier(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
 
 bool is_access_chain(uint32_t op) {
   return op == spv::OpAccessChain || op == spv::OpInBoundsAccessChain || op == spv::OpPtrAccessChain ||
@@ -30,16 +30,16 @@ std::optional<std::string> rewrite_nonuniform_index(std::string_view text) {
   std::optional<std::string> out;
   for (size_t at = text.find(kName); at != std::string_view::npos; at = text.find(kName, at + 1)) {
     const size_t end = at + kName.size();
-    if ((at > 0 && (is_name_char(text[at - 1]) || text[at - 1] == '.')) || (end < text.size() && is_name_char(text[end]))) continue;
+    if ((at > 0 && (in_identifier(text[at - 1]) || text[at - 1] == '.')) || (end < text.size() && in_identifier(text[end]))) continue;
     size_t open = end;
     while (open < text.size() && (text[open] == ' ' || text[open] == '\t')) ++open;
     if (open >= text.size() || text[open] != '(') continue;
     // A declaration of a function of that name (a type word before it) is the text's own: leave the text alone.
     size_t before = at;
     while (before > 0 && (text[before - 1] == ' ' || text[before - 1] == '\t')) --before;
-    if (before < at && before > 0 && is_name_char(text[before - 1])) {
+    if (before < at && before > 0 && in_identifier(text[before - 1])) {
       size_t word = before;
-      while (word > 0 && is_name_char(text[word - 1])) --word;
+      while (word > 0 && in_identifier(text[word - 1])) --word;
       const std::string_view previous = text.substr(word, before - word);
       if (previous != "return" && previous != "else" && previous != "case") return std::nullopt;
     }

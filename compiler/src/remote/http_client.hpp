@@ -9,11 +9,13 @@
 #include <string>
 #include <string_view>
 
+#include "kiln/defaults.hpp"
+
 namespace kiln {
 
 struct HttpSettings {
-  std::chrono::milliseconds connect_timeout{1'000};
-  std::chrono::milliseconds operation_timeout{30'000};
+  std::chrono::milliseconds connect_timeout = defaults::kRemoteConnectTimeout;
+  std::chrono::milliseconds operation_timeout = defaults::kRemoteTimeout;
   std::string bearer_token;  // empty: none; never logged
   std::string ca_file;       // empty: the system's CA store
   std::string netrc_file;    // empty: libcurl's default (~/.netrc); basic auth from a matching machine line

@@ -290,53 +290,7 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
   }
 }
 
-namespace {
-
-// Test-only fault injection, enabled by KILN_WORKER_FAULT_INJECTION=1: a source containing
-// "kiln-fault: hang" or "kiln-fault: oom" makes this worker hang or exhaust its memory; a preprocessing job whose
-// entry file holds "kiln-fault: crash-preprocess" crashes it (SIGSEGV), as a preprocessor bug would; one naming
-// kiln_fault_throw (an identifier, so it survives preprocessing) makes it throw, as a library bug would; a
-// back end whose
-// module names a function KilnFaultCrashBackEnd crashes it (SIGSEGV), as a SPIRV-Tools bug would; one whose
-// module names KilnFaultInvalidModule loses its Location decorations, as a front-end bug would, so that
-// spirv-val rejects it; one whose module names KilnFaultTruncatedModule ends in the middle of an
-// instruction, so that the optimizer cannot parse it.
-void inject_fault(CompileJob& job) {
-  static const bool enabled = [] {
-    const char* env = std::getenv("KILN_WORKER_FAULT_INJECTION");
-    return env && std::string(env) == "1";
-  }();
-  if (!enabled) return;
-  if (job.kind == JobKind::Preprocess && job.files && !job.files->empty() &&
-      job.files->front().text.find("kiln-fault: crash-preprocess") != std::string::npos)
-    std::raise(SIGSEGV);
-  if (job.source.find("kiln-fault: hang") != std::string::npos)
-    for (;;) std::this_thread::sleep_for(std::chrono::seconds(1));
-  if (job.source.find("kiln_fault_throw") != std::string::npos) throw std::runtime_error("injected worker exception");
-  if (job.source.find("kiln-fault: oom") != std::string::npos) {
-    std::vector<std::vector<char>> hog;
-    for (;;) hog.emplace_back(64 << 20, 'x');
-  }
-  std::string_view module(reinterpret_cast<const char*>(job.spirv.data()), job.spirv.size() * 4);
-  if (job.kind == JobKind::BackEnd && module.find("KilnFaultCrashBackEnd") != std::string_view::npos) std::raise(SIGSEGV);
-  if (job.kind == JobKind::BackEnd && module.find("KilnFaultInvalidModule") != std::string_view::npos) {
-    constexpr uint32_t kOpDecorate = 71, kDecorationLocation = 30;
-    std::vector<uint32_t> kept(job.spirv.begin(), job.spirv.begin() + 5);
-    for (size_t i = 5; i < job.spirv.size();) {
-      const uint32_t words = std::max<uint32_t>(job.spirv[i] >> 16, 1);
-      const bool location = (job.spirv[i] & 0xffffu) == kOpDecorate && words >= 3 && job.spirv[i + 2] == kDecorationLocation;
-      if (!location) kept.insert(kept.end(), job.spirv.begin() + i, job.spirv.begin() + std::min(i + words, job.spirv.size()));
-      i += words;
-    }
-    job.spirv = std::move(kept);
-  }
-  if (job.kind == JobKind::BackEnd && module.find("KilnFaultTruncatedModule") != std::string_view::npos)
-    job.spirv.back() += 4u << 16;  // the last instruction (OpFunctionEnd) now claims words past the end
-}
-
-}  // namespace
-
-int worker_main(int argc, char** argv) {
+int worker_main(int argc, char** argv, void (*before_job)(CompileJob& job)) {
   std::string frontend_name{kDefaultFrontend};
   for (int i = 1; i + 1 < argc; ++i) {
     if (std::string(argv[i]) == "--memory-limit-mb") {
@@ -359,7 +313,7 @@ int worker_main(int argc, char** argv) {
     JobOutput output;
     try {
       CompileJob job = decode_job(payload);
-      inject_fault(job);
+      if (before_job) before_job(job);
       output = run_compile_job(*frontend, job);
     } catch (const std::bad_alloc&) {
       output = JobOutput{};

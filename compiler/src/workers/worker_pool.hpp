@@ -11,14 +11,15 @@
 #include <string>
 #include <vector>
 
+#include "kiln/defaults.hpp"
 #include "workers/compile_job.hpp"
 #include "workers/job_runner.hpp"
 
 namespace kiln {
 
 struct WorkerLimits {
-  std::chrono::milliseconds job_timeout{120'000};
-  uint64_t memory_limit_mb = 4096;  // RLIMIT_AS of each worker
+  std::chrono::milliseconds job_timeout = defaults::kWorkerTimeout;
+  uint64_t memory_limit_mb = defaults::kWorkerMemoryLimitMb;  // RLIMIT_AS of each worker
   std::string frontend{kDefaultFrontend};  // the front end the workers compile with (frontend_names())
 };
 
@@ -50,7 +51,9 @@ class WorkerPool final : public JobRunner {
 // Finds kiln-worker: $KILN_WORKER, then next to the running executable, then the build tree.
 std::filesystem::path default_worker_executable();
 
-// The worker process's main loop (kiln-worker's main).
-int worker_main(int argc, char** argv);
+// The worker process's main loop (kiln-worker's main). `before_job` sees each job before it runs: the test suite's
+// fault-injecting worker (tests/support/fault_worker.cpp) passes one; the shipped worker passes none, so no fault
+// injection is compiled into it.
+int worker_main(int argc, char** argv, void (*before_job)(CompileJob& job) = nullptr);
 
 }  // namespace kiln

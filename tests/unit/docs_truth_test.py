@@ -1,0 +1,99 @@
+#!/usr/bin/env python3
+"""Docs that cannot drift (issue: one row per named thing, docs that cannot drift).
+
+  defaults  every default the README, docs/*.md and the man page state for a `kiln build` option equals the one
+            `kiln build --help` prints, and --help's come from kiln/defaults.hpp (the code's).
+  map       every file and folder docs/design.md names exists (resolved against the folders its text is about),
+            and the counts it states hold: build_pack's length, the fuzz corpus's file count.
+
+usage: docs_truth_test.py defaults|map <kiln executable> <source dir>"""
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+failures = []
+
+
+def fail(message):
+    failures.append(message)
+    print("FAIL: " + message)
+
+
+def check_defaults(kiln, root):
+    help_text = subprocess.run([kiln, "build", "--help"], capture_output=True, text=True, check=True).stdout
+    stated = {}  # option -> the default --help states
+    for match in re.finditer(r"(--[a-z][a-z0-9-]+)[^\n]*(?:\n {10,}[^\n]*)*?\(default: ([0-9.]+)\)", help_text):
+        stated[match.group(1)] = float(match.group(2))
+    for option in ("--worker-timeout", "--cache-max-mb", "--remote-connect-timeout", "--remote-timeout", "--remote-transfers"):
+        if option not in stated:
+            fail(f"kiln build --help states no default for {option}")
+    documents = [root / "README.md", root / "docs/man/kiln.1"] + sorted((root / "docs").glob("*.md"))
+    checked = 0
+    for document in documents:
+        text = document.read_text(encoding="utf-8")
+        for option, value in stated.items():
+            spellings = [re.escape(option), re.escape(option).replace("\\-", "\\\\-")]  # the man page writes \-\-
+            for spelling in spellings:
+                for match in re.finditer(spelling + r"\b", text):
+                    window = text[match.end():match.end() + 80]
+                    found = re.match(r"[^.;|)]*?(?:default:?\s+([0-9.]+)|([0-9.]+)\s*(?:s|MB|MiB)?\s+by default)", window)
+                    if not found:
+                        continue
+                    number = float(found.group(1) or found.group(2))
+                    checked += 1
+                    if number != value:
+                        fail(f"{document.relative_to(root)}: {option} default {number:g}, the code's is {value:g}")
+    print(f"{len(stated)} defaults in --help, {checked} statements of them in the docs checked")
+    if checked < 4:
+        fail("fewer default statements found than the docs hold: the pattern no longer matches them")
+
+
+def check_map(root):
+    design = (root / "docs/design.md").read_text(encoding="utf-8")
+    bases = [root, root / "compiler/src", root / "compiler/include", root / "compiler", root / "verify", root / "tests",
+             root / "compiler/cli"]
+    named = 0
+    for token in sorted(set(re.findall(r"`([^`\s]+)`", design))):
+        if "/" not in token or token.startswith(("../", "/", "http")) or re.search(r"[<>*{}$]|\.\.\.", token):
+            continue
+        path = token.split("'")[0].rstrip(":,.")
+        if not re.fullmatch(r"[A-Za-z0-9_./-]+", path):
+            continue
+        named += 1
+        candidates = [base / path for base in bases]
+        # A stem names its .cpp/.hpp pair: `driver/messages`.
+        candidates += [Path(str(c) + ext) for c in candidates for ext in (".cpp", ".hpp")]
+        if not any(c.exists() for c in candidates):
+            fail(f"docs/design.md names `{token}`, which does not exist")
+    print(f"docs/design.md names {named} files and folders")
+    # The counts it states.
+    pipeline = (root / "compiler/src/pipeline.cpp").read_text(encoding="utf-8")
+    body = re.search(r"\nBuildReport build_pack\([^)]*\)[^{]*\{\n(.*?)\n\}\n", pipeline, re.S)
+    stated = re.search(r"`build_pack` is the pipeline: about (\d+) lines", design)
+    if not body or not stated:
+        fail("build_pack's length: the function or the sentence stating it is not found")
+    else:
+        lines = body.group(1).count("\n") + 1
+        if abs(lines - int(stated.group(1))) > int(stated.group(1)) // 4:
+            fail(f"docs/design.md says build_pack is about {stated.group(1)} lines; it is {lines}")
+    corpus = re.search(r"\(`tests/fuzz/corpus/`, (\d+) files", design)
+    if corpus:
+        files = sum(1 for p in (root / "tests/fuzz/corpus").rglob("*") if p.is_file())
+        if files != int(corpus.group(1)):
+            fail(f"docs/design.md says the fuzz corpus has {corpus.group(1)} files; it has {files}")
+
+
+def main():
+    if len(sys.argv) < 3:
+        print(__doc__)
+        return 2
+    if sys.argv[1] == "defaults":
+        check_defaults(sys.argv[2], Path(sys.argv[3]))
+    else:
+        check_map(Path(sys.argv[2]))
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
