@@ -203,14 +203,16 @@ int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cach
   const std::string shard = options.shard_count > 1 ? std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count) : "";
   if (report.ok && !quiet) print_summary(report, std::cout, shard);
   int code = kiln::exit_code(sink, report.internal_errors);
+  int errors = sink.error_count();
   if (!summary_file.empty())
     if (std::string error = kiln::write_file_atomic(summary_file, summary_json(report, sink, code, options).dump(2) + "\n");
         !error.empty()) {
       std::cerr << "kiln: error: --summary-json: " << error << "\n";
       code = std::max(code, 1);
+      ++errors;  // counted: "kiln: 0 error(s)" under an error was a contradiction
     }
   if (code != 0)
-    std::cerr << "kiln: " << sink.error_count() << " error(s)"
+    std::cerr << "kiln: " << errors << " error(s)"
               << (report.internal_errors ? ", including internal compiler errors" : "") << "\n";
   return code;
 }
@@ -590,14 +592,23 @@ int main(int argc, char** argv) {
   if (*lint) {
     kiln::LintReport report;
     if (lint_inputs.size() == 1 && lint_inputs[0].ends_with(".json")) {
-      // The pack is built into a scratch directory under $TMPDIR (temp_directory_path reads it).
+      // The pack is built into a scratch directory under $TMPDIR, else /tmp, else /var/tmp (as gcc falls back).
       std::error_code ec;
-      std::string temp = (std::filesystem::temp_directory_path(ec) / "kiln-lint-XXXXXX").string();
-      if (ec || !::mkdtemp(temp.data())) {
+      std::string temp;
+      std::vector<std::filesystem::path> places;
+      if (const char* tmpdir = std::getenv("TMPDIR"); tmpdir && *tmpdir) places.emplace_back(tmpdir);
+      places.insert(places.end(), {"/tmp", "/var/tmp"});
+      for (const std::filesystem::path& place : places) {
+        std::string candidate = (place / "kiln-lint-XXXXXX").string();
+        if (::mkdtemp(candidate.data())) {
+          temp = candidate;
+          break;
+        }
+      }
+      if (temp.empty()) {
         const char* tmpdir = std::getenv("TMPDIR");
-        std::cerr << "kiln lint: error: cannot create a scratch directory under '" << (tmpdir && *tmpdir ? tmpdir : "/tmp")
-                  << "' (TMPDIR)"
-                  << (lint_output.empty() ? "" : "; '" + lint_output + "' was not written") << "\n";
+        std::cerr << "kiln lint: error: cannot create a scratch directory under '" << (tmpdir && *tmpdir ? tmpdir : "(TMPDIR unset)")
+                  << "', /tmp or /var/tmp" << (lint_output.empty() ? "" : "; '" + lint_output + "' was not written") << "\n";
         return 2;
       }
       options.pack_file = lint_inputs[0];
@@ -611,7 +622,8 @@ int main(int argc, char** argv) {
       if (!referenced) std::filesystem::remove_all(temp, ec);
     } else {
       std::vector<std::filesystem::path> files(lint_inputs.begin(), lint_inputs.end());
-      report = kiln::lint_files(files, std::vector<std::filesystem::path>(lint_include_dirs.begin(), lint_include_dirs.end()));
+      report = kiln::lint_files(files, std::vector<std::filesystem::path>(lint_include_dirs.begin(), lint_include_dirs.end()),
+                                options.defines);
     }
     std::string text;
     if (format == "json") text = kiln::format_lint_json(report);

@@ -619,6 +619,7 @@ TEST_F(Cli, SummaryJsonRecordsTheBuildForDashboardsEvenWhenItFails) {
   r = build({"--summary-json", "taken"});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("kiln: error: --summary-json: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("kiln: 2 error(s)\n"), std::string::npos) << r.err;  // the shader's, and the summary's
 }
 
 TEST_F(Cli, OnATerminalABuildShowsOneProgressLineAndErasesItBeforeTheSummary) {

@@ -310,24 +310,49 @@ TEST_F(Lint, TheDefaultCacheIsTheUsersXdgCacheDirectory) {
   EXPECT_FALSE(std::filesystem::is_empty(dir / "home/.cache/kiln"));
 }
 
-// A CI step that uploads the report must never find an empty or partial file: -o writes it only when lint ran.
-TEST_F(Lint, NoOutputFileIsWrittenOnAFatalError) {
+// A missing or read-only TMPDIR is no reason to fail a CI step: the scratch build falls back to /tmp (as gcc and
+// glslc do). A CI step that uploads the report must never find an empty or partial file: a report that cannot
+// be written is a fatal error (exit 2) that leaves none.
+TEST_F(Lint, AMissingTmpdirFallsBackAndAnUnwritableReportLeavesNoFile) {
   pack();
   dir.write("S.hlsl", std::string(kVertex) + "float4 F() : SV_Target { return 1.0; }\n");
   // TMPDIR for kiln only (this process needs its own for the capture files).
   auto r = testing::run({"/usr/bin/env", "TMPDIR=" + (dir / "no-such-dir").string(), KILN_CLI_PATH, "lint", "p.pack.json",
                          "--format", "sarif", "-o", "out.sarif"},
                         dir.path());
-  EXPECT_EQ(r.exit_code, 2);
-  EXPECT_EQ(r.err, "kiln lint: error: cannot create a scratch directory under '" + (dir / "no-such-dir").string() +
-                       "' (TMPDIR); 'out.sarif' was not written\n");
-  EXPECT_FALSE(std::filesystem::exists(dir / "out.sarif"));
-  auto written = testing::run_kiln({"lint", "p.pack.json", "--format", "sarif", "-o", "out.sarif"}, dir.path());
-  EXPECT_EQ(written.exit_code, 0) << written.err;
-  EXPECT_EQ(written.out, "");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "");
   std::string text = testing::read_file(dir / "out.sarif");
   expect_valid_sarif(text);
   EXPECT_EQ(json::parse(text)["version"], "2.1.0");
+  auto unwritable = testing::run_kiln({"lint", "p.pack.json", "--format", "sarif", "-o", "missing/out.sarif"}, dir.path());
+  EXPECT_EQ(unwritable.exit_code, 2);
+  EXPECT_TRUE(unwritable.err.starts_with("kiln lint: error: ")) << unwritable.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "missing"));
+}
+
+// The build's defines (the pack's, a pass's, -D) are defined for lint too: a shader that tests one is not
+// reported, so --werror passes correct shaders in CI. In file mode, -D defines.
+TEST_F(Lint, TheBuildsDefinesAreDefined) {
+  dir.write("S.hlsl", std::string(kVertex) + "float4 F() : SV_Target {\n#if defined(USE_FANCY_FOG) || PASS_QUALITY > 1\n"
+                      "  return 0.5;\n#else\n  return 1.0;\n#endif\n}\n");
+  dir.write("p.pack.json", R"({"name": "p", "defines": {"USE_FANCY_FOG": 1}, "passes": [{"name": "P", "source": "S.hlsl",
+      "stages": {"vertex": "V", "fragment": "F"}, "defines": {"PASS_QUALITY": 2}}]})");
+  auto with_defines = testing::run_kiln({"lint", "p.pack.json", "--werror", "--no-cache"}, dir.path());
+  EXPECT_EQ(with_defines.exit_code, 0) << with_defines.err;
+  // Without the pack's defines, both names are reported: the rule still sees them.
+  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl",
+      "stages": {"vertex": "V", "fragment": "F"}}]})");
+  auto without = testing::run_kiln({"lint", "p.pack.json", "--werror", "--no-cache"}, dir.path());
+  EXPECT_EQ(without.exit_code, 1);
+  EXPECT_NE(without.err.find("'USE_FANCY_FOG' is tested here"), std::string::npos) << without.err;
+  auto from_command_line = testing::run_kiln({"lint", "p.pack.json", "--werror", "--no-cache", "-D", "USE_FANCY_FOG",
+                                              "-D", "PASS_QUALITY=2"}, dir.path());
+  EXPECT_EQ(from_command_line.exit_code, 0) << from_command_line.err;
+  auto file_mode = testing::run_kiln({"lint", "S.hlsl", "--werror", "-D", "USE_FANCY_FOG", "-D", "PASS_QUALITY=2"}, dir.path());
+  EXPECT_EQ(file_mode.exit_code, 0) << file_mode.err;
+  auto file_mode_without = testing::run_kiln({"lint", "S.hlsl", "--werror"}, dir.path());
+  EXPECT_EQ(file_mode_without.exit_code, 1) << file_mode_without.err;
 }
 
 // File mode reads each file's includes (next to it, then in -I roots): names a header defines or declares are

@@ -101,6 +101,8 @@ LintReport lint_pack(BuildOptions options) {
   context.plan = &*build.plan;
   context.sources = build.plan->sources;
   context.declared = declared_keywords(build.plan->pass_groups);
+  for (const PassSettings& pass : build.plan->pass_settings)  // with the command line's -D applied
+    for (const Define& define : pass.defines) context.defined.push_back(define.name);
   context.pack_file = display_path(options.pack_file);
   run_rules_needing(context, LintInput::Sources, report);
   run_rules_needing(context, LintInput::Plan, report);
@@ -119,7 +121,8 @@ LintReport lint_pack(BuildOptions options) {
   return report;
 }
 
-LintReport lint_files(const std::vector<std::filesystem::path>& files, const std::vector<std::filesystem::path>& include_dirs) {
+LintReport lint_files(const std::vector<std::filesystem::path>& files, const std::vector<std::filesystem::path>& include_dirs,
+                      const std::vector<Define>& defines) {
   LintReport report;
   DiagnosticSink sink;
   const ReadLimits limits{};
@@ -154,6 +157,7 @@ LintReport lint_files(const std::vector<std::filesystem::path>& files, const std
   }
 
   LintContext context;
+  for (const Define& define : defines) context.defined.push_back(define.name);
   // Keywords declared by the files and everything they include, parsed as the build parses them.
   static const std::regex pragma_re(R"(^(\s*#\s*pragma)(.*)$)");
   for (const auto& [path, name] : shown) {

@@ -19,9 +19,10 @@ namespace kiln {
 LintReport lint_pack(BuildOptions options);
 // Lints loose HLSL files with the source rules (undeclared keywords, fp16 guards). Each file's includes are
 // read (next to the including file, then in `include_dirs`, confined to those roots), so keywords declared and
-// names defined in included headers are known; the included files are linted too.
+// names defined in included headers are known; the included files are linted too. `defines` (-D) are defined, as
+// in a build.
 LintReport lint_files(const std::vector<std::filesystem::path>& files,
-                      const std::vector<std::filesystem::path>& include_dirs = {});
+                      const std::vector<std::filesystem::path>& include_dirs = {}, const std::vector<Define>& defines = {});
 
 // Runs the rules that `context` has the input for, by need (sources, plan, built pack), in table order.
 void run_lint_rules(const LintContext& context, LintReport& report);

@@ -37,6 +37,7 @@ struct LintReport {
 struct LintContext {
   std::vector<std::pair<std::string, std::string>> sources;  // display path -> text, every file read
   std::vector<std::string> declared;                          // every declared keyword, sorted, unique
+  std::vector<std::string> defined;  // names the build defines: the pack's and passes' "defines" and -D
   const PlanListing* plan = nullptr;
   const PackView* pack = nullptr;
   std::string pack_file;  // display path of the pack definition (pack mode)

@@ -18,6 +18,7 @@ void check_undeclared_keyword(const LintContext& context, LintReport& report) {
   static const std::regex keyword_shape(R"(^_?[A-Z][A-Z0-9_]{2,}$)");
   const std::vector<std::string>& declared = context.declared;
   std::set<std::string> defined(declared.begin(), declared.end());
+  defined.insert(context.defined.begin(), context.defined.end());  // the build's own defines (pack, pass, -D)
   for (const auto& [path, text] : context.sources)
     for (const std::string& line : code_lines(text)) {
       std::smatch m;
@@ -49,7 +50,8 @@ constinit const LintRule undeclared_keyword{
     RuleId::UndeclaredKeyword, "UndeclaredKeyword",
     "A keyword-like name tested by #if/#ifdef is never declared or defined (typo?).",
     "A name shaped like a keyword (_?[A-Z][A-Z0-9_]{2,}) tested by #if, #ifdef, #ifndef or #elif that no keyword "
-    "pragma declares and no #define in any file read defines is never true: usually a misspelt keyword. The "
+    "pragma declares, no #define in any file read defines and no define of the build sets (the pack's and its "
+    "passes' \"defines\", -D) is never true: usually a misspelt keyword. The "
     "closest declared keyword is suggested. In file mode, pass the include roots with -I so that names defined "
     "in included headers are known.",
     Severity::Warning, LintInput::Sources, check_undeclared_keyword};
