@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
+#include <new>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -109,9 +110,7 @@ void keep_freed_memory_in_the_heap() {
 // each API). A caller's own GALLIVM_PERF, even an empty one, is kept.
 void default_driver_settings() { setenv("GALLIVM_PERF", "nopt", /*overwrite=*/0); }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   keep_freed_memory_in_the_heap();
   default_driver_settings();
   CLI::App app{"kiln-verify: renders variant packs on Mesa lavapipe/llvmpipe and compares them with CPU-reference goldens", "kiln"};
@@ -152,4 +151,23 @@ int main(int argc, char** argv) {
   }
   if (*render) return run_render(pack_dir, variant_keywords, scene_file, png_out, exr_out, size_text, api);
   return run_test(pack_dir, scene_file, golden_dir, tolerances, report_dir, filter, shard, api, against);
+}
+
+}  // namespace
+
+// The guarded entry point, as kiln's (compiler/cli/main.cpp): an exception that escapes is an internal error,
+// exit 2, never an abort. (render and test still report the renderer's and the reader's errors as exit 1.)
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::bad_alloc&) {
+    std::cerr << "kiln: error: out of memory\n";
+  } catch (const std::exception& error) {
+    std::cerr << "kiln: internal error: " << error.what()
+              << "\n  note: this is a bug in kiln, not in your input: please report it with the command line\n";
+  } catch (...) {
+    std::cerr << "kiln: internal error: an unknown exception"
+              << "\n  note: this is a bug in kiln, not in your input: please report it with the command line\n";
+  }
+  return 2;
 }

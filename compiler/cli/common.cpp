@@ -1,0 +1,124 @@
+// What several verbs share: colour, diagnostics, the plan arguments, kiln-verify's verbs, the version text.
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+#include <sstream>
+#include <string_view>
+
+#include "allocator.hpp"
+#include "cli.hpp"
+#include "cross/targets.hpp"
+#include "definition/definition.hpp"
+#include "frontend/frontend.hpp"
+#include "optimize/spirv_tools.hpp"
+
+namespace kiln::cli {
+namespace {
+
+bool g_colour = false;
+
+}  // namespace
+
+void set_colour(const std::string& mode) {
+  if (mode == "always" || mode == "never") {
+    g_colour = mode == "always";
+    return;
+  }
+  const char* no_colour = std::getenv("NO_COLOR");
+  const char* term = std::getenv("TERM");
+  g_colour = !(no_colour && *no_colour) && ::isatty(2) && term && *term && std::string_view(term) != "dumb";
+}
+
+bool colour() { return g_colour; }
+
+void print_diagnostics_as_they_come(DiagnosticSink& sink) {
+  sink.set_listener([](const Diagnostic& d) { std::cerr << format_diagnostic(d, g_colour); });
+}
+
+std::string seconds_text(std::chrono::milliseconds duration) {
+  std::ostringstream out;
+  out << std::chrono::duration<double>(duration).count();
+  return out.str();
+}
+
+std::string format_ms(double ms) {
+  char text[32];
+  if (ms >= 1000) std::snprintf(text, sizeof text, "%.2f s", ms / 1000);
+  else std::snprintf(text, sizeof text, "%.1f ms", ms);
+  return text;
+}
+
+void PlanArguments::add_to(CLI::App* verb) {
+  verb->add_option("--scene", scenes_, "Scene profile (JSON); keep only variants some scene can request")->check(CLI::ExistingFile);
+  verb->add_option("-D,--define", define_texts_, "Preprocessor define NAME or NAME=VALUE (repeatable; wins over the pack's)");
+  for (char c : std::string("btsu"))
+    verb->add_option(std::string("--fvk-") + c + "-shift", shift_texts_[c],
+                     std::string("N SPACE: shift the bindings of ") + c + " registers in SPACE (a number or 'all') by N (repeatable)");
+  verb->add_option("--fvk-bind-globals", globals_text_, "N M: the implicit $Global uniform block at binding N, set M");
+  verb->add_flag("--auto-bind", auto_bind_, "Bind resources that declare no register automatically (the default)");
+  verb->add_flag("--no-auto-bind", no_auto_bind_, "Do not bind resources that declare no register automatically");
+  verb->add_flag("--combined-image-samplers", combined_, "A texture and a sampler at one register number become one combined binding");
+  verb->add_flag("--separate-image-samplers", separate_, "Keep textures and samplers apart (the default)");
+}
+
+bool PlanArguments::apply(BuildOptions& options) const {
+  for (const std::string& scene : scenes_) options.scene_files.push_back(scene);
+  DiagnosticSink sink;
+  print_diagnostics_as_they_come(sink);
+  bool ok = true;
+  if (auto defines = parse_command_line_defines(define_texts_, sink)) options.defines = *defines;
+  else ok = false;
+  for (const auto& [letter, list] : shift_texts_)
+    for (const auto& [shift, space] : list)
+      ok = parse_command_line_shift(*parse_register_class(std::string(1, letter)), shift, space, options.bindings, sink) && ok;
+  if (!globals_text_.first.empty())
+    ok = parse_command_line_globals(globals_text_.first, globals_text_.second, options.bindings, sink) && ok;
+  if (auto_bind_ || no_auto_bind_) options.bindings.auto_bind = !no_auto_bind_;
+  if (combined_ || separate_) options.bindings.combined_image_samplers = !separate_;
+  return ok;
+}
+
+int run_verify(int argc, char** argv) {
+  std::vector<std::filesystem::path> candidates;
+  if (const char* env = std::getenv("KILN_VERIFY"); env && *env) candidates.emplace_back(env);
+  std::error_code ec;
+  if (auto self = std::filesystem::read_symlink("/proc/self/exe", ec); !ec) {
+    candidates.push_back(self.parent_path() / "kiln-verify");
+    candidates.push_back(self.parent_path().parent_path() / "libexec" / "kiln" / "kiln-verify");
+  }
+#ifdef KILN_BUILD_VERIFY_PATH
+  candidates.emplace_back(KILN_BUILD_VERIFY_PATH);
+#endif
+  for (const std::filesystem::path& candidate : candidates) {
+    if (::access(candidate.c_str(), X_OK) != 0) continue;
+    std::vector<char*> args(argv, argv + argc);
+    std::string program = candidate.string();
+    args[0] = program.data();
+    args.push_back(nullptr);
+    ::execv(program.c_str(), args.data());
+    std::cerr << "kiln: error: cannot run " << program << ": " << std::strerror(errno) << "\n";
+    return 1;
+  }
+  std::cerr << "kiln: error: 'kiln " << argv[1] << "' runs kiln-verify, which this installation does not have "
+            << "(configure kiln with -DKILN_BUILD_VERIFY=ON, or set KILN_VERIFY to its path)\n";
+  return 1;
+}
+
+std::string version_text() {
+  std::string text = std::string("kiln ") + kiln::kKilnVersion + "\n";
+  for (const std::string& name : kiln::frontend_names())
+    if (auto frontend = kiln::make_frontend(name)) text += "front end: " + frontend->name() + " " + frontend->version() + "\n";
+  text += "SPIRV-Tools: " + kiln::spirv_tools_version() + "\n";
+  text += "optimizer recipe: kiln (default; -O without " +
+          std::to_string(kiln::optimizer_pass_names(kiln::OptimizerRecipe::Stock).size() -
+                         kiln::optimizer_pass_names(kiln::OptimizerRecipe::Kiln).size()) +
+          " of its " + std::to_string(kiln::optimizer_pass_names(kiln::OptimizerRecipe::Stock).size()) +
+          " passes), O with --optimize=O\n";
+  text += "SPIRV-Cross: " + kiln::spirv_cross_version() + "\n";
+  return text + "allocator: " + kiln::allocator_description();
+}
+
+}  // namespace kiln::cli

@@ -1,0 +1,103 @@
+// kiln check-scene and kiln diff-packs: questions about built packs (tools/pack_tools.hpp).
+#include <iostream>
+
+#include <nlohmann/json.hpp>
+
+#include "cli.hpp"
+#include "kiln/pack_reader.hpp"
+#include "tools/pack_tools.hpp"
+
+namespace kiln::cli {
+namespace {
+
+using nlohmann::json;
+
+int run_check_scene(const std::string& pack_dir, const std::string& scene, bool as_json) {
+  kiln::DiagnosticSink sink;
+  print_diagnostics_as_they_come(sink);
+  try {
+    kiln::PackReader pack = kiln::PackReader::open(pack_dir);
+    auto result = kiln::check_scene(pack, scene, sink);
+    if (!result) return 1;
+    if (as_json) {
+      json missing = json::array();
+      for (const auto& m : result->missing) missing.push_back({{"pass", m.pass}, {"keywords", m.keywords}});
+      std::cout << json{{"requested", result->requested}, {"missing", missing}}.dump(2) << "\n";
+    } else {
+      for (const auto& m : result->missing)
+        std::cout << scene << ": error: pass '" << m.pass << "' variant [" << kiln::join_keywords(m.keywords)
+                  << "] can be requested by the scene but is not in pack '" << pack.name() << "'\n";
+      std::cout << "kiln check-scene: " << result->requested << " combinations the scene can request, "
+                << result->missing.size() << " missing\n";
+    }
+    return result->missing.empty() ? 0 : 1;
+  } catch (const kiln::PackError& error) {
+    std::cerr << (error.file().empty() ? pack_dir : error.file()) << ": error: " << error.what() << "\n";
+    return 1;
+  }
+}
+
+int run_diff_packs(const std::string& a, const std::string& b, bool as_json) {
+  try {
+    kiln::PackReader first = kiln::PackReader::open(a), second = kiln::PackReader::open(b);
+    kiln::PackDiff diff = kiln::diff_packs(first, second);
+    if (as_json) {
+      auto list = [](const std::vector<kiln::KeywordCombination>& items) {
+        json out = json::array();
+        for (const auto& i : items) out.push_back({{"pass", i.pass}, {"keywords", i.keywords}});
+        return out;
+      };
+      std::cout << json{{"added", list(diff.added)}, {"removed", list(diff.removed)}, {"changed", list(diff.changed)}}.dump(2)
+                << "\n";
+    } else {
+      for (const auto& i : diff.removed) std::cout << "- " << i.pass << " [" << kiln::join_keywords(i.keywords) << "]\n";
+      for (const auto& i : diff.added) std::cout << "+ " << i.pass << " [" << kiln::join_keywords(i.keywords) << "]\n";
+      for (const auto& i : diff.changed) std::cout << "~ " << i.pass << " [" << kiln::join_keywords(i.keywords) << "]\n";
+      std::cout << diff.added.size() << " added, " << diff.removed.size() << " removed, " << diff.changed.size()
+                << " changed\n";
+    }
+    return 0;
+  } catch (const kiln::PackError& error) {
+    std::cerr << (error.file().empty() ? "kiln diff-packs" : error.file()) << ": error: " << error.what() << "\n";
+    return 1;
+  }
+}
+
+class CheckSceneVerb final : public Verb {
+ public:
+  CLI::App* add_to(CLI::App& app) override {
+    CLI::App* verb = app.add_subcommand("check-scene", "Report every variant a scene can request that a built pack lacks");
+    verb->add_option("pack_dir", pack_dir_, "Directory holding a pack (or its manifest)")->required();
+    verb->add_option("scene", scene_file_, "Scene profile (JSON)")->required()->check(CLI::ExistingFile);
+    verb->add_flag("--json", as_json_, "Print JSON");
+    return verb;
+  }
+  int run() override { return run_check_scene(pack_dir_, scene_file_, as_json_); }
+
+ private:
+  std::string pack_dir_, scene_file_;
+  bool as_json_ = false;
+};
+
+class DiffPacksVerb final : public Verb {
+ public:
+  CLI::App* add_to(CLI::App& app) override {
+    CLI::App* verb = app.add_subcommand("diff-packs", "Show the variants added, removed or changed between two packs");
+    verb->add_option("a", first_, "The old pack")->required();
+    verb->add_option("b", second_, "The new pack")->required();
+    verb->add_flag("--json", as_json_, "Print JSON");
+    return verb;
+  }
+  int run() override { return run_diff_packs(first_, second_, as_json_); }
+
+ private:
+  std::string first_, second_;
+  bool as_json_ = false;
+};
+
+}  // namespace
+
+std::unique_ptr<Verb> make_check_scene_verb() { return std::make_unique<CheckSceneVerb>(); }
+std::unique_ptr<Verb> make_diff_packs_verb() { return std::make_unique<DiffPacksVerb>(); }
+
+}  // namespace kiln::cli
