@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 
 #include <chrono>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <string>
@@ -31,7 +32,7 @@ std::string format_ms(double ms);
 // in DXC's spellings.
 class PlanArguments {
  public:
-  void add_to(CLI::App* verb);
+  void add_to(CLI::App* verb, bool scenes = true);
   // Into `options`: scenes, defines and binding options. False (with K1014 reported) when one is malformed.
   bool apply(BuildOptions& options) const;
 
@@ -57,6 +58,7 @@ std::unique_ptr<Verb> make_inspect_verb();
 std::unique_ptr<Verb> make_lint_verb();
 std::unique_ptr<Verb> make_check_scene_verb();
 std::unique_ptr<Verb> make_diff_packs_verb();
+std::unique_ptr<Verb> make_compile_verb();
 
 // Rendering and golden tests are kiln-verify's verbs (it links Vulkan, EGL, PNG and OpenEXR; kiln does not):
 // listed in --help, handed to kiln-verify before parsing.
@@ -70,6 +72,10 @@ inline constexpr VerifyVerb kVerifyVerbs[] = {
 };
 // Runs kiln-verify ($KILN_VERIFY, next to kiln, then ../libexec/kiln, then the build tree) with kiln's arguments.
 int run_verify(int argc, char** argv);
+
+// A scratch directory `<prefix>XXXXXX` under $TMPDIR, else /tmp, else /var/tmp (as gcc falls back); empty when
+// none of them can hold one.
+std::filesystem::path make_scratch(const std::string& prefix);
 
 // kiln's version and every tool it was built with, as its cache keys and manifests name them.
 std::string version_text();

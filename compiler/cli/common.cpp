@@ -51,8 +51,9 @@ std::string format_ms(double ms) {
   return text;
 }
 
-void PlanArguments::add_to(CLI::App* verb) {
-  verb->add_option("--scene", scenes_, "Scene profile (JSON); keep only variants some scene can request")->check(CLI::ExistingFile);
+void PlanArguments::add_to(CLI::App* verb, bool scenes) {
+  if (scenes)
+    verb->add_option("--scene", scenes_, "Scene profile (JSON); keep only variants some scene can request")->check(CLI::ExistingFile);
   verb->add_option("-D,--define", define_texts_, "Preprocessor define NAME or NAME=VALUE (repeatable; wins over the pack's)");
   for (char c : std::string("btsu"))
     verb->add_option(std::string("--fvk-") + c + "-shift", shift_texts_[c],
@@ -105,6 +106,17 @@ int run_verify(int argc, char** argv) {
   std::cerr << "kiln: error: 'kiln " << argv[1] << "' runs kiln-verify, which this installation does not have "
             << "(configure kiln with -DKILN_BUILD_VERIFY=ON, or set KILN_VERIFY to its path)\n";
   return 1;
+}
+
+std::filesystem::path make_scratch(const std::string& prefix) {
+  std::vector<std::filesystem::path> places;
+  if (const char* tmpdir = std::getenv("TMPDIR"); tmpdir && *tmpdir) places.emplace_back(tmpdir);
+  places.insert(places.end(), {"/tmp", "/var/tmp"});
+  for (const std::filesystem::path& place : places) {
+    std::string candidate = (place / (prefix + "XXXXXX")).string();
+    if (::mkdtemp(candidate.data())) return candidate;
+  }
+  return {};
 }
 
 std::string version_text() {

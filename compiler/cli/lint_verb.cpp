@@ -37,17 +37,7 @@ class LintVerb final : public Verb {
     if (inputs_.size() == 1 && inputs_[0].ends_with(".json")) {
       // The pack is built into a scratch directory under $TMPDIR, else /tmp, else /var/tmp (as gcc falls back).
       std::error_code ec;
-      std::string temp;
-      std::vector<std::filesystem::path> places;
-      if (const char* tmpdir = std::getenv("TMPDIR"); tmpdir && *tmpdir) places.emplace_back(tmpdir);
-      places.insert(places.end(), {"/tmp", "/var/tmp"});
-      for (const std::filesystem::path& place : places) {
-        std::string candidate = (place / "kiln-lint-XXXXXX").string();
-        if (::mkdtemp(candidate.data())) {
-          temp = candidate;
-          break;
-        }
-      }
+      const std::string temp = make_scratch("kiln-lint-").string();
       if (temp.empty()) {
         const char* tmpdir = std::getenv("TMPDIR");
         std::cerr << "kiln lint: error: cannot create a scratch directory under '" << (tmpdir && *tmpdir ? tmpdir : "(TMPDIR unset)")

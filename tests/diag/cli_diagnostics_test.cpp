@@ -1263,5 +1263,54 @@ TEST_F(Cli, DiffPacksShowsAddedRemovedAndChangedVariants) {
   EXPECT_EQ(r.out, "- P [A]\n+ P [B]\n~ P [<none>]\n1 added, 1 removed, 1 changed\n");
 }
 
+// kiln compile: one file, one stage, as glslc and DXC users first write it. The target follows the output's
+// extension, -D selects a keyword's variant, -o - writes to standard output, the depfile names the output, and
+// the diagnostics are the build's (a pack-level one is about the command line).
+TEST_F(Cli, CompileBuildsOneFileForOneStageAsGlslcDoes) {
+  dir.write("inc/Fog.hlsli", "float4 Fog(float4 c) { return c * 0.5; }\n");
+  dir.write("x.hlsl", "#pragma multi_compile _ FOG\n#include \"Fog.hlsli\"\n"
+                      "cbuffer Tint : register(b0) { float4 tint; };\n"
+                      "float4 main(float2 uv : TEXCOORD0) : SV_Target {\n#ifdef FOG\n  return Fog(tint);\n#else\n  return tint;\n"
+                      "#endif\n}\n");
+  auto plain = testing::run_kiln({"compile", "x.hlsl", "-S", "frag", "-I", "inc", "-o", "x.spv"}, dir.path());
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_EQ(plain.err, "");
+  const std::string spirv = testing::read_file(dir / "x.spv");
+  ASSERT_GE(spirv.size(), 20u);
+  EXPECT_EQ(spirv.substr(0, 4), std::string("\x03\x02\x23\x07", 4));  // SPIR-V's magic number
+  auto fog = testing::run_kiln({"compile", "x.hlsl", "-S", "fragment", "-I", "inc", "-D", "FOG", "-o", "fog.spv", "--depfile", "fog.d"},
+                               dir.path());
+  ASSERT_EQ(fog.exit_code, 0) << fog.err;
+  EXPECT_NE(testing::read_file(dir / "fog.spv"), spirv);  // the FOG variant
+  const std::string depfile = testing::read_file(dir / "fog.d");
+  EXPECT_TRUE(depfile.starts_with("fog.spv:")) << depfile;
+  EXPECT_NE(depfile.find("Fog.hlsli"), std::string::npos) << depfile;
+  EXPECT_EQ(depfile.find("compile.pack.json"), std::string::npos) << depfile;  // the scratch pack is no input
+  auto glsl = testing::run_kiln({"compile", "x.hlsl", "-S", "frag", "-I", "inc", "-o", "x.frag"}, dir.path());
+  ASSERT_EQ(glsl.exit_code, 0) << glsl.err;
+  EXPECT_TRUE(testing::read_file(dir / "x.frag").starts_with("#version 450")) << testing::read_file(dir / "x.frag");
+  auto msl = testing::run_kiln({"compile", "x.hlsl", "-S", "frag", "-I", "inc", "--target", "msl", "-o", "-"}, dir.path());
+  ASSERT_EQ(msl.exit_code, 0) << msl.err;
+  EXPECT_TRUE(msl.out.starts_with("#include <metal_stdlib>")) << msl.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "-"));
+
+  auto missing_entry = testing::run_kiln({"compile", "x.hlsl", "-S", "frag", "-E", "PSMain", "-I", "inc", "-o", "y.spv"}, dir.path());
+  EXPECT_EQ(missing_entry.exit_code, 1);
+  EXPECT_TRUE(missing_entry.err.starts_with("<command line>: error[K1402]: entry point 'PSMain' of the fragment stage is not defined"))
+      << missing_entry.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "y.spv"));
+  dir.write("bad.hlsl", "float4 main() : SV_Target {\n  return 1.0\n}\n");
+  auto bad = testing::run_kiln({"compile", "bad.hlsl", "-S", "frag", "-o", "bad.spv"}, dir.path());
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_TRUE(bad.err.starts_with("bad.hlsl:3: error[K1401]: ")) << bad.err;
+  // --werror: a front-end warning (an attribute glslang does not know) fails the compile.
+  dir.write("warn.hlsl", "[[vk::unknown_attribute]] float4 main() : SV_Target { return 1.0; }\n");
+  auto warned = testing::run_kiln({"compile", "warn.hlsl", "-S", "frag", "-o", "w.spv"}, dir.path());
+  EXPECT_EQ(warned.exit_code, 0) << warned.err;
+  EXPECT_NE(warned.err.find("warning[K1407]"), std::string::npos) << warned.err;
+  auto werror = testing::run_kiln({"compile", "warn.hlsl", "-S", "frag", "-o", "w.spv", "--werror"}, dir.path());
+  EXPECT_EQ(werror.exit_code, 1) << werror.err;
+}
+
 }  // namespace
 }  // namespace kiln

@@ -5,7 +5,7 @@ _kiln() {
   local cur prev verb i
   cur="${COMP_WORDS[COMP_CWORD]}"
   prev="${COMP_WORDS[COMP_CWORD-1]}"
-  local verbs="build list inspect lint check-scene diff-packs render test"
+  local verbs="build list inspect lint check-scene diff-packs compile render test"
   local binding="-D --define --fvk-b-shift --fvk-t-shift --fvk-s-shift --fvk-u-shift --fvk-bind-globals --auto-bind --no-auto-bind --combined-image-samplers --separate-image-samplers"
   verb=""
   for ((i = 1; i < COMP_CWORD; i++)); do
@@ -17,7 +17,9 @@ _kiln() {
   case "$prev" in
     --color) COMPREPLY=($(compgen -W "auto always never" -- "$cur")); return ;;
     --emit) COMPREPLY=($(compgen -W "variants preprocessed spvasm glsl msl reflection" -- "$cur")); return ;;
-    --targets) COMPREPLY=($(compgen -W "spirv glsl gles msl" -- "$cur")); return ;;
+    --targets|--target) COMPREPLY=($(compgen -W "spirv glsl gles msl" -- "$cur")); return ;;
+    -S|--stage) COMPREPLY=($(compgen -W "vertex fragment compute geometry hull domain vert frag comp geom tesc tese" -- "$cur")); return ;;
+    -O) COMPREPLY=($(compgen -W "s 0" -- "$cur")); return ;;
     --format) COMPREPLY=($(compgen -W "text json sarif" -- "$cur")); return ;;
     --frontend) COMPREPLY=($(compgen -W "glslang" -- "$cur")); return ;;
     --optimize) COMPREPLY=($(compgen -W "kiln O" -- "$cur")); return ;;
@@ -43,6 +45,7 @@ _kiln() {
     inspect) options+=" --json --extract" ;;
     lint) options+=" --cache --no-cache --scene $binding --include-dir -I --format --output -o --sarif-root --werror" ;;
     check-scene|diff-packs) options+=" --json" ;;
+    compile) options+=" --stage -S --entry -E --output -o --target --include-dir -I $binding -O --depfile --werror" ;;
     render) options+=" --variant --scene --output -o --exr --size --api" ;;
     test) options+=" --scene --golden --tolerances --report --filter --shard --api --against" ;;
   esac
