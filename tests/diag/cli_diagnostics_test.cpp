@@ -1,6 +1,8 @@
 // Each bad input gets an exact diagnostic (checked to the byte), a non-zero exit code, and leaves no
 // pack and no cache entry behind.
 #include <gtest/gtest.h>
+
+#include <cstring>
 #include <linux/fs.h>
 #include <sys/ioctl.h>
 #include <sys/stat.h>
@@ -691,7 +693,7 @@ TEST_F(Cli, EveryVerbHasHelp) {
   std::istringstream lines(top.out.substr(top.out.find("Subcommands:")));
   for (std::string line; std::getline(lines, line);)
     if (line.starts_with("  ") && line[2] != ' ') verbs.push_back(line.substr(2, line.find(' ', 2) - 2));
-  EXPECT_EQ(verbs, (std::vector<std::string>{"build", "list", "inspect", "lint", "check-scene", "diff-packs", "render", "test"}));
+  EXPECT_EQ(verbs, (std::vector<std::string>{"build", "list", "inspect", "lint", "check-scene", "diff-packs", "compile", "render", "test"}));
   for (const std::string& verb : verbs) {
     auto r = testing::run_kiln({verb, "--help"}, dir.path());
     EXPECT_EQ(r.exit_code, 0) << verb;
