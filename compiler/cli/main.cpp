@@ -3,10 +3,10 @@
 // (exit 2, "this is a bug in kiln"), never an abort or an exit code that reads as the input's fault.
 #include <cstring>
 #include <iostream>
-#include <new>
 
 #include "cli.hpp"
 #include "common/files.hpp"
+#include "kiln/guarded_main.hpp"
 
 namespace {
 
@@ -57,17 +57,4 @@ int run(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  try {
-    return run(argc, argv);
-  } catch (const std::bad_alloc&) {
-    std::cerr << "kiln: error: out of memory\n";
-  } catch (const std::exception& error) {
-    std::cerr << "kiln: internal error: " << error.what()
-              << "\n  note: this is a bug in kiln, not in your input: please report it with the command line\n";
-  } catch (...) {
-    std::cerr << "kiln: internal error: an unknown exception"
-              << "\n  note: this is a bug in kiln, not in your input: please report it with the command line\n";
-  }
-  return 2;
-}
+int main(int argc, char** argv) { return kiln::run_guarded([&] { return run(argc, argv); }); }

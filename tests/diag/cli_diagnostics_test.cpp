@@ -1,8 +1,6 @@
 // Each bad input gets an exact diagnostic (checked to the byte), a non-zero exit code, and leaves no
 // pack and no cache entry behind.
 #include <gtest/gtest.h>
-
-#include <cstring>
 #include <linux/fs.h>
 #include <sys/ioctl.h>
 #include <sys/stat.h>

@@ -9,12 +9,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
-#include <new>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "golden/golden.hpp"
+#include "kiln/guarded_main.hpp"
 #include "kiln/pack_reader.hpp"
 #include "kiln/manifest_json.hpp"
 #include "render/backend.hpp"
@@ -155,19 +155,6 @@ int run(int argc, char** argv) {
 
 }  // namespace
 
-// The guarded entry point, as kiln's (compiler/cli/main.cpp): an exception that escapes is an internal error,
-// exit 2, never an abort. (render and test still report the renderer's and the reader's errors as exit 1.)
-int main(int argc, char** argv) {
-  try {
-    return run(argc, argv);
-  } catch (const std::bad_alloc&) {
-    std::cerr << "kiln: error: out of memory\n";
-  } catch (const std::exception& error) {
-    std::cerr << "kiln: internal error: " << error.what()
-              << "\n  note: this is a bug in kiln, not in your input: please report it with the command line\n";
-  } catch (...) {
-    std::cerr << "kiln: internal error: an unknown exception"
-              << "\n  note: this is a bug in kiln, not in your input: please report it with the command line\n";
-  }
-  return 2;
-}
+// The guarded entry point (kiln/guarded_main.hpp): an exception that escapes is an internal error, exit 2.
+// (render and test still report the renderer's and the reader's errors as exit 1.)
+int main(int argc, char** argv) { return kiln::run_guarded([&] { return run(argc, argv); }); }
