@@ -31,7 +31,8 @@ for file in ./usr/bin/kiln ./usr/bin/kiln-worker ./usr/bin/kiln-verify ./usr/lib
             ./usr/lib/cmake/kiln/kilnConfig.cmake ./usr/lib/cmake/kiln/kilnConfigVersion.cmake \
             ./usr/lib/cmake/kiln/kilnTargets.cmake ./usr/lib/cmake/kiln/KilnShaderPack.cmake \
             ./usr/share/kiln/schema/pack.schema.json ./usr/share/kiln/schema/scene.schema.json \
-            ./usr/share/man/man1/kiln.1 ./usr/share/bash-completion/completions/kiln; do
+            ./usr/share/man/man1/kiln.1 ./usr/share/bash-completion/completions/kiln ./usr/share/doc/kiln/lint.md \
+            ./usr/share/doc/kiln/README.md; do
   grep -qxF "$file" <<< "$contents" || fail "the package has no $file"
 done
 ! grep -q "^\./usr/local\|^\./tmp\|^\./work" <<< "$contents" || fail "files outside /usr: $(grep "^\./usr/local\|^\./tmp\|^\./work" <<< "$contents")"
@@ -39,6 +40,10 @@ done
 echo "== unpacked: kiln runs from it and a consumer project builds against it"
 dpkg-deb -x "$deb" "$work/root"
 "$work/root/usr/bin/kiln" --version | head -1
+# SARIF's help links point into the package's own docs (the unpacked tree stands for /usr).
+printf 'float4 F() : SV_Target { return 1.0; }\n' > "$work/S.hlsl"
+"$work/root/usr/bin/kiln" lint "$work/S.hlsl" --format sarif | grep -qF "file://$work/root/usr/share/doc/kiln/lint.md#" ||
+  fail "SARIF helpUri does not point at the package's lint.md"
 cp -r "$source/shaderlib" "$source/variants" "$work/"
 mkdir "$work/kiln-src"
 ln -s "$work/variants" "$work/kiln-src/variants"

@@ -8,7 +8,13 @@
 #include "lint/lint.hpp"
 
 #ifndef KILN_LINT_DOCS_URL
-#define KILN_LINT_DOCS_URL "docs/lint.md"
+#define KILN_LINT_DOCS_URL ""
+#endif
+#ifndef KILN_INSTALLED_DOC_DIR
+#define KILN_INSTALLED_DOC_DIR "share/doc/kiln"
+#endif
+#ifndef KILN_SOURCE_LINT_DOC
+#define KILN_SOURCE_LINT_DOC "docs/lint.md"
 #endif
 
 namespace kiln {
@@ -41,10 +47,19 @@ std::string file_uri(const std::filesystem::path& absolute, bool directory) {
   return "file://" + percent_encode_path(path);
 }
 
+// The configured URL; else the lint.md installed beside the running kiln (<prefix>/bin/kiln ->
+// <prefix>/share/doc/kiln/lint.md); else the source tree's, for a kiln run from its build tree.
 std::string docs_url() {
-  std::string url = KILN_LINT_DOCS_URL;
-  if (url.rfind("file://", 0) == 0) return "file://" + percent_encode_path(url.substr(7));
-  return url;
+  const std::string configured = KILN_LINT_DOCS_URL;
+  if (!configured.empty())
+    return configured.rfind("file://", 0) == 0 ? "file://" + percent_encode_path(configured.substr(7)) : configured;
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const std::filesystem::path installed = self.parent_path().parent_path() / KILN_INSTALLED_DOC_DIR / "lint.md";
+    if (std::filesystem::is_regular_file(installed, ec)) return file_uri(installed.lexically_normal(), false);
+  }
+  return file_uri(std::filesystem::path(KILN_SOURCE_LINT_DOC), false);
 }
 
 json artifact_location(const std::string& path, const std::filesystem::path& root) {
