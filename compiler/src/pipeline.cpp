@@ -171,6 +171,9 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   report.manifest = manifest_path(options.output_dir, plan->pack.name);
   if (is_up_to_date(options, *plan, inputs_hash, sink, report)) return finish();
   std::unique_ptr<RemoteCache> remote = RemoteCache::open(options.remote, sink);
+  // Settings that cannot be used, when the build needs the remote (--remote-required, --remote-upload), fail it now,
+  // not after compiling the whole pack.
+  if (remote && !remote->usable() && (options.remote.required || options.remote.upload)) return finish();
   std::optional<RemoteKey> pack_key;
   if (remote && remote->usable() && options.emit.empty()) {
     pack_key = remote_pack_key(*remote, *settings, *plan, options);

@@ -544,6 +544,26 @@ TEST_F(Remote, AnUnreadableTokenFileIsAConfigurationWarning) {
                                "  note: the build goes on without the remote cache\n" + kNeverFails);
 }
 
+// When the build needs the remote (an upload asked for, or --remote-required), settings that cannot be used fail it
+// at once: a CI job meant to warm the cache does not run cold for minutes and upload nothing.
+TEST_F(Remote, SettingsThatCannotUploadFailAnUploadingBuildBeforeItCompiles) {
+  for (const bool required : {false, true}) {
+    SCOPED_TRACE(required ? "required" : "upload");
+    RemoteCacheOptions remote = serial("https://127.0.0.1:9", /*upload=*/!required);
+    remote.required = required;
+    remote.token_file = dir / "no-such-token";
+    DiagnosticSink sink;
+    BuildReport report = build(remote, sink);
+    EXPECT_FALSE(report.ok);
+    EXPECT_EQ(report.compiled, 0u);  // nothing was compiled before the error
+    const std::string text = text_of(sink);
+    EXPECT_TRUE(text.starts_with("https://127.0.0.1:9: error[K1707]: the token file '" + (dir / "no-such-token").string() +
+                                 "' cannot be read (or is over 4 KiB)\n  note: the build stops before compiling anything\n"))
+        << text;
+    EXPECT_EQ(text.find("never fails a build"), std::string::npos) << text;
+  }
+}
+
 // A CR/LF in KILN_REMOTE_TOKEN would end the Authorization header and add headers of the token's choosing; the
 // variable is held to the token file's rule (one printable token) and nothing is sent.
 TEST_F(Remote, ATokenWithALineBreakIsRefusedBeforeAnyRequest) {

@@ -127,7 +127,9 @@ std::unique_ptr<RemoteCache> RemoteCache::open(const RemoteCacheOptions& options
   remote->report_.configured = true;
   if (std::string problem = remote->configure(); !problem.empty()) {
     remote->switched_off_ = true;
-    remote->problem(DiagId::RemoteConfiguration, problem, "the build goes on without the remote cache");
+    remote->problem(DiagId::RemoteConfiguration, problem,
+                    options.required || options.upload ? "the build stops before compiling anything"
+                                                       : "the build goes on without the remote cache");
     remote->report_problems(sink);
   }
   return remote;
@@ -541,12 +543,16 @@ void RemoteCache::report_problems(DiagnosticSink& sink) {
     const auto& [message, note] = *std::min_element(seen.begin(), seen.end());
     Diagnostic d;
     d.id = id;
-    d.severity = options_.required ? Severity::Error : Severity::Warning;
+    // Settings that cannot be used are an error when the build needs the remote: --remote-required, or an upload
+    // asked for (a CI job that was to warm the cache would otherwise run cold and upload nothing, silently).
+    const bool needed = options_.required || (id == DiagId::RemoteConfiguration && options_.upload);
+    d.severity = needed ? Severity::Error : Severity::Warning;
     d.location = SourceLocation{display_.empty() ? std::string("remote cache") : display_, 0, 0};
     d.message = message;
     if (!note.empty()) d.notes.push_back(note);
     if (switched_off_ && id != DiagId::RemoteConfiguration) d.notes.push_back("the remote cache is off for the rest of this build");
-    if (!options_.required) d.notes.push_back("a remote cache problem never fails a build; --remote-required makes it an error");
+    if (!needed) d.notes.push_back("a remote cache problem never fails a build; --remote-required makes it an error");
+    else if (!options_.required) d.notes.push_back("--remote-upload was asked for, and nothing could be uploaded");
     sink.report(std::move(d));
   }
 }
