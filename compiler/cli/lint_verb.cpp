@@ -61,7 +61,7 @@ class LintVerb final : public Verb {
     std::string text;
     if (format_ == "json") text = kiln::format_lint_json(report);
     else if (format_ == "sarif") text = kiln::format_lint_sarif(report, {sarif_root_.empty() ? kiln::default_sarif_root(std::filesystem::current_path()) : std::filesystem::path(sarif_root_)});
-    else text = kiln::format_lint_text(report);
+    else text = kiln::format_lint_text(report, output_.empty() && colour());  // a file gets no escape codes
     if (!output_.empty()) {
       if (std::string error = kiln::write_file_atomic(output_, text); !error.empty()) {
         std::cerr << "kiln lint: error: " << error << "\n";

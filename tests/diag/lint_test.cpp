@@ -331,6 +331,19 @@ TEST_F(Lint, AMissingTmpdirFallsBackAndAnUnwritableReportLeavesNoFile) {
   EXPECT_FALSE(std::filesystem::exists(dir / "missing"));
 }
 
+// Lint's text is coloured as the build's diagnostics are (--color always, or a terminal), never in a file.
+TEST_F(Lint, TextIsColouredLikeTheBuildsDiagnostics) {
+  dir.write("S.hlsl", "#ifdef _TYPO_KEYWORD\n#endif\nfloat4 F() : SV_Target { return 1.0; }\n");
+  auto coloured = testing::run_kiln({"--color", "always", "lint", "S.hlsl"}, dir.path());
+  EXPECT_NE(coloured.err.find("\x1b[1mS.hlsl:1:8: \x1b[1;35mwarning[undeclared-keyword]:\x1b[0m\x1b[1m '_TYPO_KEYWORD'"),
+            std::string::npos) << coloured.err;
+  auto plain = testing::run_kiln({"--color", "never", "lint", "S.hlsl"}, dir.path());
+  EXPECT_EQ(plain.err.find('\x1b'), std::string::npos) << plain.err;
+  EXPECT_NE(plain.err.find("S.hlsl:1:8: warning[undeclared-keyword]: '_TYPO_KEYWORD'"), std::string::npos) << plain.err;
+  auto to_file = testing::run_kiln({"--color", "always", "lint", "S.hlsl", "-o", "report.txt"}, dir.path());
+  EXPECT_EQ(testing::read_file(dir / "report.txt").find('\x1b'), std::string::npos);
+}
+
 // The build's defines (the pack's, a pass's, -D) are defined for lint too: a shader that tests one is not
 // reported, so --werror passes correct shaders in CI. In file mode, -D defines.
 TEST_F(Lint, TheBuildsDefinesAreDefined) {

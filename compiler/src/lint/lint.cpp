@@ -200,13 +200,18 @@ std::string format_location(const SourceLocation& at) {
 
 }  // namespace
 
-std::string format_lint_text(const LintReport& report) {
+std::string format_lint_text(const LintReport& report, bool colour) {
+  // The build's diagnostic colours (format_diagnostic): bold location and message, red errors, magenta warnings,
+  // cyan notes.
+  const std::string bold = colour ? "\x1b[1m" : "", reset = colour ? "\x1b[0m" : "";
+  const std::string note = colour ? "\x1b[1;36mnote:\x1b[0m" : "note:";
   std::string out;
   for (const LintFinding& f : report.findings) {
-    out += format_location(f.location) + ": " + (f.severity == Severity::Error ? "error" : "warning") + "[" + std::string(rule_id_text(f.rule)) +
-           "]: " + f.message + "\n";
-    for (const std::string& note : f.notes) out += "  note: " + note + "\n";
-    for (const auto& [place, message] : f.related) out += "  note: " + format_location(place) + ": " + message + "\n";
+    const bool error = f.severity == Severity::Error;
+    out += bold + format_location(f.location) + ": " + (colour ? (error ? "\x1b[1;31m" : "\x1b[1;35m") : "") +
+           (error ? "error" : "warning") + "[" + std::string(rule_id_text(f.rule)) + "]:" + reset + bold + " " + f.message + reset + "\n";
+    for (const std::string& text : f.notes) out += "  " + note + " " + text + "\n";
+    for (const auto& [place, message] : f.related) out += "  " + note + " " + format_location(place) + ": " + message + "\n";
   }
   return out;
 }

@@ -29,7 +29,8 @@ void run_lint_rules(const LintContext& context, LintReport& report);
 // The rule a build diagnostic is reported under (build-error when no rule claims its id).
 RuleId rule_for_diagnostic(DiagId id);
 
-std::string format_lint_text(const LintReport& report);
+// `colour`: the build's diagnostic colours (ANSI), for a terminal (--color).
+std::string format_lint_text(const LintReport& report, bool colour = false);
 std::string format_lint_json(const LintReport& report);
 
 struct SarifOptions {
