@@ -1263,6 +1263,22 @@ TEST_F(Cli, DiffPacksShowsAddedRemovedAndChangedVariants) {
   EXPECT_EQ(r.out, "- P [A]\n+ P [B]\n~ P [<none>]\n1 added, 1 removed, 1 changed\n");
 }
 
+// The note of a binding clash points at the resource's declaration, not at its first use: here the entry file
+// uses `albedo` before the include that declares it is read.
+TEST_F(Cli, TheDeclaredHereNoteFindsTheDeclarationNotAUse) {
+  dir.write("S.hlsl", "#include \"Resources.hlsl\"\n"
+                      "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "float4 F(float2 uv : TEXCOORD0) : SV_Target { return albedo.Sample(linearClamp, uv) * tint; }\n");
+  dir.write("Resources.hlsl", "#pragma once\n"
+                              "// albedo: the base colour\n"
+                              "cbuffer Material : register(b0) { float4 tint; };\n"
+                              "Texture2D albedo : register(t0);\n"
+                              "SamplerState linearClamp : register(s1);\n");
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("Resources.hlsl:4:11: note[K1406]: 'albedo' (texture) is declared here"), std::string::npos) << r.err;
+}
+
 // kiln compile: one file, one stage, as glslc and DXC users first write it. The target follows the output's
 // extension, -D selects a keyword's variant, -o - writes to standard output, the depfile names the output, and
 // the diagnostics are the build's (a pack-level one is about the command line).

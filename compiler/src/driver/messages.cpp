@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cctype>
+#include <optional>
+#include <string_view>
 
 #include "common/files.hpp"
 
@@ -76,6 +78,21 @@ SourceLocation SourceLocator::located(const FrontendMessage& m, const std::strin
 SourceLocation SourceLocator::declaration(uint32_t pass, const std::string& name, const std::string& entry_name) const {
   if (name.empty()) return SourceLocation{entry_name, 0, 0};
   auto word_char = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; };
+  // A declaration: a type before the name (a word that is not `return`, or a template's `>`), and after it `:`,
+  // `;`, `[`, `{`, `=` or the line's end; not a use (`albedo.Sample(`, `return albedo;`, a parameter).
+  auto declares = [&](const std::string& line, size_t at, size_t end) {
+    size_t before = at;
+    while (before > 0 && (line[before - 1] == ' ' || line[before - 1] == '\t')) --before;
+    if (before == at || before == 0 || !(word_char(line[before - 1]) || line[before - 1] == '>')) return false;
+    size_t word = before;
+    while (word > 0 && word_char(line[word - 1])) --word;
+    if (line.compare(word, before - word, "return") == 0) return false;
+    size_t after = end;
+    while (after < line.size() && (line[after] == ' ' || line[after] == '\t')) ++after;
+    return after == line.size() || std::string_view(":;[{=").find(line[after]) != std::string_view::npos;
+  };
+  // The declaration first; else the first mention (a declaration spelled some other way).
+  std::optional<SourceLocation> first_mention;
   for (const std::filesystem::path& path : plan_.declarations[pass].files) {
     const SourceFile* file = plan_.sources.find(path);
     if (!file) continue;
@@ -85,11 +102,14 @@ SourceLocation SourceLocator::declaration(uint32_t pass, const std::string& name
         const bool starts = at == 0 || !word_char(lines[l][at - 1]);
         const size_t end = at + name.size();
         const bool ends = end == lines[l].size() || !word_char(lines[l][end]);
-        if (starts && ends) return SourceLocation{display_path(path), static_cast<int>(l + 1), static_cast<int>(at + 1)};
+        if (!starts || !ends) continue;
+        const SourceLocation here{display_path(path), static_cast<int>(l + 1), static_cast<int>(at + 1)};
+        if (declares(lines[l], at, end)) return here;
+        if (!first_mention) first_mention = here;
       }
     }
   }
-  return SourceLocation{entry_name, 0, 0};
+  return first_mention.value_or(SourceLocation{entry_name, 0, 0});
 }
 
 void MessageGroups::collect(DiagId id, SourceLocation at, const std::string& text, const std::string& variant, size_t order,
