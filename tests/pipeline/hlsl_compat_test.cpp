@@ -10,6 +10,7 @@
 
 #include "frontend/dxc_semantics.hpp"
 #include "frontend/hlsl_compat.hpp"
+#include "frontend/module_limits.hpp"
 #include "frontend/nonuniform.hpp"
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
@@ -279,6 +280,21 @@ TEST(HlslCompat, AnArrayOfStructuredBuffersIsAnErrorNotACrash) {
   EXPECT_NE(r.err.find("S.hlsl:2:26: error[K1401]: 'tints' : an array of StructuredBuffer (DXC: a descriptor array of storage "
                        "buffers) is beyond glslang 12, which crashes on an access to it"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find("K1501"), std::string::npos) << r.err;
+}
+
+// The two declaration scans read the user's whole file: hostile shapes (megabytes of blanks or template text where
+// a declaration's parts go, a hundred thousand declarations) end promptly, in one pass, without deep recursion.
+TEST(HlslCompat, TheDeclarationScansStayLinearOnHostileText) {
+  const std::string blanks(2 << 20, ' ');
+  const std::string long_template = "Texture2D<" + std::string(2 << 20, 'a') + "> t[];\n";
+  std::string many;
+  for (int i = 0; i < 100000; ++i) many += "Texture2D t" + std::to_string(i) + "[]; StructuredBuffer<float4> s" + std::to_string(i) + "[2];\n";
+  EXPECT_TRUE(unbounded_resource_arrays("Texture2D" + blanks + "t[];").empty());
+  EXPECT_TRUE(unbounded_resource_arrays(long_template).empty());
+  EXPECT_EQ(unbounded_resource_arrays(many).size(), 100000u);
+  EXPECT_TRUE(check_buffer_arrays_source("StructuredBuffer<" + std::string(2 << 20, 'a') + "> s[2];", "S.hlsl").empty());
+  EXPECT_EQ(check_buffer_arrays_source(many, "S.hlsl").size(), 16u);  // a bounded number of errors
+  EXPECT_TRUE(check_buffer_arrays_source("void f() { StructuredBuffer<float4> local[2]; }", "S.hlsl").empty());
 }
 
 // SV_ViewID and SV_ShadingRate are built-ins, as in DXC: glslang 12 made them user inputs with locations, and

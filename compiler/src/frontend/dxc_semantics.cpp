@@ -9,6 +9,7 @@
 #include <regex>
 #include <set>
 
+#include "frontend/hlsl_compat.hpp"
 #include "frontend/spirv_module.hpp"
 
 namespace kiln {
@@ -33,16 +34,11 @@ std::vector<std::string> unbounded_resource_arrays(std::string_view text) {
   static const std::regex declaration(
       R"(\b(?:RW|RasterizerOrdered)?(?:Texture(?:1D|2D|3D|Cube)(?:Array|MS|MSArray)?|Buffer|StructuredBuffer|ByteAddressBuffer)"
       R"(|SamplerState|SamplerComparisonState|ConstantBuffer|AppendStructuredBuffer|ConsumeStructuredBuffer)"
-      R"(|SubpassInput(?:MS)?)\s*(?:<[^;{}()]*>)?\s+([A-Za-z_]\w*)\s*\[\s*\])");
+      R"(|SubpassInput(?:MS)?)[ \t]{0,64}(?:<[^;{}()]{0,256}>)?\s{1,64}([A-Za-z_]\w{0,255})[ \t]{0,64}\[[ \t]{0,64}\])");
   std::vector<std::string> names;
   if (text.find("[") == std::string_view::npos) return names;
   const std::string source(text);
-  for (auto it = std::sregex_iterator(source.begin(), source.end(), declaration); it != std::sregex_iterator(); ++it) {
-    const size_t at = static_cast<size_t>(it->position(0));
-    const std::string_view before = text.substr(0, at);
-    if (std::count(before.begin(), before.end(), '{') != std::count(before.begin(), before.end(), '}')) continue;
-    names.push_back((*it)[1]);
-  }
+  for (const std::smatch& match : file_scope_matches(source, declaration)) names.push_back(match[1]);
   return names;
 }
 

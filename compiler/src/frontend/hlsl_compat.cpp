@@ -238,6 +238,18 @@ std::optional<std::string> rewrite_literal_swizzles(std::string_view text) {
   return out;
 }
 
+std::vector<std::smatch> file_scope_matches(const std::string& text, const std::regex& declaration) {
+  std::vector<std::smatch> out;
+  size_t scanned = 0;
+  long depth = 0;
+  for (auto it = std::sregex_iterator(text.begin(), text.end(), declaration); it != std::sregex_iterator(); ++it) {
+    const size_t at = static_cast<size_t>(it->position(0));
+    for (; scanned < at; ++scanned) depth += text[scanned] == '{' ? 1 : text[scanned] == '}' ? -1 : 0;
+    if (depth == 0) out.push_back(*it);
+  }
+  return out;
+}
+
 std::optional<std::string> interface_attribute_error(std::string_view warning) {
   struct Row {
     std::string_view attribute, dxc, instead;

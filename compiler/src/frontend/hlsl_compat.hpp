@@ -4,8 +4,10 @@
 #pragma once
 
 #include <optional>
+#include <regex>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace kiln {
 
@@ -32,5 +34,10 @@ std::optional<std::string> rewrite_literal_swizzles(std::string_view text);
 // is an error, saying what DXC does with it and what to write instead. `warning` is the front end's message text;
 // nothing when it is no such attribute.
 std::optional<std::string> interface_attribute_error(std::string_view warning);
+
+// The matches of `declaration` in `text` that start at file scope (brace depth 0), in order. The depth is counted
+// once over the text, whatever the number of matches (a file of 100,000 declarations stays linear); `declaration`
+// must bound its repetitions, as std::regex recurses per character it repeats.
+std::vector<std::smatch> file_scope_matches(const std::string& text, const std::regex& declaration);
 
 }  // namespace kiln

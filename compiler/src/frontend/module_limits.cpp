@@ -9,6 +9,8 @@
 #include <regex>
 #include <sstream>
 
+#include "frontend/hlsl_compat.hpp"
+
 namespace kiln {
 namespace {
 
@@ -188,22 +190,20 @@ std::vector<FrontendMessage> check_numthreads_source(std::string_view source, co
 
 std::vector<FrontendMessage> check_buffer_arrays_source(std::string_view source, const std::string& source_name) {
   static const std::regex declaration(
-      R"(\b((?:RW|RasterizerOrdered|Append|Consume)?StructuredBuffer\s*<[^;{}()]*>|(?:RW|RasterizerOrdered)?ByteAddressBuffer))"
-      R"(\s+([A-Za-z_]\w*)\s*\[)");
+      R"(\b((?:RW|RasterizerOrdered|Append|Consume)?StructuredBuffer[ \t]{0,64}<[^;{}()]{0,256}>|(?:RW|RasterizerOrdered)?ByteAddressBuffer))"
+      R"(\s{1,64}([A-Za-z_]\w{0,255})[ \t]{0,64}\[)");
   std::vector<FrontendMessage> messages;
   if (source.find("Buffer") == std::string_view::npos) return messages;
   const std::string text(source);
-  for (auto it = std::sregex_iterator(text.begin(), text.end(), declaration); it != std::sregex_iterator(); ++it) {
-    const size_t at = static_cast<size_t>(it->position(0));
-    const std::string_view before = source.substr(0, at);
-    if (std::count(before.begin(), before.end(), '{') != std::count(before.begin(), before.end(), '}')) continue;
-    std::string type = (*it)[1];
+  for (const std::smatch& match : file_scope_matches(text, declaration)) {
+    if (messages.size() == 16) break;  // each is located from the text's start: a bounded number
+    std::string type = match[1];
     type = type.substr(0, type.find('<'));
     while (!type.empty() && (type.back() == ' ' || type.back() == '\t')) type.pop_back();
     // The line from the #line directives; the column from the user's line (the driver finds the quoted name in it:
     // the preprocessed text's spacing is not the file's).
-    FrontendMessage& message = messages.emplace_back(located(source, static_cast<size_t>(it->position(2)), source_name,
-                               "'" + std::string((*it)[2]) + "' : an array of " + type + " (DXC: a descriptor array of storage "
+    FrontendMessage& message = messages.emplace_back(located(source, static_cast<size_t>(match.position(2)), source_name,
+                               "'" + std::string(match[2]) + "' : an array of " + type + " (DXC: a descriptor array of storage "
                                "buffers) is beyond glslang 12, which " +
                                    (type.find("ByteAddress") != std::string::npos ? std::string("cannot parse it")
                                                                                   : std::string("crashes on an access to it")) +
