@@ -46,7 +46,9 @@ void print_summary(const kiln::BuildReport& r, std::ostream& out, const std::str
     out << "  remote cache: the finished pack of these inputs, " << r.remote.bytes_down << " bytes down\n";
   else if (built && r.remote.configured)
     out << "  remote cache: hits " << r.remote.hits << ", misses " << r.remote.misses << ", uploads " << r.remote.uploads
-        << " (" << r.remote.blobs_uploaded << " blobs), " << r.remote.bytes_down << " bytes down, " << r.remote.bytes_up
+        << " (" << r.remote.blobs_uploaded << " blobs"
+        << (r.remote.repaired ? ", " + std::to_string(r.remote.repaired) + " damaged entries repaired" : std::string()) << "), "
+        << r.remote.bytes_down << " bytes down, " << r.remote.bytes_up
         << " bytes up, errors " << r.remote.errors << (r.remote.switched_off ? " (switched off)" : "") << "\n";
   if (built && !r.strip_report.empty()) {
     out << "  strip report:\n";
@@ -97,7 +99,7 @@ json summary_json(const kiln::BuildReport& r, const kiln::DiagnosticSink& sink, 
            {"workers", r.workers_started},
            {"remote", {{"configured", r.remote.configured}, {"switched_off", r.remote.switched_off},
                        {"pack_fetched", r.remote.pack_fetched}, {"hits", r.remote.hits}, {"misses", r.remote.misses},
-                       {"uploads", r.remote.uploads}, {"blobs_uploaded", r.remote.blobs_uploaded},
+                       {"uploads", r.remote.uploads}, {"blobs_uploaded", r.remote.blobs_uploaded}, {"repaired", r.remote.repaired},
                        {"bytes_down", r.remote.bytes_down}, {"bytes_up", r.remote.bytes_up}, {"errors", r.remote.errors}}},
            {"timings", timings},
            {"worker_timeline", workers},

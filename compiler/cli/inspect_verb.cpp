@@ -15,7 +15,7 @@ using nlohmann::json;
 
 int run_inspect(const std::string& pack_dir, bool as_json, const std::string& extract) {
   try {
-    kiln::PackReader pack = kiln::PackReader::open(pack_dir);
+    kiln::PackReader pack = kiln::PackReader::open(pack_dir, kiln::PackReader::Check::Full);
     const kiln::Manifest& manifest = pack.manifest();
     if (!extract.empty()) {
       std::error_code ec;

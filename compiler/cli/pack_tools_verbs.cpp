@@ -16,7 +16,7 @@ int run_check_scene(const std::string& pack_dir, const std::string& scene, bool 
   kiln::DiagnosticSink sink;
   print_diagnostics_as_they_come(sink);
   try {
-    kiln::PackReader pack = kiln::PackReader::open(pack_dir);
+    kiln::PackReader pack = kiln::PackReader::open(pack_dir, kiln::PackReader::Check::Full);
     auto result = kiln::check_scene(pack, scene, sink);
     if (!result) return 1;
     if (as_json) {
@@ -39,7 +39,8 @@ int run_check_scene(const std::string& pack_dir, const std::string& scene, bool 
 
 int run_diff_packs(const std::string& a, const std::string& b, bool as_json) {
   try {
-    kiln::PackReader first = kiln::PackReader::open(a), second = kiln::PackReader::open(b);
+    kiln::PackReader first = kiln::PackReader::open(a, kiln::PackReader::Check::Full),
+                     second = kiln::PackReader::open(b, kiln::PackReader::Check::Full);
     kiln::PackDiff diff = kiln::diff_packs(first, second);
     if (as_json) {
       auto list = [](const std::vector<kiln::KeywordCombination>& items) {

@@ -1140,11 +1140,13 @@ TEST_F(Cli, InspectNamesTheFileOfEachPackError) {
        "unexpected ','; expected string literal\n"},
       {testing::resealed_manifest(replaced("\"format\": \"kiln-pack-manifest\"", "\"format\": \"other\"")),
        "out/p.manifest.json: error: not a kiln pack manifest (no \"format\": \"kiln-pack-manifest\")\n"},
-      {testing::resealed_manifest(replaced("\"format_version\": 3", "\"format_version\": 7")),
-       "out/p.manifest.json: error: pack format version 7 is not supported (this reader reads version 3)\n"},
-      {testing::resealed_manifest(replaced("\"format_version\": 3", "\"format_revision\": 3")),
-       "out/p.manifest.json: error: the manifest has no format_version (this reader reads version 3)\n"},
-      {testing::resealed_manifest(replaced("\"format_version\": 3", "\"format_version\": 3, \"format_version\": 3")),
+      {testing::resealed_manifest(replaced("\"format_version\": 4", "\"format_version\": 7")),
+       "out/p.manifest.json: error: pack format version 7 is not supported (this reader reads version 4): rebuild the "
+       "pack with this version of kiln\n"},
+      {testing::resealed_manifest(replaced("\"format_version\": 4", "\"format_revision\": 4")),
+       "out/p.manifest.json: error: the manifest has no format_version (this reader reads version 4): rebuild the pack "
+       "with this version of kiln\n"},
+      {testing::resealed_manifest(replaced("\"format_version\": 4", "\"format_version\": 4, \"format_version\": 4")),
        "out/p.manifest.json:34:38: error: not a kiln manifest: invalid JSON: the key \"format_version\" appears twice in "
        "one object (JSON does not say which one counts)\n"},
       // Valid JSON, edited: the manifest's own checksum refuses it.

@@ -4,7 +4,7 @@
 // Input: 1 byte of flags, a 4-byte little-endian manifest length, the manifest's bytes, the archive's bytes.
 // Random bytes rarely get past a checksum, so unless a flag bit says otherwise the harness reseals what it
 // was given, by the rules in kiln/pack_format.hpp (not with kiln's writer): bit 0 set keeps the archive
-// header's checksum and size as they are, bit 1 the manifest's record of the archive (file name, size,
+// header's checksums (the whole archive's, the blob table's and runtime index's) and size as they are, bit 1 the manifest's record of the archive (file name, size,
 // XXH3-64), bit 2 the manifest's own checksum, bit 3 the blob table's checksums of blobs stored as they are
 // (stored size = raw size, so a mutated table reaches that path too). Resealing edits the manifest's text in
 // place, so the fuzzer still controls every byte of the JSON around it.
@@ -68,6 +68,10 @@ Resealed reseal(std::string manifest, std::string& archive, uint8_t flags) {
   }
   if (!(flags & 1) && archive.size() >= kiln::kPackHeaderSize) {
     put64(24, archive.size());
+    // The head (blob table and runtime index) ends where the header says the index ends.
+    const uint64_t head_end = get64(archive, 32) + get64(archive, 40);
+    if (head_end >= kiln::kPackHeaderSize && head_end <= archive.size())
+      put64(48, XXH3_64bits(archive.data() + kiln::kPackHeaderSize, head_end - kiln::kPackHeaderSize));
     put64(16, XXH3_64bits(archive.data() + kiln::kPackHeaderSize, archive.size() - kiln::kPackHeaderSize));
   }
   const std::string archive_hash = hex64(XXH3_64bits(archive.data(), archive.size()));
@@ -190,12 +194,18 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   write(manifest, pack.manifest);
   if (plain_file_name(pack.archive_file) && directory / pack.archive_file != manifest)
     write(directory / pack.archive_file, archive);
-  try {
-    use(kiln::PackReader::open(manifest));
-  } catch (const kiln::PackError& e) {
-    // KILN_FUZZ_PRINT=1 shows how far each input got, to check that resealing lets inputs past the checksums.
-    static const bool print = std::getenv("KILN_FUZZ_PRINT") != nullptr;
-    if (print) std::fprintf(stderr, "PackError: %s\n", e.what());
+  // A game's open (the runtime index; blobs and reflections on first use), then a tool's (everything, the manifest
+  // parsed and compared with the index).
+  for (kiln::PackReader::Check check : {kiln::PackReader::Check::OnUse, kiln::PackReader::Check::Full}) {
+    try {
+      kiln::PackReader reader = kiln::PackReader::open(manifest, check);
+      use(reader);
+      if (check == kiln::PackReader::Check::OnUse) (void)reader.manifest().passes.size();
+    } catch (const kiln::PackError& e) {
+      // KILN_FUZZ_PRINT=1 shows how far each input got, to check that resealing lets inputs past the checksums.
+      static const bool print = std::getenv("KILN_FUZZ_PRINT") != nullptr;
+      if (print) std::fprintf(stderr, "PackError: %s\n", e.what());
+    }
   }
   return 0;
 }

@@ -5,7 +5,7 @@
 # subset of it), on Vulkan and on OpenGL ES; the unmodified library passes the same variants in
 # golden.*.spheres. The error changes Fresnel only where LoH is small, so the variants whose images show grazing
 # half vectors fail (the ones with the additional lights); the suite as a whole must fail, and at least a
-# third of the variants. Then a manifest whose GL records swap two texture bindings must be refused by the GL
+# third of the variants. Then a pack whose GL records swap two texture bindings must be refused by the GL
 # renderer (the records are checked against the linked program), so a pack and its records cannot drift.
 #   broken_shader_test.sh KILN SOURCE_DIR WORK_DIR GOLDEN_WORK_DIR (golden.setup's)
 set -euo pipefail
@@ -37,33 +37,51 @@ if "$kiln" test "$work/broken" --api gles --scene "$scene" --golden "$goldens" -
 fi
 echo "broken F_Schlick, GLSL ES: $(grep -c '^FAIL' "$work/broken-gles.log" || true) variants failed"
 
-# Swapped GL bindings in the manifest: the texture units the records give no longer match the program.
+# Swapped GL bindings in the pack's records: the texture units the records give no longer match the program. The
+# renderer reads the records a game reads, the archive's runtime index, so the edit is made there: each GL
+# combined-sampler record is <name> <texture> <sampler> u32 binding (each string a u32 length, its bytes and a NUL;
+# compiler/include/kiln/runtime_index.hpp), and in each record list "_DFG_..." comes right before
+# "_EnvironmentMap_...". The pack is then resealed by the rules of compiler/include/kiln/pack_format.hpp (the head's
+# and the whole archive's XXH3-64 in the header, the archive named by its XXH3-64, the manifest's record of it and its
+# own checksum), with xxHash's own library.
 cp -r "$work/broken" "$work/swapped"
 python3 - "$work/swapped" <<'PY'
-import glob, json, sys
-path = glob.glob(sys.argv[1] + "/*.manifest.json")[0]
-manifest = json.load(open(path))
-swapped = 0
-for reflection in manifest["reflections"]:
-    for api in ("glsl", "gles"):
-        records = {r["texture"]: r for r in reflection.get(api, {}).get("combined_image_samplers", [])}
-        if "_DFG" in records and "_EnvironmentMap" in records:
-            a, b = records["_DFG"], records["_EnvironmentMap"]
-            a["binding"], b["binding"] = b["binding"], a["binding"]
-            swapped += 1
-assert swapped, "no stage samples both _DFG and _EnvironmentMap"
-# Reseal the edited manifest (its own checksum, the rule of compiler/include/kiln/pack_format.hpp: XXH3-64
-# of the file with the 16 digits of "manifest_xxh3_64" zeroed), so that the reader takes it and the edit
-# reaches the GL binding check; xxHash's own library computes the hash.
-import ctypes
+import ctypes, glob, os, re, struct, sys
 xxh = ctypes.CDLL("libxxhash.so.0")
 xxh.XXH3_64bits.restype = ctypes.c_uint64
 xxh.XXH3_64bits.argtypes = (ctypes.c_char_p, ctypes.c_size_t)
-manifest["manifest_xxh3_64"] = "0" * 16
-text = json.dumps(manifest).encode()
+h = lambda b: xxh.XXH3_64bits(bytes(b), len(b))
+path = glob.glob(sys.argv[1] + "/*.manifest.json")[0]
+text = open(path, "rb").read()
+old_file = re.search(rb'"file": "([^"]+\.kpack)"', text).group(1).decode()
+archive = bytearray(open(os.path.join(sys.argv[1], old_file), "rb").read())
+index_end = struct.unpack_from("<Q", archive, 32)[0] + struct.unpack_from("<Q", archive, 40)[0]
+def records(texture):
+    t = texture.encode()
+    pattern = re.escape(t) + rb"_([A-Za-z0-9_]+)\x00" + re.escape(struct.pack("<I", len(t)) + t + b"\x00") + rb"....\1\x00"
+    return [(m.start(), m.end()) for m in re.finditer(pattern, bytes(archive[:index_end]), re.S)]
+dfg, env = records("_DFG"), records("_EnvironmentMap")
+swapped = 0
+for start, end in dfg:
+    after = [e for e in env if e[0] > end]
+    if not after: continue
+    other = after[0][1]
+    a, b = archive[end:end + 4], archive[other:other + 4]
+    archive[end:end + 4], archive[other:other + 4] = b, a
+    swapped += 1
+assert swapped, "no GL record list holds both _DFG and _EnvironmentMap"
+struct.pack_into("<Q", archive, 48, h(archive[64:index_end]))
+struct.pack_into("<Q", archive, 16, h(archive[64:]))
+digest = "%016x" % h(archive)
+new_file = re.sub(r"\.[0-9a-f]{16}\.kpack$", "." + digest + ".kpack", old_file)
+os.remove(os.path.join(sys.argv[1], old_file))
+open(os.path.join(sys.argv[1], new_file), "wb").write(archive)
+text = text.replace(old_file.encode(), new_file.encode())
+text = re.sub(rb'"xxh3_64": "[0-9a-f]{16}"', b'"xxh3_64": "' + digest.encode() + b'"', text, count=1)
 key = b'"manifest_xxh3_64": "'
 at = text.index(key) + len(key)
-text = text[:at] + b"%016x" % xxh.XXH3_64bits(text, len(text)) + text[at + 16:]
+text = text[:at] + b"0" * 16 + text[at + 16:]
+text = text[:at] + b"%016x" % h(text) + text[at + 16:]
 open(path, "wb").write(text)
 PY
 for api in gl gles; do

@@ -103,7 +103,7 @@ TEST(RoundTrip, EveryCorpusShaderCompilesThroughKilnToTheSpirvGlslangGivesItDire
       ADD_FAILURE() << file.filename() << " does not build through kiln:\n" << errors;
       continue;
     }
-    PackReader pack = PackReader::open(report.manifest);
+    PackReader pack = PackReader::open(report.manifest, PackReader::Check::Full);
     const std::string text = testing::read_file(file);
     for (size_t v = 0; v < pack.variant_count("P"); ++v) {
       SelectedVariant variant = pack.variant("P", v);

@@ -709,6 +709,52 @@ TEST_F(Tampered, AResealedRecordWhoseBlobDigestNamesAnotherBlob) {
                   DiagId::RemoteEntryRejected);
 }
 
+// Repair: an uploading build puts again what its lookups found missing or damaged, and the blobs of a record whose
+// blobs are gone, so the next reader compiles nothing (it used to skip any module whose record was there).
+TEST_F(Tampered, AnUploadingBuildRepairsDamagedAndMissingBlobsForTheNextReader) {
+  const auto blobs = stored(server, "cas");
+  ASSERT_GE(blobs.size(), 2u);
+  std::string bytes = testing::read_file(blobs.front());
+  bytes[bytes.size() / 2] ^= 0x20;
+  overwrite(blobs.front(), bytes);
+  ASSERT_TRUE(std::filesystem::remove(blobs.back()));
+  DiagnosticSink uploader_sink;
+  BuildReport uploader = build(serial(server.url(), true), uploader_sink);
+  ASSERT_TRUE(uploader.ok) << text_of(uploader_sink);
+  EXPECT_GE(uploader.compiled, 1u);
+  EXPECT_GE(uploader.remote.repaired, 1u);
+  EXPECT_EQ(sha256(testing::read_file(blobs.front())).hex(), blobs.front().filename().string()) << "the damaged blob is whole again";
+  EXPECT_TRUE(std::filesystem::exists(blobs.back())) << "the missing blob is back";
+  DiagnosticSink reader_sink;
+  BuildReport reader = build(serial(server.url()), reader_sink);
+  EXPECT_TRUE(reader.ok) << text_of(reader_sink);
+  EXPECT_EQ(text_of(reader_sink), "");
+  EXPECT_EQ(reader.compiled, 0u);
+  EXPECT_EQ(reader.remote.misses, 0u);
+}
+
+// A record this build never read (every alias is gone, so no lookup reaches it) whose blob is gone: the upload's HEAD
+// requests find the hole and fill it.
+TEST_F(Tampered, AnUploadingBuildPutsBackTheBlobsOfARecordItDidNotRead) {
+  for (const auto& record : stored(server, "ac")) {
+    if (testing::read_file(record)[12] == 2) {  // kind 2: an alias
+      ASSERT_TRUE(std::filesystem::remove(record));
+    }
+  }
+  const std::filesystem::path blob = stored(server, "cas").front();
+  ASSERT_TRUE(std::filesystem::remove(blob));
+  DiagnosticSink uploader_sink;
+  BuildReport uploader = build(serial(server.url(), true), uploader_sink);
+  ASSERT_TRUE(uploader.ok) << text_of(uploader_sink);
+  EXPECT_EQ(text_of(uploader_sink), "");
+  EXPECT_EQ(uploader.remote.repaired, 1u);
+  EXPECT_TRUE(std::filesystem::exists(blob));
+  DiagnosticSink reader_sink;
+  BuildReport reader = build(serial(server.url()), reader_sink);
+  EXPECT_EQ(text_of(reader_sink), "");
+  EXPECT_EQ(reader.compiled, 0u);
+}
+
 struct Https : Remote {};
 
 TEST_F(Https, WithTheTestCaTheRemoteWorksAndWithoutItNothingIsSentInClear) {

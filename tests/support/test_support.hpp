@@ -163,15 +163,23 @@ inline std::string resealed_manifest(std::string text) {
 }
 
 // A pack whose archive a test edited, sealed again by the rules in kiln/pack_format.hpp (not with kiln's code):
-// the archive's header checksum and size, its content name, the manifest's record of it and the manifest's own
+// the archive's header checksums and size, its content name, the manifest's record of it and the manifest's own
 // checksum are made right, so that the edit reaches the reader's checks behind the checksums. The archive
 // replaces the one the manifest named; returns its path.
 inline std::filesystem::path reseal_pack(const std::filesystem::path& manifest, std::string archive) {
   auto put64 = [&](size_t at, uint64_t value) {
     for (int i = 0; i < 8; ++i) archive[at + i] = static_cast<char>(value >> (8 * i));
   };
+  auto get64 = [&](size_t at) {
+    uint64_t value = 0;
+    for (int i = 0; i < 8; ++i) value |= static_cast<uint64_t>(static_cast<unsigned char>(archive[at + i])) << (8 * i);
+    return value;
+  };
   put64(24, archive.size());
-  put64(16, XXH3_64bits(archive.data() + 32, archive.size() - 32));
+  // The head (blob table and runtime index, from byte 64 to the index's end), where the header says it ends.
+  const uint64_t head_end = get64(32) + get64(40);
+  if (head_end >= 64 && head_end <= archive.size()) put64(48, XXH3_64bits(archive.data() + 64, head_end - 64));
+  put64(16, XXH3_64bits(archive.data() + 64, archive.size() - 64));
   char hex[17];
   std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(XXH3_64bits(archive.data(), archive.size())));
   nlohmann::json m = nlohmann::json::parse(read_file(manifest));

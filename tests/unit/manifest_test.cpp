@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "kiln/manifest_json.hpp"
+#include "kiln/runtime_index.hpp"
 
 namespace kiln {
 namespace {
@@ -125,6 +126,51 @@ TEST(Manifest, ReadsBackWhatItWrites) {
   ASSERT_NE(back.pass("P"), nullptr);
   EXPECT_EQ(back.pass("Q"), nullptr);
   EXPECT_NO_THROW(back.check_indices());
+}
+
+// The runtime index is the same records in binary: a reflection with every optional field decodes to itself, the
+// index's tables say what the manifest says, and every truncation of either is an IndexError, never a crash.
+TEST(Manifest, TheRuntimeIndexHoldsTheSameRecords) {
+  Reflection compute = sample_reflection();
+  compute.local_size = std::array<uint32_t, 3>{8, 8, 1};
+  compute.gles = GlBindings{{}, {{"Lights", ResourceKind::StorageBuffer, 2}}};
+  for (const Reflection& r : {sample_reflection(), compute, Reflection{}})
+    EXPECT_EQ(runtime::decode_reflection(runtime::encode_reflection(r)), r);
+
+  Manifest m = sample_manifest();
+  m.passes[0].variants.push_back({{"A", "UNDECLARED"}, {{Stage::Fragment, 1}}});
+  const std::string bytes = runtime::encode(m);
+  const runtime::Index index = runtime::Index::decode(bytes, m.archive.blobs);
+  ASSERT_EQ(index.declared_keywords, 2u);  // A, B
+  ASSERT_EQ(index.keywords.size(), 3u);
+  EXPECT_EQ(index.keywords[2], "UNDECLARED");
+  ASSERT_EQ(index.passes.size(), 1u);
+  const runtime::Pass& pass = index.passes[0];
+  EXPECT_EQ(pass.name, "P");
+  EXPECT_EQ(pass.entry_points[static_cast<size_t>(Stage::Fragment)], "F");
+  EXPECT_EQ(pass.entry_points[static_cast<size_t>(Stage::Compute)], "");
+  ASSERT_EQ(pass.group_count, 2u);
+  EXPECT_EQ(index.groups[1].pragma, "shader_feature_fragment");
+  EXPECT_EQ(index.groups[1].stages, stage_bit(Stage::Fragment));
+  EXPECT_EQ(index.values[index.groups[0].first_value], runtime::kOffValue);
+  ASSERT_EQ(pass.variant_count, 3u);
+  const runtime::Variant& last = index.variants[2];
+  EXPECT_EQ(last.keyword_count, 2u);
+  EXPECT_EQ(index.keywords[index.variant_keywords[last.first_keyword + 1]], "UNDECLARED");
+  EXPECT_EQ(last.binaries[static_cast<size_t>(Stage::Fragment)], 1u);
+  EXPECT_EQ(last.binaries[static_cast<size_t>(Stage::Vertex)], runtime::kNone);
+  ASSERT_EQ(index.binaries.size(), 2u);
+  EXPECT_EQ(index.binaries[1].entry, "F");
+  EXPECT_EQ(index.binaries[1].blobs[static_cast<size_t>(Target::Msl)], 3u);
+  EXPECT_EQ(index.binaries[1].blobs[static_cast<size_t>(Target::Glsl)], runtime::kNone);
+  EXPECT_EQ(runtime::decode_reflection(index.reflections[0]), m.reflections[0]);
+  EXPECT_EQ(index.keyword_id("B"), 1u);
+  EXPECT_EQ(index.keyword_id("NONE"), runtime::kNone);
+
+  EXPECT_THROW(runtime::Index::decode(bytes, 3), runtime::IndexError) << "blob 3 is out of range";
+  for (size_t n = 0; n < bytes.size(); ++n) EXPECT_THROW(runtime::Index::decode(bytes.substr(0, n), 4), runtime::IndexError) << n;
+  const std::string record = runtime::encode_reflection(compute);
+  for (size_t n = 0; n < record.size(); ++n) EXPECT_THROW(runtime::decode_reflection(record.substr(0, n)), runtime::IndexError) << n;
 }
 
 std::string error_reading(const json& j) {

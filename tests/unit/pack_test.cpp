@@ -53,6 +53,23 @@ std::filesystem::path write_sample_pack(const testing::TempDir& dir) {
   return dir / "sample.manifest.json";
 }
 
+uint64_t get64(const std::string& bytes, size_t at) {
+  uint64_t value = 0;
+  for (int i = 0; i < 8; ++i) value |= static_cast<uint64_t>(static_cast<unsigned char>(bytes[at + i])) << (8 * i);
+  return value;
+}
+void set64(std::string& bytes, size_t at, uint64_t value) {
+  for (int i = 0; i < 8; ++i) bytes[at + i] = static_cast<char>(value >> (8 * i));
+}
+
+// The blob table entry of the sample pack's one zstd frame (the MSL).
+size_t compressed_entry(const std::string& archive) {
+  for (size_t at = kPackHeaderSize; at < kPackHeaderSize + kPackBlobEntrySize * 3; at += kPackBlobEntrySize)
+    if (get64(archive, at + 8) < get64(archive, at + 16)) return at;
+  ADD_FAILURE() << "the sample pack has no compressed blob";
+  return kPackHeaderSize;
+}
+
 TEST(Pack, ReaderLoadsWhatTheWriterWroteAndSelectsByKeywords) {
   testing::TempDir dir;
   PackReader pack = PackReader::open(write_sample_pack(dir));
@@ -102,19 +119,84 @@ TEST(Pack, StrippedCombinationIsAnErrorNamingTheNearestVariants) {
   }
 }
 
-TEST(Pack, CorruptedArchiveFailsItsChecksum) {
+// A damaged blob: a game's open (Check::OnUse) does not read it, and the first use of it is a checksum error; a
+// tool's open (Check::Full) refuses the pack at once. Either way the error names the archive.
+TEST(Pack, CorruptedArchiveFailsItsChecksumAtOpenForToolsAndAtFirstUseForGames) {
   testing::TempDir dir;
   auto manifest = write_sample_pack(dir);
   const std::filesystem::path archive = testing::archive_named_by(manifest);
   std::string bytes = testing::read_file(archive);
-  bytes[bytes.size() - 3] ^= 0x40;
+  bytes[bytes.size() - 3] ^= 0x40;  // in the last blob, the MSL frame
   std::ofstream(archive, std::ios::binary) << bytes;
+  auto expect_checksum_error = [&](const std::function<void()>& read, const char* what) {
+    try {
+      read();
+      ADD_FAILURE() << what << ": no error";
+    } catch (const PackError& e) {
+      EXPECT_EQ(e.code(), PackError::Code::Checksum) << what << ": " << e.what();
+      EXPECT_EQ(e.file(), archive.string()) << what;  // the file at fault, for `file: error:`
+    }
+  };
+  expect_checksum_error([&] { PackReader::open(manifest, PackReader::Check::Full); }, "a full open");
+  PackReader pack = PackReader::open(manifest);
+  EXPECT_EQ(pack.blob(0), "SPIRV-BYTES");  // the blobs that are whole read as they are
+  EXPECT_EQ(pack.blob(1), "#version 450\n");
+  expect_checksum_error([&] { pack.blob(2); }, "the damaged blob");
+  expect_checksum_error([&] { pack.select("P", {"A"}); }, "a variant that uses it");
+}
+
+// The blobs a game never uses are never read: a pack whose unused blob is unreadable (here: overwritten with bytes
+// that fail every check) opens and serves every other blob, with no error.
+TEST(Pack, AnOpenReadsTheArchivesHeadOnly) {
+  testing::TempDir dir;
+  auto manifest = write_sample_pack(dir);
+  std::string archive = testing::read_archive(manifest);
+  const size_t entry = compressed_entry(archive);
+  const uint64_t offset = get64(archive, entry), stored = get64(archive, entry + 8);
+  for (uint64_t i = 0; i < stored; ++i) archive[offset + i] = 'x';  // no zstd frame
+  testing::reseal_pack(manifest, archive);
+  PackReader pack = PackReader::open(manifest);
+  EXPECT_EQ(pack.blob(0), "SPIRV-BYTES");
+  EXPECT_THROW(pack.blob(2), PackError);
+  EXPECT_THROW(PackReader::open(manifest, PackReader::Check::Full), PackError);
+}
+
+// A pack an older kiln wrote (format version 3: no runtime index) is refused with what to do about it.
+TEST(Pack, APackOfAnOlderFormatIsRefusedWithRebuildIt) {
+  testing::TempDir dir;
+  auto manifest = write_sample_pack(dir);
+  std::string text = testing::read_file(manifest);
+  const std::string current = "\"format_version\": " + std::to_string(kPackFormatVersion) + ",";
+  ASSERT_NE(text.find(current), std::string::npos);
+  text.replace(text.find(current), current.size(), "\"format_version\": 3,");
+  dir.write("sample.manifest.json", testing::resealed_manifest(text));
+  for (PackReader::Check check : {PackReader::Check::OnUse, PackReader::Check::Full}) {
+    try {
+      PackReader::open(manifest, check);
+      ADD_FAILURE() << "opened";
+    } catch (const PackError& e) {
+      EXPECT_EQ(e.code(), PackError::Code::Version);
+      EXPECT_EQ(std::string(e.what()), "pack format version 3 is not supported (this reader reads version " +
+                                           std::to_string(kPackFormatVersion) + "): rebuild the pack with this version of kiln");
+    }
+  }
+}
+
+// The runtime index is the manifest's records in another form: a full open checks that they agree, so an index that
+// a hostile writer made differ from the manifest (both sealed) is refused by tools.
+TEST(Pack, AFullOpenChecksThatTheIndexIsTheManifests) {
+  testing::TempDir dir;
+  auto manifest = write_sample_pack(dir);
+  json m = json::parse(testing::read_file(manifest));
+  m["passes"][0]["variants"][1]["keywords"] = {"B"};  // the index still says [A]
+  dir.write("sample.manifest.json", testing::resealed_manifest(m.dump(1) + "\n"));
+  EXPECT_EQ(PackReader::open(manifest).variant("P", 1).keywords, (std::vector<std::string>{"A"}));  // a game reads the index
   try {
-    PackReader::open(manifest);
-    FAIL();
+    PackReader::open(manifest, PackReader::Check::Full);
+    FAIL() << "opened";
   } catch (const PackError& e) {
-    EXPECT_EQ(e.code(), PackError::Code::Checksum);
-    EXPECT_EQ(e.file(), archive.string());  // the file at fault, for `file: error:`
+    EXPECT_EQ(e.code(), PackError::Code::Format);
+    EXPECT_EQ(std::string(e.what()), "archive of pack 'sample': its runtime index does not match the manifest");
   }
 }
 
@@ -192,6 +274,8 @@ TEST(Pack, WrongManifestContentFailsWithPackErrorOnly) {
     dir.write("sample.manifest.json", testing::resealed_manifest(changed.dump(1) + "\n"));
     const std::string what = at.to_string() + " <- " + (how < std::size(replacements) ? replacements[how].dump() : "(removed)");
     try {
+      // A tool's open parses the manifest: its content must be what kiln writes. A game's reads the head only.
+      PackReader::open(manifest, PackReader::Check::Full);
       PackReader pack = PackReader::open(manifest);
       ++opened;
       for (const std::string& pass : pack.passes()) {
@@ -221,23 +305,6 @@ TEST(Pack, WrongManifestContentFailsWithPackErrorOnly) {
 
 // Hostile and damaged packs whose checksums all agree (resealed): the reader refuses each with a PackError
 // before it allocates or reads more than the files hold, and never blocks.
-
-uint64_t get64(const std::string& bytes, size_t at) {
-  uint64_t value = 0;
-  for (int i = 0; i < 8; ++i) value |= static_cast<uint64_t>(static_cast<unsigned char>(bytes[at + i])) << (8 * i);
-  return value;
-}
-void set64(std::string& bytes, size_t at, uint64_t value) {
-  for (int i = 0; i < 8; ++i) bytes[at + i] = static_cast<char>(value >> (8 * i));
-}
-
-// The blob table entry of the sample pack's one zstd frame (the MSL).
-size_t compressed_entry(const std::string& archive) {
-  for (size_t at = kPackHeaderSize; at < kPackHeaderSize + kPackBlobEntrySize * 3; at += kPackBlobEntrySize)
-    if (get64(archive, at + 8) < get64(archive, at + 16)) return at;
-  ADD_FAILURE() << "the sample pack has no compressed blob";
-  return kPackHeaderSize;
-}
 
 // Opens the pack and reads every variant of every pass, as a game would.
 void open_and_read(const std::filesystem::path& manifest) {
@@ -304,11 +371,14 @@ TEST(HostilePack, AManifestTooLargeForTheAddressSpaceIsAnOutOfMemoryPackError) {
   std::string pad = "\"pad\": [0";
   pad.reserve(size_t{120} << 20);
   while (pad.size() < (size_t{120} << 20)) pad += ",0,0,0,0,0,0,0,0";
-  pad += "], ";
+  pad += "],\n ";  // a top-level key of its own line, as kiln writes them
   text.insert(text.find("\"format_version\""), pad);
   std::ofstream(manifest, std::ios::binary) << testing::resealed_manifest(std::move(text));
-  expect_pack_error_within_limits([&] { PackReader::open(manifest); },
+  // A game's open never parses it; a tool's does, and so does manifest() after a game's open.
+  expect_pack_error_within_limits([&] { PackReader::open(manifest, PackReader::Check::Full); },
                                   "PackError: the pack does not fit in the memory this process may use", dir);
+  expect_pack_error_within_limits([&] { PackReader::open(manifest).manifest(); },
+                                  "PackError: the manifest does not fit in the memory this process may use", dir);
 }
 
 // A manifest that records a 3 GiB archive used to make the reader read all of it before the 32-byte header said
@@ -330,8 +400,8 @@ TEST(HostilePack, AnArchiveHeaderIsCheckedBeforeTheArchiveIsRead) {
 }
 
 // A frame's header records its content size; a table that records another raw size (here one byte more, within
-// every limit) is refused at open, before a buffer of the recorded size is made for the frame.
-TEST(HostilePack, ABlobWhoseFrameHoldsAnotherSizeThanTheTableRecordsIsRefusedAtOpen) {
+// every limit) is refused when the blob is first used, before a buffer of the recorded size is made for the frame.
+TEST(HostilePack, ABlobWhoseFrameHoldsAnotherSizeThanTheTableRecordsIsRefusedBeforeItIsDecompressed) {
   testing::TempDir dir;
   const auto manifest = write_sample_pack(dir);
   std::string archive = testing::read_archive(manifest);
@@ -339,8 +409,8 @@ TEST(HostilePack, ABlobWhoseFrameHoldsAnotherSizeThanTheTableRecordsIsRefusedAtO
   set64(archive, entry + 16, get64(archive, entry + 16) + 1);
   testing::reseal_pack(manifest, archive);
   try {
-    PackReader::open(manifest);
-    FAIL() << "opened";
+    open_and_read(manifest);
+    FAIL() << "read";
   } catch (const PackError& e) {
     EXPECT_EQ(e.code(), PackError::Code::Format);
     EXPECT_EQ(std::string(e.what()), "blob 2: its zstd frame holds " + std::to_string(kCompressedMsl.size()) +
@@ -366,8 +436,9 @@ TEST(HostilePack, ABlobStoredLargerThanItsRawSizeIsRefusedAtOpen) {
 }
 
 // A zstd frame's header may claim any content size. One that claims 100 MiB in 17 bytes (a header and one
-// run-length block of 16 bytes) is refused at open: no frame of 17 bytes can hold more than one 128 KiB block.
-TEST(HostilePack, AFrameClaimingMoreThanItsBytesCanHoldIsRefusedAtOpen) {
+// run-length block of 16 bytes) is refused before it is decompressed: no frame of 17 bytes can hold more than one
+// 128 KiB block.
+TEST(HostilePack, AFrameClaimingMoreThanItsBytesCanHoldIsRefusedBeforeItIsDecompressed) {
   testing::TempDir dir;
   const uint64_t claimed = uint64_t{100} << 20;
   std::string frame = "\x28\xb5\x2f\xfd";  // magic
@@ -387,8 +458,8 @@ TEST(HostilePack, AFrameClaimingMoreThanItsBytesCanHoldIsRefusedAtOpen) {
   manifest.name = "sample";
   ASSERT_EQ(write_pack(dir.path(), "sample", archive, manifest).error, "");
   try {
-    PackReader::open(dir / "sample.manifest.json");
-    FAIL() << "opened";
+    PackReader::open(dir / "sample.manifest.json").blob(0);
+    FAIL() << "read";
   } catch (const PackError& e) {
     EXPECT_EQ(e.code(), PackError::Code::Format);
     EXPECT_EQ(std::string(e.what()), "blob 0: a zstd frame of 17 bytes cannot hold 104857600");
@@ -457,7 +528,7 @@ TEST(HostilePack, AManifestNumberTooLargeForADoubleIsAPackError) {
   text.replace(text.find("\"format_version\": "), 18, "\"format_version\": 3e999, \"v\": ");
   dir.write("sample.manifest.json", testing::resealed_manifest(text));
   try {
-    PackReader::open(manifest);
+    PackReader::open(manifest, PackReader::Check::Full);
     FAIL() << "opened";
   } catch (const PackError& e) {
     EXPECT_EQ(e.code(), PackError::Code::Format);
@@ -473,7 +544,7 @@ TEST(Pack, ArchiveIsDeterministic) {
     builder->add("two");
     builder->add("one");
   }
-  EXPECT_EQ(a.finish(), b.finish());
+  EXPECT_EQ(a.finish("index"), b.finish("index"));
   EXPECT_EQ(a.size(), 2u);
 }
 

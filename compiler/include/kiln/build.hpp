@@ -142,6 +142,7 @@ struct RemoteReport {
   size_t misses = 0;           // stage sources asked for and not found (a failed request included)
   size_t uploads = 0;          // records written (results and aliases)
   size_t blobs_uploaded = 0;
+  size_t repaired = 0;         // module entries put again whole: this build found them missing or damaged
   uint64_t bytes_down = 0;
   uint64_t bytes_up = 0;
   size_t errors = 0;           // failed requests and entries that failed verification

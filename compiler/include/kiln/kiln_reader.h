@@ -107,7 +107,10 @@ typedef enum kiln_target {
 /* ---- Opening ------------------------------------------------------------------------------------------------ */
 
 /* `path` is a `<name>.manifest.json` or a directory holding exactly one. On success *pack is the open pack; on
- * failure it is NULL and the code is IO, FORMAT, VERSION, CHECKSUM, OUT_OF_MEMORY or INVALID_ARGUMENT. */
+ * failure it is NULL and the code is IO, FORMAT, VERSION, CHECKSUM, OUT_OF_MEMORY or INVALID_ARGUMENT. The archive
+ * is mapped, not read: opening checks its header, blob table and runtime index; each blob's checksum is checked
+ * when kiln_variant_code first returns it (a damaged blob is KILN_ERROR_CHECKSUM then). A pack written by an older
+ * kiln is KILN_ERROR_VERSION ("rebuild the pack with this version of kiln"). */
 kiln_result kiln_pack_open(const char* path, kiln_pack** pack, kiln_error* error);
 void kiln_pack_close(kiln_pack* pack); /* NULL is allowed */
 const char* kiln_pack_name(const kiln_pack* pack);
@@ -155,7 +158,8 @@ kiln_result kiln_variant_code(const kiln_pack* pack, kiln_pass pass, uint32_t va
                               kiln_target target, kiln_code* code, kiln_error* error);
 /* The entry point the stage's code has (the manifest's binary record); NULL when the variant has no such stage. */
 const char* kiln_variant_entry_point(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage);
-/* NULL when the variant has no such stage. Variants that share a binary share its reflection. */
+/* NULL when the variant has no such stage (or its reflection record does not decode, or no memory is left to decode
+ * it: records are decoded on first use). Variants that share a binary share its reflection. */
 const kiln_reflection* kiln_variant_reflection(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage);
 
 /* ---- Reflection: what a stage binds (enough for a Vulkan pipeline layout), and each target's bindings ------- */

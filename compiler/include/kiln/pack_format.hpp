@@ -6,10 +6,19 @@
 //   0       8     magic "KILNPACK"
 //   8       4     format version (kPackFormatVersion), little-endian
 //   12      4     blob count N
-//   16      8     XXH3-64 of every byte from offset 32 to the end
+//   16      8     XXH3-64 of every byte from offset 64 to the end (kiln inspect --verify checks it; a game does not)
 //   24      8     total file size
-//   32      32*N  blob table: {u64 offset, u64 stored size, u64 raw size, u64 XXH3-64 of the raw blob}
+//   32      8     runtime index offset (right after the blob table)
+//   40      8     runtime index size
+//   48      8     XXH3-64 of the bytes from offset 64 to the index's end: the blob table and the index
+//   56      8     zero
+//   64      32*N  blob table: {u64 offset, u64 stored size, u64 raw size, u64 XXH3-64 of the raw blob}
+//   ...           the runtime index (kiln/runtime_index.hpp)
 //   ...           blobs, each starting at a multiple of 8 (zero padding between)
+//
+// A reader maps the archive and checks the header, the blob table and the index (a few hundred KB) when it opens
+// it; each blob's own checksum when the blob is first used. So opening touches the archive's head only, and the
+// pages of blobs never used are never read.
 //
 // Blobs are deduplicated by content; the JSON manifest says which blob is which. A blob whose stored
 // size is less than its raw size is exactly one zstd frame that records its content size (= the raw size);
@@ -26,7 +35,7 @@
 // and archives no manifest names are removed only after the rename. A build killed at any point leaves a
 // whole pack, the previous or the new one, and at worst an orphaned archive that the next build removes.
 //
-// Version 3: the archive is named by its content (version 2 called it `<name>.kpack`, and renamed it into
+// Version 4: the runtime index in the archive (a reader parses no JSON) and a 64-byte header. Version 3: the archive is named by its content (version 2 called it `<name>.kpack`, and renamed it into
 // place before the manifest, so a build killed between the two renames broke the previous pack); sizes are
 // limited (below). Version 2: the manifest checksum. Version 1 had none.
 #pragma once
@@ -38,8 +47,8 @@
 namespace kiln {
 
 inline constexpr char kPackMagic[8] = {'K', 'I', 'L', 'N', 'P', 'A', 'C', 'K'};
-inline constexpr uint32_t kPackFormatVersion = 3;
-inline constexpr uint64_t kPackHeaderSize = 32;
+inline constexpr uint32_t kPackFormatVersion = 4;
+inline constexpr uint64_t kPackHeaderSize = 64;
 inline constexpr uint64_t kPackBlobEntrySize = 32;
 inline constexpr const char* kManifestFormat = "kiln-pack-manifest";
 // The manifest checksum's field as it appears in the file: the key, then the 16 hex digits in quotes.

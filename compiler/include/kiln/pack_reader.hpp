@@ -14,10 +14,7 @@
 
 #include <cstdint>
 #include <filesystem>
-#include <map>
 #include <memory>
-#include <mutex>
-#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -63,14 +60,37 @@ struct SelectedVariant {
   const StageView* stage(std::string_view name) const;
 };
 
+namespace runtime {
+struct Index;
+}
+
 class PackReader {
  public:
+  // What open() checks before it returns.
+  enum class Check {
+    // What a game needs, in about a millisecond: the manifest's checksum and head, the archive's header, blob table
+    // and runtime index. Each blob's checksum is checked when the blob is first used (blob(), variant(), select()),
+    // and the archive's pages that are never used are never read.
+    OnUse,
+    // Everything, now: the whole archive's checksum, every blob, the manifest parsed and the runtime index equal to
+    // the one its records give. For tools (kiln inspect, diff-packs, extract, lint, the remote cache).
+    Full,
+  };
+
   // `path` is a manifest file or a directory holding exactly one manifest. Every failure is a PackError: sizes and
-  // checksums are checked before anything is parsed, and running out of memory is Code::OutOfMemory.
-  static PackReader open(const std::filesystem::path& path);
+  // checksums are checked before anything is parsed, and running out of memory is Code::OutOfMemory. The files are
+  // mapped, not copied: a pack's files must not be truncated or rewritten in place while it is open (kiln never
+  // does: a build replaces them by rename).
+  static PackReader open(const std::filesystem::path& path, Check check = Check::OnUse);
+
+  PackReader(PackReader&&) noexcept;
+  PackReader& operator=(PackReader&&) noexcept;
+  ~PackReader();
 
   const std::string& name() const { return name_; }
-  const Manifest& manifest() const { return manifest_; }
+  // The whole manifest, for tools. After an OnUse open it is parsed on the first call (tens of milliseconds for
+  // the default pack) and may throw PackError; selection never needs it.
+  const Manifest& manifest() const;
   std::vector<std::string> passes() const;
   size_t variant_count(std::string_view pass) const;
   // Keywords declared by the pass, by group.
@@ -78,32 +98,22 @@ class PackReader {
 
   SelectedVariant select(std::string_view pass, const std::vector<std::string>& keywords, bool strict = false) const;
   SelectedVariant variant(std::string_view pass, size_t index) const;
+  // A blob's bytes, checked (and decompressed) on first use; they live as long as the reader.
   std::string_view blob(uint32_t id) const;
+  // A reflection record, decoded on first use.
+  const Reflection& reflection(uint32_t id) const;
+  // The runtime index (kiln/runtime_index.hpp, internal): the C API's tables are built from it.
+  const runtime::Index& index() const;
 
  private:
-  struct Pass {
-    const ManifestPass* manifest = nullptr;
-    std::vector<std::vector<std::string>> groups;  // "" is the off value
-    std::map<std::string, size_t> by_key;          // joined sorted keywords -> variant index
-  };
-  const Pass& find_pass(std::string_view name) const;
-  static PackReader open_checked(const std::filesystem::path& path);  // open() less its std::bad_alloc guard
+  struct State;
+  PackReader();
+  static PackReader open_checked(const std::filesystem::path& path, Check check);  // open() less its std::bad_alloc guard
+  uint32_t find_pass(std::string_view name) const;
+  SelectedVariant variant_of(uint32_t pass, uint32_t index) const;
 
-  struct Blob {
-    uint64_t offset = 0;
-    uint64_t stored_size = 0;
-    uint64_t raw_size = 0;
-    uint64_t hash = 0;  // XXH3-64 of the raw bytes
-  };
   std::string name_;
-  Manifest manifest_;
-  std::string archive_;
-  std::string archive_file_;  // its path, for errors found when a blob is first decompressed
-  std::vector<Blob> blobs_;
-  // Compressed blobs are decompressed on first use and kept; the reader may be shared between threads.
-  std::unique_ptr<std::mutex> decompress_mutex_ = std::make_unique<std::mutex>();
-  mutable std::map<uint32_t, std::unique_ptr<std::string>> decompressed_;
-  std::map<std::string, Pass, std::less<>> passes_;
+  std::unique_ptr<State> state_;
 };
 
 }  // namespace kiln

@@ -108,7 +108,7 @@ LintReport lint_pack(BuildOptions options) {
   run_rules_needing(context, LintInput::Plan, report);
   if (build.ok) {
     try {
-      PackReader pack = PackReader::open(build.manifest);
+      PackReader pack = PackReader::open(build.manifest, PackReader::Check::Full);
       PackView view = read_pack_view(pack);
       context.pack = &view;
       run_rules_needing(context, LintInput::BuiltPack, report);

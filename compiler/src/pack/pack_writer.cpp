@@ -2,6 +2,7 @@
 
 #include "common/files.hpp"
 #include "kiln/pack_format.hpp"
+#include "kiln/runtime_index.hpp"
 
 #include <csignal>
 #include <cstdlib>
@@ -41,13 +42,18 @@ uint32_t ArchiveBuilder::add(PackedBlob blob) {
 
 uint32_t ArchiveBuilder::add(std::string_view bytes) { return add(pack_blob(bytes)); }
 
-std::string ArchiveBuilder::finish() const {
+std::string ArchiveBuilder::finish(std::string_view index) const {
   std::string out(kPackMagic, 8);
   put32(out, kPackFormatVersion);
   put32(out, static_cast<uint32_t>(blobs_.size()));
   put64(out, 0);  // checksum, filled below
   put64(out, 0);  // total size, filled below
-  uint64_t offset = kPackHeaderSize + kPackBlobEntrySize * blobs_.size();
+  const uint64_t index_offset = kPackHeaderSize + kPackBlobEntrySize * blobs_.size();
+  put64(out, index_offset);
+  put64(out, index.size());
+  put64(out, 0);  // the head's checksum, filled below
+  put64(out, 0);
+  uint64_t offset = index_offset + index.size();
   for (const PackedBlob& blob : blobs_) {
     offset = (offset + 7) & ~uint64_t{7};
     put64(out, offset);
@@ -57,6 +63,8 @@ std::string ArchiveBuilder::finish() const {
     offset += blob.stored.size();
   }
   out.reserve(offset);
+  out += index;
+  set64(out, 48, hash64(std::string_view(out).substr(kPackHeaderSize)));
   for (const PackedBlob& blob : blobs_) {
     out.append(((out.size() + 7) & ~size_t{7}) - out.size(), '\0');
     out += blob.stored;
@@ -79,7 +87,7 @@ WrittenPack write_pack(const std::filesystem::path& directory, const std::string
                       std::to_string(kMaxBlobBytes) + " bytes per blob";
       return written;
     }
-  std::string bytes = archive.finish();
+  std::string bytes = archive.finish(runtime::encode(manifest));
   if (bytes.size() > kMaxArchiveBytes) {
     written.error = "the archive would be " + std::to_string(bytes.size()) + " bytes, over the pack format's limit of " +
                     std::to_string(kMaxArchiveBytes) + " bytes";

@@ -22,7 +22,8 @@ class ArchiveBuilder {
   uint32_t add(std::string_view bytes);
   size_t size() const { return blobs_.size(); }
   const std::vector<PackedBlob>& blobs() const { return blobs_; }
-  std::string finish() const;  // blobs in the order added
+  // The archive file (kiln/pack_format.hpp): the blobs in the order added, after the runtime index `index`.
+  std::string finish(std::string_view index) const;
 
  private:
   std::vector<PackedBlob> blobs_;

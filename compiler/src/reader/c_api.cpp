@@ -19,10 +19,15 @@
 #include <string_view>
 #include <vector>
 
-#include "kiln/pack_reader.hpp"
+#include <atomic>
 
+#include "kiln/pack_reader.hpp"
+#include "kiln/runtime_index.hpp"
+
+// One per binary of the pack; its record is decoded when kiln_variant_reflection first hands it out.
 struct kiln_reflection {
-  const kiln::Reflection* reflection = nullptr;
+  std::atomic<const kiln::Reflection*> reflection{nullptr};
+  uint32_t id = 0;  // the reflection record's
   kiln_stage stage = KILN_STAGE_VERTEX;
   uint32_t stage_flags = 0;
 };
@@ -48,24 +53,23 @@ constexpr size_t kMaxFastGroups = 64;
 constexpr uint32_t kNoValue = UINT32_MAX;
 
 struct PassIndex {
-  const kiln::ManifestPass* manifest = nullptr;
+  const kiln::runtime::Pass* pass = nullptr;
   // Per pack keyword id: its group in this pass (kNoValue: not declared) and its value index in that group.
   std::vector<uint32_t> group_of, value_of;
   std::vector<uint32_t> off_value;    // per group: the index of "" (kNoValue: none)
   std::vector<uint64_t> radix;        // per group: its place value in a variant's code
   std::vector<std::pair<uint64_t, uint32_t>> by_code;  // variant code -> variant index, sorted by code
+  std::vector<uint8_t> one_value;     // per group: 1 when it has one value (always on without an off value)
   bool fast = true;                   // false: kiln_select goes through PackReader::select
-  // Per variant per stage: the binary's reflection handle (null: no such stage).
-  std::vector<std::array<const kiln_reflection*, kiln::kStageCount>> stages;
 };
 
 }  // namespace
 
 struct kiln_pack {
   kiln::PackReader reader;
-  std::vector<std::string> keywords;  // every keyword any pass declares, sorted: the id is the index
-  std::vector<PassIndex> passes;      // in the manifest's order
-  std::vector<kiln_reflection> binaries;  // per manifest binary
+  const kiln::runtime::Index* index = nullptr;  // the reader's
+  std::vector<PassIndex> passes;                 // in the manifest's order
+  std::unique_ptr<kiln_reflection[]> binaries;   // per binary
 };
 
 namespace {
@@ -137,62 +141,65 @@ kiln_result invalid(kiln_error* error, const char* format, Args... args) {
   }
 }
 
-const kiln::ManifestVariant* find_variant(const kiln_pack* pack, kiln_pass pass, uint32_t variant) {
+const kiln::runtime::Variant* find_variant(const kiln_pack* pack, kiln_pass pass, uint32_t variant) {
   if (!pack || pass >= pack->passes.size()) return nullptr;
-  const auto& variants = pack->passes[pass].manifest->variants;
-  return variant < variants.size() ? &variants[variant] : nullptr;
+  const kiln::runtime::Pass& p = *pack->passes[pass].pass;
+  return variant < p.variant_count ? &pack->index->variants[p.first_variant + variant] : nullptr;
 }
 
-const kiln::ManifestBinary* find_binary(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage) {
-  const kiln::ManifestVariant* v = find_variant(pack, pass, variant);
-  if (!v || (static_cast<int>(stage) < 0 || static_cast<int>(stage) >= kiln::kStageCount)) return nullptr;
-  auto it = v->binaries.find(static_cast<kiln::Stage>(stage));
-  return it == v->binaries.end() ? nullptr : &pack->reader.manifest().binaries[it->second];
+// The binary id of a variant's stage, or kNone.
+uint32_t find_binary(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage) {
+  const kiln::runtime::Variant* v = find_variant(pack, pass, variant);
+  if (!v || (static_cast<int>(stage) < 0 || static_cast<int>(stage) >= kiln::kStageCount)) return kiln::runtime::kNone;
+  return v->binaries[static_cast<size_t>(stage)];
 }
 
-void index_pass(kiln_pack& pack, PassIndex& index) {
-  const kiln::ManifestPass& pass = *index.manifest;
-  const size_t groups = pass.keyword_groups.size();
-  index.group_of.assign(pack.keywords.size(), kNoValue);
-  index.value_of.assign(pack.keywords.size(), kNoValue);
+void index_pass(const kiln::runtime::Index& ix, PassIndex& index) {
+  const kiln::runtime::Pass& pass = *index.pass;
+  const size_t groups = pass.group_count;
+  index.group_of.assign(ix.declared_keywords, kNoValue);
+  index.value_of.assign(ix.declared_keywords, kNoValue);
   index.off_value.assign(groups, kNoValue);
   index.radix.assign(groups, 0);
+  index.one_value.assign(groups, 0);
+  auto group = [&](size_t g) -> const kiln::runtime::Group& { return ix.groups[pass.first_group + g]; };
   // A keyword in two groups belongs to the first, as in PackReader::select.
   for (size_t g = groups; g-- > 0;) {
-    const std::vector<std::string>& values = pass.keyword_groups[g].values;
-    for (size_t v = 0; v < values.size(); ++v) {
-      if (values[v].empty()) {
-        index.off_value[g] = static_cast<uint32_t>(v);
+    index.one_value[g] = group(g).value_count == 1;
+    for (uint32_t v = 0; v < group(g).value_count; ++v) {
+      const uint32_t id = ix.values[group(g).first_value + v];
+      if (id == kiln::runtime::kOffValue) {
+        index.off_value[g] = v;
         continue;
       }
-      auto id = std::lower_bound(pack.keywords.begin(), pack.keywords.end(), values[v]) - pack.keywords.begin();
       index.group_of[id] = static_cast<uint32_t>(g);
-      index.value_of[id] = static_cast<uint32_t>(v);
+      index.value_of[id] = v;
     }
   }
   uint64_t place = 1;
   index.fast = groups <= kMaxFastGroups;
   for (size_t g = 0; g < groups && index.fast; ++g) {
     index.radix[g] = place;
-    const uint64_t size = pass.keyword_groups[g].values.size();
+    const uint64_t size = group(g).value_count;
     if (size == 0 || place > UINT64_MAX / size) index.fast = false;
     else place *= size;
   }
   std::vector<std::pair<uint64_t, uint32_t>> codes;
-  for (size_t i = 0; i < pass.variants.size() && index.fast; ++i) {
+  for (uint32_t i = 0; i < pass.variant_count && index.fast; ++i) {
+    const kiln::runtime::Variant& variant = ix.variants[pass.first_variant + i];
     uint32_t chosen[kMaxFastGroups];
     std::fill_n(chosen, groups, kNoValue);
     // A variant select never returns is left out: one with a keyword no group declares, two keywords that belong to
     // one group (the first group that declares a keyword takes it), or none for a group without an off value.
     bool reachable = true;
-    for (const std::string& keyword : pass.variants[i].keywords) {
-      auto it = std::lower_bound(pack.keywords.begin(), pack.keywords.end(), keyword);
-      const uint32_t g = it == pack.keywords.end() || *it != keyword ? kNoValue : index.group_of[it - pack.keywords.begin()];
+    for (uint32_t k = 0; k < variant.keyword_count; ++k) {
+      const uint32_t id = ix.variant_keywords[variant.first_keyword + k];
+      const uint32_t g = id < ix.declared_keywords ? index.group_of[id] : kNoValue;
       if (g == kNoValue || chosen[g] != kNoValue) {
         reachable = false;
         break;
       }
-      chosen[g] = index.value_of[it - pack.keywords.begin()];
+      chosen[g] = index.value_of[id];
     }
     uint64_t code = 0;
     for (size_t g = 0; g < groups && reachable; ++g) {
@@ -200,19 +207,12 @@ void index_pass(kiln_pack& pack, PassIndex& index) {
       if (chosen[g] == kNoValue) reachable = false;
       else code += chosen[g] * index.radix[g];
     }
-    if (reachable) codes.emplace_back(code, static_cast<uint32_t>(i));
+    if (reachable) codes.emplace_back(code, i);
   }
   // PackReader keeps the last of variants with equal keywords; so does a stable sort and a unique from the back.
   std::stable_sort(codes.begin(), codes.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   for (size_t i = 0; i < codes.size(); ++i)
     if (i + 1 == codes.size() || codes[i + 1].first != codes[i].first) index.by_code.push_back(codes[i]);
-
-  index.stages.resize(pass.variants.size());
-  for (size_t i = 0; i < pass.variants.size(); ++i) {
-    index.stages[i].fill(nullptr);
-    for (const auto& [stage, binary] : pass.variants[i].binaries)
-      index.stages[i][static_cast<size_t>(stage)] = &pack.binaries[binary];
-  }
 }
 
 // The fast path of kiln_select; false when the call must go through PackReader::select (an error, or a pass the
@@ -236,7 +236,7 @@ bool select_fast(const PassIndex& index, const kiln_keyword* keywords, size_t co
     uint32_t value = chosen[g];
     if (value == kNoValue) value = index.off_value[g];
     if (value == kNoValue) {
-      if (index.manifest->keyword_groups[g].values.size() != 1) return false;
+      if (index.one_value[g] == 0) return false;
       value = 0;  // a one-keyword multi_compile is always on
     }
     code += value * index.radix[g];
@@ -274,7 +274,10 @@ kiln_stage_variable variable_of(const kiln::StageVariable& v) {
 template <class T>
 uint32_t count_of(const std::vector<T>& records) { return static_cast<uint32_t>(records.size()); }
 
-const kiln::GlBindings* gl_of(const kiln_reflection* r, int es) { return r ? r->reflection->gl(es != 0) : nullptr; }
+// A handle's record: decoded before kiln_variant_reflection hands the handle out.
+const kiln::Reflection& of(const kiln_reflection* r) { return *r->reflection.load(std::memory_order_acquire); }
+
+const kiln::GlBindings* gl_of(const kiln_reflection* r, int es) { return r ? of(r).gl(es != 0) : nullptr; }
 
 }  // namespace
 
@@ -303,24 +306,22 @@ kiln_result kiln_pack_open(const char* path, kiln_pack** pack, kiln_error* error
   *pack = nullptr;
   if (!path) return invalid(error, "kiln_pack_open: path is NULL");
   return guarded(error, [&] {
-    auto* opened = new kiln_pack{kiln::PackReader::open(path), {}, {}, {}};
+    auto* opened = new kiln_pack{kiln::PackReader::open(path), nullptr, {}, {}};
     std::unique_ptr<kiln_pack> owner(opened);
-    // Built in place, after the reader has its final address: the tables point into its manifest.
-    const kiln::Manifest& manifest = opened->reader.manifest();
-    for (const kiln::ManifestPass& pass : manifest.passes)
-      for (const kiln::ManifestKeywordGroup& group : pass.keyword_groups)
-        for (const std::string& value : group.values)
-          if (!value.empty()) opened->keywords.push_back(value);
-    std::sort(opened->keywords.begin(), opened->keywords.end());
-    opened->keywords.erase(std::unique(opened->keywords.begin(), opened->keywords.end()), opened->keywords.end());
-    for (const kiln::ManifestBinary& binary : manifest.binaries) {
-      const auto stage = static_cast<kiln_stage>(binary.stage);
-      opened->binaries.push_back({&manifest.reflections[binary.reflection], stage, stage_flag(stage)});
+    // Built in place, after the reader has its final address: the tables point into its index.
+    const kiln::runtime::Index& index = opened->reader.index();
+    opened->index = &index;
+    opened->binaries = std::make_unique<kiln_reflection[]>(index.binaries.size());
+    for (size_t b = 0; b < index.binaries.size(); ++b) {
+      kiln_reflection& r = opened->binaries[b];
+      r.id = index.binaries[b].reflection;
+      r.stage = static_cast<kiln_stage>(index.binaries[b].stage);
+      r.stage_flags = stage_flag(r.stage);
     }
-    opened->passes.resize(manifest.passes.size());
-    for (size_t p = 0; p < manifest.passes.size(); ++p) {
-      opened->passes[p].manifest = &manifest.passes[p];
-      index_pass(*opened, opened->passes[p]);
+    opened->passes.resize(index.passes.size());
+    for (size_t p = 0; p < index.passes.size(); ++p) {
+      opened->passes[p].pass = &index.passes[p];
+      index_pass(index, opened->passes[p]);
     }
     *pack = owner.release();
     return ok(error);
@@ -334,13 +335,13 @@ const char* kiln_pack_name(const kiln_pack* pack) { return pack ? pack->reader.n
 uint32_t kiln_pass_count(const kiln_pack* pack) { return pack ? count_of(pack->passes) : 0; }
 
 const char* kiln_pass_name(const kiln_pack* pack, kiln_pass pass) {
-  return pack && pass < pack->passes.size() ? pack->passes[pass].manifest->name.c_str() : nullptr;
+  return pack && pass < pack->passes.size() ? pack->passes[pass].pass->name.data() : nullptr;
 }
 
 kiln_result kiln_pass_find(const kiln_pack* pack, const char* name, kiln_pass* pass, kiln_error* error) {
   if (!pack || !name || !pass) return invalid(error, "kiln_pass_find: a NULL argument");
   for (size_t p = 0; p < pack->passes.size(); ++p)
-    if (pack->passes[p].manifest->name == name) {
+    if (pack->passes[p].pass->name == name) {
       *pass = static_cast<kiln_pass>(p);
       return ok(error);
     }
@@ -351,36 +352,37 @@ kiln_result kiln_pass_find(const kiln_pack* pack, const char* name, kiln_pass* p
   });
 }
 
-uint32_t kiln_keyword_count(const kiln_pack* pack) { return pack ? count_of(pack->keywords) : 0; }
+uint32_t kiln_keyword_count(const kiln_pack* pack) { return pack ? pack->index->declared_keywords : 0; }
 
 const char* kiln_keyword_name(const kiln_pack* pack, kiln_keyword keyword) {
-  return pack && keyword < pack->keywords.size() ? pack->keywords[keyword].c_str() : nullptr;
+  return pack && keyword < pack->index->declared_keywords ? pack->index->keywords[keyword].data() : nullptr;
 }
 
 kiln_result kiln_keyword_find(const kiln_pack* pack, const char* name, kiln_keyword* keyword, kiln_error* error) {
   if (!pack || !name || !keyword) return invalid(error, "kiln_keyword_find: a NULL argument");
   return guarded(error, [&] {
-    auto it = std::lower_bound(pack->keywords.begin(), pack->keywords.end(), std::string_view(name));
-    if (it == pack->keywords.end() || *it != name)
+    const uint32_t id = pack->index->keyword_id(name);
+    if (id >= pack->index->declared_keywords)
       return fail(error, KILN_ERROR_UNKNOWN_KEYWORD,
                   ("pack '" + pack->reader.name() + "' has no pass that declares keyword '" + name + "'").c_str());
-    *keyword = static_cast<kiln_keyword>(it - pack->keywords.begin());
+    *keyword = id;
     return ok(error);
   });
 }
 
 uint32_t kiln_pass_group_count(const kiln_pack* pack, kiln_pass pass) {
-  return pack && pass < pack->passes.size() ? count_of(pack->passes[pass].manifest->keyword_groups) : 0;
+  return pack && pass < pack->passes.size() ? pack->passes[pass].pass->group_count : 0;
 }
 
 uint32_t kiln_pass_group_value_count(const kiln_pack* pack, kiln_pass pass, uint32_t group) {
   if (group >= kiln_pass_group_count(pack, pass)) return 0;
-  return count_of(pack->passes[pass].manifest->keyword_groups[group].values);
+  return pack->index->groups[pack->passes[pass].pass->first_group + group].value_count;
 }
 
 const char* kiln_pass_group_value(const kiln_pack* pack, kiln_pass pass, uint32_t group, uint32_t value) {
   if (value >= kiln_pass_group_value_count(pack, pass, group)) return nullptr;
-  return pack->passes[pass].manifest->keyword_groups[group].values[value].c_str();
+  const uint32_t id = pack->index->values[pack->index->groups[pack->passes[pass].pass->first_group + group].first_value + value];
+  return id == kiln::runtime::kOffValue ? "" : pack->index->keywords[id].data();
 }
 
 kiln_result kiln_select(const kiln_pack* pack, kiln_pass pass, const kiln_keyword* keywords, size_t count, int strict,
@@ -389,13 +391,13 @@ kiln_result kiln_select(const kiln_pack* pack, kiln_pass pass, const kiln_keywor
   if (pass >= pack->passes.size())
     return invalid(error, "kiln_select: pass %u out of range (the pack has %zu)", pass, pack->passes.size());
   for (size_t k = 0; k < count; ++k)
-    if (keywords[k] >= pack->keywords.size())
-      return invalid(error, "kiln_select: keyword %u out of range (the pack has %zu)", keywords[k], pack->keywords.size());
+    if (keywords[k] >= pack->index->declared_keywords)
+      return invalid(error, "kiln_select: keyword %u out of range (the pack has %u)", keywords[k], pack->index->declared_keywords);
   if (select_fast(pack->passes[pass], keywords, count, strict != 0, variant)) return ok(error);
   return guarded(error, [&] {
     std::vector<std::string> names;
-    for (size_t k = 0; k < count; ++k) names.push_back(pack->keywords[keywords[k]]);
-    *variant = static_cast<uint32_t>(pack->reader.select(pack->passes[pass].manifest->name, names, strict != 0).index);
+    for (size_t k = 0; k < count; ++k) names.emplace_back(pack->index->keywords[keywords[k]]);
+    *variant = static_cast<uint32_t>(pack->reader.select(pack->passes[pass].pass->name, names, strict != 0).index);
     return ok(error);
   });
 }
@@ -413,17 +415,17 @@ kiln_result kiln_select_by_names(const kiln_pack* pack, const char* pass, const 
 }
 
 uint32_t kiln_variant_count(const kiln_pack* pack, kiln_pass pass) {
-  return pack && pass < pack->passes.size() ? count_of(pack->passes[pass].manifest->variants) : 0;
+  return pack && pass < pack->passes.size() ? pack->passes[pass].pass->variant_count : 0;
 }
 
 uint32_t kiln_variant_keyword_count(const kiln_pack* pack, kiln_pass pass, uint32_t variant) {
-  const kiln::ManifestVariant* v = find_variant(pack, pass, variant);
-  return v ? count_of(v->keywords) : 0;
+  const kiln::runtime::Variant* v = find_variant(pack, pass, variant);
+  return v ? v->keyword_count : 0;
 }
 
 const char* kiln_variant_keyword(const kiln_pack* pack, kiln_pass pass, uint32_t variant, uint32_t index) {
-  const kiln::ManifestVariant* v = find_variant(pack, pass, variant);
-  return v && index < v->keywords.size() ? v->keywords[index].c_str() : nullptr;
+  const kiln::runtime::Variant* v = find_variant(pack, pass, variant);
+  return v && index < v->keyword_count ? pack->index->keywords[pack->index->variant_keywords[v->first_keyword + index]].data() : nullptr;
 }
 
 kiln_result kiln_variant_code(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage,
@@ -433,40 +435,50 @@ kiln_result kiln_variant_code(const kiln_pack* pack, kiln_pass pass, uint32_t va
   if (!find_variant(pack, pass, variant)) return invalid(error, "kiln_variant_code: no variant %u of pass %u", variant, pass);
   if (static_cast<int>(stage) < 0 || static_cast<int>(stage) >= kiln::kStageCount) return invalid(error, "kiln_variant_code: stage %d", static_cast<int>(stage));
   if (target < KILN_TARGET_SPIRV || target > KILN_TARGET_MSL) return invalid(error, "kiln_variant_code: target %d", static_cast<int>(target));
-  const kiln::ManifestBinary* binary = find_binary(pack, pass, variant, stage);
-  if (!binary) return ok(error);
-  auto blob = binary->blobs.find(static_cast<kiln::Target>(target));
-  if (blob == binary->blobs.end()) return ok(error);
+  const uint32_t binary = find_binary(pack, pass, variant, stage);
+  if (binary == kiln::runtime::kNone) return ok(error);
+  const uint32_t blob = pack->index->binaries[binary].blobs[static_cast<size_t>(target)];
+  if (blob == kiln::runtime::kNone) return ok(error);
   return guarded(error, [&] {
-    std::string_view bytes = pack->reader.blob(blob->second);
+    std::string_view bytes = pack->reader.blob(blob);
     *code = kiln_code{bytes.data(), bytes.size()};
     return ok(error);
   });
 }
 
 const char* kiln_variant_entry_point(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage) {
-  const kiln::ManifestBinary* binary = find_binary(pack, pass, variant, stage);
-  return binary ? binary->entry.c_str() : nullptr;
+  const uint32_t binary = find_binary(pack, pass, variant, stage);
+  return binary == kiln::runtime::kNone ? nullptr : pack->index->binaries[binary].entry.data();
 }
 
 const kiln_reflection* kiln_variant_reflection(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage) {
-  if (!find_variant(pack, pass, variant) || (static_cast<int>(stage) < 0 || static_cast<int>(stage) >= kiln::kStageCount)) return nullptr;
-  return pack->passes[pass].stages[variant][static_cast<size_t>(stage)];
+  const uint32_t binary = find_binary(pack, pass, variant, stage);
+  if (binary == kiln::runtime::kNone) return nullptr;
+  kiln_reflection& r = pack->binaries[binary];
+  if (!r.reflection.load(std::memory_order_acquire)) {
+    // Decoded on first use; a record that does not decode (or no memory for it) gives no handle.
+    try {
+      r.reflection.store(&pack->reader.reflection(r.id), std::memory_order_release);
+    } catch (...) {
+      return nullptr;
+    }
+  }
+  return &r;
 }
 
 kiln_stage kiln_reflection_stage(const kiln_reflection* reflection) { return reflection ? reflection->stage : KILN_STAGE_VERTEX; }
 
 int kiln_reflection_local_size(const kiln_reflection* reflection, uint32_t size[3]) {
-  if (!reflection || !size || !reflection->reflection->local_size) return 0;
-  for (int i = 0; i < 3; ++i) size[i] = (*reflection->reflection->local_size)[i];
+  if (!reflection || !size || !of(reflection).local_size) return 0;
+  for (int i = 0; i < 3; ++i) size[i] = (*of(reflection).local_size)[i];
   return 1;
 }
 
-uint32_t kiln_reflection_resource_count(const kiln_reflection* r) { return r ? count_of(r->reflection->resources) : 0; }
+uint32_t kiln_reflection_resource_count(const kiln_reflection* r) { return r ? count_of(of(r).resources) : 0; }
 
 int kiln_reflection_resource(const kiln_reflection* r, uint32_t index, kiln_resource* out) {
   if (!out || index >= kiln_reflection_resource_count(r)) return 0;
-  const kiln::Resource& resource = r->reflection->resources[index];
+  const kiln::Resource& resource = of(r).resources[index];
   *out = kiln_resource{};
   out->name = resource.name.c_str();
   out->kind = static_cast<kiln_resource_kind>(resource.kind);
@@ -480,28 +492,28 @@ int kiln_reflection_resource(const kiln_reflection* r, uint32_t index, kiln_reso
   return 1;
 }
 
-uint32_t kiln_reflection_push_constant_count(const kiln_reflection* r) { return r ? count_of(r->reflection->push_constants) : 0; }
+uint32_t kiln_reflection_push_constant_count(const kiln_reflection* r) { return r ? count_of(of(r).push_constants) : 0; }
 
 int kiln_reflection_push_constant(const kiln_reflection* r, uint32_t index, kiln_push_constant* out) {
   if (!out || index >= kiln_reflection_push_constant_count(r)) return 0;
-  const kiln::PushConstantBlock& block = r->reflection->push_constants[index];
+  const kiln::PushConstantBlock& block = of(r).push_constants[index];
   *out = kiln_push_constant{block.name.c_str(), block.size, r->stage_flags};
   return 1;
 }
 
-uint32_t kiln_reflection_input_count(const kiln_reflection* r) { return r ? count_of(r->reflection->inputs) : 0; }
+uint32_t kiln_reflection_input_count(const kiln_reflection* r) { return r ? count_of(of(r).inputs) : 0; }
 
 int kiln_reflection_input(const kiln_reflection* r, uint32_t index, kiln_stage_variable* out) {
   if (!out || index >= kiln_reflection_input_count(r)) return 0;
-  *out = variable_of(r->reflection->inputs[index]);
+  *out = variable_of(of(r).inputs[index]);
   return 1;
 }
 
-uint32_t kiln_reflection_output_count(const kiln_reflection* r) { return r ? count_of(r->reflection->outputs) : 0; }
+uint32_t kiln_reflection_output_count(const kiln_reflection* r) { return r ? count_of(of(r).outputs) : 0; }
 
 int kiln_reflection_output(const kiln_reflection* r, uint32_t index, kiln_stage_variable* out) {
   if (!out || index >= kiln_reflection_output_count(r)) return 0;
-  *out = variable_of(r->reflection->outputs[index]);
+  *out = variable_of(of(r).outputs[index]);
   return 1;
 }
 
@@ -530,12 +542,12 @@ int kiln_reflection_gl_block(const kiln_reflection* r, int es, uint32_t index, k
 }
 
 uint32_t kiln_reflection_msl_resource_count(const kiln_reflection* r) {
-  return r && r->reflection->msl ? count_of(r->reflection->msl->resources) : 0;
+  return r && of(r).msl ? count_of(of(r).msl->resources) : 0;
 }
 
 int kiln_reflection_msl_resource(const kiln_reflection* r, uint32_t index, kiln_msl_resource* out) {
   if (!out || index >= kiln_reflection_msl_resource_count(r)) return 0;
-  const kiln::MslResource& m = r->reflection->msl->resources[index];
+  const kiln::MslResource& m = of(r).msl->resources[index];
   *out = kiln_msl_resource{m.name.c_str(), static_cast<kiln_msl_kind>(m.kind), m.index};
   return 1;
 }

@@ -1,12 +1,15 @@
 #include "kiln/pack_reader.hpp"
 
 #include <fcntl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <xxhash.h>
 #include <zstd.h>
 
 #include <algorithm>
+#include <atomic>
+#include <mutex>
 #include <cerrno>
 #include <functional>
 #include <cstdlib>
@@ -14,84 +17,110 @@
 #include <cstring>
 #include <optional>
 #include <set>
+#include <span>
+#include <utility>
 
 #include "kiln/bounded_json.hpp"
 #include "kiln/manifest_json.hpp"
 #include "kiln/pack_format.hpp"
+#include "kiln/runtime_index.hpp"
 
 namespace kiln {
 namespace {
 
 using nlohmann::json;
 
-// Reads a pack file whole: a regular file only (a FIFO would block, a device never end), checked before it is
-// opened and again on the opened descriptor (opened without blocking, so a file swapped for a FIFO in between
-// cannot block either); its size checked against `expected` (the manifest's record) and `limit` before a byte
-// is read or a buffer made. `what` names the file in messages ("the manifest"). `check_header`, if given, sees the
-// file's first `header_size` bytes (fewer if the file is shorter) before the buffer for the whole file is made.
-std::string read_pack_file(const std::string& path, const std::string& what, uint64_t limit,
-                           std::optional<uint64_t> expected = std::nullopt,
-                           const std::function<void(std::string_view)>& check_header = {}, size_t header_size = 0) {
-  auto system_error = [&](const char* doing) {
-    const int error = errno;
-    return PackError(PackError::Code::Io,
-                     error == ENOENT ? std::string("no such file or directory")
-                                     : doing + std::string(": ") + std::strerror(error),
-                     path);
-  };
-  auto check_type = [&](const struct stat& info) {
-    if (S_ISREG(info.st_mode)) return;
-    const char* kind = S_ISDIR(info.st_mode) ? "a directory" : S_ISFIFO(info.st_mode) ? "a FIFO" : "a device or socket";
-    throw PackError(PackError::Code::Io, std::string(kind) + ", not a regular file", path);
-  };
-  struct stat info {};
-  if (::stat(path.c_str(), &info) != 0) throw system_error("cannot open the file");
-  check_type(info);
-  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-  if (fd < 0) throw system_error("cannot open the file");
-  struct Closer {
-    int fd;
-    ~Closer() { ::close(fd); }
-  } closer{fd};
-  if (::fstat(fd, &info) != 0) throw system_error("cannot read the file");
-  check_type(info);
-  const uint64_t size = static_cast<uint64_t>(info.st_size);
-  if (expected && size != *expected)
-    throw PackError(PackError::Code::Checksum,
-                    what + " is " + std::to_string(size) + " bytes, not the " + std::to_string(*expected) +
-                        " its manifest records",
-                    path);
-  if (size > limit)
-    throw PackError(PackError::Code::Format,
-                    what + " is " + std::to_string(size) + " bytes, over the pack format's limit of " +
-                        std::to_string(limit) + " bytes",
-                    path);
-  auto read_into = [&](char* buffer, size_t want) {
-    size_t got = 0;
-    while (got < want) {
-      const ssize_t n = ::read(fd, buffer + got, want - got);
-      if (n < 0 && errno == EINTR) continue;
-      if (n < 0) throw system_error("cannot read the file");
-      if (n == 0) break;
-      got += static_cast<size_t>(n);
+// A pack file, mapped read-only: a regular file only (a FIFO would block, a device never end), checked before it
+// is opened and again on the opened descriptor (opened without blocking, so a file swapped for a FIFO in between
+// cannot block either); its size checked against `expected` (the manifest's record) and `limit` before it is
+// mapped. `what` names the file in messages ("the manifest"). `check_header`, if given, sees the file's first
+// `header_size` bytes (fewer if the file is shorter), read before the file is mapped.
+class MappedFile {
+ public:
+  MappedFile() = default;
+  MappedFile(const std::string& path, const std::string& what, uint64_t limit, std::optional<uint64_t> expected = std::nullopt,
+             const std::function<void(std::string_view)>& check_header = {}, size_t header_size = 0) {
+    auto system_error = [&](const char* doing) {
+      const int error = errno;
+      return PackError(PackError::Code::Io,
+                       error == ENOENT ? std::string("no such file or directory")
+                                       : doing + std::string(": ") + std::strerror(error),
+                       path);
+    };
+    auto check_type = [&](const struct stat& info) {
+      if (S_ISREG(info.st_mode)) return;
+      const char* kind = S_ISDIR(info.st_mode) ? "a directory" : S_ISFIFO(info.st_mode) ? "a FIFO" : "a device or socket";
+      throw PackError(PackError::Code::Io, std::string(kind) + ", not a regular file", path);
+    };
+    struct stat info {};
+    if (::stat(path.c_str(), &info) != 0) throw system_error("cannot open the file");
+    check_type(info);
+    const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) throw system_error("cannot open the file");
+    struct Closer {
+      int fd;
+      ~Closer() { ::close(fd); }
+    } closer{fd};
+    if (::fstat(fd, &info) != 0) throw system_error("cannot read the file");
+    check_type(info);
+    const uint64_t size = static_cast<uint64_t>(info.st_size);
+    if (expected && size != *expected)
+      throw PackError(PackError::Code::Checksum,
+                      what + " is " + std::to_string(size) + " bytes, not the " + std::to_string(*expected) +
+                          " its manifest records",
+                      path);
+    if (size > limit)
+      throw PackError(PackError::Code::Format,
+                      what + " is " + std::to_string(size) + " bytes, over the pack format's limit of " +
+                          std::to_string(limit) + " bytes",
+                      path);
+    if (check_header) {
+      std::string header(static_cast<size_t>(std::min<uint64_t>(size, header_size)), '\0');
+      size_t got = 0;
+      while (got < header.size()) {
+        const ssize_t n = ::pread(fd, header.data() + got, header.size() - got, static_cast<off_t>(got));
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) throw system_error("cannot read the file");
+        if (n == 0) break;
+        got += static_cast<size_t>(n);
+      }
+      header.resize(got);
+      check_header(header);
     }
-    if (got != want) throw PackError(PackError::Code::Checksum, what + " was truncated while it was read", path);
-  };
-  std::string header;
-  if (check_header) {
-    header.resize(static_cast<size_t>(std::min<uint64_t>(size, header_size)));
-    read_into(header.data(), header.size());
-    check_header(header);
+    if (size == 0) return;
+    void* at = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0);
+    if (at == MAP_FAILED) {
+      if (errno == ENOMEM) throw std::bad_alloc();
+      throw system_error("cannot map the file");
+    }
+    data_ = static_cast<const char*>(at);
+    size_ = size;
   }
-  std::string bytes(size, '\0');
-  std::memcpy(bytes.data(), header.data(), header.size());
-  read_into(bytes.data() + header.size(), bytes.size() - header.size());
-  return bytes;
-}
+  MappedFile(MappedFile&& other) noexcept : data_(std::exchange(other.data_, nullptr)), size_(std::exchange(other.size_, 0)) {}
+  MappedFile& operator=(MappedFile&& other) noexcept {
+    std::swap(data_, other.data_);
+    std::swap(size_, other.size_);
+    return *this;
+  }
+  ~MappedFile() {
+    if (data_) ::munmap(const_cast<char*>(data_), size_);
+  }
+  std::string_view bytes() const { return {data_, size_}; }
 
-uint64_t get64(const std::string& bytes, size_t at) {
+ private:
+  const char* data_ = nullptr;
+  size_t size_ = 0;
+};
+
+uint64_t get64(std::string_view bytes, size_t at) {
   uint64_t v = 0;
   for (int i = 0; i < 8; ++i) v |= static_cast<uint64_t>(static_cast<unsigned char>(bytes[at + i])) << (8 * i);
+  return v;
+}
+
+uint32_t get32(std::string_view bytes, size_t at) {
+  uint32_t v = 0;
+  for (int i = 0; i < 4; ++i) v |= static_cast<uint32_t>(static_cast<unsigned char>(bytes[at + i])) << (8 * i);
   return v;
 }
 
@@ -102,77 +131,112 @@ std::string hex64(uint64_t value) {
 }
 
 // "file:line:col" of a byte offset in `text` (both 1-based).
-std::string location_of(const std::filesystem::path& file, const std::string& text, size_t offset) {
+std::string location_of(const std::filesystem::path& file, std::string_view text, size_t offset) {
   offset = std::min(offset, text.size());
   size_t line = 1 + static_cast<size_t>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(offset), '\n'));
-  size_t line_start = text.rfind('\n', offset == 0 ? std::string::npos : offset - 1);
-  size_t column = offset - (line_start == std::string::npos ? 0 : line_start + 1) + 1;
+  size_t line_start = text.rfind('\n', offset == 0 ? std::string_view::npos : offset - 1);
+  size_t column = offset - (line_start == std::string_view::npos ? 0 : line_start + 1) + 1;
   return file.string() + ":" + std::to_string(line) + ":" + std::to_string(column);
 }
 
-std::string join(const std::vector<std::string>& words) {
+template <class Words>
+std::string join(const Words& words) {
   std::string out;
-  for (const std::string& w : words) out += (out.empty() ? "" : " ") + w;
+  for (const auto& w : words) {
+    if (!out.empty()) out += ' ';
+    out += w;
+  }
   return out.empty() ? "<none>" : out;
 }
 
-}  // namespace
-
-const StageView* SelectedVariant::stage(std::string_view name) const {
-  for (const StageView& s : stages)
-    if (s.stage == name) return &s;
-  return nullptr;
+// Where `pattern` first occurs in `text` at or after `from` (npos if nowhere): glibc's memmem, several times faster
+// than std::string_view::find on text with a newline every few dozen bytes.
+size_t find(std::string_view text, std::string_view pattern, size_t from = 0) {
+  if (from >= text.size()) return std::string_view::npos;  // also an empty file's view, whose data() is null
+  const void* at = ::memmem(text.data() + from, text.size() - from, pattern.data(), pattern.size());
+  return at ? static_cast<size_t>(static_cast<const char*>(at) - text.data()) : std::string_view::npos;
 }
 
-namespace {
+std::string version_message(const std::string& what) {
+  return what + " (this reader reads version " + std::to_string(kPackFormatVersion) +
+         "): rebuild the pack with this version of kiln";
+}
 
-// The manifest's own checksum (pack_format.hpp): found in the text, checked against the text with its
-// digits zeroed (in place, then put back: no copy of a manifest that may be large). It runs before the text is
-// parsed, so a damaged or foreign manifest costs one hash of its bytes, never a JSON tree.
-void check_manifest_checksum(std::string& text, const std::string& manifest_name) {
-  const size_t field = text.find(kManifestChecksumField);
+// The manifest's own checksum (pack_format.hpp): found in the text, checked against the text with its digits taken
+// as zeros. It runs before anything in the text is used, so a damaged or foreign manifest costs one hash of its
+// bytes, never a parse.
+void check_manifest_checksum(std::string_view text, const std::string& manifest_name) {
+  const size_t field = find(text, kManifestChecksumField);
   const size_t digits = field + std::strlen(kManifestChecksumField);
-  if (field == std::string::npos || text.find(kManifestChecksumField, digits) != std::string::npos ||
+  if (field == std::string_view::npos || find(text, kManifestChecksumField, digits) != std::string_view::npos ||
       text.size() < digits + kManifestChecksumDigits)
     throw PackError(PackError::Code::Format, "not a kiln pack manifest: it has no checksum (\"manifest_xxh3_64\")",
                     manifest_name);
-  const std::string stored = text.substr(digits, kManifestChecksumDigits);
-  text.replace(digits, kManifestChecksumDigits, kManifestChecksumDigits, '0');
-  const std::string computed = hex64(XXH3_64bits(text.data(), text.size()));
-  text.replace(digits, kManifestChecksumDigits, stored);
-  if (stored != computed)
+  XXH3_state_t* state = XXH3_createState();
+  if (!state) throw std::bad_alloc();
+  XXH3_64bits_reset(state);
+  XXH3_64bits_update(state, text.data(), digits);
+  XXH3_64bits_update(state, std::string(kManifestChecksumDigits, '0').data(), kManifestChecksumDigits);
+  XXH3_64bits_update(state, text.data() + digits + kManifestChecksumDigits, text.size() - digits - kManifestChecksumDigits);
+  const std::string computed = hex64(XXH3_64bits_digest(state));
+  XXH3_freeState(state);
+  if (text.substr(digits, kManifestChecksumDigits) != computed)
     throw PackError(PackError::Code::Checksum, "the manifest fails its checksum (changed since kiln wrote it)",
                     manifest_name);
 }
 
-}  // namespace
+// What the reader needs from the manifest: its name and its record of the archive.
+struct ManifestHead {
+  std::string name;
+  ManifestArchive archive;
+};
 
-PackReader PackReader::open(const std::filesystem::path& path) {
+// The head of a manifest whose checksum holds, without parsing the rest: kiln writes the manifest with one space of
+// indentation per level (pack_writer.cpp), so "\n \"key\": " is a top-level key and nothing else (a string holds no
+// raw newline), and a top-level value ends at ",\n" or, for an object, at "\n }". Each value found is parsed alone.
+ManifestHead scan_manifest_head(std::string_view text, const std::string& manifest_name) {
+  auto value_of = [&](std::string_view key, bool object) -> std::optional<std::string_view> {
+    const std::string pattern = "\n \"" + std::string(key) + "\": ";
+    const size_t at = find(text, pattern);
+    if (at == std::string_view::npos) return std::nullopt;
+    const size_t start = at + pattern.size();
+    const size_t end = object ? find(text, "\n }", start) : text.find_first_of(",\n", start);
+    if (end == std::string_view::npos) return std::nullopt;
+    return text.substr(start, end - start + (object ? 3 : 0));
+  };
+  auto parsed = [&](std::optional<std::string_view> value) {
+    try {
+      return value ? parse_json_bounded(*value, {kMaxManifestBytes, kMaxJsonDepth}) : json();
+    } catch (const JsonDecodeError&) {
+      return json();
+    }
+  };
+  auto malformed = [&](const std::string& what) { return PackError(PackError::Code::Format, "malformed manifest: " + what, manifest_name); };
+  if (parsed(value_of("format", false)) != kManifestFormat)
+    throw PackError(PackError::Code::Format, "not a kiln pack manifest (no \"format\": \"" + std::string(kManifestFormat) + "\")",
+                    manifest_name);
+  const std::optional<std::string_view> version = value_of("format_version", false);
+  if (!version) throw PackError(PackError::Code::Version, version_message("the manifest has no format_version"), manifest_name);
+  if (*version != std::to_string(kPackFormatVersion))
+    throw PackError(PackError::Code::Version, version_message("pack format version " + std::string(*version) + " is not supported"),
+                    manifest_name);
+  ManifestHead head;
+  const json name = parsed(value_of("name", false));
+  if (!name.is_string()) throw malformed("top level: has no \"name\"");
+  head.name = name.get<std::string>();
   try {
-    return open_checked(path);
-  } catch (const std::bad_alloc&) {
-    throw PackError(PackError::Code::OutOfMemory, "the pack does not fit in the memory this process may use", path.string());
+    const json archive = parsed(value_of("archive", true));
+    if (archive.is_null()) throw malformed("top level: has no \"archive\"");
+    head.archive = archive.get<ManifestArchive>();
+  } catch (const ManifestError& error) {
+    throw malformed(error.inside("/archive").what());
   }
+  return head;
 }
 
-PackReader PackReader::open_checked(const std::filesystem::path& path) {
-  std::filesystem::path manifest_file = path;
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) {
-    std::vector<std::filesystem::path> found;
-    for (std::filesystem::directory_iterator it(path, ec), end; !ec && it != end; it.increment(ec))
-      if (it->path().string().ends_with(".manifest.json")) found.push_back(it->path());
-    if (found.size() != 1)
-      throw PackError(PackError::Code::Io, "the directory holds " + std::to_string(found.size()) +
-                                               " pack manifests (*.manifest.json); name the manifest file",
-                      path.string());
-    manifest_file = found[0];
-  }
-  PackReader reader;
+// The whole manifest, parsed and typed (a tool's open, or manifest() after a game's).
+Manifest parse_manifest(std::string_view text, const std::filesystem::path& manifest_file) {
   const std::string manifest_name = manifest_file.string();
-  std::string text = read_pack_file(manifest_name, "the manifest", kMaxManifestBytes);
-  // Sizes, then the checksum, then the parse: what is parsed is what kiln wrote, bounded in depth.
-  check_manifest_checksum(text, manifest_name);
   // nlohmann's tree takes up to about 20 bytes per byte of text (17x measured on a 250 MiB manifest), and a parse
   // that runs out of memory half-way can end the process (the tree's destructor allocates). So the room is asked
   // for first: under an address-space limit a manifest too large for it is std::bad_alloc here (the C API's
@@ -201,237 +265,429 @@ PackReader PackReader::open_checked(const std::filesystem::path& path) {
   const json& format_version = top("format_version");
   if (!format_version.is_number_unsigned() || format_version.get<uint64_t>() != kPackFormatVersion)
     throw PackError(PackError::Code::Version,
-                    (format_version.is_null()     ? std::string("the manifest has no format_version")
-                     : format_version.is_primitive() ? "pack format version " + format_version.dump() + " is not supported"
-                                                     : std::string("the manifest's format_version is not a number")) +
-                        " (this reader reads version " + std::to_string(kPackFormatVersion) + ")",
+                    version_message(format_version.is_null()        ? std::string("the manifest has no format_version")
+                                    : format_version.is_primitive() ? "pack format version " + format_version.dump() + " is not supported"
+                                                                    : std::string("the manifest's format_version is not a number")),
                     manifest_name);
-  text = std::string();  // the tree is all that is needed now
+  try {
+    Manifest manifest = m.get<Manifest>();
+    manifest.check_indices();
+    return manifest;
+  } catch (const ManifestError& error) {
+    throw PackError(PackError::Code::Format, std::string("malformed manifest: ") + error.what(), manifest_name);
+  }
+}
+
+struct Blob {
+  uint64_t offset = 0;
+  uint64_t stored_size = 0;
+  uint64_t raw_size = 0;
+  uint64_t hash = 0;  // XXH3-64 of the raw bytes
+};
+
+// One pass's selection table: every variant's keyword ids hashed, sorted by hash.
+struct PassKeys {
+  std::vector<std::pair<uint64_t, uint32_t>> by_hash;  // hash of the keyword ids -> variant index in the pass
+};
+
+uint64_t hash_ids(const uint32_t* ids, size_t count) { return XXH3_64bits(ids, count * sizeof(uint32_t)); }
+
+// A compressed blob's bytes, checked: its frame's sizes before its buffer is made (so the buffer is only as large as
+// the frame can fill), its checksum after.
+std::string decompress_checked(const Blob& b, std::string_view stored, const std::string& which, const std::string& file) {
+  auto format = [&](const std::string& what) { return PackError(PackError::Code::Format, which + what, file); };
+  const size_t frame_size = ZSTD_findFrameCompressedSize(stored.data(), stored.size());
+  if (ZSTD_isError(frame_size) || frame_size != stored.size()) throw format(" is not one zstd frame");
+  const unsigned long long content_size = ZSTD_getFrameContentSize(stored.data(), stored.size());
+  if (content_size == ZSTD_CONTENTSIZE_UNKNOWN || content_size == ZSTD_CONTENTSIZE_ERROR)
+    throw format(": its zstd frame does not record its size");
+  if (content_size != b.raw_size)
+    throw format(": its zstd frame holds " + std::to_string(content_size) + " bytes, the blob table records " +
+                 std::to_string(b.raw_size));
+  // A frame's header may claim any size; no frame fills more than one 128 KiB block per 4 of its bytes (a 3-byte
+  // block header and 1 byte repeated), so a larger claim is refused before it is allocated.
+  if (b.raw_size / ZSTD_BLOCKSIZE_MAX > b.stored_size / 4)
+    throw format(": a zstd frame of " + std::to_string(b.stored_size) + " bytes cannot hold " + std::to_string(b.raw_size));
+  std::string raw(b.raw_size, '\0');
+  const size_t got = ZSTD_decompress(raw.data(), raw.size(), stored.data(), stored.size());
+  if (ZSTD_isError(got) || got != b.raw_size)
+    throw PackError(PackError::Code::Checksum, which + " is damaged: its zstd frame does not decompress", file);
+  if (XXH3_64bits(raw.data(), raw.size()) != b.hash) throw PackError(PackError::Code::Checksum, which + " fails its checksum", file);
+  return raw;
+}
+
+}  // namespace
+
+struct PackReader::State {
+  std::filesystem::path manifest_file;
+  std::string archive_file;  // its path, for errors found when a blob is first used
+  MappedFile manifest_text, archive;
+  std::vector<Blob> blobs;
+  runtime::Index index;
+  std::vector<PassKeys> keys;  // per pass
+  // Blobs stored as they are: checked on first use (1 when checked). Compressed ones: decompressed (and checked)
+  // on first use and kept. The reader may be shared between threads.
+  std::unique_ptr<std::atomic<uint8_t>[]> checked;
+  std::mutex mutex;
+  std::unique_ptr<std::atomic<const std::string*>[]> decompressed;  // per blob, once decompressed
+  std::vector<std::unique_ptr<std::string>> owned;                   // what `decompressed` points at (under the mutex)
+  std::unique_ptr<std::atomic<const Reflection*>[]> reflections;
+  std::vector<std::unique_ptr<Reflection>> decoded;  // owns what `reflections` points at (under the mutex)
+  std::once_flag manifest_once;
+  std::optional<Manifest> manifest;
+};
+
+PackReader::PackReader() : state_(std::make_unique<State>()) {}
+PackReader::PackReader(PackReader&&) noexcept = default;
+PackReader& PackReader::operator=(PackReader&&) noexcept = default;
+PackReader::~PackReader() = default;
+
+const StageView* SelectedVariant::stage(std::string_view name) const {
+  for (const StageView& s : stages)
+    if (s.stage == name) return &s;
+  return nullptr;
+}
+
+PackReader PackReader::open(const std::filesystem::path& path, Check check) {
+  try {
+    return open_checked(path, check);
+  } catch (const std::bad_alloc&) {
+    throw PackError(PackError::Code::OutOfMemory, "the pack does not fit in the memory this process may use", path.string());
+  }
+}
+
+PackReader PackReader::open_checked(const std::filesystem::path& path, Check check) {
+  std::filesystem::path manifest_file = path;
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    std::vector<std::filesystem::path> found;
+    for (std::filesystem::directory_iterator it(path, ec), end; !ec && it != end; it.increment(ec))
+      if (it->path().string().ends_with(".manifest.json")) found.push_back(it->path());
+    if (found.size() != 1)
+      throw PackError(PackError::Code::Io, "the directory holds " + std::to_string(found.size()) +
+                                               " pack manifests (*.manifest.json); name the manifest file",
+                      path.string());
+    manifest_file = found[0];
+  }
+  PackReader reader;
+  State& state = *reader.state_;
+  state.manifest_file = manifest_file;
+  const std::string manifest_name = manifest_file.string();
+  state.manifest_text = MappedFile(manifest_name, "the manifest", kMaxManifestBytes);
+  const std::string_view text = state.manifest_text.bytes();
+  // Sizes, then the checksum, then the parse: what is parsed is what kiln wrote, bounded in depth.
+  check_manifest_checksum(text, manifest_name);
+  ManifestHead head;
+  if (check == Check::Full) {
+    state.manifest = parse_manifest(text, manifest_file);
+    head = {state.manifest->name, state.manifest->archive};
+  } else {
+    head = scan_manifest_head(text, manifest_name);
+  }
   auto malformed = [&](const std::string& what) {
     return PackError(PackError::Code::Format, "malformed manifest: " + what, manifest_name);
   };
-  try {
-    reader.manifest_ = m.get<Manifest>();
-  } catch (const ManifestError& error) {
-    throw malformed(error.what());
-  }
-  m = json();  // the typed manifest is all that is kept
-  const Manifest& manifest = reader.manifest_;
-  reader.name_ = manifest.name;
+  reader.name_ = head.name;
   // The manifest names the archive; a name of any other shape ("../x", "/etc/passwd") is refused before any
   // file is opened, so a hostile manifest can make the reader read nothing but this pack's own archive.
   if (std::string problem = name_problem(reader.name_); !problem.empty())
     throw malformed("/name: " + json(reader.name_).dump() + " is not a pack name: it " + problem);
-  const std::string& archive_name = manifest.archive.file;
-  if (archive_name != archive_file_name(reader.name_, manifest.archive.xxh3_64) || !is_archive_file_name(archive_name, reader.name_))
+  const std::string& archive_name = head.archive.file;
+  if (archive_name != archive_file_name(reader.name_, head.archive.xxh3_64) || !is_archive_file_name(archive_name, reader.name_))
     throw malformed("/archive/file: " + json(archive_name).dump() + " is not the archive's name, <name>.<xxh3_64>" +
                     std::string(kArchiveExtension));
-  reader.archive_file_ = (manifest_file.parent_path() / archive_name).string();
-  auto fail = [&](PackError::Code code, const std::string& message) { throw PackError(code, message, reader.archive_file_); };
-  uint32_t count = 0;
-  // The 32-byte header is checked (magic, version, the size it records) before the rest of the archive is read.
+  state.archive_file = (manifest_file.parent_path() / archive_name).string();
+  auto fail = [&](PackError::Code code, const std::string& message) { throw PackError(code, message, state.archive_file); };
+  const std::string archive_what = "archive of pack '" + reader.name_ + "'";
+  // The header (magic, version, size) is read and checked before the archive is mapped.
   auto check_header = [&](std::string_view header) {
-    const std::string head(header);
-    if (head.size() < kPackHeaderSize || std::memcmp(head.data(), kPackMagic, 8) != 0)
-      fail(PackError::Code::Format, "archive of pack '" + reader.name_ + "' has no KILNPACK header");
-    uint32_t version = 0;
-    std::memcpy(&version, head.data() + 8, 4);
-    std::memcpy(&count, head.data() + 12, 4);
+    if (header.size() < kPackHeaderSize || std::memcmp(header.data(), kPackMagic, 8) != 0)
+      fail(PackError::Code::Format, archive_what + " has no KILNPACK header");
+    const uint32_t version = get32(header, 8);
     if (version != kPackFormatVersion)
-      fail(PackError::Code::Version, "archive format version " + std::to_string(version) + " is not supported");
-    if (get64(head, 24) != manifest.archive.size)
-      fail(PackError::Code::Checksum, "archive of pack '" + reader.name_ + "' is truncated or has the wrong size");
+      fail(PackError::Code::Version, version_message("archive format version " + std::to_string(version) + " is not supported"));
+    if (get64(header, 24) != head.archive.size)
+      fail(PackError::Code::Checksum, archive_what + " is truncated or has the wrong size");
   };
-  reader.archive_ = read_pack_file(reader.archive_file_, "archive of pack '" + reader.name_ + "'", kMaxArchiveBytes,
-                                   manifest.archive.size, check_header, kPackHeaderSize);
-  const std::string& bytes = reader.archive_;
-  if (XXH3_64bits(bytes.data() + kPackHeaderSize, bytes.size() - kPackHeaderSize) != get64(bytes, 16) ||
-      hex64(XXH3_64bits(bytes.data(), bytes.size())) != manifest.archive.xxh3_64)
-    fail(PackError::Code::Checksum, "archive of pack '" + reader.name_ + "' fails its checksum");
-  if (kPackHeaderSize + kPackBlobEntrySize * uint64_t{count} > bytes.size())
-    fail(PackError::Code::Format, "archive blob table is out of bounds");
-  if (count != manifest.archive.blobs)
-    throw malformed("/archive/blobs: " + std::to_string(manifest.archive.blobs) + " blobs, the archive holds " +
-                    std::to_string(count));
-  reader.blobs_.reserve(count);
+  state.archive = MappedFile(state.archive_file, archive_what, kMaxArchiveBytes, head.archive.size, check_header, kPackHeaderSize);
+  const std::string_view bytes = state.archive.bytes();
+  if (check == Check::Full && (XXH3_64bits(bytes.data() + kPackHeaderSize, bytes.size() - kPackHeaderSize) != get64(bytes, 16) ||
+                               hex64(XXH3_64bits(bytes.data(), bytes.size())) != head.archive.xxh3_64))
+    fail(PackError::Code::Checksum, archive_what + " fails its checksum");
+  // The head: the blob table and the index, checked together before either is read.
+  const uint32_t count = get32(bytes, 12);
+  const uint64_t index_offset = get64(bytes, 32), index_size = get64(bytes, 40);
+  if (index_offset != kPackHeaderSize + kPackBlobEntrySize * uint64_t{count} || index_offset > bytes.size() ||
+      index_size > bytes.size() - index_offset)
+    fail(PackError::Code::Format, "archive blob table or runtime index is out of bounds");
+  if (XXH3_64bits(bytes.data() + kPackHeaderSize, index_offset + index_size - kPackHeaderSize) != get64(bytes, 48))
+    fail(PackError::Code::Checksum, archive_what + ": its blob table or runtime index fails its checksum");
+  if (count != head.archive.blobs)
+    throw malformed("/archive/blobs: " + std::to_string(head.archive.blobs) + " blobs, the archive holds " + std::to_string(count));
+  state.blobs.reserve(count);
   for (uint32_t i = 0; i < count; ++i) {
-    size_t at = kPackHeaderSize + kPackBlobEntrySize * i;
+    const size_t at = kPackHeaderSize + kPackBlobEntrySize * i;
     Blob blob{get64(bytes, at), get64(bytes, at + 8), get64(bytes, at + 16), get64(bytes, at + 24)};
-    const std::string which = "blob " + std::to_string(i);
-    if (blob.offset > bytes.size() || blob.stored_size > bytes.size() - blob.offset)
-      fail(PackError::Code::Format, which + " is out of bounds");
+    auto which = [&] { return "blob " + std::to_string(i); };
+    if (blob.offset < index_offset + index_size || blob.offset > bytes.size() || blob.stored_size > bytes.size() - blob.offset)
+      fail(PackError::Code::Format, which() + " is out of bounds");
     if (blob.raw_size > kMaxBlobBytes)
-      fail(PackError::Code::Format, which + ": raw size " + std::to_string(blob.raw_size) +
+      fail(PackError::Code::Format, which() + ": raw size " + std::to_string(blob.raw_size) +
                                         " is over the pack format's limit of " + std::to_string(kMaxBlobBytes) + " bytes");
     if (blob.stored_size > blob.raw_size)
-      fail(PackError::Code::Format, which + ": stored size " + std::to_string(blob.stored_size) +
+      fail(PackError::Code::Format, which() + ": stored size " + std::to_string(blob.stored_size) +
                                         " is larger than its raw size " + std::to_string(blob.raw_size));
-    const char* stored = bytes.data() + blob.offset;
-    if (blob.stored_size == blob.raw_size) {
-      if (XXH3_64bits(stored, blob.stored_size) != blob.hash) fail(PackError::Code::Checksum, which + " fails its checksum");
-    } else {
-      // A frame is decompressed (and its checksum checked) when it is first read; its sizes are checked now, so
-      // that the buffer made then is only as large as the frame can fill.
-      const size_t frame_size = ZSTD_findFrameCompressedSize(stored, blob.stored_size);
-      if (ZSTD_isError(frame_size) || frame_size != blob.stored_size) fail(PackError::Code::Format, which + " is not one zstd frame");
-      const unsigned long long content_size = ZSTD_getFrameContentSize(stored, blob.stored_size);
-      if (content_size == ZSTD_CONTENTSIZE_UNKNOWN || content_size == ZSTD_CONTENTSIZE_ERROR)
-        fail(PackError::Code::Format, which + ": its zstd frame does not record its size");
-      if (content_size != blob.raw_size)
-        fail(PackError::Code::Format, which + ": its zstd frame holds " + std::to_string(content_size) +
-                                          " bytes, the blob table records " + std::to_string(blob.raw_size));
-      // A frame's header may claim any size; no frame fills more than one 128 KiB block per 4 of its bytes
-      // (a 3-byte block header and 1 byte repeated), so a larger claim is refused before it is allocated.
-      if (blob.raw_size / ZSTD_BLOCKSIZE_MAX > blob.stored_size / 4)
-        fail(PackError::Code::Format, which + ": a zstd frame of " + std::to_string(blob.stored_size) +
-                                          " bytes cannot hold " + std::to_string(blob.raw_size));
-    }
-    reader.blobs_.push_back(blob);
+    state.blobs.push_back(blob);
   }
   try {
-    manifest.check_indices();
-  } catch (const ManifestError& error) {
-    throw malformed(error.what());
+    state.index = runtime::Index::decode(bytes.substr(index_offset, index_size), count);
+  } catch (const runtime::IndexError& error) {
+    fail(PackError::Code::Format, archive_what + ": " + error.what());
   }
-  for (const ManifestPass& pass : manifest.passes) {
-    Pass entry;
-    entry.manifest = &pass;
-    for (const ManifestKeywordGroup& group : pass.keyword_groups) entry.groups.push_back(group.values);
-    for (size_t i = 0; i < pass.variants.size(); ++i) entry.by_key[join(pass.variants[i].keywords)] = i;
-    if (!reader.passes_.emplace(pass.name, std::move(entry)).second)
-      throw malformed("/passes: two passes are named " + json(pass.name).dump());
+  state.checked = std::make_unique<std::atomic<uint8_t>[]>(count);
+  state.decompressed = std::make_unique<std::atomic<const std::string*>[]>(count);
+  state.reflections = std::make_unique<std::atomic<const Reflection*>[]>(state.index.reflections.size());
+  state.decoded.resize(state.index.reflections.size());
+  if (check == Check::Full) {
+    for (uint32_t i = 0; i < count; ++i) {
+      const Blob& b = state.blobs[i];
+      if (b.stored_size == b.raw_size) reader.blob(i);
+      else decompress_checked(b, bytes.substr(b.offset, b.stored_size), "blob " + std::to_string(i), state.archive_file);
+    }
+    if (runtime::encode(*state.manifest) != bytes.substr(index_offset, index_size))
+      fail(PackError::Code::Format, archive_what + ": its runtime index does not match the manifest");
+  }
+  // Selection by keyword ids: each variant's sorted ids, hashed.
+  const runtime::Index& index = state.index;
+  state.keys.resize(index.passes.size());
+  for (size_t p = 0; p < index.passes.size(); ++p) {
+    const runtime::Pass& pass = index.passes[p];
+    auto& by_hash = state.keys[p].by_hash;
+    by_hash.reserve(pass.variant_count);
+    for (uint32_t v = 0; v < pass.variant_count; ++v) {
+      const runtime::Variant& variant = index.variants[pass.first_variant + v];
+      by_hash.emplace_back(hash_ids(index.variant_keywords.data() + variant.first_keyword, variant.keyword_count), v);
+    }
+    std::sort(by_hash.begin(), by_hash.end());
   }
   return reader;
 }
 
+const Manifest& PackReader::manifest() const {
+  State& state = *state_;
+  std::call_once(state.manifest_once, [&] {
+    if (state.manifest) return;
+    try {
+      state.manifest = parse_manifest(state.manifest_text.bytes(), state.manifest_file);
+    } catch (const std::bad_alloc&) {
+      throw PackError(PackError::Code::OutOfMemory, "the manifest does not fit in the memory this process may use",
+                      state.manifest_file.string());
+    }
+  });
+  return *state.manifest;
+}
+
+const runtime::Index& PackReader::index() const { return state_->index; }
+
 std::vector<std::string> PackReader::passes() const {
   std::vector<std::string> names;
-  for (const ManifestPass& pass : manifest_.passes) names.push_back(pass.name);
+  for (const runtime::Pass& pass : state_->index.passes) names.emplace_back(pass.name);
   return names;
 }
 
-const PackReader::Pass& PackReader::find_pass(std::string_view name) const {
-  auto it = passes_.find(name);
-  if (it == passes_.end())
-    throw PackError(PackError::Code::UnknownPass, "pack '" + name_ + "' has no pass '" + std::string(name) + "'");
-  return it->second;
+uint32_t PackReader::find_pass(std::string_view name) const {
+  const std::vector<runtime::Pass>& passes = state_->index.passes;
+  for (size_t p = 0; p < passes.size(); ++p)
+    if (passes[p].name == name) return static_cast<uint32_t>(p);
+  throw PackError(PackError::Code::UnknownPass, "pack '" + name_ + "' has no pass '" + std::string(name) + "'");
 }
 
-size_t PackReader::variant_count(std::string_view pass) const { return find_pass(pass).manifest->variants.size(); }
+size_t PackReader::variant_count(std::string_view pass) const { return state_->index.passes[find_pass(pass)].variant_count; }
 
-std::vector<std::vector<std::string>> PackReader::keyword_groups(std::string_view pass) const {
-  return find_pass(pass).groups;
+std::vector<std::vector<std::string>> PackReader::keyword_groups(std::string_view pass_name) const {
+  const runtime::Index& index = state_->index;
+  const runtime::Pass& pass = index.passes[find_pass(pass_name)];
+  std::vector<std::vector<std::string>> groups;
+  for (uint32_t g = 0; g < pass.group_count; ++g) {
+    const runtime::Group& group = index.groups[pass.first_group + g];
+    std::vector<std::string>& values = groups.emplace_back();
+    for (uint32_t v = 0; v < group.value_count; ++v) {
+      const uint32_t id = index.values[group.first_value + v];
+      values.emplace_back(id == runtime::kOffValue ? std::string_view() : index.keywords[id]);
+    }
+  }
+  return groups;
 }
 
 std::string_view PackReader::blob(uint32_t id) const {
-  if (id >= blobs_.size()) throw PackError(PackError::Code::Format, "blob id " + std::to_string(id) + " out of range");
-  const Blob& b = blobs_[id];
-  std::string_view stored = std::string_view(archive_).substr(b.offset, b.stored_size);
-  if (b.stored_size == b.raw_size) return stored;
-  std::lock_guard lock(*decompress_mutex_);
-  auto& slot = decompressed_[id];
-  if (!slot) {
-    auto raw = std::make_unique<std::string>(b.raw_size, '\0');
-    size_t got = ZSTD_decompress(raw->data(), raw->size(), stored.data(), stored.size());
-    if (ZSTD_isError(got) || got != b.raw_size)
-      throw PackError(PackError::Code::Format, "blob " + std::to_string(id) + " does not decompress", archive_file_);
-    if (XXH3_64bits(raw->data(), raw->size()) != b.hash)
-      throw PackError(PackError::Code::Checksum, "blob " + std::to_string(id) + " fails its checksum", archive_file_);
-    slot = std::move(raw);
+  State& state = *state_;
+  if (id >= state.blobs.size()) throw PackError(PackError::Code::Format, "blob id " + std::to_string(id) + " out of range");
+  const Blob& b = state.blobs[id];
+  const std::string_view stored = state.archive.bytes().substr(b.offset, b.stored_size);
+  auto which = [&] { return "blob " + std::to_string(id); };
+  if (b.stored_size == b.raw_size) {
+    if (state.checked[id].load(std::memory_order_acquire)) return stored;
+    if (XXH3_64bits(stored.data(), stored.size()) != b.hash)
+      throw PackError(PackError::Code::Checksum, which() + " fails its checksum", state.archive_file);
+    state.checked[id].store(1, std::memory_order_release);
+    return stored;
   }
-  return *slot;
+  if (const std::string* raw = state.decompressed[id].load(std::memory_order_acquire)) return *raw;
+  std::lock_guard lock(state.mutex);
+  if (const std::string* raw = state.decompressed[id].load(std::memory_order_acquire)) return *raw;
+  const std::string* raw = state.owned.emplace_back(std::make_unique<std::string>(decompress_checked(b, stored, which(), state.archive_file))).get();
+  state.decompressed[id].store(raw, std::memory_order_release);
+  return *raw;
+}
+
+const Reflection& PackReader::reflection(uint32_t id) const {
+  State& state = *state_;
+  if (id >= state.index.reflections.size())
+    throw PackError(PackError::Code::Format, "reflection " + std::to_string(id) + " out of range");
+  if (const Reflection* decoded = state.reflections[id].load(std::memory_order_acquire)) return *decoded;
+  std::lock_guard lock(state.mutex);
+  if (!state.decoded[id]) {
+    try {
+      state.decoded[id] = std::make_unique<Reflection>(runtime::decode_reflection(state.index.reflections[id]));
+    } catch (const runtime::IndexError& error) {
+      throw PackError(PackError::Code::Format, "reflection " + std::to_string(id) + ": " + error.what(), state.archive_file);
+    }
+    state.reflections[id].store(state.decoded[id].get(), std::memory_order_release);
+  }
+  return *state.decoded[id];
 }
 
 SelectedVariant PackReader::variant(std::string_view pass_name, size_t index) const {
-  const Pass& pass = find_pass(pass_name);
-  const std::vector<ManifestVariant>& variants = pass.manifest->variants;
-  if (index >= variants.size()) throw PackError(PackError::Code::Format, "variant index out of range");
-  const ManifestVariant& v = variants[index];
+  const uint32_t pass = find_pass(pass_name);
+  if (index >= state_->index.passes[pass].variant_count) throw PackError(PackError::Code::Format, "variant index out of range");
+  return variant_of(pass, static_cast<uint32_t>(index));
+}
+
+SelectedVariant PackReader::variant_of(uint32_t pass_id, uint32_t index) const {
+  const runtime::Index& ix = state_->index;
+  const runtime::Pass& pass = ix.passes[pass_id];
+  const runtime::Variant& v = ix.variants[pass.first_variant + index];
   SelectedVariant selected;
-  selected.pass = std::string(pass_name);
+  selected.pass = std::string(pass.name);
   selected.index = index;
-  selected.keywords = v.keywords;
-  for (const auto& [stage, binary_id] : v.binaries) {
-    const ManifestBinary& binary = manifest_.binaries[binary_id];  // in range: check_indices
+  for (uint32_t k = 0; k < v.keyword_count; ++k) selected.keywords.emplace_back(ix.keywords[ix.variant_keywords[v.first_keyword + k]]);
+  for (Stage stage : kAllStages) {
+    const uint32_t binary_id = v.binaries[static_cast<size_t>(stage)];
+    if (binary_id == runtime::kNone) continue;
+    const runtime::Binary& binary = ix.binaries[binary_id];  // in range: Index::decode
     StageView view;
     view.stage = std::string(stage_name(stage));
-    view.entry_point = binary.entry;
-    auto get = [&](Target target) -> std::string_view {
-      auto it = binary.blobs.find(target);
-      return it == binary.blobs.end() ? std::string_view{} : blob(it->second);
+    view.entry_point = std::string(binary.entry);
+    auto get = [&](Target target) {
+      const uint32_t blob_id = binary.blobs[static_cast<size_t>(target)];
+      return blob_id == runtime::kNone ? std::string_view{} : blob(blob_id);
     };
     view.spirv = get(Target::Spirv);
     view.glsl = get(Target::Glsl);
     view.gles = get(Target::Gles);
     view.msl = get(Target::Msl);
-    view.reflection = &manifest_.reflections[binary.reflection];
+    view.reflection = &reflection(binary.reflection);
     selected.stages.push_back(view);
   }
   return selected;
 }
 
 SelectedVariant PackReader::select(std::string_view pass_name, const std::vector<std::string>& keywords, bool strict) const {
-  const Pass& pass = find_pass(pass_name);
-  std::vector<std::string> chosen;
-  std::vector<bool> group_set(pass.groups.size(), false);
+  const runtime::Index& ix = state_->index;
+  const uint32_t pass_id = find_pass(pass_name);
+  const runtime::Pass& pass = ix.passes[pass_id];
+  auto group_values = [&](uint32_t g) {
+    const runtime::Group& group = ix.groups[pass.first_group + g];
+    return std::span<const uint32_t>(ix.values.data() + group.first_value, group.value_count);
+  };
+  auto value_names = [&](uint32_t g) {
+    std::vector<std::string_view> names;
+    for (uint32_t id : group_values(g)) names.push_back(id == runtime::kOffValue ? std::string_view() : ix.keywords[id]);
+    return names;
+  };
+  std::vector<uint32_t> chosen;
+  std::vector<bool> group_set(pass.group_count, false);
   std::set<std::string> requested(keywords.begin(), keywords.end());
   requested.erase("");
   for (const std::string& keyword : requested) {
+    const uint32_t id = ix.keyword_id(keyword);
     bool found = false;
-    for (size_t g = 0; g < pass.groups.size() && !found; ++g) {
-      if (std::find(pass.groups[g].begin(), pass.groups[g].end(), keyword) == pass.groups[g].end()) continue;
+    for (uint32_t g = 0; g < pass.group_count && !found && id < ix.declared_keywords; ++g) {
+      auto values = group_values(g);
+      if (std::find(values.begin(), values.end(), id) == values.end()) continue;
       found = true;
       if (group_set[g])
         throw PackError(PackError::Code::ConflictingKeywords,
                         "pass '" + std::string(pass_name) + "': keywords of one group requested together, including '" +
                             keyword + "'; a group takes at most one keyword");
       group_set[g] = true;
-      chosen.push_back(keyword);
+      chosen.push_back(id);
     }
     if (!found && strict)
       throw PackError(PackError::Code::UnknownKeyword,
                       "pass '" + std::string(pass_name) + "' does not declare keyword '" + keyword + "'");
   }
-  for (size_t g = 0; g < pass.groups.size(); ++g) {
+  for (uint32_t g = 0; g < pass.group_count; ++g) {
     if (group_set[g]) continue;
-    if (std::find(pass.groups[g].begin(), pass.groups[g].end(), "") == pass.groups[g].end()) {
-      if (pass.groups[g].size() == 1) {
-        chosen.push_back(pass.groups[g][0]);  // a one-keyword multi_compile is always on
+    auto values = group_values(g);
+    if (std::find(values.begin(), values.end(), runtime::kOffValue) == values.end()) {
+      if (values.size() == 1) {
+        chosen.push_back(values[0]);  // a one-keyword multi_compile is always on
         continue;
       }
-      throw PackError(PackError::Code::MissingKeyword, "pass '" + std::string(pass_name) + "' needs one of: " +
-                                                           join(pass.groups[g]));
+      throw PackError(PackError::Code::MissingKeyword, "pass '" + std::string(pass_name) + "' needs one of: " + join(value_names(g)));
     }
   }
+  // Declared keyword ids are in name order, so sorting the ids sorts the names.
   std::sort(chosen.begin(), chosen.end());
-  auto it = pass.by_key.find(join(chosen));
-  if (it != pass.by_key.end()) return variant(pass_name, it->second);
+  chosen.erase(std::unique(chosen.begin(), chosen.end()), chosen.end());
+  const auto& by_hash = state_->keys[pass_id].by_hash;
+  const uint64_t hash = hash_ids(chosen.data(), chosen.size());
+  auto keywords_of = [&](uint32_t v) {
+    const runtime::Variant& variant = ix.variants[pass.first_variant + v];
+    return std::span<const uint32_t>(ix.variant_keywords.data() + variant.first_keyword, variant.keyword_count);
+  };
+  // Of variants with the same keywords the last one counts, as in a manifest read into a map.
+  std::optional<uint32_t> found;
+  for (auto it = std::lower_bound(by_hash.begin(), by_hash.end(), std::pair<uint64_t, uint32_t>(hash, 0));
+       it != by_hash.end() && it->first == hash; ++it) {
+    auto kw = keywords_of(it->second);
+    if (std::equal(kw.begin(), kw.end(), chosen.begin(), chosen.end())) found = it->second;
+  }
+  if (found) return variant_of(pass_id, *found);
 
   // Stripped: name the requested keywords that no variant of this pass has together with the rest.
+  auto names_of = [&](std::span<const uint32_t> ids) {
+    std::vector<std::string> names;
+    for (uint32_t id : ids) names.emplace_back(ix.keywords[id]);
+    std::sort(names.begin(), names.end());
+    return names;
+  };
+  const std::vector<std::string> chosen_names = names_of(chosen);
   std::vector<std::string> missing;
-  for (const std::string& keyword : chosen) {
+  for (uint32_t id : chosen) {
     bool anywhere = false;
-    for (const auto& [key, index] : pass.by_key) {
-      const std::vector<std::string>& kw = pass.manifest->variants[index].keywords;
-      if (std::find(kw.begin(), kw.end(), keyword) != kw.end()) anywhere = true;
+    for (uint32_t v = 0; v < pass.variant_count && !anywhere; ++v) {
+      auto kw = keywords_of(v);
+      anywhere = std::find(kw.begin(), kw.end(), id) != kw.end();
     }
-    if (!anywhere) missing.push_back(keyword);
+    if (!anywhere) missing.emplace_back(ix.keywords[id]);
   }
-  // Nearest existing variants by symmetric difference, as hints only.
-  std::vector<std::pair<size_t, std::string>> nearest;
-  for (const auto& [key, index] : pass.by_key) {
-    const std::vector<std::string>& kw = pass.manifest->variants[index].keywords;
+  // Nearest existing variants by symmetric difference, as hints only (one per distinct keyword set).
+  std::set<std::pair<size_t, std::string>> nearest;
+  for (uint32_t v = 0; v < pass.variant_count; ++v) {
+    const std::vector<std::string> kw = names_of(keywords_of(v));
     std::vector<std::string> diff;
-    std::set_symmetric_difference(kw.begin(), kw.end(), chosen.begin(), chosen.end(), std::back_inserter(diff));
-    nearest.emplace_back(diff.size(), key);
+    std::set_symmetric_difference(kw.begin(), kw.end(), chosen_names.begin(), chosen_names.end(), std::back_inserter(diff));
+    nearest.emplace(diff.size(), join(kw));
   }
-  std::sort(nearest.begin(), nearest.end());
-  std::string message = "pass '" + std::string(pass_name) + "' has no variant [" + join(chosen) +
+  std::string message = "pass '" + std::string(pass_name) + "' has no variant [" + join(chosen_names) +
                         "]: it was stripped from pack '" + name_ + "' (constraints, scene profiles or budget)";
   if (!missing.empty()) message += "; no variant at all has: " + join(missing);
   if (!nearest.empty()) {
     message += "; nearest variants in the pack:";
-    for (size_t i = 0; i < nearest.size() && i < 3; ++i) message += " [" + nearest[i].second + "]";
+    size_t shown = 0;
+    for (auto it = nearest.begin(); it != nearest.end() && shown < 3; ++it, ++shown) message += " [" + it->second + "]";
   }
   throw PackError(PackError::Code::Stripped, message);
 }

@@ -306,6 +306,18 @@ std::optional<RemoteFetched> RemoteCache::fetch_one(HttpClient& client, const Re
   if (alias.size() < 48) return rejected("alias record too short", "ac/" + key.hex());
   const RemoteKey module = get_key(alias, 0);
   fetched.module = Hash128{get64(alias, 32), get64(alias, 40)};
+  // From here, a miss means the module's entry is missing or damaged: an uploading build puts it again whole,
+  // whatever a HEAD request says (upload_module).
+  struct MarkUnlessFetched {
+    RemoteCache& cache;
+    const RemoteKey& key;
+    bool fetched = false;
+    ~MarkUnlessFetched() {
+      if (fetched) return;
+      std::lock_guard lock(cache.mutex_);
+      cache.damaged_.insert(key);
+    }
+  } mark{*this, module};
   try {
     JobOutput front = decode_output(bytes_of(std::string_view(alias).substr(48)));
     if (!front.ok || !front.blobs.empty()) return rejected("alias record does not decode", "ac/" + key.hex());
@@ -351,6 +363,7 @@ std::optional<RemoteFetched> RemoteCache::fetch_one(HttpClient& client, const Re
       return rejected("a blob does not unpack to the record's size and checksum", "cas/" + digest.hex());
     }
   }
+  mark.fetched = true;
   return fetched;
 }
 
@@ -383,11 +396,29 @@ bool RemoteCache::put(HttpClient& client, const std::string& target, std::string
   return true;
 }
 
+// A module whose record is on the server is not sent again if its blobs are there too (HEAD requests); one this build
+// found missing or damaged (fetch_one), or whose blobs are gone, is put again whole: blobs, then the record.
 bool RemoteCache::upload_module(HttpClient& client, const ModuleUpload& module) {
   if (switched_off_) return false;
-  HttpResult there = client.head(url("ac", module.key));
-  if (!answered(there, "request")) return false;
-  if (there.status == 200) return true;  // another build uploaded it (blobs first, so they are there too)
+  bool damaged = false;
+  {
+    std::lock_guard lock(mutex_);
+    damaged = damaged_.count(module.key) > 0;
+  }
+  if (!damaged) {
+    HttpResult there = client.head(url("ac", module.key));
+    if (!answered(there, "request")) return false;
+    if (there.status == 200) {
+      bool whole = true;
+      for (const auto& entry : module.output->blobs) {
+        HttpResult blob = client.head(url("cas", sha256(entry.second.stored)));
+        if (!answered(blob, "request")) return false;
+        whole = whole && blob.status == 200;
+      }
+      if (whole) return true;  // another build uploaded it whole
+      damaged = true;
+    }
+  }
   std::string payload;
   put32(payload, static_cast<uint32_t>(module.output->blobs.size()));
   JobOutput described = *module.output;
@@ -406,6 +437,7 @@ bool RemoteCache::upload_module(HttpClient& client, const ModuleUpload& module) 
   if (!put(client, url("ac", module.key), make_record(kResult, module.key, payload))) return false;
   std::lock_guard lock(mutex_);
   ++report_.uploads;
+  if (damaged) ++report_.repaired;
   return true;
 }
 
@@ -493,7 +525,7 @@ std::optional<std::string> RemoteCache::fetch_pack(const RemoteKey& key, const s
   bool good = write_file_atomic(std::filesystem::path(scratch) / archive_file, *archive).empty() &&
               write_file_atomic(manifest_path(scratch, pack_name), *manifest).empty();
   try {
-    good = good && PackReader::open(manifest_path(scratch, pack_name)).name() == pack_name;
+    good = good && PackReader::open(manifest_path(scratch, pack_name), PackReader::Check::Full).name() == pack_name;
   } catch (const PackError& error) {
     std::filesystem::remove_all(scratch, ec);
     return rejected(std::string("the pack does not open: ") + error.what());

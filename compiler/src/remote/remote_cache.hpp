@@ -19,6 +19,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -87,7 +88,8 @@ class RemoteCache {
     const std::vector<FrontendMessage>* messages;
   };
   // Blobs first, then each module's record, then the aliases of the modules now on the server, so a reader
-  // never finds a record whose blobs are missing. A module whose record is already there is not sent again.
+  // never finds a record whose blobs are missing. A module whose record and blobs are already there is not sent
+  // again; one whose entry this build's fetch found missing or damaged, or whose blobs are gone, is put again whole.
   void upload(const std::vector<ModuleUpload>& modules, const std::vector<AliasUpload>& aliases);
 
   // The pack-level entry: the finished pack (archive and manifest, as CAS blobs) under a key of the build's
@@ -133,6 +135,7 @@ class RemoteCache {
   // Per diagnostic: the messages seen (ordered, so the one reported does not depend on thread timing).
   std::map<DiagId, std::vector<std::pair<std::string, std::string>>> problems_;  // message, note
   std::map<DiagId, bool> reported_;
+  std::set<RemoteKey> damaged_;  // module keys whose entries fetch found missing or damaged
 };
 
 }  // namespace kiln
