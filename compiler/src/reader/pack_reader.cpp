@@ -166,10 +166,11 @@ std::string version_message(const std::string& what) {
 // as zeros. It runs before anything in the text is used, so a damaged or foreign manifest costs one hash of its
 // bytes, never a parse.
 void check_manifest_checksum(std::string_view text, const std::string& manifest_name) {
-  const size_t field = find(text, kManifestChecksumField);
-  const size_t digits = field + std::strlen(kManifestChecksumField);
-  if (field == std::string_view::npos || find(text, kManifestChecksumField, digits) != std::string_view::npos ||
-      text.size() < digits + kManifestChecksumDigits)
+  // The top-level field, as kiln writes it (one space of indentation; see scan_manifest_head): one search that stops
+  // half-way through the file, where the keys' order puts it.
+  const size_t field = find(text, "\n " + std::string(kManifestChecksumField));
+  const size_t digits = field + 2 + std::strlen(kManifestChecksumField);
+  if (field == std::string_view::npos || text.size() < digits + kManifestChecksumDigits)
     throw PackError(PackError::Code::Format, "not a kiln pack manifest: it has no checksum (\"manifest_xxh3_64\")",
                     manifest_name);
   XXH3_state_t* state = XXH3_createState();
@@ -195,10 +196,14 @@ struct ManifestHead {
 // indentation per level (pack_writer.cpp), so "\n \"key\": " is a top-level key and nothing else (a string holds no
 // raw newline), and a top-level value ends at ",\n" or, for an object, at "\n }". Each value found is parsed alone.
 ManifestHead scan_manifest_head(std::string_view text, const std::string& manifest_name) {
+  // The keys are written in order (archive, ..., format, format_version, ..., name, ...): each search starts where
+  // the previous key was found, so the head costs one pass over the first half of the file.
+  size_t from = 0;
   auto value_of = [&](std::string_view key, bool object) -> std::optional<std::string_view> {
     const std::string pattern = "\n \"" + std::string(key) + "\": ";
-    const size_t at = find(text, pattern);
+    const size_t at = find(text, pattern, from);
     if (at == std::string_view::npos) return std::nullopt;
+    from = at;
     const size_t start = at + pattern.size();
     const size_t end = object ? find(text, "\n }", start) : text.find_first_of(",\n", start);
     if (end == std::string_view::npos) return std::nullopt;
@@ -212,6 +217,7 @@ ManifestHead scan_manifest_head(std::string_view text, const std::string& manife
     }
   };
   auto malformed = [&](const std::string& what) { return PackError(PackError::Code::Format, "malformed manifest: " + what, manifest_name); };
+  const std::optional<std::string_view> archive_text = value_of("archive", true);
   if (parsed(value_of("format", false)) != kManifestFormat)
     throw PackError(PackError::Code::Format, "not a kiln pack manifest (no \"format\": \"" + std::string(kManifestFormat) + "\")",
                     manifest_name);
@@ -225,7 +231,7 @@ ManifestHead scan_manifest_head(std::string_view text, const std::string& manife
   if (!name.is_string()) throw malformed("top level: has no \"name\"");
   head.name = name.get<std::string>();
   try {
-    const json archive = parsed(value_of("archive", true));
+    const json archive = parsed(archive_text);
     if (archive.is_null()) throw malformed("top level: has no \"archive\"");
     head.archive = archive.get<ManifestArchive>();
   } catch (const ManifestError& error) {
