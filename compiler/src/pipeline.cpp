@@ -179,6 +179,10 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     pack_key = remote_pack_key(*remote, *settings, *plan, options);
     if (fetched_from_remote(*remote, *pack_key, options, *plan, inputs_hash, sink, report)) return finish();
   }
+  if (remote && options.remote.required && !remote->usable()) {  // --remote-required: a remote error fails the build now
+    report_remote(*remote, sink, report);
+    return finish();
+  }
   std::optional<Cache> cache;
   if (options.cache_dir) cache.emplace(*options.cache_dir, options.cache_max_mb << 20);
   Cache* memo_cache = cache && !options.emit.count("preprocessed") ? &*cache : nullptr;  // --emit wants the text

@@ -151,6 +151,10 @@ struct Remote : ::testing::Test {
     DiagnosticSink strict;
     BuildReport failed = build(remote, strict);
     EXPECT_FALSE(failed.ok);
+    // A lookup's fault fails the build before anything is compiled; an upload's comes after the compiles it uploads.
+    if (id != DiagId::RemoteUploadRefused) {
+      EXPECT_EQ(failed.compiled, 0u) << "--remote-required fails at the first remote error, before compiling";
+    }
     bool found = false;
     for (const Diagnostic& d : strict.diagnostics()) found |= d.id == id && d.severity == Severity::Error;
     EXPECT_TRUE(found) << text_of(strict);

@@ -204,10 +204,13 @@ class Scheduler {
       keys.push_back(*result.remote_key);
     }
     std::vector<std::optional<RemoteFetched>> fetched = remote->fetch(keys);
+    remote->report_problems(sink_);  // here, so that a remote switched off is said before any compile message
+    // --remote-required: a remote error (which switched the remote off) fails the build before anything is compiled.
+    const bool compile_misses = !(options_.remote.required && !remote->usable());
     for (size_t a = 0; a < asked.size(); ++a) {
       KeyResult& result = results_by_key_[asked[a]];
       if (!fetched[a]) {
-        queue_front_end(asked[a]);
+        if (compile_misses) queue_front_end(asked[a]);
         continue;
       }
       RemoteFetched& hit = *fetched[a];
@@ -220,7 +223,6 @@ class Scheduler {
       result.module = hit.module;
       ++done_;
     }
-    remote->report_problems(sink_);  // here, so that a remote switched off is said before any compile message
   }
 
   // A finished job's input (its source text or its module) is not read again: free it now, not when the build

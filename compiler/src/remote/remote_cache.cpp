@@ -235,7 +235,9 @@ void RemoteCache::problem(DiagId id, const std::string& message, const std::stri
   std::lock_guard lock(mutex_);
   ++report_.errors;
   problems_[id].emplace_back(message, note);
-  if (id == DiagId::RemoteUnreachable || ++consecutive_errors_ >= kErrorsBeforeSwitchingOff) switched_off_ = true;
+  // With --remote-required the first problem ends the remote's part in the build (the build fails, and fails now).
+  if (options_.required || id == DiagId::RemoteUnreachable || ++consecutive_errors_ >= kErrorsBeforeSwitchingOff)
+    switched_off_ = true;
 }
 
 void RemoteCache::success() {
