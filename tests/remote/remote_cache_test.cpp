@@ -604,6 +604,16 @@ TEST_F(Remote, AConnectionThatNeverCompletesTimesOutAndSwitchesTheRemoteOff) {
                   DiagId::RemoteTimeout);
 }
 
+// A server that answers a byte at a time (4 bytes a second) never reaches the request timeout (30 s by default):
+// the low-speed limit cuts it off, and the remote is off for the rest of the build.
+TEST_F(Remote, ADripFeedingServerIsCutOffByTheLowSpeedLimit) {
+  testing::FaultServer drip(testing::FaultServer::Mode::Drip);
+  expect_survived(serial(drip.url()),
+                  drip.url() + ": warning[K1702]: the remote cache sent less than 1024 bytes a second for 4 s: the "
+                               "transfer was cut off\n" + kSwitchedOff + kNeverFails,
+                  DiagId::RemoteTimeout);
+}
+
 TEST_F(Remote, ABodyCutShortOfItsLengthIsAMiss) {
   testing::FaultServer truncated(testing::FaultServer::Mode::Truncated);
   expect_survived(serial(truncated.url()),

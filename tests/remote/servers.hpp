@@ -201,7 +201,9 @@ class Nginx {
 // accept queue, whose connection attempts Linux drops).
 class FaultServer {
  public:
-  enum class Mode { Truncated, Silent, Backlogged };
+  // Truncated: promises 1000 bytes and sends 10. Silent: accepts and never answers. Backlogged: its accept queue is
+  // full. Drip: promises 1000 bytes and sends one every 250 ms (under any low-speed limit) until the client goes.
+  enum class Mode { Truncated, Silent, Backlogged, Drip };
   explicit FaultServer(Mode mode) : mode_(mode) {
     listener_ = listen_on_loopback(port_);
     if (mode_ == Mode::Backlogged) {
@@ -258,8 +260,13 @@ class FaultServer {
         if (n <= 0) break;
         request.append(buffer, static_cast<size_t>(n));
       }
-      const std::string answer = "HTTP/1.1 200 OK\r\nContent-Length: 1000\r\nConnection: close\r\n\r\n0123456789";
-      [[maybe_unused]] ssize_t sent = ::send(fd, answer.data(), answer.size(), MSG_NOSIGNAL);
+      const std::string head = "HTTP/1.1 200 OK\r\nContent-Length: 1000\r\nConnection: close\r\n\r\n";
+      const std::string answer = mode_ == Mode::Drip ? head : head + "0123456789";
+      ssize_t sent = ::send(fd, answer.data(), answer.size(), MSG_NOSIGNAL);
+      for (int i = 0; mode_ == Mode::Drip && sent > 0 && i < 1000 && !stopping_; ++i) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(250));
+        sent = ::send(fd, "k", 1, MSG_NOSIGNAL);
+      }
       ::close(fd);
     }
   }

@@ -13,6 +13,14 @@ inline constexpr uint64_t kCacheMaxMb = 1024;                              // th
 inline constexpr uint64_t kMaxFileBytes = uint64_t{4} << 20;              // one input file
 inline constexpr std::chrono::milliseconds kRemoteConnectTimeout{1'000};  // --remote-connect-timeout
 inline constexpr std::chrono::milliseconds kRemoteTimeout{30'000};        // one remote request (--remote-timeout)
+// A transfer that moves fewer bytes than this per second, over this long, is cut off (a drip-feeding or stalled
+// server), whatever the request timeout.
+inline constexpr long kRemoteLowSpeedBytesPerSecond = 1024;
+inline constexpr std::chrono::seconds kRemoteLowSpeedTime{4};
+// A request answered with 429 or 5xx (but 507, a full disk) or cut by a reset is tried again, this many times, after
+// a pause that doubles from this one.
+inline constexpr int kRemoteRetries = 2;
+inline constexpr std::chrono::milliseconds kRemoteRetryPause{100};
 inline constexpr unsigned kRemoteParallelTransfers = 32;                   // --remote-parallel
 
 }  // namespace kiln::defaults

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <mutex>
 #include <stdexcept>
+#include <thread>
 
 namespace kiln {
 namespace {
@@ -58,6 +59,8 @@ HttpClient::HttpClient(HttpSettings settings) : settings_(std::move(settings)) {
   curl_easy_setopt(c, CURLOPT_FOLLOWLOCATION, 0L);  // a redirect is an error status, never a downgrade
   curl_easy_setopt(c, CURLOPT_CONNECTTIMEOUT_MS, static_cast<long>(settings_.connect_timeout.count()));
   curl_easy_setopt(c, CURLOPT_TIMEOUT_MS, static_cast<long>(settings_.operation_timeout.count()));
+  curl_easy_setopt(c, CURLOPT_LOW_SPEED_LIMIT, defaults::kRemoteLowSpeedBytesPerSecond);
+  curl_easy_setopt(c, CURLOPT_LOW_SPEED_TIME, static_cast<long>(defaults::kRemoteLowSpeedTime.count()));
   curl_easy_setopt(c, CURLOPT_SSL_VERIFYPEER, 1L);
   curl_easy_setopt(c, CURLOPT_SSL_VERIFYHOST, 2L);
   if (!settings_.ca_file.empty()) curl_easy_setopt(c, CURLOPT_CAINFO, settings_.ca_file.c_str());
@@ -118,8 +121,11 @@ void HttpClient::perform(HttpResult& result) {
   result.failure = classify(code);
   // libcurl gives one code for both timeouts; its message says which ("Connection timed out after ...", "SSL
   // connection timeout", "Resolving timed out after ...", against "Operation timed out after ...").
+  // A transfer under the low-speed limit is the same code again: "Operation too slow. Less than ...".
   const std::string_view message(error_);
-  if (code == CURLE_OPERATION_TIMEDOUT && !message.starts_with("Operation timed out")) result.failure = HttpResult::Failure::ConnectTimeout;
+  if (code == CURLE_OPERATION_TIMEDOUT && message.starts_with("Operation too slow")) result.failure = HttpResult::Failure::TooSlow;
+  else if (code == CURLE_OPERATION_TIMEDOUT && !message.starts_with("Operation timed out"))
+    result.failure = HttpResult::Failure::ConnectTimeout;
   if (over_limit_) result.failure = HttpResult::Failure::TooLarge;
   if (result.failure == HttpResult::Failure::None) {
     curl_easy_getinfo(c, CURLINFO_RESPONSE_CODE, &result.status);
@@ -129,42 +135,62 @@ void HttpClient::perform(HttpResult& result) {
   }
 }
 
+template <class Attempt>
+HttpResult HttpClient::with_retries(Attempt attempt) {
+  auto pause = defaults::kRemoteRetryPause;
+  for (int tries = 0;; ++tries) {
+    HttpResult result = attempt();
+    const bool worth_another = result.failure == HttpResult::Failure::Cut ||
+                               (result.failure == HttpResult::Failure::None &&
+                                (result.status == 429 || (result.status >= 500 && result.status != 507)));
+    if (!worth_another || tries == defaults::kRemoteRetries) return result;
+    std::this_thread::sleep_for(pause);
+    pause *= 2;
+  }
+}
+
 HttpResult HttpClient::get(const std::string& url, uint64_t max_bytes) {
-  reset_request();
-  CURL* c = handle(curl_);
-  curl_easy_setopt(c, CURLOPT_URL, url.c_str());
-  curl_easy_setopt(c, CURLOPT_MAXFILESIZE_LARGE, static_cast<curl_off_t>(max_bytes));
-  HttpResult result;
-  download_ = &result.body;
-  download_limit_ = max_bytes;
-  perform(result);
-  download_ = nullptr;
-  if (result.status != 200) result.body.clear();  // an error page is not an entry (nor counted)
-  result.bytes = result.body.size();
-  return result;
+  return with_retries([&] {
+    reset_request();
+    CURL* c = handle(curl_);
+    curl_easy_setopt(c, CURLOPT_URL, url.c_str());
+    curl_easy_setopt(c, CURLOPT_MAXFILESIZE_LARGE, static_cast<curl_off_t>(max_bytes));
+    HttpResult result;
+    download_ = &result.body;
+    download_limit_ = max_bytes;
+    perform(result);
+    download_ = nullptr;
+    if (result.status != 200) result.body.clear();  // an error page is not an entry (nor counted)
+    result.bytes = result.body.size();
+    return result;
+  });
 }
 
 HttpResult HttpClient::head(const std::string& url) {
-  reset_request();
-  CURL* c = handle(curl_);
-  curl_easy_setopt(c, CURLOPT_URL, url.c_str());
-  curl_easy_setopt(c, CURLOPT_NOBODY, 1L);
-  HttpResult result;
-  perform(result);
-  return result;
+  return with_retries([&] {
+    reset_request();
+    CURL* c = handle(curl_);
+    curl_easy_setopt(c, CURLOPT_URL, url.c_str());
+    curl_easy_setopt(c, CURLOPT_NOBODY, 1L);
+    HttpResult result;
+    perform(result);
+    return result;
+  });
 }
 
 HttpResult HttpClient::put(const std::string& url, std::string_view body) {
-  reset_request();
-  CURL* c = handle(curl_);
-  curl_easy_setopt(c, CURLOPT_URL, url.c_str());
-  curl_easy_setopt(c, CURLOPT_UPLOAD, 1L);  // PUT
-  curl_easy_setopt(c, CURLOPT_INFILESIZE_LARGE, static_cast<curl_off_t>(body.size()));  // Content-Length, not chunked
-  upload_ = body;
-  HttpResult result;
-  perform(result);
-  if (result.failure == HttpResult::Failure::None) result.bytes = body.size();
-  return result;
+  return with_retries([&] {
+    reset_request();
+    CURL* c = handle(curl_);
+    curl_easy_setopt(c, CURLOPT_URL, url.c_str());
+    curl_easy_setopt(c, CURLOPT_UPLOAD, 1L);  // PUT
+    curl_easy_setopt(c, CURLOPT_INFILESIZE_LARGE, static_cast<curl_off_t>(body.size()));  // Content-Length, not chunked
+    upload_ = body;
+    HttpResult result;
+    perform(result);
+    if (result.failure == HttpResult::Failure::None) result.bytes = body.size();
+    return result;
+  });
 }
 
 }  // namespace kiln

@@ -27,7 +27,8 @@ struct HttpResult {
   // ConnectTimeout: no connection within the connect timeout. Timeout: connected, but the request took longer
   // than the operation timeout. Cut: the transfer ended early (short body, reset, nothing sent).
   // TooLarge: the body is over the caller's bound (the download was stopped there).
-  enum class Failure { None, Connect, ConnectTimeout, Timeout, Cut, TooLarge, Other };
+  // TooSlow: fewer than defaults::kRemoteLowSpeedBytesPerSecond for defaults::kRemoteLowSpeedTime.
+  enum class Failure { None, Connect, ConnectTimeout, Timeout, TooSlow, Cut, TooLarge, Other };
   Failure failure = Failure::None;
   long status = 0;     // HTTP status when answered
   std::string body;    // GET
@@ -49,6 +50,10 @@ class HttpClient {
  private:
   void reset_request();
   void perform(HttpResult& result);  // fills `result` (GET: its body is being written)
+  // Runs `attempt` (which sets up and performs one request) again after a pause while the result is worth another
+  // try: 429 or 5xx other than 507, or a transfer cut short; at most defaults::kRemoteRetries times.
+  template <class Attempt>
+  HttpResult with_retries(Attempt attempt);
 
   HttpSettings settings_;
   void* curl_ = nullptr;          // CURL*

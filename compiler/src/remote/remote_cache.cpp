@@ -263,6 +263,13 @@ bool RemoteCache::answered(const HttpResult& result, const std::string& what) {
     case HttpResult::Failure::Timeout:
       problem(DiagId::RemoteTimeout, "no answer from the remote cache within the request timeout (" +
                                          std::to_string(options_.operation_timeout.count()) + " ms)");
+      switched_off_ = true;  // every other request would wait as long
+      return false;
+    case HttpResult::Failure::TooSlow:
+      problem(DiagId::RemoteTimeout, "the remote cache sent less than " + std::to_string(defaults::kRemoteLowSpeedBytesPerSecond) +
+                                         " bytes a second for " + std::to_string(defaults::kRemoteLowSpeedTime.count()) +
+                                         " s: the transfer was cut off");
+      switched_off_ = true;
       return false;
     case HttpResult::Failure::TooLarge:
       problem(DiagId::RemoteEntryRejected, "a remote cache " + what + " was over its size limit");
