@@ -955,8 +955,9 @@ TEST_F(RemoteSlurm, AJobArrayOfShardsAndAnAfterokMergeWriteThePackOfOneMachine) 
                               root.path());
   ASSERT_EQ(shards.exit_code, 0) << shards.err << slurm.logs();
   // --wait returns when the merge has ended; its exit code is the job's (0 also for a job cancelled unrun).
+  // The merge uploads the finished pack, as docs/remote-cache.md's recipe does.
   auto merge = slurm.command(job("merge.log", {"--wait", "--kill-on-invalid-dep=yes", "--dependency=afterok:" + job_id(shards)},
-                                 kiln + " --cache cache-merge"),
+                                 kiln + " --cache cache-merge --remote-upload"),
                              root.path());
   ASSERT_EQ(merge.exit_code, 0) << merge.err << slurm.logs();
   EXPECT_EQ(slurm.job_state(job_id(merge)), "COMPLETED None");
@@ -974,6 +975,11 @@ TEST_F(RemoteSlurm, AJobArrayOfShardsAndAnAfterokMergeWriteThePackOfOneMachine) 
   EXPECT_NE(alone.out.find("  compiled " + std::to_string(compiled) + " (back ends"), std::string::npos)
       << "the shards compiled " << compiled << "\n" << alone.out;
   EXPECT_TRUE(pack_bytes(root / "ws/out") == pack_bytes(root / "alone/out")) << "the merged pack differs from one machine's";
+  // A later reader of the commit fetches the finished pack the merge uploaded.
+  write_library(root, "reader");
+  auto reader = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "cache", "--remote", server.url()}, root / "reader");
+  EXPECT_EQ(reader.exit_code, 0) << reader.err;
+  EXPECT_EQ(reader.out.rfind("kiln: fetched from the remote cache: ", 0), 0u) << reader.out;
 }
 
 TEST_F(RemoteSlurm, AFailedShardKeepsTheMergeFromRunning) {

@@ -141,6 +141,14 @@ try:
             check(open(manifest, "rb").read() == alone_pack, f"{name} merge: the manifest differs from one machine's")
         # The merge either fetched the finished pack or compiled nothing.
         check(counts is None or counts == 0, f"{name} merge compiled {counts}")
+        # The merge uploaded the finished pack: a later reader of the commit fetches it whole (3 requests), not every
+        # per-source entry.
+        checkout = os.path.join(work, f"{name}-reader")
+        write_checkout(checkout)
+        _, result = run_job(["kiln", "build", "variants/lit.pack.json", "-o", "packs", "--remote", merge[1]["KILN_REMOTE"]],
+                            checkout, base_env, f"{name} reader")
+        check("fetched from the remote cache" in result.stdout,
+              f"{name}: a reader after the merge did not fetch the finished pack: {result.stdout}")
 
     # GitHub Actions: a matrix of indices; `${{ matrix.index }}` and `/N` in the command; the token from secrets.
     if github:
@@ -183,7 +191,8 @@ try:
             env["KILN_REMOTE"] = url
             shards.append((list(container["command"]), env))
         merge_env = dict(base_env, KILN_REMOTE=url)
-        merge_argv = [a for a in container["command"] if a not in ("--shard", "auto")]
+        # The merge Job, as the docs describe it: the shards' command without `--shard auto`, with `--remote-upload`.
+        merge_argv = [a for a in container["command"] if a not in ("--shard", "auto")] + ["--remote-upload"]
         run_example("kubernetes", shards, (merge_argv, merge_env))
 finally:
     if nginx:
