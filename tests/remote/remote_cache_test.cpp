@@ -620,6 +620,9 @@ TEST_F(Remote, ABodyCutShortOfItsLengthIsAMiss) {
                   truncated.url() + ": warning[K1704]: a download from the remote cache was cut short: Transferred a "
                                     "partial file\n" + kSwitchedOff + kNeverFails,
                   DiagId::RemoteTransferCut);
+  // Each cut request was tried 3 times (1 + 2 retries), on a new connection each (the server closes them): 3 requests
+  // before three errors in a row switched the remote off, then 1 under --remote-required, which stops at the first.
+  EXPECT_EQ(truncated.accepted(), (3 + 1) * 3);
 }
 
 // Entries damaged on the server's disk: each is a miss, compiled again, and named.

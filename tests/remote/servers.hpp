@@ -238,6 +238,7 @@ class FaultServer {
     ::close(listener_);
   }
   std::string url() const { return "http://127.0.0.1:" + std::to_string(port_); }
+  int accepted() const { return accepted_; }  // connections accepted so far
 
  private:
   void serve() {
@@ -246,6 +247,7 @@ class FaultServer {
       if (::poll(&p, 1, 20) <= 0) continue;
       int fd = ::accept4(listener_, nullptr, nullptr, SOCK_CLOEXEC);
       if (fd < 0) continue;
+      ++accepted_;
       if (mode_ == Mode::Silent) {
         held_.push_back(fd);  // open, unanswered, until the server stops
         continue;
@@ -275,6 +277,7 @@ class FaultServer {
   int listener_ = -1;
   uint16_t port_ = 0;
   std::atomic<bool> stopping_{false};
+  std::atomic<int> accepted_{0};
   std::vector<int> held_;
   std::thread thread_;
 };
