@@ -50,7 +50,7 @@ expect_configure_error() {  # case, expected text, extra cmake arguments...
        -DKILN_SOURCE_DIR="$source" -DCMAKE_PREFIX_PATH="$work/prefix" "$@" > "$work/errors-$case.log" 2>&1; then
     fail "$case: configured without an error"
   fi
-  tr -s ' \n' ' ' < "$work/errors-$case.log" | grep -qF "$text" || { cat "$work/errors-$case.log"; fail "$case: no '$text'"; }
+  grep -qF "$text" <<< "$(tr -s ' \n' ' ' < "$work/errors-$case.log")" || { cat "$work/errors-$case.log"; fail "$case: no '$text'"; }
   echo "ok: $case"
 }
 expect_configure_error missing_pack \

@@ -42,8 +42,10 @@ dpkg-deb -x "$deb" "$work/root"
 "$work/root/usr/bin/kiln" --version | head -1
 # SARIF's help links point into the package's own docs (the unpacked tree stands for /usr).
 printf 'float4 F() : SV_Target { return 1.0; }\n' > "$work/S.hlsl"
-"$work/root/usr/bin/kiln" lint "$work/S.hlsl" --format sarif | grep -qF "file://$work/root/usr/share/doc/kiln/lint.md#" ||
-  fail "SARIF helpUri does not point at the package's lint.md"
+# (into a file first: `grep -q` stops reading at its match, and kiln's next write would die of SIGPIPE under pipefail)
+"$work/root/usr/bin/kiln" lint "$work/S.hlsl" --format sarif > "$work/S.sarif" || fail "kiln lint failed"
+grep -qF "file://$work/root/usr/share/doc/kiln/lint.md#" "$work/S.sarif" ||
+  fail "SARIF helpUri does not point at the package's lint.md: $(grep -o '"helpUri": *"[^"]*"' "$work/S.sarif" | head -1)"
 cp -r "$source/shaderlib" "$source/variants" "$work/"
 mkdir "$work/kiln-src"
 ln -s "$work/variants" "$work/kiln-src/variants"
