@@ -45,7 +45,9 @@ void print_summary(const kiln::BuildReport& r, std::ostream& out, const std::str
   if (!r.up_to_date && r.remote.configured && r.remote.pack_fetched)
     out << "  remote cache: the finished pack of these inputs, " << r.remote.bytes_down << " bytes down\n";
   else if (built && r.remote.configured)
-    out << "  remote cache: hits " << r.remote.hits << ", misses " << r.remote.misses << ", uploads " << r.remote.uploads
+    out << "  remote cache: hits " << r.remote.hits << ", misses " << r.remote.misses
+        << (r.remote.incomplete ? " (" + std::to_string(r.remote.incomplete) + " entries found in part)" : std::string())
+        << ", uploads " << r.remote.uploads
         << " (" << r.remote.blobs_uploaded << " blobs"
         << (r.remote.repaired ? ", " + std::to_string(r.remote.repaired) + " damaged entries repaired" : std::string()) << "), "
         << r.remote.bytes_down << " bytes down, " << r.remote.bytes_up
@@ -99,6 +101,7 @@ json summary_json(const kiln::BuildReport& r, const kiln::DiagnosticSink& sink, 
            {"workers", r.workers_started},
            {"remote", {{"configured", r.remote.configured}, {"switched_off", r.remote.switched_off},
                        {"pack_fetched", r.remote.pack_fetched}, {"hits", r.remote.hits}, {"misses", r.remote.misses},
+                       {"incomplete", r.remote.incomplete},
                        {"uploads", r.remote.uploads}, {"blobs_uploaded", r.remote.blobs_uploaded}, {"repaired", r.remote.repaired},
                        {"bytes_down", r.remote.bytes_down}, {"bytes_up", r.remote.bytes_up}, {"errors", r.remote.errors}}},
            {"timings", timings},

@@ -42,14 +42,15 @@ unsigned parallelism(const BuildOptions& options) {
 class OnDemandWorkers final : public JobRunner {
  public:
   explicit OnDemandWorkers(const BuildOptions& options) : options_(options) {}
-  void run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done) override {
+  void run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done,
+           const ExternalWork* external) override {
     if (!pool_) {
       std::filesystem::path exe =
           options_.worker_executable.empty() ? default_worker_executable() : options_.worker_executable;
       pool_.emplace(exe, parallelism(options_),
                     WorkerLimits{options_.worker_timeout, options_.worker_memory_limit_mb, options_.frontend});
     }
-    pool_->run(jobs, on_done);
+    pool_->run(jobs, on_done, external);
   }
   unsigned spawned() const override { return pool_ ? pool_->spawned() : 0; }
   std::vector<WorkerActivity> activity() const override { return pool_ ? pool_->activity() : std::vector<WorkerActivity>{}; }

@@ -4,6 +4,8 @@
 //    and the PID it is started with is the one that is stopped.
 //  - FaultServer: a socket thread for the two faults nginx cannot produce on purpose: a body cut short of its
 //    Content-Length, and a server that accepts and never answers.
+//  - Apache: Debian's apache2 with mod_dav, the same way (-X: one process); WebDav picks nginx or Apache for the
+//    tests both servers must pass.
 //  - make_test_ca: a CA and a server certificate for 127.0.0.1, made with the openssl CLI at test time.
 //  - SlurmCluster: Debian's Slurm as a one-node cluster (munged, slurmctld, slurmd in the foreground, each stopped
 //    by its PID) with its own key, configuration, ports, state and logs in a temporary directory.
@@ -19,11 +21,14 @@
 #include <unistd.h>
 
 #include <fcntl.h>
+#include <sys/stat.h>
 
 #include <atomic>
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -196,6 +201,130 @@ class Nginx {
   pid_t pid_ = -1;
 };
 
+// Debian's Apache httpd with mod_dav, the second WebDAV server (issue 39): one process (-X) with mpm_event's threads,
+// from a configuration written into a temporary directory. It makes no collections for a PUT (409 Conflict; kiln
+// answers with MKCOL). Started as root, it serves as www-data: the directory is handed to that user first.
+struct DavConfig {
+  std::filesystem::path htpasswd;  // if set, writes need a user of this file (basic auth); reads are anonymous
+  bool https = false;              // with a certificate from make_test_ca(<dir>/tls)
+};
+
+class Apache {
+ public:
+  explicit Apache(DavConfig config = {}) : config_(std::move(config)) {
+    try {
+      start();
+    } catch (...) {
+      stop();
+      throw;
+    }
+  }
+  ~Apache() { stop(); }
+  Apache(const Apache&) = delete;
+  Apache& operator=(const Apache&) = delete;
+
+  std::string url() const { return std::string(config_.https ? "https" : "http") + "://127.0.0.1:" + std::to_string(port_); }
+  const std::filesystem::path& directory() const { return dir_.path(); }
+  std::filesystem::path data() const { return dir_ / "data"; }
+  std::filesystem::path ca_file() const { return dir_ / "tls/ca.pem"; }
+  std::filesystem::path access_log() const { return dir_ / "logs/access.log"; }  // a line per request
+  void stop() {
+    stop_process(pid_);
+    pid_ = -1;
+  }
+
+ private:
+  void start() {
+    const std::filesystem::path& d = dir_.path();
+    for (const char* sub : {"data", "run", "logs"}) std::filesystem::create_directories(d / sub);
+    if (config_.https) make_test_ca(d / "tls");
+    port_ = free_port();
+    const std::string modules = "/usr/lib/apache2/modules/";
+    std::ofstream conf(d / "httpd.conf");
+    conf << "ServerRoot " << d.string() << "\nServerName 127.0.0.1\nPidFile " << (d / "run/httpd.pid").string()
+         << "\nDefaultRuntimeDir " << (d / "run").string() << "\nListen 127.0.0.1:" << port_
+         << "\nErrorLog " << (d / "logs/error.log").string() << "\nLogLevel warn\nCustomLog "
+         << (d / "logs/access.log").string() << " \"%h %r %>s\"\n";
+    for (const char* module : {"mpm_event", "authz_core", "authn_core", "authn_file", "authz_user", "auth_basic", "dav", "dav_fs"})
+      conf << "LoadModule " << module << "_module " << modules << "mod_" << module << ".so\n";
+    if (config_.https)
+      conf << "LoadModule socache_shmcb_module " << modules << "mod_socache_shmcb.so\nLoadModule ssl_module " << modules
+           << "mod_ssl.so\nSSLEngine on\nSSLCertificateFile " << (d / "tls/server.pem").string()
+           << "\nSSLCertificateKeyFile " << (d / "tls/server.key").string() << "\n";
+    if (::geteuid() == 0) conf << "User www-data\nGroup www-data\n";
+    conf << "LimitRequestBody 536870912\nKeepAliveTimeout 30\nMaxKeepAliveRequests 0\n"
+         << "DocumentRoot " << (d / "data").string() << "\nDavLockDB " << (d / "run/DavLock").string() << "\n"
+         << "<Directory " << (d / "data").string() << ">\n  Dav On\n";
+    if (config_.htpasswd.empty()) {
+      conf << "  Require all granted\n";
+    } else {
+      conf << "  AuthType Basic\n  AuthName kiln\n  AuthUserFile " << config_.htpasswd.string()
+           << "\n  <RequireAny>\n    Require method GET HEAD OPTIONS\n    Require valid-user\n  </RequireAny>\n";
+    }
+    conf << "</Directory>\n";
+    conf.close();
+    if (::geteuid() == 0) {  // the server's user must write data/ and run/ and read its certificate
+      const std::vector<std::string> give{"/bin/chown", "-R", "www-data:www-data", d.string()};
+      if (run_quietly(give, d) != 0) throw std::runtime_error("chown www-data failed");
+      if (!config_.htpasswd.empty()) {  // in the test's own temporary directory: readable, its directory passable
+        ::chmod(config_.htpasswd.parent_path().c_str(), 0711);
+        ::chmod(config_.htpasswd.c_str(), 0644);
+      }
+    }
+    std::vector<std::string> argv{"/usr/sbin/apache2", "-X", "-d", d.string(), "-f", (d / "httpd.conf").string()};
+    std::vector<char*> args;
+    for (std::string& a : argv) args.push_back(a.data());
+    args.push_back(nullptr);
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      die_with_parent();
+      ::execv(args[0], args.data());
+      ::_exit(127);
+    }
+    for (int attempt = 0; attempt < 2000; ++attempt) {
+      if (accepts_connections(port_)) return;
+      int status = 0;
+      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        throw std::runtime_error("apache2 exited: " + read_file(d / "logs/error.log"));
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    throw std::runtime_error("apache2 did not start listening: " + read_file(d / "logs/error.log"));
+  }
+
+  DavConfig config_;
+  TempDir dir_;
+  uint16_t port_ = 0;
+  pid_t pid_ = -1;
+};
+
+// The WebDAV server of the remote suite: nginx, or Apache when KILN_TEST_DAV_SERVER=apache (the suite's second run,
+// remote.apache.*, in tests/CMakeLists.txt). The tests that configure nginx to produce a fault use Nginx itself.
+class WebDav {
+ public:
+  explicit WebDav(DavConfig config = {}) {
+    const char* chosen = std::getenv("KILN_TEST_DAV_SERVER");
+    if (chosen && std::string(chosen) == "apache") {
+      apache_ = std::make_unique<Apache>(config);
+      return;
+    }
+    std::string location;
+    if (!config.htpasswd.empty())
+      location = "      limit_except GET HEAD { auth_basic \"kiln\"; auth_basic_user_file " + config.htpasswd.string() + "; }";
+    nginx_ = std::make_unique<Nginx>(NginxConfig{location, config.https});
+  }
+  std::string url() const { return nginx_ ? nginx_->url() : apache_->url(); }
+  std::filesystem::path data() const { return nginx_ ? nginx_->data() : apache_->data(); }
+  std::filesystem::path ca_file() const { return nginx_ ? nginx_->ca_file() : apache_->ca_file(); }
+  std::filesystem::path access_log() const { return nginx_ ? nginx_->directory() / "access.log" : apache_->access_log(); }
+  void stop() { nginx_ ? nginx_->stop() : apache_->stop(); }
+
+ private:
+  std::unique_ptr<Nginx> nginx_;
+  std::unique_ptr<Apache> apache_;
+};
+
 // Only for what nginx cannot be configured to do: answer with fewer bytes than its Content-Length says
 // (Truncated), take connections and never answer (Silent), or never complete a connection (Backlogged: a full
 // accept queue, whose connection attempts Linux drops).
@@ -203,8 +332,14 @@ class FaultServer {
  public:
   // Truncated: promises 1000 bytes and sends 10. Silent: accepts and never answers. Backlogged: its accept queue is
   // full. Drip: promises 1000 bytes and sends one every 250 ms (under any low-speed limit) until the client goes.
-  enum class Mode { Truncated, Silent, Backlogged, Drip };
-  explicit FaultServer(Mode mode) : mode_(mode) {
+  // Gate: answers 404 to the first `answered_at_once` requests at once; a later one gets the head of a 404 and its
+  // body slowly (2,000 bytes a second, over the low-speed limit: nothing times out) until open() is called, or
+  // until kGateDeadline passes (then gate_timed_out(), and the gate stays open). Unavailable: answers 503 to the first `count` requests, then
+  // 404 to every one. GoesAway: answers 404 to the first `count` requests, then closes its socket (every later
+  // connection is refused). Every connection serves one request.
+  enum class Mode { Truncated, Silent, Backlogged, Drip, Gate, Unavailable, GoesAway };
+  static constexpr std::chrono::seconds kGateDeadline{60};
+  explicit FaultServer(Mode mode, int count = 0) : mode_(mode), count_(count) {
     listener_ = listen_on_loopback(port_);
     if (mode_ == Mode::Backlogged) {
       sockaddr_in address{};
@@ -239,6 +374,9 @@ class FaultServer {
   }
   std::string url() const { return "http://127.0.0.1:" + std::to_string(port_); }
   int accepted() const { return accepted_; }  // connections accepted so far
+  void open() { open_ = true; }
+  bool gate_timed_out() const { return timed_out_; }
+  bool held_a_request() const { return held_a_request_; }
 
  private:
   void serve() {
@@ -262,6 +400,29 @@ class FaultServer {
         if (n <= 0) break;
         request.append(buffer, static_cast<size_t>(n));
       }
+      if (mode_ == Mode::Gate) {
+        answer_through_gate(fd);
+        continue;
+      }
+      if (mode_ == Mode::GoesAway) {
+        const std::string answer = "HTTP/1.1 404 Not Found\r\nContent-Length: 0\r\nConnection: close\r\n\r\n";
+        ::send(fd, answer.data(), answer.size(), MSG_NOSIGNAL);
+        ::close(fd);
+        if (accepted_ >= count_) {
+          ::close(listener_);
+          listener_ = -1;
+          return;
+        }
+        continue;
+      }
+      if (mode_ == Mode::Unavailable) {
+        const std::string answer = accepted_ <= count_
+                                       ? "HTTP/1.1 503 Service Unavailable\r\nContent-Length: 0\r\nConnection: close\r\n\r\n"
+                                       : "HTTP/1.1 404 Not Found\r\nContent-Length: 0\r\nConnection: close\r\n\r\n";
+        ::send(fd, answer.data(), answer.size(), MSG_NOSIGNAL);
+        ::close(fd);
+        continue;
+      }
       const std::string head = "HTTP/1.1 200 OK\r\nContent-Length: 1000\r\nConnection: close\r\n\r\n";
       const std::string answer = mode_ == Mode::Drip ? head : head + "0123456789";
       ssize_t sent = ::send(fd, answer.data(), answer.size(), MSG_NOSIGNAL);
@@ -273,7 +434,31 @@ class FaultServer {
     }
   }
 
+  void answer_through_gate(int fd) {
+    constexpr size_t kBody = 400'000, kPerSecond = 2'000;
+    const std::string head = "HTTP/1.1 404 Not Found\r\nContent-Length: " + std::to_string(kBody) + "\r\nConnection: close\r\n\r\n";
+    bool sending = ::send(fd, head.data(), head.size(), MSG_NOSIGNAL) > 0;
+    size_t left = kBody;
+    const auto deadline = std::chrono::steady_clock::now() + kGateDeadline;
+    if (accepted_ > count_) held_a_request_ = true;
+    while (sending && left > 0 && accepted_ > count_ && !open_ && !timed_out_ && !stopping_) {
+      if (std::chrono::steady_clock::now() >= deadline) {
+        timed_out_ = true;
+        break;
+      }
+      const std::string chunk(std::min(left, kPerSecond / 10), ' ');
+      sending = ::send(fd, chunk.data(), chunk.size(), MSG_NOSIGNAL) > 0;
+      left -= chunk.size();
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    const std::string rest(left, ' ');
+    if (sending) ::send(fd, rest.data(), rest.size(), MSG_NOSIGNAL);
+    ::close(fd);
+  }
+
   Mode mode_;
+  int count_ = 0;
+  std::atomic<bool> open_{false}, timed_out_{false}, held_a_request_{false};
   int listener_ = -1;
   uint16_t port_ = 0;
   std::atomic<bool> stopping_{false};

@@ -1,6 +1,7 @@
 // The build's compile scheduler (driver/compile) run against an in-process JobRunner: no worker processes, and
 // the test decides in which order jobs finish.
 #include <gtest/gtest.h>
+#include <poll.h>
 
 #include <algorithm>
 #include <deque>
@@ -24,10 +25,19 @@ class FakeRunner final : public JobRunner {
   Order order = Order::Fifo;
   std::vector<CompileJob> seen;
 
-  void run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done) override {
+  void run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done,
+           const ExternalWork* external) override {
     std::deque<size_t> pending;
     for (size_t j = 0; j < jobs.size(); ++j) pending.push_back(j);
-    while (!pending.empty()) {
+    while (!pending.empty() || (external && external->pending())) {
+      if (pending.empty()) {  // only outside work left: wait for it
+        pollfd fd{external->fd, POLLIN, 0};
+        ::poll(&fd, 1, -1);
+        const size_t before = jobs.size();
+        external->arrived();
+        for (size_t added = before; added < jobs.size(); ++added) pending.push_back(added);
+        continue;
+      }
       size_t j = order == Order::Fifo ? pending.front() : pending.back();
       if (order == Order::Fifo) pending.pop_front();
       else pending.pop_back();

@@ -140,6 +140,8 @@ struct RemoteReport {
   bool pack_fetched = false;   // the finished pack of these inputs came from the remote (nothing else done)
   size_t hits = 0;             // stage sources fetched whole (nothing compiled)
   size_t misses = 0;           // stage sources asked for and not found (a failed request included)
+  size_t incomplete = 0;       // entries found in part: a record or blob they name is gone (evicted, an upload cut
+                               // short); a plain miss, which an uploading build puts back
   size_t uploads = 0;          // records written (results and aliases)
   size_t blobs_uploaded = 0;
   size_t repaired = 0;         // module entries put again whole: this build found them missing or damaged

@@ -47,13 +47,14 @@ class Scheduler {
 
   CompileResults run() {
     const auto compile_from = StageClock::now();
+    if (services_.remote && services_.remote->usable()) lookups_.emplace(*services_.remote);
     for (size_t i = 0; i < sources_.list.size(); ++i) enter(i);
     progress();
     stream();
     record_stage(report_, "preprocess", sources_.enumerated_from, last_preprocessed_.value_or(compile_from));
     binaries_ = dedupe_stage_sources(sources_, plan_, locator_, messages_, sink_, report_);  // in source order
     total_known_ = true;
-    fetch_from_remote();
+    remote_done();
     stream();
     settle_binaries();
     report_.compiled = front_ends_;
@@ -67,7 +68,6 @@ class Scheduler {
   struct KeyResult {
     size_t source = 0;                         // the stage source whose text its front end compiles
     bool started = false;                      // its front end is queued, or it waits for the remote
-    bool for_remote = false;                   // asked of the remote after the stream
     std::shared_ptr<const JobOutput> output;   // found whole
     std::optional<Hash128> module;             // its module: from the front end, or a cache alias's
     std::optional<RemoteKey> remote_key;
@@ -117,11 +117,61 @@ class Scheduler {
     if (result.output || result.started) return;
     result.started = true;
     result.source = i;
-    if (services_.remote && services_.remote->usable()) {
-      result.for_remote = true;  // asked with the other misses in one request, after the stream
+    if (lookups_ && services_.remote->usable()) {
+      ask_remote(index);
+      return;
+    }
+    if (lookups_ && options_.remote.required) {  // the remote failed: nothing is compiled (remote_done)
+      held_misses_.push_back(index);
       return;
     }
     queue_front_end(index);
+  }
+
+  // A local miss is asked of the remote as soon as its key is known, while the stream goes on; a remote miss queues
+  // its front end when the answer comes, while other lookups go on. With --remote-required the misses wait for
+  // every answer: a remote error fails the build before anything is compiled.
+  void ask_remote(size_t index) {
+    KeyResult& result = results_by_key_[index];
+    const StageSource& s = sources_.list[result.source];
+    result.remote_key = remote_source_key(*services_.remote, settings_, plan_.pack.passes[s.pass], s.stage, s.text);
+    lookups_->submit(index, *result.remote_key);
+  }
+
+  // The remote's answers so far. A hit's entry, verified by the remote tier, goes into the local cache.
+  void remote_answered() {
+    for (auto& [index, fetched] : lookups_->take()) {
+      KeyResult& result = results_by_key_[index];
+      if (!fetched) {
+        if (options_.remote.required) held_misses_.push_back(index);
+        else queue_front_end(index);
+        continue;
+      }
+      RemoteFetched& hit = *fetched;
+      if (services_.cache) {
+        services_.cache->store(hit.module, hit.module_output);
+        services_.cache->store_alias(*sources_.list[result.source].key, hit.module, hit.front_messages);
+      }
+      hit.module_output.messages.insert(hit.module_output.messages.begin(), hit.front_messages.begin(), hit.front_messages.end());
+      result.output = std::make_shared<const JobOutput>(std::move(hit.module_output));
+      result.module = hit.module;
+      ++done_;
+    }
+    progress();
+  }
+
+  // Every lookup answered: the remote's problems are said (before any compile message), and with --remote-required
+  // the held misses are compiled unless a remote error (which switched the remote off) fails the build.
+  void remote_done() {
+    if (!lookups_) return;
+    while (lookups_->outstanding() > 0) {  // when the stream had nothing to run
+      lookups_->wait();
+      remote_answered();
+    }
+    services_.remote->report_problems(sink_);
+    if (services_.remote->usable())
+      for (size_t index : held_misses_) queue_front_end(index);
+    held_misses_.clear();
   }
 
   void queue_front_end(size_t index) {
@@ -151,13 +201,31 @@ class Scheduler {
   // Runs the queued jobs; finished jobs queue their follow-ups (a preprocessed source's front end, a new
   // module's back end), which the runner sends next.
   void stream() {
-    if (jobs_.empty()) return;
+    if (jobs_.empty() && !(lookups_ && lookups_->outstanding() > 0)) return;
     std::vector<CompileJob> jobs = std::move(jobs_);
     std::vector<size_t> subjects = std::move(job_subject_);
     jobs_.clear();
     job_subject_.clear();
     running_ = &jobs;
     running_subjects_ = &subjects;
+    // Follow-ups queued by an outcome or a remote answer join the running stream.
+    auto join_queued = [&] {
+      for (size_t q = 0; q < jobs_.size(); ++q) {
+        jobs.push_back(std::move(jobs_[q]));
+        subjects.push_back(job_subject_[q]);
+      }
+      jobs_.clear();
+      job_subject_.clear();
+    };
+    ExternalWork answers;
+    if (lookups_) {
+      answers.fd = lookups_->ready_fd();
+      answers.pending = [&] { return lookups_->outstanding() > 0; };
+      answers.arrived = [&] {
+        remote_answered();
+        join_queued();
+      };
+    }
     services_.runner.run(jobs, [&](size_t j, WorkerOutcome outcome) {
       switch (jobs[j].kind) {
         case JobKind::Preprocess: preprocess_done(j, std::move(outcome)); break;
@@ -165,15 +233,9 @@ class Scheduler {
         case JobKind::BackEnd:
         case JobKind::Full: back_end_done(j, std::move(outcome)); break;
       }
-      // Follow-ups queued by this outcome join the running stream.
-      for (size_t q = 0; q < jobs_.size(); ++q) {
-        jobs.push_back(std::move(jobs_[q]));
-        subjects.push_back(job_subject_[q]);
-      }
-      jobs_.clear();
-      job_subject_.clear();
+      join_queued();
       progress();
-    });
+    }, lookups_ ? &answers : nullptr);
     running_ = nullptr;
     running_subjects_ = nullptr;
   }
@@ -185,44 +247,6 @@ class Scheduler {
     --unpreprocessed_;
     if (sources_.list[i].ok) preprocessed(i);
     last_preprocessed_ = StageClock::now();  // after its front end is queued: the stages' overlap shows in order
-  }
-
-  // The misses the remote has: not compiled. Their entries, verified by the remote tier, go into the local cache.
-  // Asked in source order, after the stream, in one request.
-  void fetch_from_remote() {
-    RemoteCache* remote = services_.remote;
-    if (!remote || !remote->usable()) return;
-    std::vector<size_t> asked;
-    std::vector<RemoteKey> keys;
-    for (const Binary& binary : binaries_) {
-      const size_t index = result_by_key_.at(binary.key);
-      KeyResult& result = results_by_key_[index];
-      if (!result.for_remote || result.remote_key) continue;
-      const StageSource& s = sources_.list[binary.source];
-      result.remote_key = remote_source_key(*remote, settings_, plan_.pack.passes[s.pass], s.stage, s.text);
-      asked.push_back(index);
-      keys.push_back(*result.remote_key);
-    }
-    std::vector<std::optional<RemoteFetched>> fetched = remote->fetch(keys);
-    remote->report_problems(sink_);  // here, so that a remote switched off is said before any compile message
-    // --remote-required: a remote error (which switched the remote off) fails the build before anything is compiled.
-    const bool compile_misses = !(options_.remote.required && !remote->usable());
-    for (size_t a = 0; a < asked.size(); ++a) {
-      KeyResult& result = results_by_key_[asked[a]];
-      if (!fetched[a]) {
-        if (compile_misses) queue_front_end(asked[a]);
-        continue;
-      }
-      RemoteFetched& hit = *fetched[a];
-      if (services_.cache) {
-        services_.cache->store(hit.module, hit.module_output);
-        services_.cache->store_alias(*sources_.list[result.source].key, hit.module, hit.front_messages);
-      }
-      hit.module_output.messages.insert(hit.module_output.messages.begin(), hit.front_messages.begin(), hit.front_messages.end());
-      result.output = std::make_shared<const JobOutput>(std::move(hit.module_output));
-      result.module = hit.module;
-      ++done_;
-    }
   }
 
   // A finished job's input (its source text or its module) is not read again: free it now, not when the build
@@ -451,6 +475,8 @@ class Scheduler {
   const SourceLocator& locator_;
   MessageGroups& messages_;
   DiagnosticSink& sink_;
+  std::optional<RemoteLookups> lookups_;  // when the remote is usable at the start
+  std::vector<size_t> held_misses_;       // --remote-required: remote misses, compiled once every lookup answered
   BuildReport& report_;
 
   CompileResults results_;

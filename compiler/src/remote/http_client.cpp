@@ -81,6 +81,9 @@ HttpClient::HttpClient(HttpSettings settings) : settings_(std::move(settings)) {
     auto* self = static_cast<HttpClient*>(self_pointer);
     const size_t bytes = size * count;
     if (!self->download_) return bytes;  // an error page of a HEAD or PUT: not kept
+    long status = 0;
+    curl_easy_getinfo(handle(self->curl_), CURLINFO_RESPONSE_CODE, &status);
+    if (status != 200) return bytes;  // an error page (Apache's 404 page is longer than a small blob): not kept
     if (self->download_->size() + bytes > self->download_limit_) {
       self->over_limit_ = true;
       return 0;  // stops the transfer
@@ -107,6 +110,7 @@ HttpClient::~HttpClient() {
 void HttpClient::reset_request() {
   CURL* c = handle(curl_);
   curl_easy_setopt(c, CURLOPT_HTTPGET, 1L);  // also clears NOBODY and UPLOAD
+  curl_easy_setopt(c, CURLOPT_CUSTOMREQUEST, nullptr);
   curl_easy_setopt(c, CURLOPT_MAXFILESIZE_LARGE, static_cast<curl_off_t>(0));
   download_ = nullptr;
   download_limit_ = 0;
@@ -154,7 +158,6 @@ HttpResult HttpClient::get(const std::string& url, uint64_t max_bytes) {
     reset_request();
     CURL* c = handle(curl_);
     curl_easy_setopt(c, CURLOPT_URL, url.c_str());
-    curl_easy_setopt(c, CURLOPT_MAXFILESIZE_LARGE, static_cast<curl_off_t>(max_bytes));
     HttpResult result;
     download_ = &result.body;
     download_limit_ = max_bytes;
@@ -189,6 +192,18 @@ HttpResult HttpClient::put(const std::string& url, std::string_view body) {
     HttpResult result;
     perform(result);
     if (result.failure == HttpResult::Failure::None) result.bytes = body.size();
+    return result;
+  });
+}
+
+HttpResult HttpClient::mkcol(const std::string& url) {
+  return with_retries([&] {
+    reset_request();
+    CURL* c = handle(curl_);
+    curl_easy_setopt(c, CURLOPT_URL, url.c_str());
+    curl_easy_setopt(c, CURLOPT_CUSTOMREQUEST, "MKCOL");  // a GET's shape (no request body); the answer's body is dropped
+    HttpResult result;
+    perform(result);
     return result;
   });
 }

@@ -46,6 +46,7 @@ class HttpClient {
   HttpResult get(const std::string& url, uint64_t max_bytes);
   HttpResult head(const std::string& url);
   HttpResult put(const std::string& url, std::string_view body);
+  HttpResult mkcol(const std::string& url);  // WebDAV: make a collection (201; 405 when it exists)
 
  private:
   void reset_request();

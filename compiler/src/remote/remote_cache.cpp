@@ -2,12 +2,14 @@
 
 #include <curl/curl.h>
 #include <openssl/evp.h>
+#include <sys/eventfd.h>
 
 #include <unistd.h>
 
 #include <algorithm>
 #include <cstring>
 #include <stdexcept>
+#include <system_error>
 
 #include "common/bytes.hpp"
 #include "common/files.hpp"
@@ -338,7 +340,11 @@ std::optional<RemoteFetched> RemoteCache::fetch_one(HttpClient& client, const Re
   std::string result;
   switch (get_record(client, module, kResult, result)) {
     case Found::Yes: break;
-    case Found::No: return rejected("incomplete entry: its result record is missing", "ac/" + module.hex());
+    case Found::No: {  // evicted, or an upload cut short: a plain miss (an uploading build puts the entry back)
+      std::lock_guard lock(mutex_);
+      ++report_.incomplete;
+      return std::nullopt;
+    }
     case Found::Failed: return std::nullopt;
   }
   if (result.size() < 4 || get32(result, 0) > kMaxBlobsPerResult) return rejected("result record malformed", "ac/" + module.hex());
@@ -376,25 +382,114 @@ std::optional<RemoteFetched> RemoteCache::fetch_one(HttpClient& client, const Re
   return fetched;
 }
 
-std::vector<std::optional<RemoteFetched>> RemoteCache::fetch(const std::vector<RemoteKey>& source_keys) {
-  std::vector<std::optional<RemoteFetched>> found(source_keys.size());
+std::optional<RemoteFetched> RemoteCache::fetch_counted(const RemoteKey& source_key) {
+  std::optional<RemoteFetched> found;
   if (!switched_off_) {
-    parallel_for(source_keys.size(), std::max(1u, options_.parallel_transfers), [&](size_t i) {
-      if (switched_off_) return;
-      std::unique_ptr<HttpClient> client = take_client();
-      found[i] = fetch_one(*client, source_keys[i]);
-      give_back(std::move(client));
-    });
+    std::unique_ptr<HttpClient> client = take_client();
+    found = fetch_one(*client, source_key);
+    give_back(std::move(client));
   }
   std::lock_guard lock(mutex_);
-  for (const auto& f : found) ++(f ? report_.hits : report_.misses);
+  ++(found ? report_.hits : report_.misses);
   return found;
+}
+
+std::vector<std::optional<RemoteFetched>> RemoteCache::fetch(const std::vector<RemoteKey>& source_keys) {
+  std::vector<std::optional<RemoteFetched>> found(source_keys.size());
+  parallel_for(source_keys.size(), std::max(1u, options_.parallel_transfers),
+               [&](size_t i) { found[i] = fetch_counted(source_keys[i]); });
+  return found;
+}
+
+RemoteLookups::RemoteLookups(RemoteCache& remote) : remote_(remote) {
+  ready_fd_ = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+  if (ready_fd_ < 0) throw std::system_error(errno, std::generic_category(), "eventfd");
+}
+
+RemoteLookups::~RemoteLookups() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  queued_.notify_all();
+  for (std::thread& thread : threads_) thread.join();
+  ::close(ready_fd_);
+}
+
+void RemoteLookups::submit(size_t tag, const RemoteKey& key) {
+  {
+    std::lock_guard lock(mutex_);
+    queue_.emplace_back(tag, key);
+    ++outstanding_;
+    if (threads_.size() < std::max(1u, remote_.options_.parallel_transfers)) threads_.emplace_back([this] { work(); });
+  }
+  queued_.notify_one();
+}
+
+void RemoteLookups::work() {
+  for (;;) {
+    std::pair<size_t, RemoteKey> next;
+    {
+      std::unique_lock lock(mutex_);
+      queued_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+      if (stopping_) return;
+      next = queue_.front();
+      queue_.pop_front();
+    }
+    std::optional<RemoteFetched> found = remote_.fetch_counted(next.second);
+    {
+      std::lock_guard lock(mutex_);
+      done_.emplace_back(next.first, std::move(found));
+    }
+    finished_.notify_all();
+    const uint64_t one = 1;
+    [[maybe_unused]] ssize_t written = ::write(ready_fd_, &one, sizeof one);
+  }
+}
+
+std::vector<std::pair<size_t, std::optional<RemoteFetched>>> RemoteLookups::take() {
+  uint64_t count = 0;
+  [[maybe_unused]] ssize_t got = ::read(ready_fd_, &count, sizeof count);  // before the swap: a later result wakes again
+  std::lock_guard lock(mutex_);
+  std::vector<std::pair<size_t, std::optional<RemoteFetched>>> taken;
+  taken.swap(done_);
+  outstanding_ -= taken.size();
+  return taken;
+}
+
+void RemoteLookups::wait() {
+  std::unique_lock lock(mutex_);
+  finished_.wait(lock, [&] { return !done_.empty() || outstanding_ == 0; });
+}
+
+size_t RemoteLookups::outstanding() const {
+  std::lock_guard lock(mutex_);
+  return outstanding_;
+}
+
+// A WebDAV server that does not make the collections a PUT needs (Apache mod_dav: 409 Conflict) gets them with
+// MKCOL, parents first, no higher than the URL's first path segment; 405 means the collection is there (another
+// upload made it).
+bool RemoteCache::make_collection(HttpClient& client, const std::string& collection, int levels) {
+  const size_t path_start = collection.find('/', collection.find("://") + 3);
+  HttpResult made = client.mkcol(collection + "/");
+  if (!answered(made, "upload")) return false;
+  if (made.status == 201 || made.status == 405) return true;
+  const size_t parent_end = collection.rfind('/');
+  if (made.status != 409 || levels == 0 || path_start == std::string::npos || parent_end <= path_start) return false;
+  if (!make_collection(client, collection.substr(0, parent_end), levels - 1)) return false;
+  made = client.mkcol(collection + "/");
+  return answered(made, "upload") && (made.status == 201 || made.status == 405);
 }
 
 bool RemoteCache::put(HttpClient& client, const std::string& target, std::string_view body) {
   if (switched_off_) return false;
   HttpResult result = client.put(target, body);
   if (!answered(result, "upload")) return false;
+  if (result.status == 409 && make_collection(client, target.substr(0, target.rfind('/')), 4)) {
+    result = client.put(target, body);
+    if (!answered(result, "upload")) return false;
+  }
   if (result.status < 200 || result.status > 299) {
     problem(DiagId::RemoteUploadRefused, "the remote cache refused an upload with HTTP " + std::to_string(result.status));
     return false;
@@ -490,7 +585,12 @@ std::optional<std::string> RemoteCache::get_blob(HttpClient& client, const Remot
     problem(DiagId::RemoteEntryRejected, "a remote cache entry failed verification: " + why, "at cas/" + digest.hex());
     return std::nullopt;
   };
-  if (got.status == 404) return rejected("incomplete entry: a blob is missing");
+  if (got.status == 404) {  // evicted, or an upload cut short: a plain miss (an uploading build puts it back)
+    success();
+    std::lock_guard lock(mutex_);
+    ++report_.incomplete;
+    return std::nullopt;
+  }
   if (got.status != 200) {
     problem(DiagId::RemoteServerError, "the remote cache answered a download with HTTP " + std::to_string(got.status));
     return std::nullopt;

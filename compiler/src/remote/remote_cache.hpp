@@ -15,12 +15,15 @@
 
 #include <array>
 #include <atomic>
+#include <condition_variable>
+#include <deque>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <set>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "common/hash.hpp"
@@ -63,6 +66,8 @@ struct RemoteFetched {
   std::vector<FrontendMessage> front_messages;   // the alias's
   JobOutput module_output;                       // the result, its blobs verified
 };
+
+class RemoteLookups;
 
 class RemoteCache {
  public:
@@ -107,7 +112,9 @@ class RemoteCache {
   bool usable() const { return !switched_off_; }
 
  private:
+  friend class RemoteLookups;
   explicit RemoteCache(const RemoteCacheOptions& options);
+  std::optional<RemoteFetched> fetch_counted(const RemoteKey& source_key);
   std::string configure();  // empty, or why the settings cannot be used
   std::unique_ptr<HttpClient> take_client();
   void give_back(std::unique_ptr<HttpClient> client);
@@ -121,6 +128,7 @@ class RemoteCache {
   Found get_record(HttpClient& client, const RemoteKey& key, uint32_t kind, std::string& payload);
   bool upload_module(HttpClient& client, const ModuleUpload& module);
   bool put(HttpClient& client, const std::string& target, std::string_view body);
+  bool make_collection(HttpClient& client, const std::string& collection, int levels);
   std::optional<std::string> get_blob(HttpClient& client, const RemoteKey& digest, uint64_t size);
 
   RemoteCacheOptions options_;
@@ -136,6 +144,40 @@ class RemoteCache {
   std::map<DiagId, std::vector<std::pair<std::string, std::string>>> problems_;  // message, note
   std::map<DiagId, bool> reported_;
   std::set<RemoteKey> damaged_;  // module keys whose entries fetch found missing or damaged
+};
+
+// Lookups that run beside the build: the scheduler submits each stage source's key as soon as it knows it, and a
+// miss can start its compile while other lookups go on. `parallel_transfers` threads (started at the first submit)
+// share the remote's connections; results are collected on the caller's thread, in the order they finished (the
+// build's output does not depend on that order). `ready_fd()` (an eventfd) is readable when results wait, so a poll
+// loop wakes on it (ExternalWork in workers/job_runner.hpp).
+class RemoteLookups {
+ public:
+  explicit RemoteLookups(RemoteCache& remote);
+  ~RemoteLookups();  // waits for the lookups in flight; those not started are dropped
+  RemoteLookups(const RemoteLookups&) = delete;
+  RemoteLookups& operator=(const RemoteLookups&) = delete;
+
+  void submit(size_t tag, const RemoteKey& key);
+  // The lookups finished since the last call: (tag, the entry or nothing).
+  std::vector<std::pair<size_t, std::optional<RemoteFetched>>> take();
+  // Blocks until a result waits or nothing is outstanding.
+  void wait();
+  size_t outstanding() const;  // submitted and not yet taken
+  int ready_fd() const { return ready_fd_; }
+
+ private:
+  void work();
+
+  RemoteCache& remote_;
+  int ready_fd_ = -1;
+  mutable std::mutex mutex_;
+  std::condition_variable queued_, finished_;
+  std::deque<std::pair<size_t, RemoteKey>> queue_;
+  std::vector<std::pair<size_t, std::optional<RemoteFetched>>> done_;
+  size_t outstanding_ = 0;
+  bool stopping_ = false;
+  std::vector<std::thread> threads_;
 };
 
 }  // namespace kiln

@@ -29,12 +29,22 @@ struct WorkerActivity {
   size_t jobs = 0;
 };
 
+// Work that arrives from outside the jobs (the remote cache's answers): while `pending()`, the runner also waits on
+// `fd` (readable when something arrived) and calls `arrived()` on the calling thread, which may append jobs to `jobs`
+// as `on_done` may. A runner with no jobs left keeps waiting while `pending()`.
+struct ExternalWork {
+  int fd = -1;
+  std::function<bool()> pending;
+  std::function<void()> arrived;
+};
+
 class JobRunner {
  public:
   virtual ~JobRunner() = default;
   // Runs every job; `on_done(index, outcome)` is called on the calling thread as each finishes. It may append
   // follow-up jobs to `jobs` (run next); `index` always indexes `jobs`.
-  virtual void run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done) = 0;
+  virtual void run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done,
+                   const ExternalWork* external = nullptr) = 0;
   // Worker processes started so far (for the build summary).
   virtual unsigned spawned() const = 0;
   // One entry per worker slot that ran a job; empty for runners without processes.

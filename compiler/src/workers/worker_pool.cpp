@@ -165,7 +165,8 @@ std::vector<WorkerActivity> WorkerPool::activity() const {
   return out;
 }
 
-void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done) {
+void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done,
+                     const ExternalWork* external) {
   // The timeline: a job is in flight from its hand-out to its result (or its worker's death).
   auto started_job = [&](Worker& worker) {
     worker.started = std::chrono::steady_clock::now();
@@ -186,12 +187,16 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
   size_t known = jobs.size(), finished = 0;
   // Jobs appended by on_done go to the front of the queue: a follow-up carries a finished job's result,
   // which is released as soon as it runs.
-  auto finish = [&](size_t index, WorkerOutcome outcome) {
-    ++finished;
-    on_done(index, std::move(outcome));
+  auto take_appended = [&] {
     for (size_t i = jobs.size(); i > known; --i) ready.push_front(i - 1);
     known = jobs.size();
   };
+  auto finish = [&](size_t index, WorkerOutcome outcome) {
+    ++finished;
+    on_done(index, std::move(outcome));
+    take_appended();
+  };
+  auto external_pending = [&] { return external && external->pending(); };
   auto fail_job = [&](Worker& worker, WorkerOutcome::Kind kind, std::string detail, bool kill_now) {
     ended_job(worker);
     size_t index = static_cast<size_t>(worker.job);
@@ -210,7 +215,7 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
     finish(index, std::move(outcome));
   };
 
-  while (finished < jobs.size()) {
+  while (finished < jobs.size() || external_pending()) {
     while (workers_.size() < std::min<size_t>(count_, jobs.size())) workers_.push_back(new Worker);
     // Hand out work to idle workers.
     for (Worker* worker : workers_) {
@@ -242,10 +247,20 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
       auto left = std::chrono::duration_cast<std::chrono::milliseconds>(worker->started + limits_.job_timeout - now);
       wait = std::min(wait, std::max(left, std::chrono::milliseconds(0)));
     }
+    const bool waits_outside = external_pending();
+    if (waits_outside) fds.push_back({external->fd, POLLIN, 0});
     if (fds.empty()) continue;
     int polled_count = ::poll(fds.data(), fds.size(), static_cast<int>(wait.count()) + 1);
     if (polled_count < 0 && errno != EINTR) break;
     now = std::chrono::steady_clock::now();
+    if (waits_outside) {
+      const bool arrived = polled_count > 0 && (fds.back().revents & POLLIN);
+      fds.pop_back();
+      if (arrived) {
+        external->arrived();
+        take_appended();
+      }
+    }
     for (size_t i = 0; i < fds.size(); ++i) {
       Worker& worker = *polled[i];
       if (fds[i].revents & (POLLIN | POLLHUP | POLLERR)) {

@@ -32,7 +32,8 @@ class WorkerPool final : public JobRunner {
 
   // Runs every job; `on_done(index, outcome)` is called on this thread as each finishes. It may append
   // follow-up jobs to `jobs` (run next, in the same workers); `index` always indexes `jobs`.
-  void run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done) override;
+  void run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done,
+           const ExternalWork* external = nullptr) override;
   unsigned spawned() const override { return spawned_; }
   std::vector<WorkerActivity> activity() const override;
 
