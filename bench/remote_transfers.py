@@ -19,7 +19,6 @@ import json
 import os
 import re
 import shutil
-import socket
 import statistics
 import subprocess
 import sys
@@ -27,22 +26,8 @@ import tempfile
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def wait_listening(port):
-    for _ in range(400):
-        try:
-            socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
-            return
-        except OSError:
-            time.sleep(0.025)
-    sys.exit(f"nothing listens on {port}")
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from loopback import free_port, start_nginx, wait_listening  # noqa: E402
 
 
 def run_proxy(listen, upstream, delay_ms):
@@ -71,25 +56,6 @@ def run_proxy(listen, upstream, delay_ms):
     asyncio.run(main())
 
 
-def start_nginx(work):
-    port = free_port()
-    server = os.path.join(work, "server")
-    for d in ("data", "tmp"):
-        os.makedirs(os.path.join(server, d), exist_ok=True)
-    conf = os.path.join(server, "nginx.conf")
-    with open(conf, "w") as f:
-        f.write(f"""daemon off; master_process off; worker_processes 1; pid {server}/nginx.pid; error_log {server}/error.log;
-events {{ worker_connections 512; }}
-http {{ access_log off; client_body_temp_path {server}/tmp/body; proxy_temp_path {server}/tmp/proxy;
-  fastcgi_temp_path {server}/tmp/fastcgi; uwsgi_temp_path {server}/tmp/uwsgi; scgi_temp_path {server}/tmp/scgi;
-  client_max_body_size 512m; keepalive_requests 100000;
-  server {{ listen 127.0.0.1:{port} backlog=512; root {server}/data;
-    location / {{ dav_methods PUT; create_full_put_path on; dav_access user:rw; }} }} }}
-""")
-    proc = subprocess.Popen(["/usr/sbin/nginx", "-p", server + "/", "-c", conf, "-e", os.path.join(server, "error.log")])
-    wait_listening(port)
-    return proc, port
-
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -108,7 +74,7 @@ def main():
     work = tempfile.mkdtemp(prefix="kiln-transfers-")
     processes = []
     try:
-        nginx, port = start_nginx(work)
+        nginx, port, _ = start_nginx(work)
         processes.append(nginx)
         proxy_port = free_port()
         processes.append(subprocess.Popen([sys.executable, os.path.abspath(__file__), "--proxy", str(proxy_port), str(port),

@@ -128,10 +128,13 @@ int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cach
   kiln::BuildReport report = kiln::build_pack(options, sink);
   if (progress) progress->finish();
   const std::string shard = options.shard_count > 1 ? std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count) : "";
-  if (report.ok && !quiet) print_summary(report, std::cout, shard);
+  // With --summary-json - the JSON is standard output, and the summary for people goes to standard error.
+  if (report.ok && !quiet) print_summary(report, summary_file == "-" ? std::cerr : std::cout, shard);
   int code = kiln::exit_code(sink, report.internal_errors);
   int errors = sink.error_count();
-  if (!summary_file.empty())
+  if (summary_file == "-")
+    std::cout << summary_json(report, sink, code, options).dump(2) << "\n" << std::flush;
+  else if (!summary_file.empty())
     if (std::string error = kiln::write_file_atomic(summary_file, summary_json(report, sink, code, options).dump(2) + "\n");
         !error.empty()) {
       std::cerr << "kiln: error: --summary-json: " << error << "\n";
@@ -177,7 +180,8 @@ class BuildVerb final : public Verb {
                                                        seconds_text(kiln::defaults::kWorkerTimeout) + ")");
     verb->add_flag("-q,--quiet", quiet_, "Print only diagnostics");
     verb->add_option("--summary-json", summary_file_, "Also write the build summary as JSON (funnel, cache and remote counts, "
-                                                      "timings, diagnostics), whether the build succeeds or not");
+                                                      "timings, diagnostics), whether the build succeeds or not; - for "
+                                                      "standard output (the summary for people goes to standard error)");
     // The remote cache (docs/remote-cache.md). Credentials come from the environment or netrc, never from arguments.
     kiln::RemoteCacheOptions& remote = options_.remote;
     verb->add_option("--remote", remote.url, "Remote cache base URL, Bazel HTTP cache protocol (default: $KILN_REMOTE)");

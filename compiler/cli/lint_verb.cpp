@@ -25,7 +25,8 @@ class LintVerb final : public Verb {
     plan_.add_to(verb);
     verb->add_option("-I,--include-dir", include_dirs_, "Include root for the files' #include (file mode; repeatable)");
     verb->add_option("--format", format_, "Output: text, json or sarif")->check(CLI::IsMember({"text", "json", "sarif"}));
-    verb->add_option("-o,--output", output_, "Write the report to this file (only when lint ran: never an empty or partial file)");
+    verb->add_option("-o,--output", output_,
+                     "Write the report to this file (only when lint ran: never an empty or partial file); - for standard output");
     verb->add_option("--sarif-root", sarif_root_, "SARIF URIs are relative to this directory (default: the git work tree, else the current directory)");
     verb->add_flag("--werror", werror_, "Treat warnings as errors");
     return verb;
@@ -61,8 +62,10 @@ class LintVerb final : public Verb {
     std::string text;
     if (format_ == "json") text = kiln::format_lint_json(report);
     else if (format_ == "sarif") text = kiln::format_lint_sarif(report, {sarif_root_.empty() ? kiln::default_sarif_root(std::filesystem::current_path()) : std::filesystem::path(sarif_root_)});
-    else text = kiln::format_lint_text(report, output_.empty() && colour());  // a file gets no escape codes
-    if (!output_.empty()) {
+    else text = kiln::format_lint_text(report, output_.empty() && colour());  // a file or a pipe gets no escape codes
+    if (output_ == "-") {
+      std::cout << text << std::flush;
+    } else if (!output_.empty()) {
       if (std::string error = kiln::write_file_atomic(output_, text); !error.empty()) {
         std::cerr << "kiln lint: error: " << error << "\n";
         return 2;

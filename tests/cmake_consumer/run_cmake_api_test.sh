@@ -2,7 +2,8 @@
 # kiln_add_shader_pack's options and checks, and a cross build, on an installed kiln:
 #   the schemas are installed; OPTIONS, DEPENDS, EXCLUDE_FROM_ALL and generator expressions in paths work;
 #   mistakes are configure errors with a clear message (a path known only at build time: a build error);
-#   a cross build (toolchain file, fake sysroot whose kiln cannot run) runs the host kiln from KILN_EXECUTABLE.
+#   a cross build (toolchain file, fake sysroot whose kiln cannot run) runs the host kiln from KILN_EXECUTABLE;
+#   the installed examples (share/doc/kiln/examples) build against the installed kiln and draw.
 # usage: run_cmake_api_test.sh <generator> <kiln source dir> <kiln build dir>
 set -euo pipefail
 generator=$1 source=$2 build=$3
@@ -19,6 +20,15 @@ echo "== the pack and scene schemas are installed"
 for schema in pack.schema.json scene.schema.json; do
   cmp "$work/prefix/share/kiln/schema/$schema" "$source/variants/schema/$schema" || fail "$schema not installed"
 done
+
+echo "== the installed examples build against the installed kiln and draw"
+examples="$work/prefix/share/doc/kiln/examples"
+test -f "$examples/README.md" || fail "the examples are not installed"
+cmake -S "$examples" -B "$work/examples" -G "$generator" -DCMAKE_PREFIX_PATH="$work/prefix" > "$work/examples-configure.log" ||
+  { cat "$work/examples-configure.log"; fail "the installed examples do not configure"; }
+cmake --build "$work/examples" -j 2 > "$work/examples-build.log" 2>&1 || { cat "$work/examples-build.log"; fail "the installed examples do not build"; }
+"$work/examples/vulkan_triangle" "$work/examples/packs/vulkan_triangle" "$work/triangle.png" INVERT
+python3 "$source/examples/vulkan_triangle/check_png.py" "$work/triangle.png" 0 128 255 || fail "the installed example drew the wrong image"
 
 echo "== OPTIONS, DEPENDS, EXCLUDE_FROM_ALL, generator expressions"
 # The packs are stripped to the mobile scene (155 of 1284 variants): what is tested is the module, not a cold

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds and runs the consumer project, then checks incremental behaviour:
-#   touching an included HLSL file rebuilds the pack; touching an unrelated file does not;
-#   changing the scene list changes the pack.
+#   touching an included HLSL file rebuilds the pack; touching an unrelated file does not; a new header that
+#   shadows an include (found earlier in the search order) rebuilds the pack; changing the scene list changes it.
 # usage: run_consumer_test.sh <find_package|subdirectory> <generator> <kiln source dir> <kiln build dir>
 set -euo pipefail
 mode=$1 generator=$2 source=$3 build=$4
@@ -13,6 +13,10 @@ mkdir "$work/kiln-src"
 for entry in CMakeLists.txt CMakePresets.json compiler cmake tests bench; do ln -s "$source/$entry" "$work/kiln-src/$entry"; done
 ln -s "$work/shaderlib" "$work/kiln-src/shaderlib"
 ln -s "$work/variants" "$work/kiln-src/variants"
+# The Forward pass includes Fog.hlsl by its name alone: it is looked for next to passes/LitForward.hlsl first (not
+# there), then found in the include root. A Fog.hlsl that appears in passes/ later takes its place.
+sed -i 's|#include "../Fog.hlsl"|#include "Fog.hlsl"|' "$work/shaderlib/passes/LitForward.hlsl"
+grep -q '#include "Fog.hlsl"' "$work/shaderlib/passes/LitForward.hlsl"
 extra=(-DCMAKE_BUILD_TYPE=Release)
 # kiln inside the consumer builds as a unity build (CMAKE_UNITY_BUILD, which kiln supports): a quarter less CPU
 # than one source at a time, and the mode a project that builds its dependencies this way uses. It builds in
@@ -65,6 +69,13 @@ sleep 1.1; echo "// edited by the consumer test" >> "$work/shaderlib/Fog.hlsl"
 [ "$(rebuilds)" = 1 ] || { cat "$work/last.log"; echo "FAIL: editing Fog.hlsl did not rebuild the pack"; exit 1; }
 [ "$(stamp)" != "$before" ] || { echo "FAIL: the pack was not rewritten"; exit 1; }
 "$work/build/consumer" > /dev/null
+
+echo "== a new header shadows an include: the pack is rebuilt"
+before=$(stamp)
+sleep 1.1; { echo "// the shadowing copy"; cat "$work/shaderlib/Fog.hlsl"; } > "$work/shaderlib/passes/Fog.hlsl"
+[ "$(rebuilds)" = 1 ] || { cat "$work/last.log"; echo "FAIL: a Fog.hlsl new in passes/ did not rebuild the pack"; exit 1; }
+[ "$(stamp)" != "$before" ] || { echo "FAIL: the pack was not rewritten"; exit 1; }
+[ "$(rebuilds)" = 0 ] || { cat "$work/last.log"; echo "FAIL: the build after it rebuilt the pack again"; exit 1; }
 
 echo "== the scene list changes: the pack changes"
 variants_before=$("$work/build/consumer" | head -1)

@@ -622,6 +622,22 @@ TEST_F(Cli, SummaryJsonRecordsTheBuildForDashboardsEvenWhenItFails) {
   EXPECT_NE(r.err.find("kiln: 2 error(s)\n"), std::string::npos) << r.err;  // the shader's, and the summary's
 }
 
+// `-` is standard output for the single-file outputs: --summary-json (the summary for people moves to standard
+// error) and lint's -o. No file named "-" is written.
+TEST_F(Cli, DashWritesTheSummaryJsonOrTheLintReportToStandardOutput) {
+  dir.write("S.hlsl", kTwoKeywords);
+  auto r = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "cache", "--summary-json", "-"}, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json summary = nlohmann::json::parse(r.out);
+  EXPECT_EQ(summary.at("ok"), true);
+  EXPECT_EQ(summary.at("compiled"), 5);
+  EXPECT_NE(r.err.find("kiln: wrote out/p.manifest.json"), std::string::npos) << r.err;
+  auto lint = testing::run_kiln({"lint", "S.hlsl", "--format", "json", "-o", "-"}, dir.path());
+  EXPECT_EQ(lint.exit_code, 0) << lint.err;
+  EXPECT_TRUE(nlohmann::json::parse(lint.out).is_object()) << lint.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "-"));
+}
+
 TEST_F(Cli, OnATerminalABuildShowsOneProgressLineAndErasesItBeforeTheSummary) {
   dir.write("S.hlsl", kTwoKeywords);
   const std::vector<std::string> cold{KILN_CLI_PATH, "build", "p.pack.json", "-o", "out", "--cache", "cache"};

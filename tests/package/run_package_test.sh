@@ -32,7 +32,8 @@ for file in ./usr/bin/kiln ./usr/bin/kiln-worker ./usr/bin/kiln-verify ./usr/lib
             ./usr/lib/cmake/kiln/kilnTargets.cmake ./usr/lib/cmake/kiln/KilnShaderPack.cmake \
             ./usr/share/kiln/schema/pack.schema.json ./usr/share/kiln/schema/scene.schema.json \
             ./usr/share/man/man1/kiln.1 ./usr/share/bash-completion/completions/kiln ./usr/share/doc/kiln/lint.md \
-            ./usr/share/doc/kiln/README.md; do
+            ./usr/share/doc/kiln/README.md ./usr/share/doc/kiln/examples/README.md \
+            ./usr/share/doc/kiln/examples/vulkan_triangle/triangle.c ./usr/share/doc/kiln/examples/remote_cache/evict.sh; do
   grep -qxF "$file" <<< "$contents" || fail "the package has no $file"
 done
 ! grep -q "^\./usr/local\|^\./tmp\|^\./work" <<< "$contents" || fail "files outside /usr: $(grep "^\./usr/local\|^\./tmp\|^\./work" <<< "$contents")"

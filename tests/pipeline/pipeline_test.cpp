@@ -1,6 +1,8 @@
 // Whole builds through the library: determinism, incremental rebuilds, the bundled library.
 #include <gtest/gtest.h>
 
+#include <sstream>
+
 #include <algorithm>
 #include <csignal>
 #include <map>
@@ -453,6 +455,17 @@ TEST_F(SmallLibrary, DepfileListsEveryIncludedFile) {
   EXPECT_EQ(depfile.find((dir / "out/p.manifest.json").string() + ":"), 0u) << depfile;
   for (const char* file : {"p.pack.json", "S.hlsl", "lib/Shadows.hlsl", "lib/Fog.hlsl"})
     EXPECT_NE(depfile.find(file), std::string::npos) << file;
+  // S.hlsl's #include "Shadows.hlsl" is looked for next to S.hlsl first and found in lib/: a Shadows.hlsl new in S.hlsl's
+  // directory would take its place, so the directory is a dependency (Ninja and Make see it change). lib/ is not.
+  std::set<std::string> lines;
+  std::istringstream in(depfile);
+  for (std::string line; std::getline(in, line);) {
+    line.erase(0, line.find_first_not_of(' '));
+    if (line.ends_with(" \\")) line.resize(line.size() - 2);
+    lines.insert(line);
+  }
+  EXPECT_EQ(lines.count(std::filesystem::canonical(dir.path()).string()), 1u) << depfile;
+  EXPECT_EQ(lines.count(std::filesystem::canonical(dir / "lib").string()), 0u) << depfile;
 }
 
 TEST_F(SmallLibrary, EmitDumpsEveryStage) {

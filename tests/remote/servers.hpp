@@ -117,34 +117,77 @@ inline void make_test_ca(const std::filesystem::path& dir) {
     if (run_quietly(step, dir) != 0) throw std::runtime_error("openssl failed: " + step[1]);
 }
 
+// Starts a server in the foreground (it dies with the test) and waits until it accepts connections on `port`. A
+// server that exits first (a bad configuration) or never listens fails the test with its log. Returns its PID.
+inline pid_t start_server(std::vector<std::string> argv, uint16_t port, const std::filesystem::path& log) {
+  std::vector<char*> args;
+  for (std::string& a : argv) args.push_back(a.data());
+  args.push_back(nullptr);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    die_with_parent();
+    ::execv(args[0], args.data());
+    ::_exit(127);
+  }
+  const std::string name = std::filesystem::path(argv[0]).filename().string();
+  for (int attempt = 0; attempt < 2000; ++attempt) {
+    if (accepts_connections(port)) return pid;
+    int status = 0;
+    if (::waitpid(pid, &status, WNOHANG) == pid) throw std::runtime_error(name + " exited: " + read_file(log));
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  stop_process(pid);
+  throw std::runtime_error(name + " did not start listening: " + read_file(log));
+}
+
+// A server process the test started, in a temporary directory of its own (data/ is what it serves; tls/ its test CA)
+// on a loopback port; stopped by its PID when it goes (or by stop()).
+class ServerProcess {
+ public:
+  ~ServerProcess() { stop(); }
+  ServerProcess(const ServerProcess&) = delete;
+  ServerProcess& operator=(const ServerProcess&) = delete;
+
+  std::string url() const { return std::string(https_ ? "https" : "http") + "://127.0.0.1:" + std::to_string(port_); }
+  const std::filesystem::path& directory() const { return dir_.path(); }
+  std::filesystem::path data() const { return dir_ / "data"; }
+  std::filesystem::path ca_file() const { return dir_ / "tls/ca.pem"; }
+  uint16_t port() const { return port_; }
+  void stop() {
+    stop_process(pid_);
+    pid_ = -1;
+  }
+
+ protected:
+  explicit ServerProcess(bool https) : https_(https) {}
+  // The destructor does not run for a constructor that throws: a failed start stops what it started.
+  template <class Start>
+  void start_or_clean_up(Start start) {
+    try {
+      start();
+    } catch (...) {
+      stop();
+      throw;
+    }
+  }
+
+  TempDir dir_;
+  uint16_t port_ = 0;
+  pid_t pid_ = -1;
+
+ private:
+  bool https_;
+};
+
 struct NginxConfig {
   std::string location;     // directives inside `location /` besides WebDAV PUT
   bool https = false;       // with a certificate from make_test_ca(<dir>/tls)
 };
 
-class Nginx {
+class Nginx : public ServerProcess {
  public:
-  explicit Nginx(NginxConfig config = {}) : config_(std::move(config)) {
-    try {
-      start();
-    } catch (...) {
-      stop();  // the destructor does not run for a constructor that throws
-      throw;
-    }
-  }
-  ~Nginx() { stop(); }
-  Nginx(const Nginx&) = delete;
-  Nginx& operator=(const Nginx&) = delete;
-
-  std::string url() const { return std::string(config_.https ? "https" : "http") + "://127.0.0.1:" + std::to_string(port_); }
-  const std::filesystem::path& directory() const { return dir_.path(); }
-  std::filesystem::path data() const { return dir_ / "data"; }
-  std::filesystem::path ca_file() const { return dir_ / "tls/ca.pem"; }
-  uint16_t port() const { return port_; }
-
-  void stop() {
-    stop_process(pid_);
-    pid_ = -1;
+  explicit Nginx(NginxConfig config = {}) : ServerProcess(config.https), config_(std::move(config)) {
+    start_or_clean_up([this] { start(); });
   }
 
  private:
@@ -172,33 +215,10 @@ class Nginx {
         << "    location / {\n      dav_methods PUT;\n      create_full_put_path on;\n      dav_access user:rw;\n"
         << config_.location << "\n    }\n  }\n}\n";
     const std::string conf = (d / "nginx.conf").string(), prefix = d.string() + "/", log = (d / "error.log").string();
-    std::vector<std::string> argv{"/usr/sbin/nginx", "-p", prefix, "-c", conf, "-e", log};
-    std::vector<char*> args;
-    for (std::string& a : argv) args.push_back(a.data());
-    args.push_back(nullptr);
-    pid_ = ::fork();
-    if (pid_ == 0) {
-      die_with_parent();
-      ::execv(args[0], args.data());
-      ::_exit(127);
-    }
-    // Ready when it accepts connections; an nginx that exited (a bad configuration) fails the test with its log.
-    for (int attempt = 0; attempt < 2000; ++attempt) {
-      if (accepts_connections(port_)) return;
-      int status = 0;
-      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        throw std::runtime_error("nginx exited: " + read_file(d / "error.log"));
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    }
-    throw std::runtime_error("nginx did not start listening: " + read_file(d / "error.log"));
+    pid_ = start_server({"/usr/sbin/nginx", "-p", prefix, "-c", conf, "-e", log}, port_, log);
   }
 
   NginxConfig config_;
-  TempDir dir_;
-  uint16_t port_ = 0;
-  pid_t pid_ = -1;
 };
 
 // Debian's Apache httpd with mod_dav, the second WebDAV server (issue 39): one process (-X) with mpm_event's threads,
@@ -209,29 +229,12 @@ struct DavConfig {
   bool https = false;              // with a certificate from make_test_ca(<dir>/tls)
 };
 
-class Apache {
+class Apache : public ServerProcess {
  public:
-  explicit Apache(DavConfig config = {}) : config_(std::move(config)) {
-    try {
-      start();
-    } catch (...) {
-      stop();
-      throw;
-    }
+  explicit Apache(DavConfig config = {}) : ServerProcess(config.https), config_(std::move(config)) {
+    start_or_clean_up([this] { start(); });
   }
-  ~Apache() { stop(); }
-  Apache(const Apache&) = delete;
-  Apache& operator=(const Apache&) = delete;
-
-  std::string url() const { return std::string(config_.https ? "https" : "http") + "://127.0.0.1:" + std::to_string(port_); }
-  const std::filesystem::path& directory() const { return dir_.path(); }
-  std::filesystem::path data() const { return dir_ / "data"; }
-  std::filesystem::path ca_file() const { return dir_ / "tls/ca.pem"; }
   std::filesystem::path access_log() const { return dir_ / "logs/access.log"; }  // a line per request
-  void stop() {
-    stop_process(pid_);
-    pid_ = -1;
-  }
 
  private:
   void start() {
@@ -271,32 +274,11 @@ class Apache {
         ::chmod(config_.htpasswd.c_str(), 0644);
       }
     }
-    std::vector<std::string> argv{"/usr/sbin/apache2", "-X", "-d", d.string(), "-f", (d / "httpd.conf").string()};
-    std::vector<char*> args;
-    for (std::string& a : argv) args.push_back(a.data());
-    args.push_back(nullptr);
-    pid_ = ::fork();
-    if (pid_ == 0) {
-      die_with_parent();
-      ::execv(args[0], args.data());
-      ::_exit(127);
-    }
-    for (int attempt = 0; attempt < 2000; ++attempt) {
-      if (accepts_connections(port_)) return;
-      int status = 0;
-      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        throw std::runtime_error("apache2 exited: " + read_file(d / "logs/error.log"));
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    }
-    throw std::runtime_error("apache2 did not start listening: " + read_file(d / "logs/error.log"));
+    pid_ = start_server({"/usr/sbin/apache2", "-X", "-d", d.string(), "-f", (d / "httpd.conf").string()}, port_,
+                        d / "logs/error.log");
   }
 
   DavConfig config_;
-  TempDir dir_;
-  uint16_t port_ = 0;
-  pid_t pid_ = -1;
 };
 
 // The WebDAV server of the remote suite: nginx, or Apache when KILN_TEST_DAV_SERVER=apache (the suite's second run,

@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <memory>
 #include <stdexcept>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -64,6 +65,30 @@ namespace runtime {
 struct Index;
 }
 
+// What a PackReader::try_ call gives code built without exceptions (-fno-exceptions, as many games are): the value,
+// or the PackError that would have been thrown (its code, message and file). Test it before using the value.
+template <class T>
+class PackResult {
+ public:
+  PackResult(T value) : value_(std::move(value)) {}  // NOLINT(google-explicit-constructor): a result is its value
+  PackResult(PackError::Code code, std::string message, std::string file)
+      : code_(code), message_(std::move(message)), file_(std::move(file)) {}
+  explicit operator bool() const noexcept { return value_.has_value(); }
+  T& operator*() noexcept { return *value_; }
+  const T& operator*() const noexcept { return *value_; }
+  T* operator->() noexcept { return &*value_; }
+  const T* operator->() const noexcept { return &*value_; }
+  // The error, when there is no value.
+  PackError::Code code() const noexcept { return code_; }
+  const std::string& message() const noexcept { return message_; }
+  const std::string& file() const noexcept { return file_; }
+
+ private:
+  std::optional<T> value_;
+  PackError::Code code_ = PackError::Code::Io;
+  std::string message_, file_;
+};
+
 class PackReader {
  public:
   // What open() checks before it returns.
@@ -104,6 +129,17 @@ class PackReader {
   const Reflection& reflection(uint32_t id) const;
   // The runtime index (kiln/runtime_index.hpp, internal): the C API's tables are built from it.
   const runtime::Index& index() const;
+
+  // The calls above that can fail, for code built without exceptions: each returns its PackError instead of
+  // throwing it (running out of memory included: Code::OutOfMemory). A reader from try_open() serves every call.
+  static PackResult<PackReader> try_open(const std::filesystem::path& path, Check check = Check::OnUse) noexcept;
+  PackResult<SelectedVariant> try_select(std::string_view pass, const std::vector<std::string>& keywords,
+                                         bool strict = false) const noexcept;
+  PackResult<SelectedVariant> try_variant(std::string_view pass, size_t index) const noexcept;
+  PackResult<size_t> try_variant_count(std::string_view pass) const noexcept;
+  PackResult<std::vector<std::vector<std::string>>> try_keyword_groups(std::string_view pass) const noexcept;
+  PackResult<std::string_view> try_blob(uint32_t id) const noexcept;
+  PackResult<const Reflection*> try_reflection(uint32_t id) const noexcept;
 
  private:
   struct State;

@@ -58,7 +58,12 @@ ResolvedInclude resolve_include(std::string_view name, const std::filesystem::pa
       return result;
     }
     std::error_code ec;
-    if (!std::filesystem::exists(std::filesystem::symlink_status(lexical, ec))) continue;
+    if (!std::filesystem::exists(std::filesystem::symlink_status(lexical, ec))) {
+      std::filesystem::path holder = lexical.parent_path();
+      while (!std::filesystem::is_directory(holder, ec) && roots.contains(holder.parent_path())) holder = holder.parent_path();
+      if (std::filesystem::is_directory(holder, ec) && roots.contains(holder)) result.watch.push_back(holder);
+      continue;
+    }
     std::filesystem::path canonical = std::filesystem::weakly_canonical(lexical, ec);
     if (ec) continue;
     if (!roots.contains(canonical)) {

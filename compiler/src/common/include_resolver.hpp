@@ -28,6 +28,10 @@ struct ResolvedInclude {
   DiagId error{};
   std::string message;
   std::vector<std::string> notes;
+  // Where a new file would take this one's place: for each candidate searched before the match, the directory that
+  // would hold it (or, if that does not exist yet, its nearest existing ancestor inside the roots). A build tool
+  // that watches them (the depfile lists them) notices a new header that shadows an include.
+  std::vector<std::filesystem::path> watch;
 };
 
 // Resolves `name` as written in `#include "name"` inside `including_file` (canonical): first next to

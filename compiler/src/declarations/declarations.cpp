@@ -220,6 +220,7 @@ struct Scanner {
       return;
     }
     sources.files.at(from.path).includes.emplace(std::string(name), resolved.path);
+    sources.watched.insert(resolved.watch.begin(), resolved.watch.end());
     if (std::find(chain.begin(), chain.end(), resolved.path) != chain.end()) {
       const SourceFile* target = sources.find(resolved.path);
       if (target && target->guarded) return;  // the guard ends the recursion at preprocessing time

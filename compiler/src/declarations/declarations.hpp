@@ -6,6 +6,7 @@
 
 #include <map>
 #include <optional>
+#include <set>
 
 #include "common/files.hpp"
 #include "kiln/model.hpp"
@@ -27,6 +28,8 @@ struct SourceFile {
 // so one build sees one consistent snapshot of each file.
 struct SourceSet {
   std::map<std::filesystem::path, SourceFile> files;
+  // Directories where a new file would shadow an include (ResolvedInclude::watch): the depfile lists them.
+  std::set<std::filesystem::path> watched;
   const SourceFile* find(const std::filesystem::path& canonical) const;
 };
 

@@ -698,4 +698,50 @@ SelectedVariant PackReader::select(std::string_view pass_name, const std::vector
   throw PackError(PackError::Code::Stripped, message);
 }
 
+namespace {
+// Runs `call` and hands back its value, or the PackError it threw; the reader's own calls throw nothing else but
+// std::bad_alloc, which is the pack's OutOfMemory.
+template <class Call>
+auto without_exceptions(const std::string& file, Call call) noexcept -> PackResult<decltype(call())> {
+  try {
+    return call();
+  } catch (const PackError& error) {
+    return {error.code(), error.what(), error.file()};
+  } catch (const std::bad_alloc&) {
+    return {PackError::Code::OutOfMemory, "out of memory", file};
+  } catch (const std::exception& error) {  // not expected: a reader's error is a PackError
+    return {PackError::Code::Format, error.what(), file};
+  }
+}
+}  // namespace
+
+PackResult<PackReader> PackReader::try_open(const std::filesystem::path& path, Check check) noexcept {
+  return without_exceptions(path.string(), [&] { return open(path, check); });
+}
+
+PackResult<SelectedVariant> PackReader::try_select(std::string_view pass, const std::vector<std::string>& keywords,
+                                                   bool strict) const noexcept {
+  return without_exceptions({}, [&] { return select(pass, keywords, strict); });
+}
+
+PackResult<SelectedVariant> PackReader::try_variant(std::string_view pass, size_t index) const noexcept {
+  return without_exceptions({}, [&] { return variant(pass, index); });
+}
+
+PackResult<size_t> PackReader::try_variant_count(std::string_view pass) const noexcept {
+  return without_exceptions({}, [&] { return variant_count(pass); });
+}
+
+PackResult<std::vector<std::vector<std::string>>> PackReader::try_keyword_groups(std::string_view pass) const noexcept {
+  return without_exceptions({}, [&] { return keyword_groups(pass); });
+}
+
+PackResult<std::string_view> PackReader::try_blob(uint32_t id) const noexcept {
+  return without_exceptions({}, [&] { return blob(id); });
+}
+
+PackResult<const Reflection*> PackReader::try_reflection(uint32_t id) const noexcept {
+  return without_exceptions({}, [&] { return &reflection(id); });
+}
+
 }  // namespace kiln
