@@ -1,6 +1,7 @@
 # kiln_add_shader_pack(<target> PACK <pack.json> [NAME <pack name>] [SCENES <scene.json>...]
 #                      [TARGETS spirv glsl gles msl] [OUTPUT_DIR <dir>] [CACHE_DIR <dir>]
 #                      [DEFINES NAME[=VALUE]...] [OPTIONS <kiln build argument>...] [DEPENDS <file or target>...] [EXCLUDE_FROM_ALL]
+#                      [USAGE <usage log>...]
 #                      [REMOTE <url>] [REMOTE_UPLOAD])
 #
 # Adds a custom target <target> (built by ALL unless EXCLUDE_FROM_ALL) whose output is the variant pack of
@@ -10,6 +11,8 @@
 #   DEFINES   passed as `kiln build -D` (they win over the pack definition's "defines"; docs/bindings.md);
 #             changing them rebuilds
 #   DEPENDS   more files or targets the pack's build depends on (e.g. a target that generates an HLSL file)
+#   USAGE     usage logs recorded by the game's readers: keep only the variants they asked for (docs/usage.md;
+#             `kiln build --usage`; pass --usage-tag / --usage-margin through OPTIONS)
 # Paths may be relative (to the current source directory; OUTPUT_DIR to the current binary directory) and may
 # hold generator expressions (`$<CONFIG>`, `$<TARGET_PROPERTY:...>`). A file named without one is checked now:
 # a missing pack or scene file is a configure error. With one, it is known only at build time, where the build tool
@@ -64,7 +67,7 @@ function(_kiln_host_executable out)
 endfunction()
 
 function(kiln_add_shader_pack target)
-  cmake_parse_arguments(PARSE_ARGV 1 ARG "EXCLUDE_FROM_ALL;REMOTE_UPLOAD" "PACK;NAME;OUTPUT_DIR;CACHE_DIR;REMOTE" "SCENES;TARGETS;DEFINES;OPTIONS;DEPENDS")
+  cmake_parse_arguments(PARSE_ARGV 1 ARG "EXCLUDE_FROM_ALL;REMOTE_UPLOAD" "PACK;NAME;OUTPUT_DIR;CACHE_DIR;REMOTE" "SCENES;TARGETS;DEFINES;OPTIONS;DEPENDS;USAGE")
   if(NOT ARG_PACK)
     message(FATAL_ERROR "kiln_add_shader_pack(${target}): PACK <pack.json> is required")
   endif()
@@ -145,13 +148,22 @@ function(kiln_add_shader_pack target)
     list(APPEND remote_args --remote-upload)
   endif()
 
+  # Usage logs (docs/usage.md): the variants recorded runs asked for; a changed log rebuilds the pack.
+  set(usage_args "")
+  set(usage_files "")
+  foreach(log IN LISTS ARG_USAGE)
+    get_filename_component(absolute "${log}" ABSOLUTE BASE_DIR "${CMAKE_CURRENT_SOURCE_DIR}")
+    list(APPEND usage_args --usage "${absolute}")
+    list(APPEND usage_files "${absolute}")
+  endforeach()
+
   set(manifest "${output_dir}/${pack_name}.manifest.json")
   set(depfile "${output_dir}/${pack_name}.d")
   add_custom_command(
     OUTPUT "${manifest}"
     COMMAND "${kiln}" build "${pack}" -o "${output_dir}" --cache "${cache_dir}" --depfile "${depfile}"
-            ${scene_args} ${target_args} ${define_args} ${remote_args} ${ARG_OPTIONS} -q
-    DEPENDS "${pack}" ${scene_files} "${kiln}" ${ARG_DEPENDS}
+            ${scene_args} ${usage_args} ${target_args} ${define_args} ${remote_args} ${ARG_OPTIONS} -q
+    DEPENDS "${pack}" ${scene_files} ${usage_files} "${kiln}" ${ARG_DEPENDS}
     DEPFILE "${depfile}"
     COMMENT "kiln: building shader pack '${pack_name}'"
     COMMAND_EXPAND_LISTS

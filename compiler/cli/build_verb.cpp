@@ -179,6 +179,11 @@ class BuildVerb final : public Verb {
     verb->add_option("--worker-timeout", timeout_s_, "Seconds one compile job may take before it is an internal error (default: " +
                                                        seconds_text(kiln::defaults::kWorkerTimeout) + ")");
     verb->add_flag("-q,--quiet", quiet_, "Print only diagnostics");
+    // Usage-driven stripping (docs/usage.md).
+    verb->add_option("--usage", usage_logs_, "Keep only the variants these usage logs asked for (repeatable; docs/usage.md)");
+    verb->add_option("--usage-tag", usage_tags_, "Only the usage logs tagged KEY=VALUE (repeatable: every tag)");
+    verb->add_option("--usage-margin", options_.usage_margin,
+                     "With --usage, also keep the variants at most N keyword groups away from one asked for (default: 0)");
     verb->add_option("--summary-json", summary_file_, "Also write the build summary as JSON (funnel, cache and remote counts, "
                                                       "timings, diagnostics), whether the build succeeds or not; - for "
                                                       "standard output (the summary for people goes to standard error)");
@@ -222,6 +227,15 @@ class BuildVerb final : public Verb {
     remote.ca_file = environment("KILN_REMOTE_CA_FILE");
     remote.connect_timeout = std::chrono::milliseconds(static_cast<long>(remote_connect_s_ * 1000));
     remote.operation_timeout = std::chrono::milliseconds(static_cast<long>(remote_timeout_s_ * 1000));
+    options_.usage_logs.assign(usage_logs_.begin(), usage_logs_.end());
+    for (const std::string& tag : usage_tags_) {
+      const size_t equals = tag.find('=');
+      if (equals == std::string::npos || equals == 0) {
+        std::cerr << "kiln: error: --usage-tag '" << tag << "' is not KEY=VALUE\n";
+        return 1;
+      }
+      options_.usage_tags.emplace_back(tag.substr(0, equals), tag.substr(equals + 1));
+    }
     if (!shard_text_.empty()) {
       auto process_environment = [](const char* name) { return std::getenv(name); };
       if (std::string error = kiln::parse_shard_option(shard_text_, process_environment, options_.shard_index, options_.shard_count);
@@ -243,7 +257,7 @@ class BuildVerb final : public Verb {
   PlanArguments plan_;
   std::string pack_file_, output_, cache_dir_, depfile_, summary_file_, shard_text_;
   std::string recipe_name_{kiln::optimizer_recipe_name(kiln::OptimizerRecipe::Kiln)};
-  std::vector<std::string> emit_, target_names_;
+  std::vector<std::string> emit_, target_names_, usage_logs_, usage_tags_;
   bool no_cache_ = false, quiet_ = false;
   double timeout_s_ = std::chrono::duration<double>(kiln::defaults::kWorkerTimeout).count();
   double remote_connect_s_ = std::chrono::duration<double>(kiln::defaults::kRemoteConnectTimeout).count();

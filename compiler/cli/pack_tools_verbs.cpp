@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.hpp"
+#include "kiln/defaults.hpp"
 #include "kiln/pack_reader.hpp"
 #include "tools/pack_tools.hpp"
 
@@ -96,8 +97,60 @@ class DiffPacksVerb final : public Verb {
   bool as_json_ = false;
 };
 
+// kiln check-usage PACK LOG...: before a narrower pack ships, which requests of recorded runs it would not serve.
+class CheckUsageVerb final : public Verb {
+ public:
+  CLI::App* add_to(CLI::App& app) override {
+    CLI::App* verb = app.add_subcommand("check-usage", "Report every keyword set recorded usage logs asked for that a built pack lacks");
+    verb->add_option("pack_dir", pack_dir_, "Directory holding a pack (or its manifest)")->required();
+    verb->add_option("logs", logs_, "Usage logs (docs/usage.md)")->required();
+    verb->add_option("--usage-tag", tags_, "Only the logs tagged KEY=VALUE (repeatable: every tag)");
+    return verb;
+  }
+  int run() override {
+    kiln::DiagnosticSink sink;
+    print_diagnostics_as_they_come(sink);
+    std::vector<std::pair<std::string, std::string>> filters;
+    for (const std::string& tag : tags_) {
+      const size_t equals = tag.find('=');
+      if (equals == std::string::npos || equals == 0) {
+        std::cerr << "kiln: error: --usage-tag '" << tag << "' is not KEY=VALUE\n";
+        return 1;
+      }
+      filters.emplace_back(tag.substr(0, equals), tag.substr(equals + 1));
+    }
+    auto pack = kiln::PackReader::try_open(pack_dir_, kiln::PackReader::Check::Full);
+    if (!pack) {
+      std::cerr << (pack.file().empty() ? pack_dir_ : pack.file()) << ": error: " << pack.message() << "\n";
+      return 1;
+    }
+    std::vector<kiln::UsageLog> logs;
+    kiln::ReadLimits limits{kiln::defaults::kMaxFileBytes};
+    for (const std::string& file : logs_) {
+      auto log = kiln::load_usage_log(file, limits, sink);
+      if (!log) continue;
+      if (!kiln::usage_matches(*log, filters)) continue;
+      if (log->pack != pack->name())
+        sink.report(kiln::DiagId::UsageLog, kiln::SourceLocation{file, 1, 1},
+                    "this usage log is of pack '" + log->pack + "', not of '" + pack->name() + "'");
+      else
+        logs.push_back(std::move(*log));
+    }
+    const kiln::UsageCheck check = kiln::check_usage(*pack, logs, sink);
+    std::cout << "kiln check-usage: " << logs.size() << " logs, " << check.sets << " keyword sets asked for ("
+              << check.requests << " selections): " << check.missed << " not in the pack (" << check.requests_missed
+              << " selections)\n";
+    return sink.has_errors() ? 1 : 0;
+  }
+
+ private:
+  std::string pack_dir_;
+  std::vector<std::string> logs_, tags_;
+};
+
 }  // namespace
 
+std::unique_ptr<Verb> make_check_usage_verb() { return std::make_unique<CheckUsageVerb>(); }
 std::unique_ptr<Verb> make_check_scene_verb() { return std::make_unique<CheckSceneVerb>(); }
 std::unique_ptr<Verb> make_diff_packs_verb() { return std::make_unique<DiffPacksVerb>(); }
 

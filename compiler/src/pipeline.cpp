@@ -107,6 +107,7 @@ void record_dependencies(const BuildOptions& options, const Plan& plan, BuildRep
   report.strip_report = plan.strip;
   report.dependencies.push_back(std::filesystem::absolute(options.pack_file));
   for (const auto& scene : options.scene_files) report.dependencies.push_back(std::filesystem::absolute(scene));
+  for (const auto& log : options.usage_logs) report.dependencies.push_back(std::filesystem::absolute(log));
   for (const auto& [path, file] : plan.sources.files) report.dependencies.push_back(path);
   // A new header in one of these directories would shadow an include: Ninja and Make see the directory change.
   for (const auto& directory : plan.sources.watched) report.dependencies.push_back(directory);

@@ -3,7 +3,9 @@
  * keywords, its SPIR-V and entry points are the pack's, and the descriptor set layout and vertex input are made from
  * its reflection.
  *
- * usage: vulkan_triangle PACK_DIR OUT.png [KEYWORD]...     (Triangle.hlsl: INVERT inverts the colour) */
+ * usage: vulkan_triangle PACK_DIR OUT.png [KEYWORD]...     (Triangle.hlsl: INVERT inverts the colour)
+ * With KILN_USAGE_LOG=FILE in the environment it records what it selects into that usage log (docs/usage.md),
+ * written when the pack is closed: `kiln build --usage FILE` then keeps just that variant. */
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -93,6 +95,9 @@ int main(int argc, char** argv) {
   kiln_keyword keywords[16];
   uint32_t keyword_count = 0, variant;
   if (kiln_pack_open(argv[1], &pack, &error) != KILN_OK) die("%s: %s", error.file, error.message);
+  const char* usage_log = getenv("KILN_USAGE_LOG");
+  const char* usage_tags[] = {"example=vulkan_triangle"};
+  if (usage_log && kiln_pack_record_usage(pack, usage_log, usage_tags, 1, &error) != KILN_OK) die("%s", error.message);
   if (kiln_pass_find(pack, "Main", &pass, &error) != KILN_OK) die("%s", error.message);
   for (int i = 3; i < argc && keyword_count < 16; ++i)
     if (kiln_keyword_find(pack, argv[i], &keywords[keyword_count++], &error) != KILN_OK) die("%s", error.message);
@@ -316,6 +321,7 @@ int main(int argc, char** argv) {
   for (int m = 0; m < 4; ++m) vkFreeMemory(device, memories[m], NULL);
   vkDestroyDevice(device, NULL);
   vkDestroyInstance(instance, NULL);
+  if (usage_log && kiln_pack_flush_usage(pack, &error) != KILN_OK) die("%s: %s", error.file, error.message);
   kiln_pack_close(pack);
   return 0;
 }

@@ -53,6 +53,20 @@ keywords = {k for v in forward["variants"] for k in v["keywords"]}
 assert "_MAIN_LIGHT_SHADOWS_CASCADE" not in keywords, "the mobile scene was not applied"
 PY
 
+echo "== USAGE: the pack keeps what the usage log asked for, and a changed log rebuilds it"
+cat > "$work/usage.json" <<'JSON'
+{"format": "kiln-usage", "format_version": 1, "pack": "lit", "tags": {},
+ "passes": [{"name": "Forward", "served": [{"keywords": ["_MAIN_LIGHT_SHADOWS"], "count": 7}], "missing": []}],
+ "missing_dropped": 0}
+JSON
+cmake "$work/build" -DKILN_CONSUMER_USAGE_LOG="$work/usage.json" > /dev/null
+cmake --build "$work/build" --target usage_pack -j 2 > "$work/usage.log" 2>&1 || { cat "$work/usage.log"; fail "usage_pack"; }
+usage_variants() { python3 -c 'import json,sys; m=json.load(open(sys.argv[1])); print(sorted(" ".join(v["keywords"]) for p in m["passes"] if p["name"]=="Forward" for v in p["variants"]))' "$work/build/usage/lit.manifest.json"; }
+[ "$(usage_variants)" = "['_MAIN_LIGHT_SHADOWS']" ] || fail "USAGE: the Forward pass kept $(usage_variants)"
+sed -i 's/"_MAIN_LIGHT_SHADOWS"\]/"FOG_EXP2", "_MAIN_LIGHT_SHADOWS"]/' "$work/usage.json"
+cmake --build "$work/build" --target usage_pack -j 2 > "$work/usage.log" 2>&1 || { cat "$work/usage.log"; fail "usage_pack again"; }
+[ "$(usage_variants)" = "['FOG_EXP2 _MAIN_LIGHT_SHADOWS']" ] || fail "a changed usage log did not rebuild the pack: $(usage_variants)"
+
 echo "== mistakes are reported with a clear message"
 expect_configure_error() {  # case, expected text, extra cmake arguments...
   local case=$1 text=$2; shift 2

@@ -16,6 +16,7 @@
 #include "frontend/frontend.hpp"
 #include "kiln/build.hpp"
 #include "optimize/spirv_tools.hpp"
+#include "kiln/pack_reader.hpp"
 #include "test_support.hpp"
 
 namespace kiln {
@@ -638,6 +639,66 @@ TEST_F(Cli, DashWritesTheSummaryJsonOrTheLintReportToStandardOutput) {
   EXPECT_FALSE(std::filesystem::exists(dir / "-"));
 }
 
+// Usage-driven stripping end to end (docs/usage.md): a run recorded by the reader, a pack built from its log, and
+// check-usage on that pack against the log and against another run's.
+TEST_F(Cli, UsageLogsStripAPackToWhatTheRunsAskedForAndCheckUsageFindsWhatItLacks) {
+  dir.write("S.hlsl", kTwoKeywords);  // variants [], [A], [B], [A B]
+  ASSERT_EQ(build().exit_code, 0);
+  auto record = [&](const std::string& file, const std::vector<std::vector<std::string>>& selections) {
+    PackReader reader = PackReader::open(dir / "out");
+    reader.record_usage({dir / file, {{"scene", "forest"}}});
+    for (const auto& keywords : selections) reader.select("P", keywords);
+  };
+  record("run1.json", {{"A"}, {"A"}, {"A", "B"}, {"A"}});
+  record("run2.json", {{"B"}});
+
+  auto r = testing::run_kiln({"build", "p.pack.json", "-o", "narrow", "--cache", "cache", "--usage", "run1.json"}, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("P: usage log run1.json (2 keyword sets): 4 -> 2 (variants this run did not ask for)"),
+            std::string::npos) << r.out;
+  {
+    PackReader narrow = PackReader::open(dir / "narrow");
+    EXPECT_EQ(narrow.variant_count("P"), 2u);
+    EXPECT_EQ(narrow.select("P", {"A"}).keywords, std::vector<std::string>{"A"});
+    EXPECT_EQ(narrow.select("P", {"A", "B"}).keywords, (std::vector<std::string>{"A", "B"}));
+  }
+  auto ok = testing::run_kiln({"check-usage", "narrow", "run1.json"}, dir.path());
+  EXPECT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_EQ(ok.out, "kiln check-usage: 1 logs, 2 keyword sets asked for (4 selections): 0 not in the pack (0 selections)\n");
+  auto missed = testing::run_kiln({"check-usage", "narrow", "run1.json", "run2.json"}, dir.path());
+  EXPECT_EQ(missed.exit_code, 1);
+  EXPECT_EQ(missed.err, "run2.json: error[K1307]: pass 'P': [B], asked for 1 time, is not in pack 'p'; the nearest variant "
+                        "the reader names is [A B]\n");
+  EXPECT_NE(missed.out.find(": 1 not in the pack (1 selections)"), std::string::npos) << missed.out;
+
+  // Both runs: every variant they asked for; a margin of one group keeps the neighbours too.
+  r = testing::run_kiln({"build", "p.pack.json", "-o", "both", "--cache", "cache", "--usage", "run1.json", "--usage", "run2.json",
+                         "--usage-tag", "scene=forest"}, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("P: usage (2 logs): 4 -> 3 (variants no run asked for)"), std::string::npos) << r.out;
+  r = testing::run_kiln({"build", "p.pack.json", "-o", "margin", "--cache", "cache", "--usage", "run2.json", "--usage-margin", "1"},
+                        dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(PackReader::open(dir / "margin").variant_count("P"), 3u);  // [B], and [] and [A B] one group away
+
+  // Mistakes: a tag no log has, a log of another pack, a log that is not one.
+  r = testing::run_kiln({"build", "p.pack.json", "-o", "x", "--usage", "run1.json", "--usage-tag", "scene=city"}, dir.path());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("error[K1015]: none of the 1 usage logs has the tags scene=city"), std::string::npos) << r.err;
+  std::string other = testing::read_file(dir / "run1.json");
+  other.replace(other.find("\"pack\": \"p\""), 11, "\"pack\": \"q\"");
+  dir.write("other.json", other);
+  r = testing::run_kiln({"build", "p.pack.json", "-o", "x", "--usage", "other.json"}, dir.path());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("other.json:1:1: error[K1015]: this usage log is of pack 'q', not of 'p'"), std::string::npos) << r.err;
+  dir.write("broken.json", R"({"format": "kiln-usage", "format_version": 2, "pack": "p", "tags": {}, "passes": [], "missing_dropped": 0})");
+  r = testing::run_kiln({"check-usage", "narrow", "broken.json"}, dir.path());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("broken.json:1:27: error[K1015]: usage log format version 2 is not supported (this kiln reads version 1)"),
+            std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "x"));
+}
+
 TEST_F(Cli, OnATerminalABuildShowsOneProgressLineAndErasesItBeforeTheSummary) {
   dir.write("S.hlsl", kTwoKeywords);
   const std::vector<std::string> cold{KILN_CLI_PATH, "build", "p.pack.json", "-o", "out", "--cache", "cache"};
@@ -707,7 +768,7 @@ TEST_F(Cli, EveryVerbHasHelp) {
   std::istringstream lines(top.out.substr(top.out.find("Subcommands:")));
   for (std::string line; std::getline(lines, line);)
     if (line.starts_with("  ") && line[2] != ' ') verbs.push_back(line.substr(2, line.find(' ', 2) - 2));
-  EXPECT_EQ(verbs, (std::vector<std::string>{"build", "list", "inspect", "lint", "check-scene", "diff-packs", "compile", "render", "test"}));
+  EXPECT_EQ(verbs, (std::vector<std::string>{"build", "list", "inspect", "lint", "check-scene", "check-usage", "diff-packs", "compile", "render", "test"}));
   for (const std::string& verb : verbs) {
     auto r = testing::run_kiln({verb, "--help"}, dir.path());
     EXPECT_EQ(r.exit_code, 0) << verb;

@@ -5,7 +5,7 @@ _kiln() {
   local cur prev verb i
   cur="${COMP_WORDS[COMP_CWORD]}"
   prev="${COMP_WORDS[COMP_CWORD-1]}"
-  local verbs="build list inspect lint check-scene diff-packs compile render test"
+  local verbs="build list inspect lint check-scene check-usage diff-packs compile render test"
   local binding="-D --define --fvk-b-shift --fvk-t-shift --fvk-s-shift --fvk-u-shift --fvk-bind-globals --auto-bind --no-auto-bind --combined-image-samplers --separate-image-samplers"
   verb=""
   for ((i = 1; i < COMP_CWORD; i++)); do
@@ -24,7 +24,7 @@ _kiln() {
     --frontend) COMPREPLY=($(compgen -W "glslang" -- "$cur")); return ;;
     --optimize) COMPREPLY=($(compgen -W "kiln O" -- "$cur")); return ;;
     --api|--against) COMPREPLY=($(compgen -W "vulkan gl gles" -- "$cur")); return ;;
-    --scene) COMPREPLY=($(compgen -f -X '!*.json' -- "$cur")); compopt -o plusdirs 2>/dev/null; return ;;
+    --scene|--usage) COMPREPLY=($(compgen -f -X '!*.json' -- "$cur")); compopt -o plusdirs 2>/dev/null; return ;;
     -o|--output|--cache|--extract|--depfile|--summary-json|--sarif-root|-I|--include-dir|--golden|--report|--exr)
       COMPREPLY=($(compgen -f -- "$cur")); compopt -o filenames 2>/dev/null; return ;;
   esac
@@ -40,11 +40,13 @@ _kiln() {
   case "$verb" in
     build) options+=" --output -o --scene $binding --jobs -j --cache --no-cache --cache-max-mb --emit --depfile --targets
                      --frontend --optimize --worker-timeout --quiet -q --summary-json --remote --remote-upload --remote-required
-                     --remote-instance --remote-namespace --remote-connect-timeout --remote-timeout --remote-transfers --shard" ;;
+                     --remote-instance --remote-namespace --remote-connect-timeout --remote-timeout --remote-transfers --shard
+                     --usage --usage-tag --usage-margin" ;;
     list) options+=" --scene $binding --json" ;;
     inspect) options+=" --json --extract" ;;
     lint) options+=" --cache --no-cache --scene $binding --include-dir -I --format --output -o --sarif-root --werror" ;;
     check-scene|diff-packs) options+=" --json" ;;
+    check-usage) options+=" --usage-tag" ;;
     compile) options+=" --stage -S --entry -E --output -o --target --include-dir -I $binding -O --depfile --werror" ;;
     render) options+=" --variant --scene --output -o --exr --size --api" ;;
     test) options+=" --scene --golden --tolerances --report --filter --shard --api --against" ;;

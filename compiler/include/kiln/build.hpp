@@ -42,6 +42,11 @@ struct RemoteCacheOptions {
 struct BuildOptions {
   std::filesystem::path pack_file;
   std::vector<std::filesystem::path> scene_files;
+  // --usage: keep only the variants these usage logs asked for (docs/usage.md), the logs with every tag of
+  // `usage_tags` (--usage-tag KEY=VALUE), plus those `usage_margin` keyword groups away (--usage-margin).
+  std::vector<std::filesystem::path> usage_logs;
+  std::vector<std::pair<std::string, std::string>> usage_tags;
+  unsigned usage_margin = 0;
   std::filesystem::path output_dir;
   unsigned jobs = 0;                                // 0: one worker per core
   std::optional<std::filesystem::path> cache_dir;  // nothing: no cache

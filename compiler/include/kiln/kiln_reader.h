@@ -112,8 +112,21 @@ typedef enum kiln_target {
  * when kiln_variant_code first returns it (a damaged blob is KILN_ERROR_CHECKSUM then). A pack written by an older
  * kiln is KILN_ERROR_VERSION ("rebuild the pack with this version of kiln"). */
 kiln_result kiln_pack_open(const char* path, kiln_pack** pack, kiln_error* error);
-void kiln_pack_close(kiln_pack* pack); /* NULL is allowed */
+void kiln_pack_close(kiln_pack* pack); /* NULL is allowed; writes the usage log when recording */
 const char* kiln_pack_name(const kiln_pack* pack);
+
+/* ---- Usage recording (docs/usage.md) ----------------------------------------------------------------------- */
+
+/* From this call on, every kiln_select and kiln_select_by_names is counted: each variant served, and each keyword
+ * set the pack lacks (KILN_ERROR_STRIPPED) with the nearest variant. The log is written to `path` (atomically) by
+ * kiln_pack_flush_usage and by kiln_pack_close. `tags` are `tag_count` "key=value" strings the game labels the run
+ * with (a scene, a level, a build), or NULL. A served selection costs one atomic increment; thread-safe. Calling it
+ * again changes the path and tags and keeps the counts. INVALID_ARGUMENT for a NULL pack or path or a tag without
+ * '='. */
+kiln_result kiln_pack_record_usage(kiln_pack* pack, const char* path, const char* const* tags, size_t tag_count,
+                                   kiln_error* error);
+/* Writes the usage log now (IO when it cannot be written; OK and nothing written when not recording). */
+kiln_result kiln_pack_flush_usage(const kiln_pack* pack, kiln_error* error);
 
 /* ---- Passes and keywords: look names up once --------------------------------------------------------------- */
 

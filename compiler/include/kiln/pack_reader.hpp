@@ -130,6 +130,24 @@ class PackReader {
   // The runtime index (kiln/runtime_index.hpp, internal): the C API's tables are built from it.
   const runtime::Index& index() const;
 
+  // Usage recording (docs/usage.md): from this call on, every select() is counted in a usage log, written to
+  // `file` (atomically) by flush_usage() and when the reader goes. A variant served costs one relaxed atomic
+  // increment; a keyword set the pack lacks (Stripped) is kept with the nearest variant the error names, at most
+  // `max_missing` distinct sets (more are counted in the log's "missing_dropped"). Thread-safe; calling it again
+  // changes the file and the tags and keeps the counts. The log's format is variants/schema/usage.schema.json.
+  struct UsageOptions {
+    std::filesystem::path file;
+    std::vector<std::pair<std::string, std::string>> tags;  // the game's labels: {"scene", "forest"}, {"build", "1.4"}
+    size_t max_missing = 4096;
+  };
+  void record_usage(UsageOptions options);
+  // Writes the log now: the number of distinct keyword sets in it, or the error (Code::Io). Nothing to write (no
+  // recording): 0.
+  PackResult<size_t> flush_usage() const noexcept;
+  // For the C API's selection by ids, which does not go through select(): counts variant `variant` of pass `pass`
+  // (their indices in the index) as served, when recording.
+  void note_selected(uint32_t pass, uint32_t variant) const noexcept;
+
   // The calls above that can fail, for code built without exceptions: each returns its PackError instead of
   // throwing it (running out of memory included: Code::OutOfMemory). A reader from try_open() serves every call.
   static PackResult<PackReader> try_open(const std::filesystem::path& path, Check check = Check::OnUse) noexcept;

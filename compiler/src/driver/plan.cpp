@@ -17,8 +17,27 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sin
       if (scene) plan->scenes.push_back(std::move(*scene));
       else ok = false;
     }
+    for (const auto& file : options.usage_logs) {
+      auto log = load_usage_log(file, limits, sink);
+      if (!log) ok = false;
+      else if (usage_matches(*log, options.usage_tags)) plan->usage.push_back(std::move(*log));
+    }
+    if (ok && !options.usage_logs.empty() && plan->usage.empty()) {
+      std::string tags;
+      for (const auto& [key, value] : options.usage_tags) tags += (tags.empty() ? "" : ", ") + key + "=" + value;
+      sink.report(DiagId::UsageLog, SourceLocation{"<command line>", 0, 0},
+                  "none of the " + std::to_string(options.usage_logs.size()) + " usage logs has the tags " + tags);
+      ok = false;
+    }
     if (!ok) return nullptr;
     plan->pack = std::move(*pack);
+    for (const UsageLog& log : plan->usage)
+      if (log.pack != plan->pack.name) {
+        sink.report(DiagId::UsageLog, SourceLocation{log.file.string(), 1, 1},
+                    "this usage log is of pack '" + log.pack + "', not of '" + plan->pack.name + "'");
+        ok = false;
+      }
+    if (!ok) return nullptr;
     apply_command_line(plan->pack, options.bindings, options.defines);
     for (SceneProfile& scene : plan->scenes)
       ok = resolve_scene_profile(scene, plan->pack.scene_features_json, plan->pack.materials, sink) && ok;
@@ -72,7 +91,7 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sin
     if (!expansions) return nullptr;
     plan->expansions = std::move(*expansions);
     for (size_t p = 0; p < plan->expansions.size(); ++p) {
-      const PassExpansion& e = plan->expansions[p];
+      PassExpansion& e = plan->expansions[p];
       const std::string& pass = plan->pack.passes[p].name;
       for (const auto& effect : e.strip.constraints) {
         const Constraint& c = *effect.constraint;
@@ -89,6 +108,9 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sin
       if (!plan->scenes.empty())
         plan->strip.push_back({pass, "scenes (" + std::to_string(plan->scenes.size()) + ")",
                                e.strip.after_materials.text() + " -> " + e.kept.text(), "keywords no scene enables"});
+      if (!plan->usage.empty() &&
+          !strip_by_usage(plan->passes[p], pass, e, plan->usage, options.usage_margin, plan->strip, sink))
+        return nullptr;
     }
     for (const PassExpansion& e : plan->expansions) {
       plan->funnel.declared_saturated |= e.declared.saturated;

@@ -9,6 +9,7 @@
 #include "definition/definition.hpp"
 #include "kiln/build.hpp"
 #include "permutations/permutations.hpp"
+#include "permutations/usage.hpp"
 #include "common/include_resolver.hpp"
 
 namespace kiln {
@@ -22,6 +23,7 @@ struct Plan {
   std::vector<PassKeywords> passes;            // per pass
   std::vector<PassExpansion> expansions;       // per pass: the variants kept
   std::vector<StripLine> strip;
+  std::vector<UsageLog> usage;  // --usage: the logs with the tags asked for
   Funnel funnel;
 
   const std::string& entry_point(uint32_t pass, Stage stage) const {

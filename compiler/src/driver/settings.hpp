@@ -70,6 +70,8 @@ void add_build_inputs(KeyHasher& hasher, const BuildSettings& settings, const Pl
   hasher.add(settings.fingerprint).add(settings.optimize ? 1 : 0).add(optimizer_recipe_name(settings.optimizer_recipe))
       .add(settings.target_names).add(plan.pack.text);
   for (const SceneProfile& scene : plan.scenes) hasher.add(scene.text);
+  for (const UsageLog& log : plan.usage) hasher.add("usage log").add(log.text);
+  if (!plan.usage.empty()) hasher.add("usage margin").add(uint64_t{options.usage_margin});
   // The pack's own bindings and defines are in its text; the command line's are added when given (a build
   // without them keeps the inputs hash, and so the manifest, it always had).
   if (!options.bindings.canonical().empty()) hasher.add("bindings").add(options.bindings.canonical());

@@ -330,6 +330,29 @@ kiln_result kiln_pack_open(const char* path, kiln_pack** pack, kiln_error* error
 
 void kiln_pack_close(kiln_pack* pack) { delete pack; }
 
+kiln_result kiln_pack_record_usage(kiln_pack* pack, const char* path, const char* const* tags, size_t tag_count,
+                                   kiln_error* error) {
+  if (!pack || !path || (tag_count > 0 && !tags)) return invalid(error, "kiln_pack_record_usage: a NULL argument");
+  return guarded(error, [&] {
+    kiln::PackReader::UsageOptions options;
+    options.file = path;
+    for (size_t t = 0; t < tag_count; ++t) {
+      const char* equals = tags[t] ? std::strchr(tags[t], '=') : nullptr;
+      if (!equals || equals == tags[t]) return invalid(error, "kiln_pack_record_usage: tag %zu is not \"key=value\"", t);
+      options.tags.emplace_back(std::string(tags[t], equals), std::string(equals + 1));
+    }
+    pack->reader.record_usage(std::move(options));
+    return ok(error);
+  });
+}
+
+kiln_result kiln_pack_flush_usage(const kiln_pack* pack, kiln_error* error) {
+  if (!pack) return invalid(error, "kiln_pack_flush_usage: a NULL argument");
+  auto written = pack->reader.flush_usage();
+  if (!written) return fail(error, code_of(written.code()), written.message().c_str(), written.file().c_str());
+  return ok(error);
+}
+
 const char* kiln_pack_name(const kiln_pack* pack) { return pack ? pack->reader.name().c_str() : nullptr; }
 
 uint32_t kiln_pass_count(const kiln_pack* pack) { return pack ? count_of(pack->passes) : 0; }
@@ -393,7 +416,10 @@ kiln_result kiln_select(const kiln_pack* pack, kiln_pass pass, const kiln_keywor
   for (size_t k = 0; k < count; ++k)
     if (keywords[k] >= pack->index->declared_keywords)
       return invalid(error, "kiln_select: keyword %u out of range (the pack has %u)", keywords[k], pack->index->declared_keywords);
-  if (select_fast(pack->passes[pass], keywords, count, strict != 0, variant)) return ok(error);
+  if (select_fast(pack->passes[pass], keywords, count, strict != 0, variant)) {
+    pack->reader.note_selected(pass, *variant);
+    return ok(error);
+  }
   return guarded(error, [&] {
     std::vector<std::string> names;
     for (size_t k = 0; k < count; ++k) names.emplace_back(pack->index->keywords[keywords[k]]);

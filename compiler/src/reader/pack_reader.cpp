@@ -12,6 +12,8 @@
 #include <mutex>
 #include <cerrno>
 #include <functional>
+#include <map>
+#include <fstream>
 #include <cstdlib>
 #include <new>
 #include <cstring>
@@ -19,6 +21,8 @@
 #include <set>
 #include <span>
 #include <utility>
+
+#include <nlohmann/json.hpp>
 
 #include "kiln/bounded_json.hpp"
 #include "kiln/manifest_json.hpp"
@@ -324,7 +328,28 @@ std::string decompress_checked(const Blob& b, std::string_view stored, const std
 
 }  // namespace
 
+// What record_usage() counts: per pass and variant, the selections served (the hot path: one relaxed increment),
+// and the keyword sets the pack lacks, with the nearest variant (under the mutex; rare).
+struct UsageRecorder {
+  struct Missing {
+    uint64_t count = 0;
+    std::vector<std::string> nearest;
+  };
+  std::vector<std::unique_ptr<std::atomic<uint64_t>[]>> served;  // per pass, per variant
+  mutable std::mutex mutex;
+  PackReader::UsageOptions options;                              // under the mutex
+  std::map<std::pair<uint32_t, std::vector<std::string>>, Missing> missing;  // (pass, keywords) -> ...
+  uint64_t missing_dropped = 0;
+};
+
 struct PackReader::State {
+  ~State() {
+    if (usage) static_cast<void>(flush_usage_log());  // errors are the caller's to see through flush_usage()
+  }
+  PackResult<size_t> flush_usage_log() const noexcept;
+  std::string pack_name;
+  std::unique_ptr<UsageRecorder> usage;           // made by the first record_usage()
+  std::atomic<UsageRecorder*> recording{nullptr};  // `usage` once recording
   std::filesystem::path manifest_file;
   std::string archive_file;  // its path, for errors found when a blob is first used
   MappedFile manifest_text, archive;
@@ -495,6 +520,105 @@ const Manifest& PackReader::manifest() const {
 
 const runtime::Index& PackReader::index() const { return state_->index; }
 
+void PackReader::record_usage(UsageOptions options) {
+  State& state = *state_;
+  std::lock_guard lock(state.mutex);
+  if (!state.usage) {
+    auto recorder = std::make_unique<UsageRecorder>();
+    for (const runtime::Pass& pass : state.index.passes) {
+      recorder->served.push_back(std::make_unique<std::atomic<uint64_t>[]>(pass.variant_count));
+      for (uint32_t v = 0; v < pass.variant_count; ++v) recorder->served.back()[v].store(0, std::memory_order_relaxed);
+    }
+    state.usage = std::move(recorder);
+  }
+  {
+    std::lock_guard usage_lock(state.usage->mutex);
+    state.usage->options = std::move(options);
+  }
+  state.pack_name = name_;
+  state.recording.store(state.usage.get(), std::memory_order_release);
+}
+
+void PackReader::note_selected(uint32_t pass, uint32_t variant) const noexcept {
+  UsageRecorder* usage = state_->recording.load(std::memory_order_acquire);
+  if (usage && pass < usage->served.size() && variant < state_->index.passes[pass].variant_count)
+    usage->served[pass][variant].fetch_add(1, std::memory_order_relaxed);
+}
+
+PackResult<size_t> PackReader::flush_usage() const noexcept { return state_->flush_usage_log(); }
+
+// The log (docs/usage.md, variants/schema/usage.schema.json): the pack's name, the game's tags, and per pass the
+// keyword sets served and those missing, each with its count; sorted, so equal counts give equal bytes. Written to
+// a file beside the target, then renamed over it: a reader of the log never sees half of it.
+PackResult<size_t> PackReader::State::flush_usage_log() const noexcept {
+  const UsageRecorder* usage_log = recording.load(std::memory_order_acquire);
+  if (!usage_log) return size_t{0};
+  std::filesystem::path file;
+  try {
+    const runtime::Index& ix = index;
+    nlohmann::ordered_json tags = nlohmann::ordered_json::object(), passes = nlohmann::ordered_json::array();
+    size_t sets = 0;
+    uint64_t dropped = 0;
+    std::map<uint32_t, nlohmann::ordered_json> missing_by_pass;
+    {
+      std::lock_guard lock(usage_log->mutex);
+      file = usage_log->options.file;
+      for (const auto& [key, value] : usage_log->options.tags) tags[key] = value;
+      for (const auto& [key, entry] : usage_log->missing)
+        missing_by_pass[key.first].push_back({{"keywords", key.second}, {"count", entry.count}, {"nearest", entry.nearest}});
+      dropped = usage_log->missing_dropped;
+    }
+    if (file.empty()) return PackResult<size_t>(PackError::Code::Io, "no usage log file was given", "");
+    for (uint32_t p = 0; p < ix.passes.size(); ++p) {
+      const runtime::Pass& pass = ix.passes[p];
+      std::vector<std::pair<std::vector<std::string>, uint64_t>> served;
+      for (uint32_t v = 0; v < pass.variant_count; ++v) {
+        const uint64_t count = usage_log->served[p][v].load(std::memory_order_relaxed);
+        if (count == 0) continue;
+        const runtime::Variant& variant = ix.variants[pass.first_variant + v];
+        std::vector<std::string> keywords;
+        for (uint32_t k = 0; k < variant.keyword_count; ++k)
+          keywords.emplace_back(ix.keywords[ix.variant_keywords[variant.first_keyword + k]]);
+        std::sort(keywords.begin(), keywords.end());
+        served.emplace_back(std::move(keywords), count);
+      }
+      auto missing = missing_by_pass.find(p);
+      if (served.empty() && missing == missing_by_pass.end()) continue;
+      std::sort(served.begin(), served.end());
+      nlohmann::ordered_json requests = nlohmann::ordered_json::array();
+      for (const auto& [keywords, count] : served) requests.push_back({{"keywords", keywords}, {"count", count}});
+      sets += served.size() + (missing == missing_by_pass.end() ? 0 : missing->second.size());
+      passes.push_back({{"name", std::string(pass.name)},
+                        {"served", requests},
+                        {"missing", missing == missing_by_pass.end() ? nlohmann::ordered_json::array() : missing->second}});
+    }
+    const nlohmann::ordered_json log{{"format", "kiln-usage"}, {"format_version", 1}, {"pack", pack_name},
+                                     {"tags", tags}, {"passes", passes}, {"missing_dropped", dropped}};
+    const std::string text = log.dump(2) + "\n";
+    const std::filesystem::path temporary = file.string() + ".tmp-" + std::to_string(::getpid());
+    {
+      std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+      out << text;
+      if (!out.flush()) {
+        std::error_code ignored;
+        std::filesystem::remove(temporary, ignored);
+        return PackResult<size_t>(PackError::Code::Io, "cannot write the usage log", file.string());
+      }
+    }
+    std::error_code ec;
+    std::filesystem::rename(temporary, file, ec);
+    if (ec) {
+      std::filesystem::remove(temporary, ec);
+      return PackResult<size_t>(PackError::Code::Io, "cannot write the usage log: " + ec.message(), file.string());
+    }
+    return sets;
+  } catch (const std::bad_alloc&) {
+    return PackResult<size_t>(PackError::Code::OutOfMemory, "out of memory writing the usage log", file.string());
+  } catch (const std::exception& error) {
+    return PackResult<size_t>(PackError::Code::Io, std::string("cannot write the usage log: ") + error.what(), file.string());
+  }
+}
+
 std::vector<std::string> PackReader::passes() const {
   std::vector<std::string> names;
   for (const runtime::Pass& pass : state_->index.passes) names.emplace_back(pass.name);
@@ -660,7 +784,10 @@ SelectedVariant PackReader::select(std::string_view pass_name, const std::vector
     auto kw = keywords_of(it->second);
     if (std::equal(kw.begin(), kw.end(), chosen.begin(), chosen.end())) found = it->second;
   }
-  if (found) return variant_of(pass_id, *found);
+  if (found) {
+    note_selected(pass_id, *found);
+    return variant_of(pass_id, *found);
+  }
 
   // Stripped: name the requested keywords that no variant of this pass has together with the rest.
   auto names_of = [&](std::span<const uint32_t> ids) {
@@ -686,6 +813,25 @@ SelectedVariant PackReader::select(std::string_view pass_name, const std::vector
     std::vector<std::string> diff;
     std::set_symmetric_difference(kw.begin(), kw.end(), chosen_names.begin(), chosen_names.end(), std::back_inserter(diff));
     nearest.emplace(diff.size(), join(kw));
+  }
+  if (UsageRecorder* usage = state_->recording.load(std::memory_order_acquire)) {
+    std::lock_guard lock(usage->mutex);
+    auto key = std::make_pair(pass_id, chosen_names);
+    auto it = usage->missing.find(key);
+    if (it != usage->missing.end()) {
+      ++it->second.count;
+    } else if (usage->missing.size() < usage->options.max_missing) {
+      std::vector<std::string> nearest_keywords;
+      if (!nearest.empty())
+        for (size_t v = 0; v < pass.variant_count; ++v)
+          if (join(names_of(keywords_of(static_cast<uint32_t>(v)))) == nearest.begin()->second) {
+            nearest_keywords = names_of(keywords_of(static_cast<uint32_t>(v)));
+            break;
+          }
+      usage->missing.emplace(std::move(key), UsageRecorder::Missing{1, std::move(nearest_keywords)});
+    } else {
+      ++usage->missing_dropped;
+    }
   }
   std::string message = "pass '" + std::string(pass_name) + "' has no variant [" + join(chosen_names) +
                         "]: it was stripped from pack '" + name_ + "' (constraints, scene profiles or budget)";

@@ -114,3 +114,41 @@ PackDiff diff_packs(const PackReader& a, const PackReader& b) {
 }
 
 }  // namespace kiln
+
+namespace kiln {
+
+UsageCheck check_usage(const PackReader& pack, const std::vector<UsageLog>& logs, DiagnosticSink& sink) {
+  UsageCheck check;
+  for (const UsageLog& log : logs) {
+    const SourceLocation at{log.file.string(), 0, 0};
+    if (log.missing_dropped > 0)
+      sink.report(DiagId::UsageIncomplete, at,
+                  "the recording dropped " + std::to_string(log.missing_dropped) +
+                      " missing selections (more distinct missing keyword sets than its bound): they are not checked");
+    for (const auto& [pass, requests] : log.passes) {
+      for (const UsageRequest& request : requests) {
+        ++check.sets;
+        check.requests += request.count;
+        auto selected = pack.try_select(pass, request.keywords);
+        if (selected) continue;
+        ++check.missed;
+        check.requests_missed += request.count;
+        std::string text = "pass '" + pass + "': [" + join_keywords(request.keywords) + "], asked for " +
+                           std::to_string(request.count) + (request.count == 1 ? " time" : " times") + ", is not in pack '" +
+                           pack.name() + "'";
+        std::vector<std::string> notes;
+        const std::string& message = selected.message();
+        if (const size_t nearest = message.find("nearest variants in the pack: ["); nearest != std::string::npos) {
+          const size_t open = message.find('[', nearest), close = message.find(']', open);
+          text += "; the nearest variant the reader names is [" + message.substr(open + 1, close - open - 1) + "]";
+        } else {
+          notes.push_back(message);  // not Stripped: the reader's own words (an unknown pass, a conflict...)
+        }
+        sink.report(DiagId::UsageNotServed, at, text, std::move(notes));
+      }
+    }
+  }
+  return check;
+}
+
+}  // namespace kiln

@@ -9,6 +9,7 @@
 
 #include "kiln/diagnostics.hpp"
 #include "kiln/pack_reader.hpp"
+#include "permutations/usage.hpp"
 
 namespace kiln {
 
@@ -33,5 +34,16 @@ struct PackDiff {
 };
 
 PackDiff diff_packs(const PackReader& a, const PackReader& b);
+
+// kiln check-usage (docs/usage.md): every keyword set the usage logs asked for (served or missing when they were
+// recorded), selected in `pack` as the reader would. Each one the pack cannot serve is K1016 at its log, with the
+// nearest variant the reader names; a log that dropped missing sets (over its recording's bound) is a warning.
+struct UsageCheck {
+  size_t sets = 0;            // keyword sets asked for, over all logs (a set in two logs counts twice)
+  size_t missed = 0;          // of those, the ones the pack cannot serve
+  uint64_t requests = 0;      // selections, counts summed
+  uint64_t requests_missed = 0;
+};
+UsageCheck check_usage(const PackReader& pack, const std::vector<UsageLog>& logs, DiagnosticSink& sink);
 
 }  // namespace kiln

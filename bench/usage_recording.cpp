@@ -1,0 +1,80 @@
+// What usage recording (docs/usage.md) costs a selection: kiln_select by keyword ids through the C API and
+// PackReader::select by names, each with recording off and on, over every variant of the pack's largest pass in a
+// shuffled order. Run interleaved: kiln-usage-recording PACK --benchmark_enable_random_interleaving=true
+// --benchmark_repetitions=10 (bench/REPORT.md, "Usage recording").
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "kiln/kiln_reader.h"
+#include "kiln/pack_reader.hpp"
+
+namespace {
+
+std::string g_pack;
+
+void BM_SelectByIds(benchmark::State& state) {
+  kiln_pack* pack = nullptr;
+  kiln_error error;
+  if (kiln_pack_open(g_pack.c_str(), &pack, &error) != KILN_OK) {
+    state.SkipWithError(error.message);
+    return;
+  }
+  if (state.range(0)) kiln_pack_record_usage(pack, "/tmp/kiln-usage-bench-ids.json", nullptr, 0, &error);
+  kiln_pass pass = 0;
+  for (kiln_pass p = 0; p < kiln_pass_count(pack); ++p)
+    if (kiln_variant_count(pack, p) > kiln_variant_count(pack, pass)) pass = p;
+  std::vector<std::vector<kiln_keyword>> requests;
+  for (uint32_t v = 0; v < kiln_variant_count(pack, pass); ++v) {
+    std::vector<kiln_keyword>& ids = requests.emplace_back();
+    for (uint32_t k = 0; k < kiln_variant_keyword_count(pack, pass, v); ++k) {
+      kiln_keyword id;
+      if (kiln_keyword_find(pack, kiln_variant_keyword(pack, pass, v, k), &id, &error) == KILN_OK) ids.push_back(id);
+    }
+  }
+  std::shuffle(requests.begin(), requests.end(), std::mt19937(2026));
+  size_t i = 0;
+  for (auto _ : state) {
+    const std::vector<kiln_keyword>& ids = requests[i++ % requests.size()];
+    uint32_t variant = 0;
+    kiln_select(pack, pass, ids.data(), ids.size(), 0, &variant, nullptr);
+    benchmark::DoNotOptimize(variant);
+  }
+  kiln_pack_close(pack);  // writes the log when recording (not timed: after the loop)
+}
+
+void BM_SelectByNames(benchmark::State& state) {
+  kiln::PackReader reader = kiln::PackReader::open(g_pack);
+  if (state.range(0)) reader.record_usage({"/tmp/kiln-usage-bench-names.json", {}});
+  std::string pass;
+  size_t most = 0;
+  for (const std::string& p : reader.passes())
+    if (reader.variant_count(p) > most) most = reader.variant_count(pass = p);
+  std::vector<std::vector<std::string>> requests;
+  for (size_t v = 0; v < most; ++v) requests.push_back(reader.variant(pass, v).keywords);
+  std::shuffle(requests.begin(), requests.end(), std::mt19937(2026));
+  size_t i = 0;
+  for (auto _ : state) benchmark::DoNotOptimize(reader.select(pass, requests[i++ % requests.size()]).index);
+}
+
+}  // namespace
+
+BENCHMARK(BM_SelectByIds)->ArgName("recording")->Arg(0)->Arg(1);
+BENCHMARK(BM_SelectByNames)->ArgName("recording")->Arg(0)->Arg(1);
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (argc != 2) {
+    std::fprintf(stderr, "usage: kiln-usage-recording [--benchmark flags] PACK\n");
+    return 2;
+  }
+  g_pack = argv[1];
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

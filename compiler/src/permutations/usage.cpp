@@ -1,0 +1,214 @@
+#include "permutations/usage.hpp"
+
+#include <algorithm>
+#include <set>
+
+#include <nlohmann/json.hpp>
+
+#include "kiln/bounded_json.hpp"
+
+namespace kiln {
+namespace {
+
+using nlohmann::json;
+
+// A problem in a log, at the field it is about (the file's start when the field cannot be found).
+struct LogReader {
+  const std::filesystem::path& file;
+  const std::string& text;
+  DiagnosticSink& sink;
+  bool ok = true;
+
+  void fail(std::string_view key, const std::string& message) {
+    ok = false;
+    SourceLocation at = key.empty() ? SourceLocation{} : locate_json_string(file.string(), text, key);
+    if (at.line == 0) at = SourceLocation{file.string(), 1, 1};
+    sink.report(DiagId::UsageLog, at, message);
+  }
+  // A sorted, duplicate-free list of strings.
+  std::optional<std::vector<std::string>> keywords(const json& value, std::string_view key) {
+    if (!value.is_array()) {
+      fail(key, "\"" + std::string(key) + "\" must be an array of keyword names");
+      return std::nullopt;
+    }
+    std::vector<std::string> out;
+    for (const json& k : value) {
+      if (!k.is_string()) {
+        fail(key, "\"" + std::string(key) + "\" must be an array of keyword names");
+        return std::nullopt;
+      }
+      out.push_back(k.get<std::string>());
+    }
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return out;
+  }
+};
+
+// Group value index per group for a keyword set (the group's off value when it names none of the group), or nothing
+// when a keyword is not declared by the pass or two name one group.
+std::optional<std::vector<uint16_t>> choice_of(const PassKeywords& pass, const std::vector<std::string>& keywords) {
+  std::vector<int> chosen(pass.groups.size(), -1);
+  for (const std::string& keyword : keywords) {
+    bool found = false;
+    for (size_t g = 0; g < pass.groups.size() && !found; ++g) {
+      const int index = pass.groups[g].index_of(keyword);
+      if (index < 0) continue;
+      if (chosen[g] >= 0) return std::nullopt;
+      chosen[g] = index;
+      found = true;
+    }
+    if (!found) return std::nullopt;
+  }
+  std::vector<uint16_t> choice(pass.groups.size());
+  for (size_t g = 0; g < pass.groups.size(); ++g) {
+    if (chosen[g] < 0) chosen[g] = pass.groups[g].values.size() == 1 ? 0 : pass.groups[g].index_of("");
+    if (chosen[g] < 0) return std::nullopt;  // a group with no off value the set does not name
+    choice[g] = static_cast<uint16_t>(chosen[g]);
+  }
+  return choice;
+}
+
+size_t groups_apart(const std::vector<uint16_t>& a, const std::vector<uint16_t>& b) {
+  size_t apart = 0;
+  for (size_t g = 0; g < a.size(); ++g) apart += a[g] != b[g];
+  return apart;
+}
+
+}  // namespace
+
+std::optional<UsageLog> load_usage_log(const std::filesystem::path& file, const ReadLimits& limits, DiagnosticSink& sink) {
+  auto text = read_text_file(file, limits, sink, SourceLocation{file.string(), 0, 0});
+  if (!text) return std::nullopt;
+  json root;
+  try {
+    root = parse_json_bounded(*text, {text->size(), kMaxJsonDepth});
+  } catch (const JsonDecodeError& error) {
+    sink.report(DiagId::JsonSyntax, location_of_offset(file.string(), *text, error.offset()),
+                std::string("invalid JSON: ") + error.what());
+    return std::nullopt;
+  }
+  UsageLog log;
+  log.file = file;
+  log.text = *text;
+  LogReader reader{file, log.text, sink};
+  if (!root.is_object() || root.value("format", json()) != "kiln-usage") {
+    reader.fail("format", "not a kiln usage log (its \"format\" must be \"kiln-usage\")");
+    return std::nullopt;
+  }
+  if (root.value("format_version", json()) != 1) {
+    reader.fail("format_version", "usage log format version " + root.value("format_version", json()).dump() +
+                                      " is not supported (this kiln reads version 1)");
+    return std::nullopt;
+  }
+  for (const auto& [key, value] : root.items())
+    if (key != "format" && key != "format_version" && key != "pack" && key != "tags" && key != "passes" && key != "missing_dropped")
+      reader.fail(key, "unknown field \"" + key + "\" in the usage log");
+  if (!root.value("pack", json()).is_string()) reader.fail("pack", "missing or wrong field \"pack\": the pack's name");
+  else log.pack = root["pack"].get<std::string>();
+  const json tags = root.value("tags", json::object());
+  if (!tags.is_object()) reader.fail("tags", "\"tags\" must be an object of strings");
+  for (const auto& [key, value] : tags.items()) {
+    if (value.is_string()) log.tags[key] = value.get<std::string>();
+    else reader.fail(key, "tag \"" + key + "\" must be a string");
+  }
+  const json dropped = root.value("missing_dropped", json(0));
+  if (dropped.is_number_unsigned()) log.missing_dropped = dropped.get<uint64_t>();
+  else if (!(dropped.is_number_integer() && dropped.get<int64_t>() == 0)) reader.fail("missing_dropped", "\"missing_dropped\" must be a count");
+  const json passes = root.value("passes", json());
+  if (!passes.is_array()) {
+    reader.fail("passes", "missing or wrong field \"passes\": an array of passes");
+    return std::nullopt;
+  }
+  for (const json& pass : passes) {
+    if (!pass.is_object() || !pass.value("name", json()).is_string()) {
+      reader.fail("passes", "each pass must be an object with a \"name\"");
+      continue;
+    }
+    std::vector<UsageRequest>& requests = log.passes[pass["name"].get<std::string>()];
+    for (const char* list : {"served", "missing"}) {
+      const json entries = pass.value(list, json::array());
+      if (!entries.is_array()) {
+        reader.fail(list, "\"" + std::string(list) + "\" must be an array");
+        continue;
+      }
+      for (const json& entry : entries) {
+        if (!entry.is_object() || !entry.value("count", json()).is_number_unsigned() || entry["count"].get<uint64_t>() == 0) {
+          reader.fail(list, "each request must be an object with \"keywords\" and a \"count\" of at least 1");
+          continue;
+        }
+        UsageRequest request;
+        request.count = entry["count"].get<uint64_t>();
+        request.missing = std::string(list) == "missing";
+        auto keywords = reader.keywords(entry.value("keywords", json()), "keywords");
+        if (!keywords) continue;
+        request.keywords = std::move(*keywords);
+        if (request.missing && entry.contains("nearest"))
+          if (auto nearest = reader.keywords(entry["nearest"], "nearest")) request.nearest = std::move(*nearest);
+        requests.push_back(std::move(request));
+      }
+    }
+  }
+  if (!reader.ok) return std::nullopt;
+  return log;
+}
+
+bool usage_matches(const UsageLog& log, const std::vector<std::pair<std::string, std::string>>& filters) {
+  return std::all_of(filters.begin(), filters.end(), [&](const auto& filter) {
+    auto it = log.tags.find(filter.first);
+    return it != log.tags.end() && it->second == filter.second;
+  });
+}
+
+bool strip_by_usage(const PassKeywords& pass, const std::string& pass_name, PassExpansion& expansion,
+                    const std::vector<UsageLog>& logs, unsigned margin, std::vector<StripLine>& strip,
+                    DiagnosticSink& sink) {
+  const std::string before = expansion.kept.text();
+  // Per log, the choice vectors it asked for in this pass (a set the pass cannot express, from a pack that has
+  // changed since the run, matches nothing).
+  std::vector<std::vector<std::vector<uint16_t>>> asked(logs.size());
+  bool mentioned = false;
+  for (size_t l = 0; l < logs.size(); ++l) {
+    auto it = logs[l].passes.find(pass_name);
+    if (it == logs[l].passes.end()) continue;
+    mentioned = true;
+    for (const UsageRequest& request : it->second)
+      if (auto choice = choice_of(pass, request.keywords)) asked[l].push_back(std::move(*choice));
+  }
+  if (!mentioned) {
+    strip.push_back({pass_name, "usage (" + std::to_string(logs.size()) + " logs)", before + " -> " + before,
+                     "no log records a request of this pass: kept whole"});
+    return true;
+  }
+  auto wanted_by = [&](const Variant& variant, size_t l) {
+    return std::any_of(asked[l].begin(), asked[l].end(),
+                       [&](const std::vector<uint16_t>& choice) { return groups_apart(choice, variant.choice) <= margin; });
+  };
+  for (size_t l = 0; l < logs.size(); ++l) {
+    const size_t alone = static_cast<size_t>(std::count_if(expansion.variants.begin(), expansion.variants.end(),
+                                                           [&](const Variant& v) { return wanted_by(v, l); }));
+    strip.push_back({pass_name, "usage log " + logs[l].file.filename().string() + " (" + std::to_string(asked[l].size()) +
+                                    " keyword sets" + (margin ? ", margin " + std::to_string(margin) : "") + ")",
+                     before + " -> " + std::to_string(alone), "variants this run did not ask for"});
+  }
+  std::vector<Variant> kept;
+  for (const Variant& variant : expansion.variants) {
+    bool wanted = false;
+    for (size_t l = 0; l < logs.size() && !wanted; ++l) wanted = wanted_by(variant, l);
+    if (wanted) kept.push_back(variant);
+  }
+  if (logs.size() > 1)
+    strip.push_back({pass_name, "usage (" + std::to_string(logs.size()) + " logs)", before + " -> " + std::to_string(kept.size()),
+                     "variants no run asked for"});
+  if (kept.empty()) {
+    sink.report(DiagId::NoVariants, SourceLocation{logs.front().file.string(), 0, 0},
+                "the usage logs ask for no variant of pass '" + pass_name + "' that the pack has (was the pack changed "
+                "since the runs?)");
+    return false;
+  }
+  expansion.variants = std::move(kept);
+  expansion.kept = VariantCount{expansion.variants.size(), false};
+  return true;
+}
+
+}  // namespace kiln
