@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "kiln/kiln_reader.h"
+#include "select_requests.hpp"
 
 namespace {
 
@@ -33,13 +34,6 @@ kiln_pack* open_pack(const std::string& path) {
   return pack;
 }
 
-// The pass with the most variants: the one a frame selects from.
-kiln_pass largest_pass(const kiln_pack* pack) {
-  kiln_pass best = 0;
-  for (kiln_pass p = 0; p < kiln_pass_count(pack); ++p)
-    if (kiln_variant_count(pack, p) > kiln_variant_count(pack, best)) best = p;
-  return best;
-}
 
 void BM_Open(benchmark::State& state, const std::string& path) {
   for (auto _ : state) {
@@ -53,16 +47,7 @@ void BM_Open(benchmark::State& state, const std::string& path) {
 void BM_Select(benchmark::State& state, const std::string& path) {
   kiln_pack* pack = open_pack(path);
   const kiln_pass pass = largest_pass(pack);
-  std::vector<std::vector<kiln_keyword>> requests;
-  kiln_error error;
-  for (uint32_t v = 0; v < kiln_variant_count(pack, pass); ++v) {
-    std::vector<kiln_keyword>& ids = requests.emplace_back();
-    for (uint32_t k = 0; k < kiln_variant_keyword_count(pack, pass, v); ++k) {
-      kiln_keyword id;
-      if (kiln_keyword_find(pack, kiln_variant_keyword(pack, pass, v, k), &id, &error) == KILN_OK) ids.push_back(id);
-    }
-  }
-  std::shuffle(requests.begin(), requests.end(), std::mt19937(2026));
+  const std::vector<std::vector<kiln_keyword>> requests = shuffled_requests(pack, pass);
   size_t i = 0, failed = 0;
   for (auto _ : state) {
     const std::vector<kiln_keyword>& ids = requests[i++ % requests.size()];

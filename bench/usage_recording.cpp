@@ -13,6 +13,7 @@
 
 #include "kiln/kiln_reader.h"
 #include "kiln/pack_reader.hpp"
+#include "select_requests.hpp"
 
 namespace {
 
@@ -26,18 +27,8 @@ void BM_SelectByIds(benchmark::State& state) {
     return;
   }
   if (state.range(0)) kiln_pack_record_usage(pack, "/tmp/kiln-usage-bench-ids.json", nullptr, 0, &error);
-  kiln_pass pass = 0;
-  for (kiln_pass p = 0; p < kiln_pass_count(pack); ++p)
-    if (kiln_variant_count(pack, p) > kiln_variant_count(pack, pass)) pass = p;
-  std::vector<std::vector<kiln_keyword>> requests;
-  for (uint32_t v = 0; v < kiln_variant_count(pack, pass); ++v) {
-    std::vector<kiln_keyword>& ids = requests.emplace_back();
-    for (uint32_t k = 0; k < kiln_variant_keyword_count(pack, pass, v); ++k) {
-      kiln_keyword id;
-      if (kiln_keyword_find(pack, kiln_variant_keyword(pack, pass, v, k), &id, &error) == KILN_OK) ids.push_back(id);
-    }
-  }
-  std::shuffle(requests.begin(), requests.end(), std::mt19937(2026));
+  const kiln_pass pass = largest_pass(pack);
+  const std::vector<std::vector<kiln_keyword>> requests = shuffled_requests(pack, pass);
   size_t i = 0;
   for (auto _ : state) {
     const std::vector<kiln_keyword>& ids = requests[i++ % requests.size()];

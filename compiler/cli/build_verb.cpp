@@ -228,14 +228,9 @@ class BuildVerb final : public Verb {
     remote.connect_timeout = std::chrono::milliseconds(static_cast<long>(remote_connect_s_ * 1000));
     remote.operation_timeout = std::chrono::milliseconds(static_cast<long>(remote_timeout_s_ * 1000));
     options_.usage_logs.assign(usage_logs_.begin(), usage_logs_.end());
-    for (const std::string& tag : usage_tags_) {
-      const size_t equals = tag.find('=');
-      if (equals == std::string::npos || equals == 0) {
-        std::cerr << "kiln: error: --usage-tag '" << tag << "' is not KEY=VALUE\n";
-        return 1;
-      }
-      options_.usage_tags.emplace_back(tag.substr(0, equals), tag.substr(equals + 1));
-    }
+    auto tags = parse_usage_tags(usage_tags_);
+    if (!tags) return 1;
+    options_.usage_tags = std::move(*tags);
     if (!shard_text_.empty()) {
       auto process_environment = [](const char* name) { return std::getenv(name); };
       if (std::string error = kiln::parse_shard_option(shard_text_, process_environment, options_.shard_index, options_.shard_count);

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -25,6 +26,8 @@ void print_diagnostics_as_they_come(DiagnosticSink& sink);
 
 // "120", "1", "0.5": a default in seconds as --help states it.
 std::string seconds_text(std::chrono::milliseconds duration);
+// --usage-tag KEY=VALUE arguments as pairs; nothing (the error printed) when one is not KEY=VALUE.
+std::optional<std::vector<std::pair<std::string, std::string>>> parse_usage_tags(const std::vector<std::string>& tags);
 // "12.3 ms", "1.25 s"
 std::string format_ms(double ms);
 

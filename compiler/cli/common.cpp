@@ -133,4 +133,17 @@ std::string version_text() {
   return text + "allocator: " + kiln::allocator_description();
 }
 
+std::optional<std::vector<std::pair<std::string, std::string>>> parse_usage_tags(const std::vector<std::string>& tags) {
+  std::vector<std::pair<std::string, std::string>> pairs;
+  for (const std::string& tag : tags) {
+    const size_t equals = tag.find('=');
+    if (equals == std::string::npos || equals == 0) {
+      std::cerr << "kiln: error: --usage-tag '" << tag << "' is not KEY=VALUE\n";
+      return std::nullopt;
+    }
+    pairs.emplace_back(tag.substr(0, equals), tag.substr(equals + 1));
+  }
+  return pairs;
+}
+
 }  // namespace kiln::cli

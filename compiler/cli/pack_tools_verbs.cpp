@@ -110,15 +110,8 @@ class CheckUsageVerb final : public Verb {
   int run() override {
     kiln::DiagnosticSink sink;
     print_diagnostics_as_they_come(sink);
-    std::vector<std::pair<std::string, std::string>> filters;
-    for (const std::string& tag : tags_) {
-      const size_t equals = tag.find('=');
-      if (equals == std::string::npos || equals == 0) {
-        std::cerr << "kiln: error: --usage-tag '" << tag << "' is not KEY=VALUE\n";
-        return 1;
-      }
-      filters.emplace_back(tag.substr(0, equals), tag.substr(equals + 1));
-    }
+    auto filters = parse_usage_tags(tags_);
+    if (!filters) return 1;
     auto pack = kiln::PackReader::try_open(pack_dir_, kiln::PackReader::Check::Full);
     if (!pack) {
       std::cerr << (pack.file().empty() ? pack_dir_ : pack.file()) << ": error: " << pack.message() << "\n";
@@ -129,7 +122,7 @@ class CheckUsageVerb final : public Verb {
     for (const std::string& file : logs_) {
       auto log = kiln::load_usage_log(file, limits, sink);
       if (!log) continue;
-      if (!kiln::usage_matches(*log, filters)) continue;
+      if (!kiln::usage_matches(*log, *filters)) continue;
       if (log->pack != pack->name())
         sink.report(kiln::DiagId::UsageLog, kiln::SourceLocation{file, 1, 1},
                     "this usage log is of pack '" + log->pack + "', not of '" + pack->name() + "'");

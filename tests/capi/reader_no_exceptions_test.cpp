@@ -11,18 +11,12 @@
 #include <iterator>
 #include <string>
 
+#include "checks.hpp"
 #include "kiln/pack_reader.hpp"
 
 namespace {
 
-int failures = 0;
-
-void check(bool ok, int line, const char* what) {
-  if (ok) return;
-  std::fprintf(stderr, "line %d: check failed: %s\n", line, what);
-  ++failures;
-}
-#define CHECK(condition) check((condition), __LINE__, #condition)
+using kiln::checks::failures;
 
 template <class T>
 void check_error(const kiln::PackResult<T>& result, kiln::PackError::Code code, const char* message_part, int line) {
@@ -139,6 +133,5 @@ int main(int argc, char** argv) {
   CHECK(groups && !groups->empty());
   CHECK(static_cast<bool>(pack.try_reflection(0)));
 
-  if (failures) std::fprintf(stderr, "%d check(s) failed\n", failures);
-  return failures ? 1 : 0;
+  return kiln::checks::result();
 }

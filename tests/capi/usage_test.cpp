@@ -13,18 +13,11 @@
 #include <nlohmann/json.hpp>
 
 #include "kiln/kiln_reader.h"
+#include "checks.hpp"
 #include "kiln/pack_reader.hpp"
 
 namespace {
 
-int failures = 0;
-
-void check(bool ok, int line, const char* what) {
-  if (ok) return;
-  std::fprintf(stderr, "line %d: check failed: %s\n", line, what);
-  ++failures;
-}
-#define CHECK(condition) check((condition), __LINE__, #condition)
 
 nlohmann::json read_json(const std::string& path) {
   std::ifstream in(path);
@@ -126,6 +119,5 @@ int main(int argc, char** argv) {
     auto nothing = quiet.flush_usage();
     CHECK(nothing && *nothing == 0);
   }
-  if (failures) std::fprintf(stderr, "%d check(s) failed\n", failures);
-  return failures ? 1 : 0;
+  return kiln::checks::result();
 }
