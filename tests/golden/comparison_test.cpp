@@ -6,6 +6,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <numeric>
 
 #include "golden/golden.hpp"
 #include "scene/scene.hpp"
@@ -143,6 +145,64 @@ TEST(Scene, TheAdversarialSceneHasTransformedObjectsAndNamesTheVariantsItJudges)
                            "_MULTISCATTER _SHADOWS_SOFT"));
   EXPECT_FALSE(scene.judges("_LINEAR_OUTPUT"));
   EXPECT_TRUE(load_scene(std::filesystem::path(KILN_SOURCE_DIR) / "variants/scenes/render/spheres.json").judges("_LINEAR_OUTPUT"));
+}
+
+
+// kiln test --cover: every combination of `strength` values some row holds is held by a chosen row.
+bool covers(const std::vector<std::vector<uint32_t>>& rows, const std::vector<size_t>& chosen, unsigned strength) {
+  const size_t groups = rows.front().size();
+  std::vector<uint32_t> subset(strength);
+  std::function<bool(size_t, size_t)> each = [&](size_t depth, size_t from) {
+    if (depth == strength) {
+      for (const auto& row : rows) {
+        bool held = std::any_of(chosen.begin(), chosen.end(), [&](size_t c) {
+          return std::all_of(subset.begin(), subset.end(), [&](uint32_t g) { return rows[c][g] == row[g]; });
+        });
+        if (!held) return false;
+      }
+      return true;
+    }
+    for (size_t g = from; g < groups; ++g) {
+      subset[depth] = uint32_t(g);
+      if (!each(depth + 1, g + 1)) return false;
+    }
+    return true;
+  };
+  return each(0, 0);
+}
+
+TEST(CoveringSample, HoldsEveryCombinationOfStrengthValuesInFewRowsTheSameOnEveryRun) {
+  // Every row of 2 x 3 x 2 x 2 x 4 x 2 x 2 x 2 values, less the rows a constraint drops (group 1's third value
+  // only with group 0's second), in a fixed scrambled order, as a pack's expansion would leave them.
+  const std::vector<uint32_t> sizes{2, 3, 2, 2, 4, 2, 2, 2};
+  std::vector<std::vector<uint32_t>> rows;
+  for (uint32_t n = 0; n < 2 * 3 * 2 * 2 * 4 * 2 * 2 * 2; ++n) {
+    std::vector<uint32_t> row;
+    for (uint32_t k = n, g = 0; g < sizes.size(); k /= sizes[g], ++g) row.push_back(k % sizes[g]);
+    if (row[1] == 2 && row[0] != 1) continue;
+    rows.push_back(row);
+  }
+  std::vector<std::vector<uint32_t>> scrambled;
+  for (size_t i = 0; i < rows.size(); ++i) scrambled.push_back(rows[(i * 37) % rows.size()]);
+  ASSERT_EQ(std::gcd(size_t(37), rows.size()), 1u);
+  for (unsigned strength : {1u, 2u, 3u}) {
+    const std::vector<size_t> chosen = covering_sample(scrambled, strength);
+    EXPECT_TRUE(covers(scrambled, chosen, strength)) << "strength " << strength;
+    EXPECT_TRUE(std::is_sorted(chosen.begin(), chosen.end()));
+    EXPECT_EQ(chosen, covering_sample(scrambled, strength));
+    // The fewest rows possible are the product of the `strength` largest groups (4, 3, 2 values); greedy stays
+    // close to it and far below the whole.
+    const size_t floor = strength == 1 ? 4 : strength == 2 ? 12 : 24;
+    EXPECT_GE(chosen.size(), floor) << "strength " << strength;
+    EXPECT_LE(chosen.size(), floor * 2) << "strength " << strength;
+  }
+  // A combination only a constrained row holds is still covered: (group 0 second value, group 1 third value).
+  const std::vector<size_t> pairs = covering_sample(scrambled, 2);
+  EXPECT_TRUE(std::any_of(pairs.begin(), pairs.end(), [&](size_t c) { return scrambled[c][0] == 1 && scrambled[c][1] == 2; }));
+  // Strength 0, or as many as there are groups: every distinct row.
+  EXPECT_EQ(covering_sample(scrambled, 0).size(), scrambled.size());
+  EXPECT_EQ(covering_sample(scrambled, 8).size(), scrambled.size());
+  EXPECT_THROW(covering_sample(scrambled, 5), std::invalid_argument);
 }
 
 }  // namespace

@@ -4,6 +4,9 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <numeric>
+#include <queue>
+#include <set>
 #include <stdexcept>
 
 namespace kiln::render {
@@ -168,6 +171,7 @@ void write_html_report(const std::filesystem::path& path, const std::string& tit
 #include <cstdio>
 #include <ostream>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "kiln/pack_reader.hpp"
 #include "kiln/manifest_json.hpp"
@@ -175,7 +179,98 @@ void write_html_report(const std::filesystem::path& path, const std::string& tit
 
 namespace kiln::render {
 
-std::vector<size_t> variants_to_run(const PackReader& pack, Api api, unsigned shard_index, unsigned shard_count) {
+std::vector<size_t> covering_sample(const std::vector<std::vector<uint32_t>>& rows, unsigned strength) {
+  const size_t groups = rows.empty() ? 0 : rows.front().size();
+  // Every value of every group gets a number; a combination is its values' numbers in group order, in one
+  // integer of base `values` (at most 4 digits: fits 64 bits for up to 65,535 values).
+  std::vector<uint64_t> first_value(groups + 1, 0);
+  for (size_t g = 0; g < groups; ++g) {
+    uint32_t count = 0;
+    for (const auto& row : rows) {
+      if (row.size() != groups) throw std::invalid_argument("covering_sample: rows of different lengths");
+      count = std::max(count, row[g] + 1);
+    }
+    first_value[g + 1] = first_value[g] + count;
+  }
+  std::vector<size_t> chosen;
+  if (strength == 0 || strength >= groups) {
+    std::set<std::vector<uint32_t>> seen;
+    for (size_t i = 0; i < rows.size(); ++i)
+      if (seen.insert(rows[i]).second) chosen.push_back(i);
+    return chosen;
+  }
+  if (strength > 4) throw std::invalid_argument("a covering sample's strength is at most 4");
+  const uint64_t values = first_value[groups];
+  if (values > 65535) throw std::invalid_argument("covering_sample: more than 65,535 keyword values");
+  // The combinations of `strength` groups, as index lists in lexicographic order.
+  std::vector<std::vector<uint32_t>> subsets;
+  std::vector<uint32_t> pick(strength);
+  for (uint32_t i = 0; i < strength; ++i) pick[i] = i;
+  for (;;) {
+    subsets.push_back(pick);
+    int k = int(strength) - 1;
+    while (k >= 0 && pick[k] == groups - strength + k) --k;
+    if (k < 0) break;
+    ++pick[k];
+    for (uint32_t j = k + 1; j < strength; ++j) pick[j] = pick[j - 1] + 1;
+  }
+  auto combinations = [&](const std::vector<uint32_t>& row, auto&& each) {
+    for (const auto& subset : subsets) {
+      uint64_t key = 0;
+      for (uint32_t g : subset) key = key * values + first_value[g] + row[g];
+      each(key);
+    }
+  };
+  std::unordered_set<uint64_t> covered;
+  auto gain = [&](size_t i) {
+    size_t n = 0;
+    combinations(rows[i], [&](uint64_t key) { n += !covered.count(key); });
+    return n;
+  };
+  // Lazy greedy: a row's gain only falls as others are chosen, so a stale gain is an upper bound; the top of the
+  // queue is chosen once its gain, recomputed, still beats every other bound.
+  using Entry = std::pair<size_t, size_t>;  // (gain, row); the larger gain first, then the smaller row
+  auto later = [](const Entry& a, const Entry& b) { return a.first != b.first ? a.first < b.first : a.second > b.second; };
+  std::priority_queue<Entry, std::vector<Entry>, decltype(later)> queue(later);
+  for (size_t i = 0; i < rows.size(); ++i) queue.push({subsets.size(), i});
+  while (!queue.empty()) {
+    auto [bound, row] = queue.top();
+    queue.pop();
+    const size_t now = gain(row);
+    if (now == 0) continue;
+    if (!queue.empty() && later({now, row}, queue.top())) {
+      queue.push({now, row});
+      continue;
+    }
+    chosen.push_back(row);
+    combinations(rows[row], [&](uint64_t key) { covered.insert(key); });
+  }
+  std::sort(chosen.begin(), chosen.end());
+  return chosen;
+}
+
+std::vector<size_t> covering_variants(const PackReader& pack, std::string_view pass, unsigned strength) {
+  const std::vector<std::vector<std::string>> groups = pack.keyword_groups(pass);
+  std::vector<std::vector<uint32_t>> rows;
+  const size_t count = pack.variant_count(pass);
+  for (size_t i = 0; i < count; ++i) {
+    const SelectedVariant variant = pack.variant(pass, i);
+    std::vector<uint32_t>& row = rows.emplace_back(groups.size(), 0);
+    for (size_t g = 0; g < groups.size(); ++g) {
+      // The group's keyword the variant has; else its off value ("_", an empty name), else its first.
+      const auto& values = groups[g];
+      auto on = std::find_if(values.begin(), values.end(), [&](const std::string& v) {
+        return !v.empty() && std::find(variant.keywords.begin(), variant.keywords.end(), v) != variant.keywords.end();
+      });
+      if (on == values.end()) on = std::find(values.begin(), values.end(), std::string());
+      row[g] = on == values.end() ? 0 : uint32_t(on - values.begin());
+    }
+  }
+  return covering_sample(rows, strength);
+}
+
+std::vector<size_t> variants_to_run(const PackReader& pack, Api api, unsigned shard_index, unsigned shard_count,
+                                    unsigned cover) {
   // A variant's pipeline is its pair of modules for the API; the pack stores each distinct output once.
   using Modules = std::pair<std::string_view, std::string_view>;
   struct ModulesHash {
@@ -190,8 +285,14 @@ std::vector<size_t> variants_to_run(const PackReader& pack, Api api, unsigned sh
   };
   std::unordered_map<Modules, size_t, ModulesHash> pipeline_of;  // -> pipeline number, in first-use order
   std::vector<std::vector<size_t>> by_pipeline;
-  const size_t count = pack.variant_count("Forward");
-  for (size_t i = 0; i < count; ++i) {
+  std::vector<size_t> candidates;
+  if (cover) {
+    candidates = covering_variants(pack, "Forward", cover);
+  } else {
+    candidates.resize(pack.variant_count("Forward"));
+    std::iota(candidates.begin(), candidates.end(), size_t(0));
+  }
+  for (size_t i : candidates) {
     SelectedVariant variant = pack.variant("Forward", i);
     auto [it, inserted] = pipeline_of.try_emplace({module(variant, "vertex"), module(variant, "fragment")},
                                                   by_pipeline.size());
@@ -225,8 +326,12 @@ GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream
     out << "kiln test: compared with " << other->device() << " (not with the reference images)\n";
   }
 
+  if (options.cover)
+    out << "kiln test: a strength-" << options.cover << " covering sample: "
+        << covering_variants(pack, "Forward", options.cover).size() << " of " << pack.variant_count("Forward")
+        << " Forward variants\n";
   std::vector<std::string> rows;
-  for (size_t i : variants_to_run(pack, api, options.shard_index, options.shard_count)) {
+  for (size_t i : variants_to_run(pack, api, options.shard_index, options.shard_count, options.cover)) {
     SelectedVariant variant = pack.variant("Forward", i);
     std::string name = variant_name(variant.keywords);
     if (!options.filter.empty() && name.find(options.filter) == std::string::npos) continue;

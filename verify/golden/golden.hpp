@@ -90,6 +90,8 @@ struct GoldenTestOptions {
   // Shard I of N: every N-th distinct pipeline (pair of modules for the API, in first-use order) with all the
   // variants that share it, so that a pipeline is compiled in one shard only.
   unsigned shard_index = 0, shard_count = 1;
+  // 0: every variant. N (1-4): only a strength-N covering sample of the variants (covering_sample), then sharded.
+  unsigned cover = 0;
 };
 
 struct GoldenTestSummary {
@@ -103,7 +105,19 @@ struct GoldenTestSummary {
 // The Forward variants shard `shard_index` of `shard_count` runs, in the order it runs them: grouped by
 // pipeline (the vertex and fragment modules for `api`, compared byte for byte), pipelines in first-use order,
 // every N-th pipeline; the shards of one N cover every variant exactly once.
-std::vector<size_t> variants_to_run(const PackReader& pack, Api api, unsigned shard_index, unsigned shard_count);
+// With `cover` N > 0, only the variants of covering_variants(pack, "Forward", N) are grouped and sharded.
+std::vector<size_t> variants_to_run(const PackReader& pack, Api api, unsigned shard_index, unsigned shard_count,
+                                    unsigned cover = 0);
+
+// A covering sample (combinatorial testing's covering array, taken from the rows that exist): `rows` holds one
+// row per variant, the index of its value in each keyword group. The result is a small set of row indices, in
+// ascending order, such that every combination of `strength` values from `strength` different groups that some
+// row has is also in a chosen row; chosen greedily (the row that covers the most combinations not yet covered,
+// the lowest index on a tie), so about logarithmically more rows than the fewest possible, and the same rows on
+// every run. Strength 0, or at least the number of groups, chooses every distinct row; otherwise it is at most 4.
+std::vector<size_t> covering_sample(const std::vector<std::vector<uint32_t>>& rows, unsigned strength);
+// The Forward (or other) pass's variants as covering_sample rows: each variant's value in each keyword group.
+std::vector<size_t> covering_variants(const PackReader& pack, std::string_view pass, unsigned strength);
 
 // Every Forward variant of the pack (of the shard), rendered with the scene and compared with its golden.
 GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream& out);

@@ -49,7 +49,7 @@ _kiln() {
     check-usage) options+=" --usage-tag" ;;
     compile) options+=" --stage -S --entry -E --output -o --target --include-dir -I $binding -O --depfile --werror" ;;
     render) options+=" --variant --scene --output -o --exr --size --api" ;;
-    test) options+=" --scene --golden --tolerances --report --filter --shard --api --against" ;;
+    test) options+=" --scene --golden --tolerances --report --filter --shard --cover --api --against" ;;
   esac
   if [[ "$cur" == -* ]]; then
     COMPREPLY=($(compgen -W "$options" -- "$cur"))
