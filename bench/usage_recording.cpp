@@ -53,8 +53,37 @@ void BM_SelectByNames(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(reader.select(pass, requests[i++ % requests.size()]).index);
 }
 
+// Every thread selecting the same variant at once (a hot material in every worker's draw list): with recording on,
+// every selection increments that variant's one counter, so the threads' cores pass its cache line between them.
+// One pack for all the threads, opened and closed by thread 0 (the timing loop's start and end are barriers).
+void BM_SelectOneVariantFromEveryThread(benchmark::State& state) {
+  static kiln_pack* pack = nullptr;
+  static kiln_pass pass = 0;
+  static std::vector<kiln_keyword> ids;
+  if (state.thread_index() == 0) {
+    kiln_error error;
+    if (kiln_pack_open(g_pack.c_str(), &pack, &error) != KILN_OK) {
+      std::fprintf(stderr, "%s: %s\n", g_pack.c_str(), error.message);
+      std::exit(1);
+    }
+    if (state.range(0)) kiln_pack_record_usage(pack, "/tmp/kiln-usage-bench-threads.json", nullptr, 0, &error);
+    pass = largest_pass(pack);
+    ids = shuffled_requests(pack, pass).front();
+  }
+  for (auto _ : state) {
+    uint32_t variant = 0;
+    kiln_select(pack, pass, ids.data(), ids.size(), 0, &variant, nullptr);
+    benchmark::DoNotOptimize(variant);
+  }
+  if (state.thread_index() == 0) {
+    kiln_pack_close(pack);
+    pack = nullptr;
+  }
+}
+
 }  // namespace
 
+BENCHMARK(BM_SelectOneVariantFromEveryThread)->ArgName("recording")->Arg(0)->Arg(1)->Threads(1)->Threads(2)->UseRealTime();
 BENCHMARK(BM_SelectByIds)->ArgName("recording")->Arg(0)->Arg(1);
 BENCHMARK(BM_SelectByNames)->ArgName("recording")->Arg(0)->Arg(1);
 

@@ -61,6 +61,7 @@ std::unique_ptr<Verb> make_inspect_verb();
 std::unique_ptr<Verb> make_lint_verb();
 std::unique_ptr<Verb> make_check_scene_verb();
 std::unique_ptr<Verb> make_check_usage_verb();
+std::unique_ptr<Verb> make_merge_usage_verb();
 std::unique_ptr<Verb> make_diff_packs_verb();
 std::unique_ptr<Verb> make_compile_verb();
 

@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.hpp"
+#include "common/files.hpp"
 #include "kiln/defaults.hpp"
 #include "kiln/pack_reader.hpp"
 #include "tools/pack_tools.hpp"
@@ -124,7 +125,7 @@ class CheckUsageVerb final : public Verb {
       if (!log) continue;
       if (!kiln::usage_matches(*log, *filters)) continue;
       if (log->pack != pack->name())
-        sink.report(kiln::DiagId::UsageLog, kiln::SourceLocation{file, 1, 1},
+        sink.report(kiln::DiagId::UsageLog, kiln::usage_log_pack_location(*log),
                     "this usage log is of pack '" + log->pack + "', not of '" + pack->name() + "'");
       else
         logs.push_back(std::move(*log));
@@ -141,8 +142,59 @@ class CheckUsageVerb final : public Verb {
   std::vector<std::string> logs_, tags_;
 };
 
+// kiln merge-usage LOG... -o OUT: many runs' logs as one, with the counts added (docs/usage.md, "Merging logs").
+class MergeUsageVerb final : public Verb {
+ public:
+  CLI::App* add_to(CLI::App& app) override {
+    CLI::App* verb = app.add_subcommand("merge-usage", "Merge usage logs into one, adding the counts (optionally only some tags and passes)");
+    verb->add_option("logs", logs_, "Usage logs (docs/usage.md)")->required();
+    verb->add_option("-o,--output", output_, "The merged log ('-': standard output)")->required();
+    verb->add_option("--usage-tag", tags_, "Only the logs tagged KEY=VALUE (repeatable: every tag)");
+    verb->add_option("--pass", passes_, "Only this pass (repeatable)");
+    return verb;
+  }
+  int run() override {
+    kiln::DiagnosticSink sink;
+    print_diagnostics_as_they_come(sink);
+    auto filters = parse_usage_tags(tags_);
+    if (!filters) return 1;
+    std::vector<kiln::UsageLog> logs;
+    kiln::ReadLimits limits{kiln::defaults::kMaxFileBytes};
+    size_t left_out = 0;
+    for (const std::string& file : logs_) {
+      auto log = kiln::load_usage_log(file, limits, sink);
+      if (!log) continue;
+      if (kiln::usage_matches(*log, *filters)) logs.push_back(std::move(*log));
+      else ++left_out;
+    }
+    if (sink.has_errors()) return 1;
+    if (logs.empty()) {
+      std::cerr << "kiln merge-usage: error: none of the " << logs_.size() << " usage logs has the tags asked for\n";
+      return 1;
+    }
+    auto merged = kiln::merge_usage_logs(logs, {passes_.begin(), passes_.end()}, sink);
+    if (!merged) return 1;
+    if (output_ == "-") {
+      std::cout << merged->text << std::flush;
+    } else if (std::string error = kiln::write_file_atomic(output_, merged->text); !error.empty()) {
+      std::cerr << "kiln merge-usage: error: " << error << "\n";
+      return 1;
+    }
+    (output_ == "-" ? std::cerr : std::cout)
+        << "kiln merge-usage: " << logs.size() << " logs merged (" << left_out << " without the tags), " << merged->passes
+        << " passes, " << merged->sets << " keyword sets, " << merged->selections << " selections"
+        << (output_ == "-" ? std::string() : " -> " + output_) << "\n";
+    return 0;
+  }
+
+ private:
+  std::vector<std::string> logs_, tags_, passes_;
+  std::string output_;
+};
+
 }  // namespace
 
+std::unique_ptr<Verb> make_merge_usage_verb() { return std::make_unique<MergeUsageVerb>(); }
 std::unique_ptr<Verb> make_check_usage_verb() { return std::make_unique<CheckUsageVerb>(); }
 std::unique_ptr<Verb> make_check_scene_verb() { return std::make_unique<CheckSceneVerb>(); }
 std::unique_ptr<Verb> make_diff_packs_verb() { return std::make_unique<DiffPacksVerb>(); }

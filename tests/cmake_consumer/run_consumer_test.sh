@@ -2,9 +2,13 @@
 # Builds and runs the consumer project, then checks incremental behaviour:
 #   touching an included HLSL file rebuilds the pack; touching an unrelated file does not; a new header that
 #   shadows an include (found earlier in the search order) rebuilds the pack; changing the scene list changes it.
-# usage: run_consumer_test.sh <find_package|subdirectory> <generator> <kiln source dir> <kiln build dir>
+# subdirectory-configure: add_subdirectory(kiln) configured, and only the reader a game links built (the whole build
+# is the subdirectory mode's, label full): the same checks of what kiln configures as a subproject.
+# usage: run_consumer_test.sh <find_package|subdirectory|subdirectory-configure> <generator> <kiln source dir> <kiln build dir>
 set -euo pipefail
 mode=$1 generator=$2 source=$3 build=$4
+configure_only=false
+if [ "$mode" = subdirectory-configure ]; then mode=subdirectory configure_only=true; fi
 work=$(mktemp -d /tmp/kiln-consumer-XXXXXX)
 trap 'rm -rf "$work"' EXIT
 # The shader library is copied so that the test can touch its files without touching the checkout.
@@ -32,6 +36,22 @@ fi
 cmake -S "$source/tests/cmake_consumer" -B "$work/build" -G "$generator" \
   -DKILN_CONSUMER_MODE="$mode" -DKILN_SOURCE_DIR="$work/kiln-src" \
   -DKILN_CONSUMER_SCENES="$work/variants/scenes/mobile.json" "${extra[@]}" > "$work/configure.log"
+if $configure_only; then
+  echo "== add_subdirectory(kiln), configured: no verify/ (Vulkan, EGL, PNG, OpenEXR), tests or benchmarks"
+  ! grep -q "^KILN_BUILD_VERIFY:BOOL=ON\|^Vulkan_LIBRARY\|^OpenEXR_DIR" "$work/build/CMakeCache.txt" ||
+    { echo "FAIL: add_subdirectory(kiln) configured verify/"; exit 1; }
+  targets=$(ninja -C "$work/build" -t targets all | cut -d: -f1)
+  for target in kiln kiln-worker kiln_reader consumer lit_pack; do
+    grep -qx "$target" <<< "$targets" || { echo "FAIL: no target $target"; exit 1; }
+  done
+  ! grep -qx "kiln-verify\|kiln-reference\|kiln_tests_.*\|kiln-.*-bench" <<< "$targets" ||
+    { echo "FAIL: verify/, tests or benchmarks configured"; exit 1; }
+  echo "== the reader builds in the game's unity build without a warning"
+  cmake --build "$work/build" --target kiln_reader -j 2 > "$work/build1.log"
+  ! grep -q "warning:" "$work/build1.log" || { grep -A3 "warning:" "$work/build1.log"; echo "FAIL: the reader warned"; exit 1; }
+  echo "consumer test passed (subdirectory, configured; the reader built)"
+  exit 0
+fi
 cmake --build "$work/build" -j 2 > "$work/build1.log"
 "$work/build/consumer"
 manifest=$(find "$work/build" -name lit.manifest.json -path '*lit_pack*')

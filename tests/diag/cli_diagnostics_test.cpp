@@ -681,6 +681,77 @@ TEST_F(Cli, UsageLogsStripAPackToWhatTheRunsAskedForAndCheckUsageFindsWhatItLack
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(PackReader::open(dir / "margin").variant_count("P"), 3u);  // [B], and [] and [A B] one group away
 
+  // Merged, the two runs are one log with the counts added, written as the readers write one; a pack built from it
+  // is the pack built from both.
+  {
+    PackReader reader = PackReader::open(dir / "out");
+    reader.record_usage({dir / "run3.json", {{"scene", "city"}}});
+    reader.select("P", {"A"});
+  }
+  auto merged = testing::run_kiln({"merge-usage", "run1.json", "run2.json", "run3.json", "--usage-tag", "scene=forest",
+                                   "-o", "merged.json"}, dir.path());
+  ASSERT_EQ(merged.exit_code, 0) << merged.err;
+  EXPECT_EQ(merged.out, "kiln merge-usage: 2 logs merged (1 without the tags), 1 passes, 3 keyword sets, 5 selections "
+                        "-> merged.json\n");
+  EXPECT_EQ(testing::read_file(dir / "merged.json"), R"({
+  "format": "kiln-usage",
+  "format_version": 1,
+  "pack": "p",
+  "tags": {
+    "scene": "forest"
+  },
+  "passes": [
+    {
+      "name": "P",
+      "served": [
+        {
+          "keywords": [
+            "A"
+          ],
+          "count": 3
+        },
+        {
+          "keywords": [
+            "A",
+            "B"
+          ],
+          "count": 1
+        },
+        {
+          "keywords": [
+            "B"
+          ],
+          "count": 1
+        }
+      ],
+      "missing": []
+    }
+  ],
+  "missing_dropped": 0
+}
+)");
+  r = testing::run_kiln({"build", "p.pack.json", "-o", "from-merged", "--cache", "cache", "--usage", "merged.json"}, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(PackReader::open(dir / "from-merged").variant_count("P"), 3u);
+  // Every log, to standard output (the summary to standard error): the tags they do not share are dropped; a
+  // missing request stays missing, with its nearest variant. Only another pass: nothing of P.
+  {
+    PackReader reader = PackReader::open(dir / "narrow");
+    reader.record_usage({dir / "run4.json", {{"scene", "forest"}}});
+    EXPECT_THROW(reader.select("P", {"B"}), PackError);
+  }
+  merged = testing::run_kiln({"merge-usage", "run1.json", "run3.json", "run4.json", "-o", "-"}, dir.path());
+  ASSERT_EQ(merged.exit_code, 0) << merged.err;
+  EXPECT_EQ(merged.err, "kiln merge-usage: 3 logs merged (0 without the tags), 1 passes, 3 keyword sets, 6 selections\n");
+  const nlohmann::json all = nlohmann::json::parse(merged.out);
+  EXPECT_TRUE(all.at("tags").empty()) << all;
+  EXPECT_EQ(all.at("passes")[0].at("served")[0], (nlohmann::json{{"keywords", {"A"}}, {"count", 4}})) << all;
+  EXPECT_EQ(all.at("passes")[0].at("missing"),
+            (nlohmann::json::array({{{"keywords", {"B"}}, {"count", 1}, {"nearest", {"A", "B"}}}}))) << all;
+  merged = testing::run_kiln({"merge-usage", "run1.json", "--pass", "Q", "-o", "-"}, dir.path());
+  ASSERT_EQ(merged.exit_code, 0) << merged.err;
+  EXPECT_TRUE(nlohmann::json::parse(merged.out).at("passes").empty()) << merged.out;
+
   // Mistakes: a tag no log has, a log of another pack, a log that is not one.
   r = testing::run_kiln({"build", "p.pack.json", "-o", "x", "--usage", "run1.json", "--usage-tag", "scene=city"}, dir.path());
   EXPECT_EQ(r.exit_code, 1);
@@ -690,7 +761,13 @@ TEST_F(Cli, UsageLogsStripAPackToWhatTheRunsAskedForAndCheckUsageFindsWhatItLack
   dir.write("other.json", other);
   r = testing::run_kiln({"build", "p.pack.json", "-o", "x", "--usage", "other.json"}, dir.path());
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(r.err.find("other.json:1:1: error[K1015]: this usage log is of pack 'q', not of 'p'"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("other.json:4:4: error[K1015]: this usage log is of pack 'q', not of 'p'"), std::string::npos) << r.err;
+  r = testing::run_kiln({"merge-usage", "run1.json", "other.json", "-o", "x.json"}, dir.path());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err.substr(0, r.err.find('\n')),
+            "other.json:4:4: error[K1015]: this usage log is of pack 'q', the first log (run1.json) of 'p': logs of "
+            "different packs cannot be merged") << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.json"));
   dir.write("broken.json", R"({"format": "kiln-usage", "format_version": 2, "pack": "p", "tags": {}, "passes": [], "missing_dropped": 0})");
   r = testing::run_kiln({"check-usage", "narrow", "broken.json"}, dir.path());
   EXPECT_EQ(r.exit_code, 1);

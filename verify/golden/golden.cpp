@@ -317,6 +317,7 @@ GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream
                              ": error: no golden index (make one with kiln-reference goldens)");
   nlohmann::json index = nlohmann::json::parse(index_file);
   const Api api = parse_api(options.api);
+  if (!options.usage_log.empty()) pack.record_usage({options.usage_log, {{"scene", scene.name}, {"api", options.api}}});
   auto renderer = Backend::open(api, pack, scene, index.value("width", 0u), index.value("height", 0u));
   out << "kiln test: pack " << pack.name() << ", scene " << scene.name << ", " << renderer->width() << "x"
       << renderer->height() << ", " << renderer->device() << "\n";
@@ -336,6 +337,7 @@ GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream
     std::string name = variant_name(variant.keywords);
     if (!options.filter.empty() && name.find(options.filter) == std::string::npos) continue;
     if (!scene.judges(name)) continue;
+    if (!options.usage_log.empty()) variant = pack.select("Forward", variant.keywords);  // what a game's lookup is
     const bool linear = std::find(variant.keywords.begin(), variant.keywords.end(), "_LINEAR_OUTPUT") != variant.keywords.end();
     auto golden = index["variants"].find(name);
     if (golden == index["variants"].end()) {
@@ -383,6 +385,11 @@ GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream
                       rows, api == Api::Vulkan ? "lavapipe" : "llvmpipe " + options.api,
                       options.against.empty() ? "CPU reference" : options.against);
     out << "kiln test: report with the failing images: " << (options.report_dir / "index.html").string() << "\n";
+  }
+  if (!options.usage_log.empty()) {
+    const PackResult<size_t> sets = pack.flush_usage();
+    if (!sets) throw std::runtime_error(options.usage_log.string() + ": error: " + std::string(sets.message()));
+    out << "kiln test: usage log " << options.usage_log.string() << ": " << *sets << " keyword sets\n";
   }
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   out << "kiln test: " << renderer->pipelines_created() << " " << (api == Api::Vulkan ? "pipelines" : "programs")

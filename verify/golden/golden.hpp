@@ -92,6 +92,9 @@ struct GoldenTestOptions {
   unsigned shard_index = 0, shard_count = 1;
   // 0: every variant. N (1-4): only a strength-N covering sample of the variants (covering_sample), then sharded.
   unsigned cover = 0;
+  // When set: the run records its selections in this usage log (docs/usage.md) as a game would, tagged with the
+  // scene and the API: each Forward variant it judges, selected by its keywords, and the ShadowCaster variants.
+  std::filesystem::path usage_log;
 };
 
 struct GoldenTestSummary {

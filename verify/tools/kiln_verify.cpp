@@ -71,7 +71,8 @@ int run_render(const std::string& pack_dir, const std::string& keywords, const s
 
 int run_test(const std::string& pack_dir, const std::string& scene_file, const std::string& golden_dir,
              const std::string& tolerances, const std::string& report_dir, const std::string& filter,
-             const std::string& shard, const std::string& api, const std::string& against, unsigned cover) {
+             const std::string& shard, const std::string& api, const std::string& against, unsigned cover,
+             const std::string& usage_log) {
   kiln::render::GoldenTestOptions options;
   options.pack_dir = pack_dir;
   options.scene = scene_file;
@@ -82,6 +83,7 @@ int run_test(const std::string& pack_dir, const std::string& scene_file, const s
   options.api = api;
   options.against = against;
   options.cover = cover;
+  options.usage_log = usage_log;
   if (!shard.empty() && (std::sscanf(shard.c_str(), "%u/%u", &options.shard_index, &options.shard_count) != 2 ||
                          options.shard_count == 0 || options.shard_index >= options.shard_count)) {
     std::cerr << "kiln test: error: --shard wants I/N with I < N (got '" << shard << "')\n";
@@ -143,6 +145,10 @@ int run(int argc, char** argv) {
                    "N (1-4): only a strength-N covering sample: the few variants that together hold every combination of "
                    "N keyword values some variant holds (a quick check across APIs; default: every variant)")
       ->check(CLI::Range(1u, 4u));
+  std::string usage_log;
+  test->add_option("--usage-log", usage_log,
+                   "Record the run's selections in this usage log, as a game would (docs/usage.md): the variants judged, "
+                   "selected by their keywords, and the shadow casters");
   std::string against;
   test->add_option("--against", against, "Compare with this API's image of each variant instead of the reference image")
       ->check(CLI::IsMember({"vulkan", "gl", "gles"}));
@@ -156,7 +162,7 @@ int run(int argc, char** argv) {
     return app.exit(error) == 0 ? 0 : 1;
   }
   if (*render) return run_render(pack_dir, variant_keywords, scene_file, png_out, exr_out, size_text, api);
-  return run_test(pack_dir, scene_file, golden_dir, tolerances, report_dir, filter, shard, api, against, cover);
+  return run_test(pack_dir, scene_file, golden_dir, tolerances, report_dir, filter, shard, api, against, cover, usage_log);
 }
 
 }  // namespace

@@ -5,7 +5,7 @@ _kiln() {
   local cur prev verb i
   cur="${COMP_WORDS[COMP_CWORD]}"
   prev="${COMP_WORDS[COMP_CWORD-1]}"
-  local verbs="build list inspect lint check-scene check-usage diff-packs compile render test"
+  local verbs="build list inspect lint check-scene check-usage merge-usage diff-packs compile render test"
   local binding="-D --define --fvk-b-shift --fvk-t-shift --fvk-s-shift --fvk-u-shift --fvk-bind-globals --auto-bind --no-auto-bind --combined-image-samplers --separate-image-samplers"
   verb=""
   for ((i = 1; i < COMP_CWORD; i++)); do
@@ -47,9 +47,10 @@ _kiln() {
     lint) options+=" --cache --no-cache --scene $binding --include-dir -I --format --output -o --sarif-root --werror" ;;
     check-scene|diff-packs) options+=" --json" ;;
     check-usage) options+=" --usage-tag" ;;
+    merge-usage) options+=" --output -o --usage-tag --pass" ;;
     compile) options+=" --stage -S --entry -E --output -o --target --include-dir -I $binding -O --depfile --werror" ;;
     render) options+=" --variant --scene --output -o --exr --size --api" ;;
-    test) options+=" --scene --golden --tolerances --report --filter --shard --cover --api --against" ;;
+    test) options+=" --scene --golden --tolerances --report --filter --shard --cover --usage-log --api --against" ;;
   esac
   if [[ "$cur" == -* ]]; then
     COMPREPLY=($(compgen -W "$options" -- "$cur"))

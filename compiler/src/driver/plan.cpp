@@ -33,7 +33,7 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sin
     plan->pack = std::move(*pack);
     for (const UsageLog& log : plan->usage)
       if (log.pack != plan->pack.name) {
-        sink.report(DiagId::UsageLog, SourceLocation{log.file.string(), 1, 1},
+        sink.report(DiagId::UsageLog, usage_log_pack_location(log),
                     "this usage log is of pack '" + log.pack + "', not of '" + plan->pack.name + "'");
         ok = false;
       }

@@ -1,11 +1,13 @@
 #include "permutations/usage.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <set>
 
 #include <nlohmann/json.hpp>
 
 #include "kiln/bounded_json.hpp"
+#include "kiln/usage_log.hpp"
 
 namespace kiln {
 namespace {
@@ -209,6 +211,70 @@ bool strip_by_usage(const PassKeywords& pass, const std::string& pass_name, Pass
   expansion.variants = std::move(kept);
   expansion.kept = VariantCount{expansion.variants.size(), false};
   return true;
+}
+
+SourceLocation usage_log_pack_location(const UsageLog& log) {
+  SourceLocation at = locate_json_string(log.file.string(), log.text, "pack");
+  return at.line == 0 ? SourceLocation{log.file.string(), 1, 1} : at;
+}
+
+std::optional<UsageMerge> merge_usage_logs(const std::vector<UsageLog>& logs, const std::set<std::string>& passes,
+                                           DiagnosticSink& sink) {
+  if (logs.empty()) return std::nullopt;
+  for (const UsageLog& log : logs)
+    if (log.pack != logs.front().pack) {
+      sink.report(DiagId::UsageLog, usage_log_pack_location(log),
+                  "this usage log is of pack '" + log.pack + "', the first log (" + logs.front().file.string() +
+                      ") of '" + logs.front().pack + "': logs of different packs cannot be merged");
+      return std::nullopt;
+    }
+  // Counts from hostile logs cannot wrap: they stop at the largest count.
+  constexpr uint64_t kMax = std::numeric_limits<uint64_t>::max();
+  auto add = [](uint64_t& total, uint64_t count) { total = count > kMax - total ? kMax : total + count; };
+  std::map<std::string, std::string> tags = logs.front().tags;
+  uint64_t dropped = 0;
+  struct Counts {
+    std::map<std::vector<std::string>, uint64_t> served;
+    std::map<std::vector<std::string>, std::pair<uint64_t, std::vector<std::string>>> missing;  // count, nearest
+  };
+  std::map<std::string, Counts> by_pass;
+  for (const UsageLog& log : logs) {
+    std::erase_if(tags, [&](const auto& tag) {
+      auto it = log.tags.find(tag.first);
+      return it == log.tags.end() || it->second != tag.second;
+    });
+    add(dropped, log.missing_dropped);
+    for (const auto& [name, requests] : log.passes) {
+      if (!passes.empty() && !passes.count(name)) continue;
+      Counts& counts = by_pass[name];
+      for (const UsageRequest& r : requests) {
+        if (!r.missing) {
+          add(counts.served[r.keywords], r.count);
+          continue;
+        }
+        auto [it, inserted] = counts.missing.try_emplace(r.keywords, 0, r.nearest);
+        add(it->second.first, r.count);
+      }
+    }
+  }
+  UsageMerge merge;
+  std::vector<usage_log::Pass> out;
+  for (auto& [name, counts] : by_pass) {
+    usage_log::Pass& pass = out.emplace_back();
+    pass.name = name;
+    for (auto& [keywords, count] : counts.served) {
+      pass.served.push_back({keywords, count, {}});
+      add(merge.selections, count);
+    }
+    for (auto& [keywords, entry] : counts.missing) {
+      pass.missing.push_back({keywords, entry.first, entry.second});
+      add(merge.selections, entry.first);
+    }
+    merge.sets += pass.served.size() + pass.missing.size();
+  }
+  merge.passes = out.size();
+  merge.text = usage_log::text(logs.front().pack, tags, std::move(out), dropped);
+  return merge;
 }
 
 }  // namespace kiln

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -35,6 +36,9 @@ struct UsageLog {
 // The log in `file`, checked against variants/schema/usage.schema.json's rules; a mistake is K1015 at its place.
 std::optional<UsageLog> load_usage_log(const std::filesystem::path& file, const ReadLimits& limits, DiagnosticSink& sink);
 
+// Where the log names its pack (for a log of another pack); the file's start when the field cannot be found.
+SourceLocation usage_log_pack_location(const UsageLog& log);
+
 // Whether the log carries every tag of `filters` (key, value).
 bool usage_matches(const UsageLog& log, const std::vector<std::pair<std::string, std::string>>& filters);
 
@@ -45,5 +49,17 @@ bool usage_matches(const UsageLog& log, const std::vector<std::pair<std::string,
 bool strip_by_usage(const PassKeywords& pass, const std::string& pass_name, PassExpansion& expansion,
                     const std::vector<UsageLog>& logs, unsigned margin, std::vector<StripLine>& strip,
                     DiagnosticSink& sink);
+
+// `kiln merge-usage` (docs/usage.md, "Merging logs"): the logs as one log of the same format. Counts of the same
+// keyword set are added (a served set and a missing set separately; a missing set keeps the first log's nearest
+// variant); the tags are those every log has with the same value; with `passes` not empty, only those passes.
+// Nothing (K1015 at the log) when the logs are of different packs.
+struct UsageMerge {
+  std::string text;  // the merged log
+  size_t passes = 0, sets = 0;
+  uint64_t selections = 0;
+};
+std::optional<UsageMerge> merge_usage_logs(const std::vector<UsageLog>& logs, const std::set<std::string>& passes,
+                                           DiagnosticSink& sink);
 
 }  // namespace kiln

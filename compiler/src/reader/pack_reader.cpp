@@ -28,6 +28,7 @@
 #include "kiln/manifest_json.hpp"
 #include "kiln/pack_format.hpp"
 #include "kiln/runtime_index.hpp"
+#include "kiln/usage_log.hpp"
 
 namespace kiln {
 namespace {
@@ -551,66 +552,44 @@ PackResult<size_t> PackReader::flush_usage() const noexcept { return state_->flu
 // keyword sets served and those missing, each with its count; sorted, so equal counts give equal bytes. Written to
 // a file beside the target, then renamed over it: a reader of the log never sees half of it.
 PackResult<size_t> PackReader::State::flush_usage_log() const noexcept {
-  const UsageRecorder* usage_log = recording.load(std::memory_order_acquire);
-  if (!usage_log) return size_t{0};
+  const UsageRecorder* recorder = recording.load(std::memory_order_acquire);
+  if (!recorder) return size_t{0};
   std::filesystem::path file;
   try {
     const runtime::Index& ix = index;
-    nlohmann::ordered_json tags = nlohmann::ordered_json::object(), passes = nlohmann::ordered_json::array();
+    std::map<std::string, std::string> tags;
+    std::map<uint32_t, std::vector<usage_log::Request>> missing_by_pass;
     size_t sets = 0;
     uint64_t dropped = 0;
-    std::map<uint32_t, nlohmann::ordered_json> missing_by_pass;
     {
-      std::lock_guard lock(usage_log->mutex);
-      file = usage_log->options.file;
-      for (const auto& [key, value] : usage_log->options.tags) tags[key] = value;
-      for (const auto& [key, entry] : usage_log->missing)
-        missing_by_pass[key.first].push_back({{"keywords", key.second}, {"count", entry.count}, {"nearest", entry.nearest}});
-      dropped = usage_log->missing_dropped;
+      std::lock_guard lock(recorder->mutex);
+      file = recorder->options.file;
+      for (const auto& [key, value] : recorder->options.tags) tags[key] = value;
+      for (const auto& [key, entry] : recorder->missing)
+        missing_by_pass[key.first].push_back({key.second, entry.count, entry.nearest});
+      dropped = recorder->missing_dropped;
     }
     if (file.empty()) return PackResult<size_t>(PackError::Code::Io, "no usage log file was given", "");
+    std::vector<usage_log::Pass> passes;
     for (uint32_t p = 0; p < ix.passes.size(); ++p) {
       const runtime::Pass& pass = ix.passes[p];
-      std::vector<std::pair<std::vector<std::string>, uint64_t>> served;
+      usage_log::Pass entry{std::string(pass.name), {}, {}};
       for (uint32_t v = 0; v < pass.variant_count; ++v) {
-        const uint64_t count = usage_log->served[p][v].load(std::memory_order_relaxed);
+        const uint64_t count = recorder->served[p][v].load(std::memory_order_relaxed);
         if (count == 0) continue;
         const runtime::Variant& variant = ix.variants[pass.first_variant + v];
         std::vector<std::string> keywords;
         for (uint32_t k = 0; k < variant.keyword_count; ++k)
           keywords.emplace_back(ix.keywords[ix.variant_keywords[variant.first_keyword + k]]);
-        std::sort(keywords.begin(), keywords.end());
-        served.emplace_back(std::move(keywords), count);
+        entry.served.push_back({std::move(keywords), count, {}});
       }
-      auto missing = missing_by_pass.find(p);
-      if (served.empty() && missing == missing_by_pass.end()) continue;
-      std::sort(served.begin(), served.end());
-      nlohmann::ordered_json requests = nlohmann::ordered_json::array();
-      for (const auto& [keywords, count] : served) requests.push_back({{"keywords", keywords}, {"count", count}});
-      sets += served.size() + (missing == missing_by_pass.end() ? 0 : missing->second.size());
-      passes.push_back({{"name", std::string(pass.name)},
-                        {"served", requests},
-                        {"missing", missing == missing_by_pass.end() ? nlohmann::ordered_json::array() : missing->second}});
+      if (auto missing = missing_by_pass.find(p); missing != missing_by_pass.end()) entry.missing = std::move(missing->second);
+      if (entry.served.empty() && entry.missing.empty()) continue;
+      sets += entry.served.size() + entry.missing.size();
+      passes.push_back(std::move(entry));
     }
-    const nlohmann::ordered_json log{{"format", "kiln-usage"}, {"format_version", 1}, {"pack", pack_name},
-                                     {"tags", tags}, {"passes", passes}, {"missing_dropped", dropped}};
-    const std::string text = log.dump(2) + "\n";
-    const std::filesystem::path temporary = file.string() + ".tmp-" + std::to_string(::getpid());
-    {
-      std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-      out << text;
-      if (!out.flush()) {
-        std::error_code ignored;
-        std::filesystem::remove(temporary, ignored);
-        return PackResult<size_t>(PackError::Code::Io, "cannot write the usage log", file.string());
-      }
-    }
-    std::error_code ec;
-    std::filesystem::rename(temporary, file, ec);
-    if (ec) {
-      std::filesystem::remove(temporary, ec);
-      return PackResult<size_t>(PackError::Code::Io, "cannot write the usage log: " + ec.message(), file.string());
-    }
+    const std::string failed = usage_log::write_atomically(file, usage_log::text(pack_name, tags, std::move(passes), dropped));
+    if (!failed.empty()) return PackResult<size_t>(PackError::Code::Io, failed, file.string());
     return sets;
   } catch (const std::bad_alloc&) {
     return PackResult<size_t>(PackError::Code::OutOfMemory, "out of memory writing the usage log", file.string());
