@@ -845,7 +845,8 @@ TEST_F(Cli, EveryVerbHasHelp) {
   std::istringstream lines(top.out.substr(top.out.find("Subcommands:")));
   for (std::string line; std::getline(lines, line);)
     if (line.starts_with("  ") && line[2] != ' ') verbs.push_back(line.substr(2, line.find(' ', 2) - 2));
-  EXPECT_EQ(verbs, (std::vector<std::string>{"build", "list", "inspect", "lint", "check-scene", "check-usage", "diff-packs", "compile", "render", "test"}));
+  EXPECT_EQ(verbs, (std::vector<std::string>{"build", "list", "inspect", "lint", "check-scene", "check-usage",
+                                             "merge-usage", "diff-packs", "compile", "render", "test"}));
   for (const std::string& verb : verbs) {
     auto r = testing::run_kiln({verb, "--help"}, dir.path());
     EXPECT_EQ(r.exit_code, 0) << verb;

@@ -34,8 +34,8 @@ import glob, json, os, sys
 def forward(pack):
     manifest = json.load(open(glob.glob(os.path.join(pack, "*.manifest.json"))[0]))
     variants = [sorted(v["keywords"]) for p in manifest["passes"] if p["name"] == "Forward" for v in p["variants"]]
-    size = os.path.getsize(os.path.join(pack, manifest["archive"]["file"]))
-    return variants, size
+    archive_bytes = os.path.getsize(os.path.join(pack, manifest["archive"]["file"]))
+    return variants, archive_bytes
 usage, usage_size = forward(sys.argv[1])
 profile, profile_size = forward(sys.argv[2])
 log = json.load(open(sys.argv[3]))

@@ -336,7 +336,34 @@ struct UsageRecorder {
     uint64_t count = 0;
     std::vector<std::string> nearest;
   };
-  std::vector<std::unique_ptr<std::atomic<uint64_t>[]>> served;  // per pass, per variant
+  // The served counts, striped: each thread adds to its own stripe (kStripes of them, each starting on its own cache
+  // line), so threads that select the same variant at once do not pass one cache line between their cores; the log
+  // adds the stripes. 8 bytes per variant and stripe: 128 per variant.
+  static constexpr uint32_t kStripes = 16;
+  struct PassCounts {
+    uint32_t stride = 0;                             // counters per stripe: the variant count rounded up to 8
+    std::unique_ptr<std::atomic<uint64_t>[]> storage;
+    std::atomic<uint64_t>* counts = nullptr;         // stripe s, variant v: counts[s * stride + v]; 64-byte aligned
+    explicit PassCounts(uint32_t variants) : stride((variants + 7) / 8 * 8) {
+      const size_t n = size_t(stride) * kStripes + 8;
+      storage = std::make_unique<std::atomic<uint64_t>[]>(n);
+      for (size_t i = 0; i < n; ++i) storage[i].store(0, std::memory_order_relaxed);
+      const auto address = reinterpret_cast<uintptr_t>(storage.get());
+      counts = storage.get() + ((64 - address % 64) % 64) / sizeof(std::atomic<uint64_t>);
+    }
+    uint64_t total(uint32_t variant) const {
+      uint64_t sum = 0;
+      for (uint32_t s = 0; s < kStripes; ++s) sum += counts[size_t(s) * stride + variant].load(std::memory_order_relaxed);
+      return sum;
+    }
+  };
+  // This thread's stripe: threads take them in turn, the 17th shares the first's.
+  static uint32_t stripe() noexcept {
+    static std::atomic<uint32_t> next{0};
+    thread_local const uint32_t mine = next.fetch_add(1, std::memory_order_relaxed) % kStripes;
+    return mine;
+  }
+  std::vector<PassCounts> served;  // per pass
   mutable std::mutex mutex;
   PackReader::UsageOptions options;                              // under the mutex
   std::map<std::pair<uint32_t, std::vector<std::string>>, Missing> missing;  // (pass, keywords) -> ...
@@ -526,10 +553,7 @@ void PackReader::record_usage(UsageOptions options) {
   std::lock_guard lock(state.mutex);
   if (!state.usage) {
     auto recorder = std::make_unique<UsageRecorder>();
-    for (const runtime::Pass& pass : state.index.passes) {
-      recorder->served.push_back(std::make_unique<std::atomic<uint64_t>[]>(pass.variant_count));
-      for (uint32_t v = 0; v < pass.variant_count; ++v) recorder->served.back()[v].store(0, std::memory_order_relaxed);
-    }
+    for (const runtime::Pass& pass : state.index.passes) recorder->served.emplace_back(pass.variant_count);
     state.usage = std::move(recorder);
   }
   {
@@ -543,7 +567,8 @@ void PackReader::record_usage(UsageOptions options) {
 void PackReader::note_selected(uint32_t pass, uint32_t variant) const noexcept {
   UsageRecorder* usage = state_->recording.load(std::memory_order_acquire);
   if (usage && pass < usage->served.size() && variant < state_->index.passes[pass].variant_count)
-    usage->served[pass][variant].fetch_add(1, std::memory_order_relaxed);
+    usage->served[pass].counts[size_t(UsageRecorder::stripe()) * usage->served[pass].stride + variant].fetch_add(
+        1, std::memory_order_relaxed);
 }
 
 PackResult<size_t> PackReader::flush_usage() const noexcept { return state_->flush_usage_log(); }
@@ -575,7 +600,7 @@ PackResult<size_t> PackReader::State::flush_usage_log() const noexcept {
       const runtime::Pass& pass = ix.passes[p];
       usage_log::Pass entry{std::string(pass.name), {}, {}};
       for (uint32_t v = 0; v < pass.variant_count; ++v) {
-        const uint64_t count = recorder->served[p][v].load(std::memory_order_relaxed);
+        const uint64_t count = recorder->served[p].total(v);
         if (count == 0) continue;
         const runtime::Variant& variant = ix.variants[pass.first_variant + v];
         std::vector<std::string> keywords;
