@@ -137,8 +137,8 @@ int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cach
   else if (!summary_file.empty())
     if (std::string error = kiln::write_file_atomic(summary_file, summary_json(report, sink, code, options).dump(2) + "\n");
         !error.empty()) {
-      std::cerr << "kiln: error: --summary-json: " << error << "\n";
-      code = std::max(code, 1);
+      std::cerr << "kiln: error[K1601]: --summary-json: " << error << "\n";
+      code = kiln::worse_exit_status(code, kiln::exit_status(kiln::ExitClass::Environment));
       ++errors;  // counted: "kiln: 0 error(s)" under an error was a contradiction
     }
   if (code != 0)

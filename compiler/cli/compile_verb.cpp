@@ -72,8 +72,8 @@ class CompileVerb final : public Verb {
     if (!plan_.apply(options)) return 1;
     const std::filesystem::path scratch = make_scratch("kiln-compile-");
     if (scratch.empty()) {
-      std::cerr << "kiln: error: cannot create a scratch directory under $TMPDIR, /tmp or /var/tmp\n";
-      return 2;
+      std::cerr << "kiln: error[K1601]: cannot create a scratch directory under $TMPDIR, /tmp or /var/tmp\n";
+      return exit_status(ExitClass::Environment);
     }
     // The one-pass pack: absolute paths, so that the scratch directory is no include root of the user's.
     std::error_code ec;
@@ -87,9 +87,9 @@ class CompileVerb final : public Verb {
                                        {"stages", {{std::string(stage_name(*stage)), entry_}}}}})}};
     const std::filesystem::path pack_file = scratch / "compile.pack.json";
     if (std::string error = write_file_atomic(pack_file, pack.dump(2) + "\n"); !error.empty()) {
-      std::cerr << "kiln: error: " << error << "\n";
+      std::cerr << "kiln: error[K1601]: " << error << "\n";
       std::filesystem::remove_all(scratch, ec);
-      return 2;
+      return exit_status(ExitClass::Environment);
     }
     options.pack_file = pack_file;
     options.output_dir = scratch / "out";
@@ -116,7 +116,7 @@ class CompileVerb final : public Verb {
       for (const std::filesystem::path& dependency : report.dependencies)
         if (dependency != pack_file) read.push_back(dependency);
       if (!write_depfile(depfile_, output_ == "-" ? std::filesystem::path("-") : std::filesystem::path(output_), read, sink))
-        code = 1;
+        code = exit_code(sink);
     }
     // An internal error's reproducer, which a diagnostic names, stays.
     if (!report.internal_errors) std::filesystem::remove_all(scratch, ec);
@@ -144,11 +144,11 @@ class CompileVerb final : public Verb {
       if (output_ == "-") {
         std::cout.write(code.data(), static_cast<std::streamsize>(code.size()));
         std::cout.flush();
-        return std::cout ? 0 : 1;
+        return std::cout ? 0 : exit_status(ExitClass::Environment);
       }
       if (std::string error = write_file_atomic(output_, code); !error.empty()) {
         std::cerr << output_ << ": error[K1601]: " << error << "\n";
-        return 1;
+        return exit_status(ExitClass::Environment);
       }
       return 0;
     } catch (const PackError& error) {

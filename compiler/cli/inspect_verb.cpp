@@ -23,7 +23,7 @@ int run_inspect(const std::string& pack_dir, bool as_json, const std::string& ex
       if (ec || !std::filesystem::is_directory(extract)) {
         std::cerr << extract << ": error[K1601]: cannot create the --extract directory"
                   << (ec ? ": " + ec.message() : std::string(": a file of that name is in the way")) << "\n";
-        return 1;
+        return kiln::exit_status(kiln::ExitClass::Environment);
       }
       for (size_t b = 0; b < manifest.binaries.size(); ++b) {
         const kiln::ManifestBinary& binary = manifest.binaries[b];
@@ -32,8 +32,8 @@ int run_inspect(const std::string& pack_dir, bool as_json, const std::string& ex
                              std::string(kiln::target_extension(target));
           if (auto error = kiln::write_file_atomic(std::filesystem::path(extract) / name, std::string(pack.blob(id)));
               !error.empty()) {
-            std::cerr << "kiln: error: " << error << "\n";
-            return 1;
+            std::cerr << extract << ": error[K1601]: " << error << "\n";
+            return kiln::exit_status(kiln::ExitClass::Environment);
           }
         }
       }

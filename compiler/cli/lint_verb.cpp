@@ -41,9 +41,9 @@ class LintVerb final : public Verb {
       const std::string temp = make_scratch("kiln-lint-").string();
       if (temp.empty()) {
         const char* tmpdir = std::getenv("TMPDIR");
-        std::cerr << "kiln lint: error: cannot create a scratch directory under '" << (tmpdir && *tmpdir ? tmpdir : "(TMPDIR unset)")
+        std::cerr << "kiln lint: error[K1601]: cannot create a scratch directory under '" << (tmpdir && *tmpdir ? tmpdir : "(TMPDIR unset)")
                   << "', /tmp or /var/tmp" << (output_.empty() ? "" : "; '" + output_ + "' was not written") << "\n";
-        return 2;
+        return kiln::exit_status(kiln::ExitClass::Environment);
       }
       options_.pack_file = inputs_[0];
       options_.output_dir = temp;
@@ -67,8 +67,8 @@ class LintVerb final : public Verb {
       std::cout << text << std::flush;
     } else if (!output_.empty()) {
       if (std::string error = kiln::write_file_atomic(output_, text); !error.empty()) {
-        std::cerr << "kiln lint: error: " << error << "\n";
-        return 2;
+        std::cerr << output_ << ": error[K1601]: " << error << "\n";
+        return kiln::exit_status(kiln::ExitClass::Environment);
       }
     } else {
       (format_ == "text" ? std::cerr : std::cout) << text;

@@ -177,8 +177,8 @@ class MergeUsageVerb final : public Verb {
     if (output_ == "-") {
       std::cout << merged->text << std::flush;
     } else if (std::string error = kiln::write_file_atomic(output_, merged->text); !error.empty()) {
-      std::cerr << "kiln merge-usage: error: " << error << "\n";
-      return 1;
+      std::cerr << output_ << ": error[K1601]: " << error << "\n";
+      return kiln::exit_status(kiln::ExitClass::Environment);
     }
     (output_ == "-" ? std::cerr : std::cout)
         << "kiln merge-usage: " << logs.size() << " logs merged (" << left_out << " without the tags), " << merged->passes

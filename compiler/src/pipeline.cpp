@@ -116,8 +116,7 @@ void record_dependencies(const BuildOptions& options, const Plan& plan, BuildRep
 }  // namespace
 
 int exit_code(const DiagnosticSink& sink, bool internal_errors) {
-  if (internal_errors) return 2;
-  return sink.has_errors() ? 1 : 0;
+  return internal_errors ? exit_status(ExitClass::Internal) : exit_code(sink);
 }
 
 namespace {

@@ -483,7 +483,7 @@ TEST_F(Cli, ReadOnlyOutputDirectoryIsReportedAndNothingIsWritten) {
     ::ioctl(fd, FS_IOC_SETFLAGS, &flags);
     ::close(fd);
   }
-  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.exit_code, 3);  // the machine's fault, not the input's (diagnostics.def's exit classes)
   EXPECT_EQ(r.err, "out: error[K1601]: output directory 'out' is not writable\nkiln: 1 error(s)\n");
   EXPECT_TRUE(testing::files_below(dir / "out").empty());
 }
@@ -618,8 +618,8 @@ TEST_F(Cli, SummaryJsonRecordsTheBuildForDashboardsEvenWhenItFails) {
 
   std::filesystem::create_directory(dir / "taken");
   r = build({"--summary-json", "taken"});
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(r.err.find("kiln: error: --summary-json: "), std::string::npos) << r.err;
+  EXPECT_EQ(r.exit_code, 3);  // an output not written is worse than the shader's error: the environment's class wins
+  EXPECT_NE(r.err.find("kiln: error[K1601]: --summary-json: "), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("kiln: 2 error(s)\n"), std::string::npos) << r.err;  // the shader's, and the summary's
 }
 
@@ -1142,11 +1142,45 @@ TEST_F(Cli, ExtractIntoADirectoryThatCannotBeMadeIsAnErrorNotAnAbort) {
   ASSERT_EQ(build().exit_code, 0);
   dir.write("blocker", "a file where the directory would go");
   auto r = testing::run_kiln({"inspect", "out", "--extract", "blocker/sub"}, dir.path());
-  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.exit_code, 3);
   EXPECT_EQ(r.err.rfind("blocker/sub: error[K1601]: cannot create the --extract directory: ", 0), 0u) << r.err;
   auto over_file = testing::run_kiln({"inspect", "out", "--extract", "blocker"}, dir.path());
-  EXPECT_EQ(over_file.exit_code, 1);
+  EXPECT_EQ(over_file.exit_code, 3);
   EXPECT_EQ(over_file.err.rfind("blocker: error[K1601]: cannot create the --extract directory", 0), 0u) << over_file.err;
+}
+
+// One error model (diagnostics.def's exit classes): every verb that writes a file, given one it cannot write
+// (under a regular file, so that root cannot write it either), names the path with K1601 and exits 3, the
+// environment's status, and leaves nothing behind.
+TEST_F(Cli, EveryVerbThatWritesAFileExitsThreeWithK1601WhenItCannot) {
+  dir.write("S.hlsl", kEntries);
+  ASSERT_EQ(build().exit_code, 0);
+  {
+    PackReader reader = PackReader::open(dir / "out");
+    reader.record_usage({dir / "run.json", {}});
+    reader.select("P", {});
+  }
+  dir.write("blocker", "a file where a directory would go");
+  const std::vector<std::vector<std::string>> commands{
+      {"build", "p.pack.json", "-o", "blocker/out", "--cache", "cache"},
+      {"build", "p.pack.json", "-o", "out2", "--cache", "cache", "--summary-json", "blocker/summary.json"},
+      {"build", "p.pack.json", "-o", "out3", "--cache", "cache", "--depfile", "blocker/pack.d"},
+      {"compile", "S.hlsl", "-S", "fragment", "-E", "F", "-o", "blocker/f.spv"},
+      {"compile", "S.hlsl", "-S", "fragment", "-E", "F", "-o", "f.spv", "--depfile", "blocker/f.d"},
+      {"lint", "p.pack.json", "--format", "sarif", "-o", "blocker/lint.sarif"},
+      {"lint", "S.hlsl", "-o", "blocker/lint.txt"},
+      {"inspect", "out", "--extract", "blocker/extracted"},
+      {"merge-usage", "run.json", "-o", "blocker/merged.json"},
+  };
+  for (const auto& command : commands) {
+    const auto r = testing::run_kiln(command, dir.path());
+    std::string shown;
+    for (const std::string& word : command) shown += word + " ";
+    EXPECT_EQ(r.exit_code, 3) << shown << "\n" << r.err;
+    EXPECT_NE(r.err.find("blocker"), std::string::npos) << shown << "\n" << r.err;
+    EXPECT_NE(r.err.find("error[K1601]: "), std::string::npos) << shown << "\n" << r.err;
+  }
+  EXPECT_TRUE(std::filesystem::is_regular_file(dir / "blocker"));
 }
 
 // A pass name became a path: `--emit` wrote outside -o and an internal error's reproducer overwrote a file of

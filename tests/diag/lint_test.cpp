@@ -326,8 +326,8 @@ TEST_F(Lint, AMissingTmpdirFallsBackAndAnUnwritableReportLeavesNoFile) {
   expect_valid_sarif(text);
   EXPECT_EQ(json::parse(text)["version"], "2.1.0");
   auto unwritable = testing::run_kiln({"lint", "p.pack.json", "--format", "sarif", "-o", "missing/out.sarif"}, dir.path());
-  EXPECT_EQ(unwritable.exit_code, 2);
-  EXPECT_TRUE(unwritable.err.starts_with("kiln lint: error: ")) << unwritable.err;
+  EXPECT_EQ(unwritable.exit_code, 3);
+  EXPECT_TRUE(unwritable.err.starts_with("missing/out.sarif: error[K1601]: ")) << unwritable.err;
   EXPECT_FALSE(std::filesystem::exists(dir / "missing"));
 }
 

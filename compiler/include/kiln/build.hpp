@@ -185,7 +185,8 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink);
 // Stages 0-3 only, as `kiln list` shows them.
 std::optional<PlanListing> list_variants(const BuildOptions& options, DiagnosticSink& sink);
 
-// Exit code convention of the CLI: 0 ok, 1 user errors, 2 internal compiler errors.
+// The CLI's exit status: 0 ok, else the worst exit class of the errors (diagnostics.def): 1 input, 2 internal (also
+// when `internal_errors`), 3 environment.
 int exit_code(const DiagnosticSink& sink, bool internal_errors);
 
 }  // namespace kiln

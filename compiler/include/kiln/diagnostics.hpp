@@ -17,8 +17,12 @@ namespace kiln {
 
 enum class Severity : uint8_t { Note, Warning, Error };
 
+// Whose fault an error is, and so the exit status (diagnostics.def's header): the input's (1), the machine's or the
+// network's (3: running again may succeed), or kiln's own (2).
+enum class ExitClass : uint8_t { Input, Environment, Internal };
+
 enum class DiagId : uint16_t {
-#define KILN_DIAGNOSTIC(number, name, severity, description) name = number,
+#define KILN_DIAGNOSTIC(number, name, severity, exit_class, description) name = number,
 #include "kiln/diagnostics.def"
 #undef KILN_DIAGNOSTIC
 };
@@ -27,6 +31,7 @@ struct DiagInfo {
   DiagId id;
   std::string_view name;
   Severity severity;
+  ExitClass exit_class;
   std::string_view description;
 };
 
@@ -83,6 +88,14 @@ class DiagnosticSink {
 
 // A quoted source line is cut to this many bytes: a minified or hostile file can hold one huge line.
 inline constexpr size_t kMaxQuotedLineBytes = 400;
+
+// The exit status of a class: Input 1, Internal 2, Environment 3.
+int exit_status(ExitClass exit_class);
+// A run's exit status from its errors: the worst class among them (Internal, then Environment, then Input); 0 when
+// it has none (warnings do not count here: --werror is the verb's).
+int exit_code(const DiagnosticSink& sink);
+// The worse of two exit statuses by the same order (2, then 3, then 1, then 0).
+int worse_exit_status(int a, int b);
 
 // Renders a diagnostic with its quoted source line (if any) and a caret under the column. Reads no file.
 // With `colour`, in ANSI colours as GCC and clang use them: the location and message bold, the severity in

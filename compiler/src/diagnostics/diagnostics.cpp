@@ -7,7 +7,8 @@ namespace kiln {
 
 const std::vector<DiagInfo>& diagnostic_table() {
   static const std::vector<DiagInfo> table = {
-#define KILN_DIAGNOSTIC(number, name, severity, description) {DiagId::name, #name, Severity::severity, description},
+#define KILN_DIAGNOSTIC(number, name, severity, exit_class, description) \
+  {DiagId::name, #name, Severity::severity, ExitClass::exit_class, description},
 #include "kiln/diagnostics.def"
 #undef KILN_DIAGNOSTIC
   };
@@ -18,8 +19,36 @@ const DiagInfo& diagnostic_info(DiagId id) {
   for (const DiagInfo& info : diagnostic_table()) {
     if (info.id == id) return info;
   }
-  static const DiagInfo unknown{id, "Unknown", Severity::Error, "unknown diagnostic"};
+  static const DiagInfo unknown{id, "Unknown", Severity::Error, ExitClass::Internal, "unknown diagnostic"};
   return unknown;
+}
+
+int exit_status(ExitClass exit_class) {
+  switch (exit_class) {
+    case ExitClass::Input: return 1;
+    case ExitClass::Internal: return 2;
+    case ExitClass::Environment: return 3;
+  }
+  return 2;
+}
+
+int worse_exit_status(int a, int b) {
+  auto rank = [](int status) { return status == 2 ? 3 : status == 3 ? 2 : status == 0 ? 0 : 1; };
+  return rank(a) >= rank(b) ? a : b;
+}
+
+int exit_code(const DiagnosticSink& sink) {
+  // The worst class wins: a bug in kiln over a machine that cannot take the outputs over a mistake in the input.
+  bool input = false, environment = false;
+  for (const Diagnostic& d : sink.diagnostics()) {
+    if (d.severity != Severity::Error) continue;
+    switch (diagnostic_info(d.id).exit_class) {
+      case ExitClass::Internal: return exit_status(ExitClass::Internal);
+      case ExitClass::Environment: environment = true; break;
+      case ExitClass::Input: input = true; break;
+    }
+  }
+  return environment ? exit_status(ExitClass::Environment) : input ? exit_status(ExitClass::Input) : 0;
 }
 
 std::string diagnostic_code(DiagId id) { return "K" + std::to_string(static_cast<unsigned>(id)); }
