@@ -119,16 +119,12 @@ class CheckUsageVerb final : public Verb {
       return 1;
     }
     std::vector<kiln::UsageLog> logs;
-    kiln::ReadLimits limits{kiln::defaults::kMaxFileBytes};
-    for (const std::string& file : logs_) {
-      auto log = kiln::load_usage_log(file, limits, sink);
-      if (!log) continue;
-      if (!kiln::usage_matches(*log, *filters)) continue;
-      if (log->pack != pack->name())
-        sink.report(kiln::DiagId::UsageLog, kiln::usage_log_pack_location(*log),
-                    "this usage log is of pack '" + log->pack + "', not of '" + pack->name() + "'");
+    for (kiln::UsageLog& log : kiln::load_usage_logs(logs_, *filters, sink)) {
+      if (log.pack != pack->name())
+        sink.report(kiln::DiagId::UsageLog, kiln::usage_log_pack_location(log),
+                    "this usage log is of pack '" + log.pack + "', not of '" + pack->name() + "'");
       else
-        logs.push_back(std::move(*log));
+        logs.push_back(std::move(log));
     }
     const kiln::UsageCheck check = kiln::check_usage(*pack, logs, sink);
     std::cout << "kiln check-usage: " << logs.size() << " logs, " << check.sets << " keyword sets asked for ("
@@ -158,15 +154,8 @@ class MergeUsageVerb final : public Verb {
     print_diagnostics_as_they_come(sink);
     auto filters = parse_usage_tags(tags_);
     if (!filters) return 1;
-    std::vector<kiln::UsageLog> logs;
-    kiln::ReadLimits limits{kiln::defaults::kMaxFileBytes};
     size_t left_out = 0;
-    for (const std::string& file : logs_) {
-      auto log = kiln::load_usage_log(file, limits, sink);
-      if (!log) continue;
-      if (kiln::usage_matches(*log, *filters)) logs.push_back(std::move(*log));
-      else ++left_out;
-    }
+    std::vector<kiln::UsageLog> logs = kiln::load_usage_logs(logs_, *filters, sink, &left_out);
     if (sink.has_errors()) return 1;
     if (logs.empty()) {
       std::cerr << "kiln merge-usage: error: none of the " << logs_.size() << " usage logs has the tags asked for\n";

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "kiln/bounded_json.hpp"
+#include "kiln/defaults.hpp"
 #include "kiln/usage_log.hpp"
 
 namespace kiln {
@@ -211,6 +212,20 @@ bool strip_by_usage(const PassKeywords& pass, const std::string& pass_name, Pass
   expansion.variants = std::move(kept);
   expansion.kept = VariantCount{expansion.variants.size(), false};
   return true;
+}
+
+std::vector<UsageLog> load_usage_logs(const std::vector<std::string>& files,
+                                      const std::vector<std::pair<std::string, std::string>>& filters,
+                                      DiagnosticSink& sink, size_t* without_tags) {
+  std::vector<UsageLog> logs;
+  const ReadLimits limits{defaults::kMaxFileBytes};
+  for (const std::string& file : files) {
+    std::optional<UsageLog> log = load_usage_log(file, limits, sink);
+    if (!log) continue;
+    if (usage_matches(*log, filters)) logs.push_back(std::move(*log));
+    else if (without_tags) ++*without_tags;
+  }
+  return logs;
 }
 
 SourceLocation usage_log_pack_location(const UsageLog& log) {

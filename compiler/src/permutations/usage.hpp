@@ -42,6 +42,12 @@ SourceLocation usage_log_pack_location(const UsageLog& log);
 // Whether the log carries every tag of `filters` (key, value).
 bool usage_matches(const UsageLog& log, const std::vector<std::pair<std::string, std::string>>& filters);
 
+// The logs in `files` that carry every tag of `filters`, in order. A malformed one is reported (K1015) and left out;
+// `without_tags`, when given, counts the well-formed ones left out for their tags.
+std::vector<UsageLog> load_usage_logs(const std::vector<std::string>& files,
+                                      const std::vector<std::pair<std::string, std::string>>& filters,
+                                      DiagnosticSink& sink, size_t* without_tags = nullptr);
+
 // Keeps the variants of `expansion` whose keyword set a log asked for (served or missing), and with `margin` > 0
 // those that differ from one in at most `margin` keyword groups. One strip line per log (what it alone would keep),
 // then one for all of them. A pass no log mentions is kept whole (and said so). False (K1305 reported at the first
