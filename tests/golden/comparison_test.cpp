@@ -203,6 +203,10 @@ TEST(CoveringSample, HoldsEveryCombinationOfStrengthValuesInFewRowsTheSameOnEver
   EXPECT_EQ(covering_sample(scrambled, 0).size(), scrambled.size());
   EXPECT_EQ(covering_sample(scrambled, 8).size(), scrambled.size());
   EXPECT_THROW(covering_sample(scrambled, 5), std::invalid_argument);
+  // A hostile pack: 400 two-valued groups at strength 4 would be 1.06e9 combinations of groups per variant.
+  const std::vector<std::vector<uint32_t>> wide(10, std::vector<uint32_t>(400, 1));
+  EXPECT_THROW(covering_sample(wide, 4), std::invalid_argument);
+  EXPECT_EQ(covering_sample(wide, 1).size(), 1u);
 }
 
 }  // namespace

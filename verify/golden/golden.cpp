@@ -202,6 +202,15 @@ std::vector<size_t> covering_sample(const std::vector<std::vector<uint32_t>>& ro
   if (strength > 4) throw std::invalid_argument("a covering sample's strength is at most 4");
   const uint64_t values = first_value[groups];
   if (values > 65535) throw std::invalid_argument("covering_sample: more than 65,535 keyword values");
+  // A pack is input: its group count is bounded before the subsets of groups are listed (C(groups, strength) of them,
+  // each looked up for every row).
+  double subset_count = 1;
+  for (unsigned k = 0; k < strength; ++k) subset_count = subset_count * double(groups - k) / double(k + 1);
+  if (subset_count * double(rows.size()) > kMaxCoveringWork)
+    throw std::invalid_argument("covering_sample: " + std::to_string(groups) + " keyword groups and " +
+                                std::to_string(rows.size()) + " variants are too many for strength " +
+                                std::to_string(strength) + " (" + std::to_string(uint64_t(subset_count)) +
+                                " combinations of groups per variant)");
   // The combinations of `strength` groups, as index lists in lexicographic order.
   std::vector<std::vector<uint32_t>> subsets;
   std::vector<uint32_t> pick(strength);

@@ -118,6 +118,8 @@ std::vector<size_t> variants_to_run(const PackReader& pack, Api api, unsigned sh
 // row has is also in a chosen row; chosen greedily (the row that covers the most combinations not yet covered,
 // the lowest index on a tie), so about logarithmically more rows than the fewest possible, and the same rows on
 // every run. Strength 0, or at least the number of groups, chooses every distinct row; otherwise it is at most 4.
+// A pack whose C(groups, strength) x variants exceeds kMaxCoveringWork is refused (std::invalid_argument).
+inline constexpr double kMaxCoveringWork = 5e7;
 std::vector<size_t> covering_sample(const std::vector<std::vector<uint32_t>>& rows, unsigned strength);
 // The Forward (or other) pass's variants as covering_sample rows: each variant's value in each keyword group.
 std::vector<size_t> covering_variants(const PackReader& pack, std::string_view pass, unsigned strength);
