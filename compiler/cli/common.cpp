@@ -22,15 +22,7 @@ bool g_colour = false;
 
 }  // namespace
 
-void set_colour(const std::string& mode) {
-  if (mode == "always" || mode == "never") {
-    g_colour = mode == "always";
-    return;
-  }
-  const char* no_colour = std::getenv("NO_COLOR");
-  const char* term = std::getenv("TERM");
-  g_colour = !(no_colour && *no_colour) && ::isatty(2) && term && *term && std::string_view(term) != "dumb";
-}
+void set_colour(const std::string& mode) { g_colour = stderr_wants_colour(mode); }
 
 bool colour() { return g_colour; }
 

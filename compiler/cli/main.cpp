@@ -7,6 +7,9 @@
 #include "cli.hpp"
 #include "common/files.hpp"
 #include "kiln/guarded_main.hpp"
+#ifdef KILN_FAULT_INJECTION
+#include "fault_injection.hpp"
+#endif
 
 namespace {
 
@@ -50,8 +53,13 @@ int run(int argc, char** argv) {
     return app.exit(error) == 0 ? 0 : 1;
   }
   kiln::cli::set_colour(colour_mode);
-  for (auto& [command, verb] : verbs)
-    if (*command) return verb->run();
+  for (auto& [command, verb] : verbs) {
+    if (!*command) continue;
+#ifdef KILN_FAULT_INJECTION  // the tests' kiln-fault-cli only (tests/support/fault_injection.hpp)
+    kiln::testing::inject_fault(command->get_name());
+#endif
+    return verb->run();
+  }
   return 0;
 }
 

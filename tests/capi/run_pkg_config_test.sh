@@ -2,8 +2,8 @@
 # cmake.pkg_config.CProgramBuildsAgainstTheInstalledReader: the installed reader, used without CMake.
 #   `cmake --install` installs kiln-reader.pc and kiln_reader.h; no installed header includes nlohmann-json (the
 #   compiler's include trace, -H, is searched, so an indirect include counts); kiln_reader.h is C99; a C program
-#   built with `cc main.c $(pkg-config --cflags --libs kiln-reader)` alone (PKG_CONFIG_PATH at the prefix) opens a
-#   pack the installed kiln built and selects a variant.
+#   built with `cc main.c $(pkg-config --cflags --libs kiln-reader)` alone (PKG_CONFIG_PATH at the prefix; the
+#   shared reader, no C++ runtime named) opens a pack the installed kiln built and selects a variant.
 # usage: run_pkg_config_test.sh <kiln source dir> <kiln build dir>
 set -euo pipefail
 source=$1 build=$2
@@ -57,8 +57,11 @@ C
 export PKG_CONFIG_PATH="$(dirname "$pc")"
 flags=$(pkg-config --cflags --libs kiln-reader) || fail "pkg-config --cflags --libs kiln-reader"
 echo "pkg-config: $flags"
+! grep -q "stdc++" <<< "$flags" || fail "pkg-config names the C++ runtime: the shared reader brings it"
 cc -std=c11 -Wall -Wextra -pedantic -Werror -o "$work/consumer" "$work/main.c" $flags || fail "the C consumer does not build"
-"$work/consumer" "$work/pack" > "$work/out.txt" || { cat "$work/out.txt"; fail "the C consumer failed"; }
+# The shared reader, found where it was installed (a system prefix needs no LD_LIBRARY_PATH).
+LD_LIBRARY_PATH="$work/prefix/lib" "$work/consumer" "$work/pack" > "$work/out.txt" || { cat "$work/out.txt"; fail "the C consumer failed"; }
+readelf -d "$work/consumer" | grep -q "NEEDED.*\[libkiln_reader.so.0\]" || fail "the consumer does not link libkiln_reader.so.0"
 cat "$work/out.txt"
 grep -qE '^tiny Main: variant [0-9]+, [1-9][0-9]* bytes of vertex SPIR-V$' "$work/out.txt" || fail "unexpected output"
 echo "ok"

@@ -1183,6 +1183,112 @@ TEST_F(Cli, EveryVerbThatWritesAFileExitsThreeWithK1601WhenItCannot) {
   EXPECT_TRUE(std::filesystem::is_regular_file(dir / "blocker"));
 }
 
+// One guarded entry point: an exception that escapes any verb of kiln or kiln-verify, whatever its type, is reported
+// as a bug in kiln with exit 2 (never an abort, never 1 as if the input were at fault). The test builds of both
+// executables (tests/support/fault_injection.hpp) throw it inside the verb once its arguments are parsed.
+TEST_F(Cli, AnExceptionThatEscapesAnyVerbIsABugInKilnWithExitTwo) {
+  dir.write("S.hlsl", kEntries);
+  ASSERT_EQ(build().exit_code, 0);
+  {
+    PackReader reader = PackReader::open(dir / "out");
+    reader.record_usage({dir / "run.json", {}});
+    reader.select("P", {});
+  }
+  const std::map<std::string, std::vector<std::string>> verbs{
+      {"build", {"p.pack.json", "-o", "out2", "--cache", "cache"}},
+      {"list", {"p.pack.json"}},
+      {"inspect", {"out"}},
+      {"lint", {"p.pack.json"}},
+      {"check-scene", {"out", "p.pack.json"}},
+      {"check-usage", {"out", "run.json"}},
+      {"merge-usage", {"run.json", "-o", "merged.json"}},
+      {"diff-packs", {"out", "out"}},
+      {"compile", {"S.hlsl", "-S", "fragment", "-E", "F", "-o", "f.spv"}},
+      {"render", {"out", "--scene", "p.pack.json", "-o", "x.png"}},
+      {"test", {"out", "--scene", "p.pack.json", "--golden", "golden", "--tolerances", "p.pack.json"}},
+  };
+  for (const auto& [verb, args] : verbs) {
+    for (const std::string kind : {"runtime_error", "filesystem_error", "bad_alloc", "unknown"}) {
+      std::vector<std::string> command{"/usr/bin/env", "KILN_INJECT_FAULT=" + verb + ":" + kind,
+                                       std::string("KILN_VERIFY=") + KILN_VERIFY_FAULT_PATH, KILN_FAULT_CLI_PATH, verb};
+      command.insert(command.end(), args.begin(), args.end());
+      const auto r = testing::run(command, dir.path());
+      const std::string shown = verb + " (" + kind + ")\n" + r.err;
+      EXPECT_EQ(r.exit_code, 2) << shown;
+      if (kind == "bad_alloc") {
+        EXPECT_EQ(r.err, "kiln: error: out of memory\n") << shown;
+        continue;
+      }
+      EXPECT_EQ(r.err.rfind("kiln: internal error: ", 0), 0u) << shown;
+      EXPECT_NE(r.err.find("note: this is a bug in kiln, not in your input"), std::string::npos) << shown;
+      if (kind != "unknown") {
+        EXPECT_NE(r.err.find("injected into '" + verb + "'"), std::string::npos) << shown;
+      }
+    }
+  }
+  // The shipped executables have no fault injection.
+  const auto shipped = testing::run({"/usr/bin/env", "KILN_INJECT_FAULT=list:runtime_error", KILN_CLI_PATH, "list", "p.pack.json"},
+                                    dir.path());
+  EXPECT_EQ(shipped.exit_code, 0) << shipped.err;
+}
+
+// kiln render and kiln test report their errors as kiln does, with IDs of the same table (K20xx), a location, and
+// the exit status of the error's class: the input's fault 1, the machine's 3.
+TEST_F(Cli, RenderAndTestReportTheirErrorsWithIdsAndTheExitStatusOfTheirClass) {
+  dir.write("S.hlsl", kEntries);
+  ASSERT_EQ(build().exit_code, 0);
+  const std::string scenes = std::string(KILN_SOURCE_DIR) + "/variants/scenes/render/";
+  const std::string tolerances = scenes + "tolerances.json";
+  dir.write("broken.json", "{\n  \"render\": {,\n}\n");
+  dir.write("tolerances.json", "{\"classes\": [{\"name\": \"x\"}]}\n");
+  std::filesystem::create_directories(dir / "golden");
+  struct Case {
+    std::vector<std::string> args;
+    std::vector<std::string> environment;
+    int exit_code;
+    std::string expected;  // the start of stderr
+  };
+  const std::vector<Case> cases{
+      {{"render", "out", "--scene", "broken.json", "-o", "x.png"}, {}, 1, "broken.json:2:14: error[K2001]: invalid JSON: "},
+      {{"test", "out", "--scene", scenes + "spheres.json", "--golden", "golden", "--tolerances", "tolerances.json"}, {}, 1,
+       "tolerances.json: error[K2002]: a tolerance class is malformed: "},
+      {{"test", "out", "--scene", scenes + "spheres.json", "--golden", "golden", "--tolerances", tolerances}, {}, 1,
+       "golden/index.json: error[K2003]: no golden index (make one with kiln-reference goldens)\n"},
+      {{"render", "nowhere", "--scene", scenes + "spheres.json", "-o", "x.png"}, {}, 1, "nowhere: error[K2004]: "},
+      {{"render", "out", "--scene", scenes + "spheres.json", "-o", "x.png", "--size", "big"}, {}, 1,
+       "kiln: error[K2005]: --size wants WxH, e.g. 256x256 (got 'big')\n"},
+      {{"test", "out", "--scene", scenes + "spheres.json", "--golden", "golden", "--tolerances", tolerances, "--shard", "2/2"},
+       {},
+       1,
+       "kiln: error[K2005]: --shard wants I/N with I < N (got '2/2')\n"},
+      // No Vulkan driver at all: the machine's fault, not the pack's.
+      {{"render", "out", "--scene", scenes + "spheres.json", "-o", "x.png"},
+       {"VK_ICD_FILENAMES=" + (dir / "none.json").string(), "VK_DRIVER_FILES=" + (dir / "none.json").string()},
+       3,
+       "kiln: error[K2006]: "},
+  };
+  for (const Case& c : cases) {
+    std::vector<std::string> command{"/usr/bin/env"};
+    command.insert(command.end(), c.environment.begin(), c.environment.end());
+    command.push_back(KILN_CLI_PATH);
+    command.insert(command.end(), c.args.begin(), c.args.end());
+    const auto r = testing::run(command, dir.path());
+    EXPECT_EQ(r.exit_code, c.exit_code) << c.args[0] << " " << c.args[1] << "\n" << r.err;
+    EXPECT_EQ(r.err.substr(0, c.expected.size()), c.expected) << r.err;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.png"));
+}
+
+// kiln-reference's outputs, as kiln's: one that cannot be written is K1601, exit 3.
+TEST_F(Cli, KilnReferenceReportsAnUnwritableOutputAsKilnDoes) {
+  dir.write("blocker", "a file where a directory would go");
+  const auto r = testing::run({KILN_REFERENCE_PATH, "dfg", "--size", "2", "--samples", "1", "-o", "blocker/dfg.kdfg"},
+                              dir.path());
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_EQ(r.err.rfind("blocker/dfg.kdfg: error[K1601]: cannot write the file", 0), 0u) << r.err;
+  EXPECT_TRUE(std::filesystem::is_regular_file(dir / "blocker"));
+}
+
 // A pass name became a path: `--emit` wrote outside -o and an internal error's reproducer overwrote a file of
 // that name anywhere. Pack, pass and scene names follow one rule (name_problem), for build and lint alike.
 TEST_F(Cli, NamesThatWouldBecomePathsOutsideTheOutputAreRefused) {

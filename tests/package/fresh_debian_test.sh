@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# package.fresh_debian: the Debian package installed with apt into a fresh, minimal Debian 12 (a debootstrap chroot,
-# made as ../shared/tools/fresh-debian.sh makes it), where only its Depends bring kiln's libraries; then a consumer
-# project (tests/cmake_consumer, find_package mode) builds a pack with the installed kiln and loads it with the
-# installed reader. Needs root (chroot, bind mounts) and the Debian mirror, and takes minutes: label `chroot`, left
+# package.fresh_debian: the Debian packages installed with apt into a fresh, minimal Debian 12 (a debootstrap chroot,
+# made as ../shared/tools/fresh-debian.sh makes it), where only their Depends bring kiln's libraries: first kiln and
+# the reader alone (nothing of Vulkan, EGL or X11 comes with them; a C program links with gcc alone), then
+# kiln-verify and a consumer project (tests/cmake_consumer, find_package mode) that builds a pack with the installed
+# kiln and loads it with the installed reader. Needs root (chroot, bind mounts) and the Debian mirror, and takes minutes: label `chroot`, left
 # out of the presets' runs; run it with `ctest --test-dir build/ci -L chroot`.
 # usage: fresh_debian_test.sh <kiln source dir> <kiln build dir>
 set -euo pipefail
@@ -35,20 +36,35 @@ mkdir -p "$root/root/project/kiln-src"
 cp -r "$source/tests/cmake_consumer" "$root/root/project/consumer"
 cp -r "$source/shaderlib" "$source/variants" "$root/root/project/"
 ln -s ../variants "$root/root/project/kiln-src/variants"
-deb=$(cd "$root/root/deb" && ls kiln_*.deb)
+cp "$source/tests/capi/tiny.pack.json" "$source/tests/capi/Tiny.hlsl" "$root/root/project/"
 
 chroot "$root" bash -euo pipefail -c "
   export DEBIAN_FRONTEND=noninteractive
   apt-get update -q > /dev/null
-  # The package and what builds a consumer project; kiln's own libraries come from the package's Depends only.
-  apt-get install -y -q --no-install-recommends /root/deb/$deb cmake ninja-build g++ > /root/apt.log 2>&1 || { tail -30 /root/apt.log; exit 1; }
+  cd /root/deb
+  # kiln alone, as a CI runner that only lints installs it: the reader and the CLI, with gcc and nothing else; kiln's
+  # own libraries come from the packages' Depends only, and nothing of Vulkan, EGL or X11 comes with them.
+  apt-get install -y -q --no-install-recommends ./kiln_*.deb ./libkiln-reader0_*.deb ./libkiln-reader-dev_*.deb gcc libc6-dev \
+    > /root/apt.log 2>&1 || { tail -30 /root/apt.log; exit 1; }
   kiln --version | head -1
+  for absent in libvulkan1 libegl1 libx11-6 g++; do
+    if dpkg-query -W -f='\${Status}' \$absent 2> /dev/null | grep -q 'install ok installed'; then echo \"FAIL: kiln brought \$absent\"; exit 1; fi
+  done
+  # A C program, linked by gcc alone with pkg-config's flags (no C++ compiler on the machine).
   cd /root/project
+  kiln build tiny.pack.json -o pack --no-cache -q
+  printf '#include <kiln/kiln_reader.h>\\nint main(void) { kiln_pack* p; kiln_error e; int ok = kiln_pack_open(\"pack\", &p, &e) == KILN_OK; if (ok) kiln_pack_close(p); return !ok; }\\n' > game.c
+  gcc -std=c11 game.c \$(pkg-config --cflags --libs kiln-reader) -o game
+  ./game
+  # Then kiln-verify and what builds a C++ consumer project.
+  apt-get install -y -q --no-install-recommends /root/deb/kiln-verify_*.deb cmake ninja-build g++ > /root/apt.log 2>&1 ||
+    { tail -30 /root/apt.log; exit 1; }
+  kiln-verify --help > /dev/null
   cmake -S consumer -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DKILN_CONSUMER_MODE=find_package \
     -DKILN_SOURCE_DIR=/root/project/kiln-src -DKILN_CONSUMER_SCENES=/root/project/variants/scenes/mobile.json > configure.log
   grep -qxF 'kiln_DIR:PATH=/usr/lib/cmake/kiln' build/CMakeCache.txt
   cmake --build build -j 2 > build.log 2>&1 || { tail -30 build.log; exit 1; }
   build/consumer
-  test -f /usr/share/man/man1/kiln.1.gz || test -f /usr/share/man/man1/kiln.1  # man-db is not in a minimal Debian
+  test -f /usr/share/man/man1/kiln.1.gz
 "
 echo "fresh Debian package test passed"

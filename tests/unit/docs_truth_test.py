@@ -45,6 +45,14 @@ def check_defaults(kiln, root):
                     if number != value:
                         fail(f"{document.relative_to(root)}: {option} default {number:g}, the code's is {value:g}")
     print(f"{len(stated)} defaults in --help, {checked} statements of them in the docs checked")
+    # The version is stated once, in CMake's project(); kiln --version and the man page say the same.
+    version = re.search(r"project\(kiln VERSION ([0-9.]+)", (root / "CMakeLists.txt").read_text()).group(1)
+    first = subprocess.run([kiln, "--version"], capture_output=True, text=True, check=True).stdout.splitlines()[0]
+    if first != "kiln " + version:
+        fail(f"kiln --version says '{first}', CMakeLists.txt's project version is {version}")
+    man_title = re.search(r'^\.TH KILN 1 \S+ "kiln ([0-9.]+)"', (root / "docs/man/kiln.1").read_text(), re.M)
+    if not man_title or man_title.group(1) != version:
+        fail(f"docs/man/kiln.1's .TH line does not name version {version}")
     if checked < 4:
         fail("fewer default statements found than the docs hold: the pattern no longer matches them")
 

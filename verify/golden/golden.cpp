@@ -13,30 +13,29 @@ namespace kiln::render {
 
 std::vector<ToleranceClass> load_tolerances(const std::filesystem::path& path) {
   std::ifstream in(path);
-  if (!in) throw std::runtime_error(path.string() + ": error: cannot open the tolerance file");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw std::runtime_error(path.string() + ": error: invalid JSON: " + e.what());
-  }
+  if (!in) fail(DiagId::ToleranceFile, path, "cannot open the tolerance file");
+  const nlohmann::json j = parse_json_file(in, path, DiagId::ToleranceFile);
   std::vector<ToleranceClass> classes;
-  for (const auto& c : j.at("classes")) {
-    ToleranceClass t;
-    t.name = c.at("name").get<std::string>();
-    t.when_any = c.value("when_any", std::vector<std::string>{});
-    t.when_all = c.value("when_all", std::vector<std::string>{});
-    t.scenes = c.value("scenes", std::vector<std::string>{});
-    t.max_channel_difference = c.at("max_channel_difference").get<int>();
-    t.max_fraction_over = c.at("max_fraction_over").get<double>();
-    t.max_relative_rmse = c.at("max_relative_rmse").get<double>();
-    t.max_worst_difference = c.at("max_worst_difference").get<int>();
-    t.max_fraction_skipped = c.at("max_fraction_skipped").get<double>();
-    t.reason = c.value("reason", "");
-    if (t.reason.empty()) throw std::runtime_error(path.string() + ": error: class '" + t.name + "' states no reason");
-    classes.push_back(t);
+  try {
+    for (const auto& c : j.at("classes")) {
+      ToleranceClass t;
+      t.name = c.at("name").get<std::string>();
+      t.when_any = c.value("when_any", std::vector<std::string>{});
+      t.when_all = c.value("when_all", std::vector<std::string>{});
+      t.scenes = c.value("scenes", std::vector<std::string>{});
+      t.max_channel_difference = c.at("max_channel_difference").get<int>();
+      t.max_fraction_over = c.at("max_fraction_over").get<double>();
+      t.max_relative_rmse = c.at("max_relative_rmse").get<double>();
+      t.max_worst_difference = c.at("max_worst_difference").get<int>();
+      t.max_fraction_skipped = c.at("max_fraction_skipped").get<double>();
+      t.reason = c.value("reason", "");
+      if (t.reason.empty()) fail(DiagId::ToleranceFile, path, "class '" + t.name + "' states no reason");
+      classes.push_back(t);
+    }
+  } catch (const nlohmann::json::exception& e) {
+    fail(DiagId::ToleranceFile, path, std::string("a tolerance class is malformed: ") + e.what());
   }
-  if (classes.empty()) throw std::runtime_error(path.string() + ": error: no tolerance classes");
+  if (classes.empty()) fail(DiagId::ToleranceFile, path, "no tolerance classes");
   return classes;
 }
 
@@ -62,7 +61,7 @@ ComparisonLimits limits_for(const std::vector<ToleranceClass>& classes, const st
 Comparison compare_images(const Image& rendered, const Image& reference, bool linear_output,
                           const ComparisonLimits& limits) {
   if (rendered.width != reference.width || rendered.height != reference.height)
-    throw std::runtime_error("image sizes differ: rendered " + std::to_string(rendered.width) + "x" +
+    fail(DiagId::GoldenData, {}, "image sizes differ: rendered " + std::to_string(rendered.width) + "x" +
                              std::to_string(rendered.height) + ", reference " + std::to_string(reference.width) + "x" +
                              std::to_string(reference.height));
   Comparison c;
@@ -141,7 +140,7 @@ std::string describe_comparison(const Comparison& c, const ComparisonLimits& lim
 std::string write_failure_images(const std::filesystem::path& dir, const std::string& stem, const Image& rendered,
                                  const Image& reference, bool linear_output, const std::string& title,
                                  const std::string& details) {
-  std::filesystem::create_directories(dir);
+  create_output_directory(dir);
   std::vector<uint8_t> a = encode_srgb8(rendered, linear_output), b = encode_srgb8(reference, linear_output);
   std::vector<uint8_t> diff(a.size());
   for (size_t i = 0; i < a.size(); ++i)
@@ -275,7 +274,11 @@ std::vector<size_t> covering_variants(const PackReader& pack, std::string_view p
       row[g] = on == values.end() ? 0 : uint32_t(on - values.begin());
     }
   }
-  return covering_sample(rows, strength);
+  try {
+    return covering_sample(rows, strength);
+  } catch (const std::invalid_argument& e) {  // too many groups or values for the strength: a hostile pack
+    fail(DiagId::PackUnusable, {}, "pack '" + pack.name() + "': --cover " + std::to_string(strength) + ": " + e.what());
+  }
 }
 
 std::vector<size_t> variants_to_run(const PackReader& pack, Api api, unsigned shard_index, unsigned shard_count,
@@ -314,17 +317,44 @@ std::vector<size_t> variants_to_run(const PackReader& pack, Api api, unsigned sh
   return run;
 }
 
+namespace {
+
+// Renders one variant; when that fails, prints `prefix` and the error as a NOT RUN line and counts it, with its exit
+// status (a driver call that fails is kiln's bug, 2; a device that lacks a feature, 3; a variant the renderer cannot
+// use, 1). Any other exception is a bug as well: reported the same way, and the run goes on to the next variant.
+bool render_or_report(Backend& backend, const SelectedVariant& variant, const std::string& prefix, std::ostream& out,
+                      GoldenTestSummary& summary, Image& image) {
+  try {
+    image = backend.render(variant);
+    return true;
+  } catch (const VerifyError& e) {
+    const Diagnostic& d = e.diagnostic();
+    out << prefix << "error[" << diagnostic_code(d.id) << "]: " << d.message << "\n";
+    summary.worst_exit_status = worse_exit_status(summary.worst_exit_status, e.exit_status());
+  } catch (const std::exception& e) {
+    out << prefix << "internal error: " << e.what() << " (this is a bug in kiln)\n";
+    summary.worst_exit_status = worse_exit_status(summary.worst_exit_status, exit_status(ExitClass::Internal));
+  }
+  ++summary.not_run;
+  return false;
+}
+
+}  // namespace
+
 GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream& out) {
   auto start = std::chrono::steady_clock::now();
   GoldenTestSummary summary;
   PackReader pack = PackReader::open(options.pack_dir);
   Scene scene = load_scene(options.scene);
   std::vector<ToleranceClass> tolerances = load_tolerances(options.tolerances);
-  std::ifstream index_file(options.golden_dir / "index.json");
-  if (!index_file)
-    throw std::runtime_error((options.golden_dir / "index.json").string() +
-                             ": error: no golden index (make one with kiln-reference goldens)");
-  nlohmann::json index = nlohmann::json::parse(index_file);
+  const std::filesystem::path index_path = options.golden_dir / "index.json";
+  std::ifstream index_file(index_path);
+  if (!index_file) fail(DiagId::GoldenData, index_path, "no golden index (make one with kiln-reference goldens)");
+  const nlohmann::json index = parse_json_file(index_file, index_path, DiagId::GoldenData);
+  if (!index.is_object() || !index.contains("variants") || !index["variants"].is_object() ||
+      !index.value("width", nlohmann::json(0u)).is_number_unsigned() ||
+      !index.value("height", nlohmann::json(0u)).is_number_unsigned())
+    fail(DiagId::GoldenData, index_path, "a golden index is an object with \"variants\" (an object) and unsigned \"width\" and \"height\"");
   const Api api = parse_api(options.api);
   if (!options.usage_log.empty()) pack.record_usage({options.usage_log, {{"scene", scene.name}, {"api", options.api}}});
   auto renderer = Backend::open(api, pack, scene, index.value("width", 0u), index.value("height", 0u));
@@ -354,24 +384,16 @@ GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream
       ++summary.not_run;
       continue;
     }
+    if (!golden->is_string()) fail(DiagId::GoldenData, index_path, "the image of '" + name + "' is not a file name");
     Image rendered;
-    try {
-      rendered = renderer->render(variant);
-    } catch (const std::exception& e) {
-      out << "NOT RUN  #" << i << " " << name << ": " << e.what() << "\n";
-      ++summary.not_run;
+    if (!render_or_report(*renderer, variant, "NOT RUN  #" + std::to_string(i) + " " + name + ": ", out, summary, rendered))
       continue;
-    }
     Image reference = read_kimg(options.golden_dir / golden->get<std::string>());
     if (other) {
       Image expected;
-      try {
-        expected = other->render(variant);
-      } catch (const std::exception& e) {
-        out << "NOT RUN  #" << i << " " << name << ": " << options.against << ": " << e.what() << "\n";
-        ++summary.not_run;
+      if (!render_or_report(*other, variant, "NOT RUN  #" + std::to_string(i) + " " + name + ": " + options.against + ": ",
+                            out, summary, expected))
         continue;
-      }
       // The reference still says which pixels are shaded and which are shadow-test ties.
       for (size_t p = 0; p + 3 < expected.rgba.size(); p += 4) expected.rgba[p + 3] = reference.rgba[p + 3];
       reference = std::move(expected);
@@ -397,7 +419,7 @@ GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream
   }
   if (!options.usage_log.empty()) {
     const PackResult<size_t> sets = pack.flush_usage();
-    if (!sets) throw std::runtime_error(options.usage_log.string() + ": error: " + std::string(sets.message()));
+    if (!sets) fail(DiagId::OutputUnwritable, options.usage_log, std::string(sets.message()));
     out << "kiln test: usage log " << options.usage_log.string() << ": " << *sets << " keyword sets\n";
   }
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -15,6 +15,7 @@
 #include "kiln/manifest_json.hpp"
 #include "render/backend.hpp"
 #include "scene/image.hpp"
+#include "scene/verify_error.hpp"
 
 namespace kiln::render {
 
@@ -102,7 +103,11 @@ struct GoldenTestSummary {
   size_t failed = 0;
   size_t not_run = 0;  // counted as failures: a skipped variant is never a pass
   double seconds = 0;
+  // The worst exit status among the variants that could not be rendered (diagnostics.def's classes; 0 when none).
+  int worst_exit_status = 0;
   bool ok() const { return failed == 0 && not_run == 0 && passed > 0; }
+  // kiln test's exit status: a failed or unrendered variant is 1, unless the reason it was not rendered is worse.
+  int exit_status() const { return worse_exit_status(ok() ? 0 : 1, worst_exit_status); }
 };
 
 // The Forward variants shard `shard_index` of `shard_count` runs, in the order it runs them: grouped by

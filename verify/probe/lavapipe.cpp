@@ -1,4 +1,5 @@
 #include "probe/lavapipe.hpp"
+#include "scene/verify_error.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -92,7 +93,7 @@ std::vector<ProbeOutput> Lavapipe::run(const ProbeProgram& program, const std::v
                                        const std::vector<ProbeBuffer>& buffers) {
   if (inputs.empty()) return {};
   render::VulkanContext& context = *state_->context;
-  if (program.float16 && !context.supports_float16()) throw std::runtime_error("the lavapipe device lacks shaderFloat16");
+  if (program.float16 && !context.supports_float16()) render::fail(DiagId::DeviceUnavailable, {}, "the lavapipe device lacks shaderFloat16");
   VkDevice device = context.device();
   VulkanObjects objects(context);
 

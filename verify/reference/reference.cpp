@@ -1,4 +1,5 @@
 #include "reference/reference.hpp"
+#include "scene/verify_error.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -328,13 +329,13 @@ std::string encode_dfg_table(const DfgTable& table, uint32_t samples) {
 }
 
 DfgTable decode_dfg_table(const std::string& bytes) {
-  if (bytes.size() < 20 || bytes.compare(0, 4, "KDFG") != 0) throw std::runtime_error("not a KDFG table");
+  if (bytes.size() < 20 || bytes.compare(0, 4, "KDFG") != 0) render::fail(DiagId::GoldenData, {}, "not a KDFG table");
   uint32_t header[4];
   std::memcpy(header, bytes.data() + 4, 16);
-  if (header[0] != kDfgVersion) throw std::runtime_error("unsupported KDFG version (regenerate with kiln-reference dfg)");
+  if (header[0] != kDfgVersion) render::fail(DiagId::GoldenData, {}, "unsupported KDFG version (regenerate with kiln-reference dfg)");
   DfgTable table{static_cast<int>(header[1]), static_cast<int>(header[2]), {}};
   size_t count = static_cast<size_t>(table.width) * table.height * 2;
-  if (bytes.size() != 20 + count * sizeof(float)) throw std::runtime_error("KDFG table has the wrong size");
+  if (bytes.size() != 20 + count * sizeof(float)) render::fail(DiagId::GoldenData, {}, "KDFG table has the wrong size");
   table.rg.resize(count);
   std::memcpy(table.rg.data(), bytes.data() + 20, count * sizeof(float));
   return table;

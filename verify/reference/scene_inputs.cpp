@@ -1,4 +1,5 @@
 #include "reference/scene_inputs.hpp"
+#include "scene/verify_error.hpp"
 
 #include <algorithm>
 #include <fstream>
@@ -17,7 +18,7 @@ SceneInputs::SceneInputs(render::Scene scene)
   additional_ = rasterize_shadow_atlas(scene_, base.additional_views, std::max(1u, base.additional_atlas_width),
                                        std::max(1u, base.additional_atlas_height), scene_.additional_shadow);
   std::ifstream in(scene_.dfg, std::ios::binary);
-  if (!in) throw std::runtime_error("cannot open " + scene_.dfg.string());
+  if (!in) render::fail(DiagId::GoldenData, scene_.dfg, "cannot open the DFG table");
   std::stringstream bytes;
   bytes << in.rdbuf();
   dfg_ = decode_dfg_table(bytes.str());

@@ -4,6 +4,7 @@
 
 #include "render/gl_renderer.hpp"
 #include "render/renderer.hpp"
+#include "scene/verify_error.hpp"
 
 namespace kiln::render {
 
@@ -11,7 +12,7 @@ Api parse_api(const std::string& name) {
   if (name == "vulkan") return Api::Vulkan;
   if (name == "gl") return Api::Gl;
   if (name == "gles") return Api::Gles;
-  throw std::runtime_error("kiln: error: unknown API '" + name + "' (vulkan, gl or gles)");
+  fail(DiagId::VerifyArgument, {}, "unknown API '" + name + "' (vulkan, gl or gles)");
 }
 
 std::string api_name(Api api) {
@@ -52,13 +53,13 @@ std::unique_ptr<Backend> Backend::open(Api api, const PackReader& pack, const Sc
   std::string error;
   if (api == Api::Vulkan) {
     auto context = VulkanContext::open_lavapipe(error);
-    if (!context) throw std::runtime_error("kiln render: error: " + error);
+    if (!context) fail(DiagId::DeviceUnavailable, {}, error);
     std::string device = "Vulkan on " + context->device_name() + " (" + context->driver_info() + ")";
     return std::make_unique<ContextBackend<VulkanContext, SceneRenderer>>(std::move(context), pack, scene, width,
                                                                           height, std::move(device));
   }
   auto context = GlContext::open(api == Api::Gles ? GlApi::Gles32 : GlApi::DesktopGl45, error);
-  if (!context) throw std::runtime_error("kiln render: error: " + error);
+  if (!context) fail(DiagId::DeviceUnavailable, {}, error);
   std::string device = std::string(api == Api::Gles ? "GLSL ES" : "GLSL 450") + " on " + context->renderer();
   return std::make_unique<ContextBackend<GlContext, GlSceneRenderer>>(std::move(context), pack, scene, width, height,
                                                                       std::move(device));

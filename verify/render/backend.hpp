@@ -13,13 +13,13 @@
 namespace kiln::render {
 
 enum class Api { Vulkan, Gl, Gles };
-// "vulkan", "gl", "gles"; throws std::runtime_error for anything else.
+// "vulkan", "gl", "gles"; throws a VerifyError (K2005) for anything else.
 Api parse_api(const std::string& name);
 std::string api_name(Api api);
 
 class Backend {
  public:
-  // Opens the API's device and sets the scene up for the pack's Forward pass. Throws std::runtime_error with
+  // Opens the API's device and sets the scene up for the pack's Forward pass. Throws a VerifyError with
   // a clear message (no device, a pack or scene the renderer cannot use).
   static std::unique_ptr<Backend> open(Api api, const PackReader& pack, const Scene& scene, uint32_t width = 0,
                                        uint32_t height = 0);

@@ -1,4 +1,5 @@
 #include "render/gl_context.hpp"
+#include "scene/verify_error.hpp"
 
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
@@ -95,7 +96,7 @@ void GlContext::check(const char* what) const {
   if (error == GL_NO_ERROR) return;
   char code[16];
   std::snprintf(code, sizeof code, "0x%04x", error);
-  throw std::runtime_error(std::string("kiln render: error: OpenGL error ") + code + " after " + what);
+  fail(DiagId::DriverCallFailed, {}, std::string("OpenGL error ") + code + " after " + what);
 }
 
 namespace {

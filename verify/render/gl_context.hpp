@@ -48,7 +48,7 @@ class GlContext {
   const GlFunctions& gl() const { return gl_; }
   std::string renderer() const;  // GL_RENDERER and GL_VERSION
   bool has_extension(const std::string& name) const;
-  // Throws std::runtime_error naming `what` if the driver recorded an error.
+  // Throws a VerifyError (K2007) naming `what` if the driver recorded an error.
   void check(const char* what) const;
 
   // Compiles both stages and links them; returns the program, or 0 with the driver's messages in `log`.

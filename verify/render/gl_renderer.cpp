@@ -258,7 +258,7 @@ struct GlSceneRenderer::State {
     GLuint program = context.compile_and_link(source(variant.stage("vertex"), gles, variant),
                                               source(variant.stage("fragment"), gles, variant), log);
     if (!program)
-      render_error("the GL driver rejects " + variant.pass + " #" + std::to_string(variant.index) + ": " + log);
+      render_error(DiagId::DriverCallFailed, "the GL driver rejects " + variant.pass + " #" + std::to_string(variant.index) + ": " + log);
     bindings = manifest_bindings(variant, gles);
     check_bindings_against_driver(gl, program, bindings);
     return program;
@@ -272,7 +272,7 @@ struct GlSceneRenderer::State {
     gl.DrawBuffers(1, &none);
     gl.ReadBuffer(GL_NONE);
     if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-      render_error("the GL driver cannot render into a DEPTH_COMPONENT32F shadow atlas");
+      render_error(DiagId::DeviceUnavailable, "the GL driver cannot render into a DEPTH_COMPONENT32F shadow atlas");
     gl.Viewport(0, 0, size_x, size_y);
     gl.Disable(GL_SCISSOR_TEST);
     const GLfloat one = 1.0f;
@@ -307,7 +307,7 @@ GlSceneRenderer::GlSceneRenderer(GlContext& context, const PackReader& pack, con
   if (context.api() == GlApi::Gles32) {
     for (const char* extension : {"GL_EXT_color_buffer_float", "GL_OES_texture_float_linear"})
       if (!context.has_extension(extension))
-        render_error(std::string("the OpenGL ES driver lacks ") + extension + " (float render targets and filtering)");
+        render_error(DiagId::DeviceUnavailable, std::string("the OpenGL ES driver lacks ") + extension + " (float render targets and filtering)");
   } else {
     gl.Enable(GL_TEXTURE_CUBE_MAP_SEAMLESS);  // Vulkan's cube sampling is seamless
   }
@@ -379,7 +379,7 @@ GlSceneRenderer::GlSceneRenderer(GlContext& context, const PackReader& pack, con
   const GLenum color = GL_COLOR_ATTACHMENT0;
   gl.DrawBuffers(1, &color);
   if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-    render_error("the GL driver cannot render into an RGBA32F target with a DEPTH_COMPONENT32F depth buffer");
+    render_error(DiagId::DeviceUnavailable, "the GL driver cannot render into an RGBA32F target with a DEPTH_COMPONENT32F depth buffer");
   gl.BindFramebuffer(GL_FRAMEBUFFER, 0);
 
   // Fixed state shared by every pass: depth test LESS (Vulkan's), no culling, Vulkan's front face.
@@ -403,7 +403,7 @@ Image GlSceneRenderer::render(const std::vector<std::string>& keywords) {
 Image GlSceneRenderer::render(const SelectedVariant& variant) {
   State& s = *state_;
   const GlFunctions& gl = s.gl;
-  if (variant.pass == "ShadowCaster") render_error("the ShadowCaster pass draws shadow maps, not images");
+  if (variant.pass == "ShadowCaster") render_error(DiagId::VerifyArgument, "the ShadowCaster pass draws shadow maps, not images");
   const int cascades = cascades_for(variant.keywords, scene_);
   State::Frame& f = s.frames[cascades];
   if (!f.data) {

@@ -24,7 +24,7 @@ namespace kiln::render {
 
 class GlSceneRenderer {
  public:
-  // `width`/`height` 0: the scene's size. Throws std::runtime_error on a pack, scene or driver the renderer
+  // `width`/`height` 0: the scene's size. Throws a VerifyError on a pack, scene or driver the renderer
   // cannot use (a missing pass or GLSL target, a resource it does not provide, a missing GL feature).
   GlSceneRenderer(GlContext& gl, const PackReader& pack, const Scene& scene, uint32_t width = 0, uint32_t height = 0);
   ~GlSceneRenderer();

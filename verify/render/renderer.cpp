@@ -624,7 +624,7 @@ Image SceneRenderer::render(const std::vector<std::string>& keywords) {
 
 Image SceneRenderer::render(const SelectedVariant& variant) {
   State& s = *state_;
-  if (variant.pass == "ShadowCaster") fail("the ShadowCaster pass draws shadow maps, not images");
+  if (variant.pass == "ShadowCaster") render_error(DiagId::VerifyArgument, "the ShadowCaster pass draws shadow maps, not images");
   frame(cascades_for(variant.keywords, scene_));
   State::Frame& f = s.frames[cascades_for(variant.keywords, scene_)];
   const PassLayout* layout = &s.forward;
@@ -652,7 +652,7 @@ Image SceneRenderer::render(const SelectedVariant& variant) {
     sets = &it->second.object_sets;
   }
   if (has(variant.keywords, "_HALF_PRECISION") && !s.context.supports_float16())
-    fail("this lavapipe lacks shaderFloat16, needed by _HALF_PRECISION variants");
+    render_error(DiagId::DeviceUnavailable, "this lavapipe lacks shaderFloat16, needed by _HALF_PRECISION variants");
   auto t0 = std::chrono::steady_clock::now();
   VkPipeline pipeline = image_pipeline(variant, layout->pipeline_layout);
   last_pipeline_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

@@ -21,7 +21,7 @@ namespace kiln::render {
 
 class SceneRenderer {
  public:
-  // `width`/`height` 0: the scene's size. Throws std::runtime_error on a pack or scene the renderer cannot
+  // `width`/`height` 0: the scene's size. Throws a VerifyError on a pack or scene the renderer cannot
   // use (a missing pass, a resource name it does not provide, a light list that overflows a tile).
   SceneRenderer(VulkanContext& context, const PackReader& pack, const Scene& scene, uint32_t width = 0,
                 uint32_t height = 0);

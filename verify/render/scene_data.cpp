@@ -10,22 +10,24 @@
 namespace kiln::render {
 
 
-void render_error(const std::string& message) { throw std::runtime_error("kiln render: error: " + message); }
+void render_error(const std::string& message) { fail(DiagId::PackUnusable, {}, message); }
+void render_error(DiagId id, const std::string& message) { fail(id, {}, message); }
+
 
 DfgTable load_dfg(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) render_error("cannot open " + path.string());
+  if (!in) fail(DiagId::GoldenData, path, "cannot open the DFG table");
   std::stringstream s;
   s << in.rdbuf();
   const std::string bytes = s.str();
   uint32_t header[4];
-  if (bytes.size() < 20 || bytes.compare(0, 4, "KDFG") != 0) render_error(path.string() + " is not a KDFG table");
+  if (bytes.size() < 20 || bytes.compare(0, 4, "KDFG") != 0) fail(DiagId::GoldenData, path, "not a KDFG table");
   std::memcpy(header, bytes.data() + 4, 16);
   // Version 3: columns spaced in cbrt(NoV) (verify/reference/reference.hpp); the renderers only upload the texels.
-  if (header[0] != 3) render_error(path.string() + ": KDFG version " + std::to_string(header[0]) + " (expected 3)");
+  if (header[0] != 3) fail(DiagId::GoldenData, path, "KDFG version " + std::to_string(header[0]) + " (expected 3)");
   DfgTable t{header[1], header[2], {}};
   t.rg.resize(size_t(t.width) * t.height * 2);
-  if (bytes.size() != 20 + t.rg.size() * 4) render_error(path.string() + ": truncated KDFG table");
+  if (bytes.size() != 20 + t.rg.size() * 4) fail(DiagId::GoldenData, path, "truncated KDFG table");
   std::memcpy(t.rg.data(), bytes.data() + 20, t.rg.size() * 4);
   return t;
 }

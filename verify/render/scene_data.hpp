@@ -16,13 +16,15 @@
 #include "kiln/manifest_json.hpp"
 #include "scene/environment.hpp"
 #include "scene/scene.hpp"
+#include "scene/verify_error.hpp"
 
 namespace kiln::render {
 
 using Bytes = std::vector<uint8_t>;
 
-// Throws std::runtime_error("kiln render: error: " + message).
+// Throws a VerifyError (scene/verify_error.hpp): K2004 (the pack lacks what the renderer needs), or `id`.
 [[noreturn]] void render_error(const std::string& message);
+[[noreturn]] void render_error(DiagId id, const std::string& message);
 
 // The DFG table shipped with the shader library (KDFG v3, see verify/reference/reference.hpp): RG float32.
 struct DfgTable {

@@ -1,4 +1,5 @@
 #include "render/vulkan_context.hpp"
+#include "scene/verify_error.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -7,7 +8,7 @@
 namespace kiln::render {
 
 void check(VkResult result, const char* what) {
-  if (result != VK_SUCCESS) throw std::runtime_error(std::string(what) + " failed: VkResult " + std::to_string(result));
+  if (result != VK_SUCCESS) fail(DiagId::DriverCallFailed, {}, std::string(what) + " failed: VkResult " + std::to_string(result));
 }
 
 std::unique_ptr<VulkanContext> VulkanContext::open_lavapipe(std::string& error) {
@@ -107,7 +108,7 @@ std::string VulkanContext::driver_info() const {
 uint32_t VulkanContext::memory_type(uint32_t type_bits, VkMemoryPropertyFlags flags) const {
   for (uint32_t i = 0; i < memory_.memoryTypeCount; ++i)
     if ((type_bits & (1u << i)) && (memory_.memoryTypes[i].propertyFlags & flags) == flags) return i;
-  throw std::runtime_error("no Vulkan memory type with the requested properties");
+  fail(DiagId::DriverCallFailed, {}, "no Vulkan memory type with the requested properties");
 }
 
 void VulkanContext::submit(const std::function<void(VkCommandBuffer)>& record, double* milliseconds) {
@@ -232,7 +233,7 @@ VkSampler VulkanObjects::sampler(const VkSamplerCreateInfo& info) {
 }
 
 VkShaderModule VulkanObjects::shader_module(const void* bytes, size_t size) {
-  if (size == 0 || size % 4 != 0) throw std::runtime_error("SPIR-V blob of " + std::to_string(size) + " bytes");
+  if (size == 0 || size % 4 != 0) fail(DiagId::PackUnusable, {}, "a SPIR-V blob of " + std::to_string(size) + " bytes (not a whole number of words)");
   std::vector<uint32_t> words(size / 4);
   std::copy_n(static_cast<const uint8_t*>(bytes), size, reinterpret_cast<uint8_t*>(words.data()));
   return shader_module(words);

@@ -14,7 +14,7 @@
 
 namespace kiln::render {
 
-// Throws std::runtime_error naming `what` and the VkResult.
+// Throws a VerifyError (K2007) naming `what` and the VkResult.
 void check(VkResult result, const char* what);
 
 class VulkanContext {

@@ -1,4 +1,5 @@
 #include "scene/image.hpp"
+#include "scene/verify_error.hpp"
 
 #include <png.h>
 #include <unistd.h>
@@ -32,7 +33,22 @@ std::filesystem::path temporary_for(const std::filesystem::path& path) {
   return path.string() + ".tmp" + std::to_string(::getpid());
 }
 
+void rename_into_place(const std::filesystem::path& temporary, const std::filesystem::path& path) {
+  std::error_code ec;
+  std::filesystem::rename(temporary, path, ec);
+  if (!ec) return;
+  std::error_code ignored;
+  std::filesystem::remove(temporary, ignored);
+  fail(DiagId::OutputUnwritable, path, "cannot write the file: " + ec.message());
+}
+
 }  // namespace
+
+void create_output_directory(const std::filesystem::path& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) fail(DiagId::OutputUnwritable, dir, "cannot make the directory: " + ec.message());
+}
 
 void write_file_atomically(const std::filesystem::path& path, const std::string& bytes) {
   auto temporary = temporary_for(path);
@@ -42,10 +58,10 @@ void write_file_atomically(const std::filesystem::path& path, const std::string&
     if (!out.flush()) {
       std::error_code ec;
       std::filesystem::remove(temporary, ec);
-      throw std::runtime_error(path.string() + ": error: cannot write");
+      fail(DiagId::OutputUnwritable, path, "cannot write the file");
     }
   }
-  std::filesystem::rename(temporary, path);
+  rename_into_place(temporary, path);
 }
 
 std::vector<uint8_t> encode_srgb8(const Image& image, bool apply_aces) {
@@ -72,10 +88,10 @@ void write_png(const std::filesystem::path& path, uint32_t width, uint32_t heigh
   png.format = PNG_FORMAT_RGBA;
   png_alloc_size_t size = 0;
   if (!png_image_write_get_memory_size(png, size, 0, rgba8.data(), 0, nullptr))
-    throw std::runtime_error(path.string() + ": error: PNG encoding failed: " + png.message);
+    fail(DiagId::OutputUnwritable, path, std::string("PNG encoding failed: ") + png.message);
   std::string bytes(size, '\0');
   if (!png_image_write_to_memory(&png, bytes.data(), &size, 0, rgba8.data(), 0, nullptr))
-    throw std::runtime_error(path.string() + ": error: PNG encoding failed: " + png.message);
+    fail(DiagId::OutputUnwritable, path, std::string("PNG encoding failed: ") + png.message);
   bytes.resize(size);
   write_file_atomically(path, bytes);
 }
@@ -85,11 +101,11 @@ std::vector<uint8_t> read_png(const std::filesystem::path& path, uint32_t& width
   std::memset(&png, 0, sizeof png);
   png.version = PNG_IMAGE_VERSION;
   if (!png_image_begin_read_from_file(&png, path.c_str()))
-    throw std::runtime_error(path.string() + ": error: cannot read PNG: " + png.message);
+    fail(DiagId::GoldenData, path, std::string("cannot read the PNG image: ") + png.message);
   png.format = PNG_FORMAT_RGBA;
   std::vector<uint8_t> pixels(PNG_IMAGE_SIZE(png));
   if (!png_image_finish_read(&png, nullptr, pixels.data(), 0, nullptr))
-    throw std::runtime_error(path.string() + ": error: cannot decode PNG: " + png.message);
+    fail(DiagId::GoldenData, path, std::string("cannot decode the PNG image: ") + png.message);
   width = png.width;
   height = png.height;
   return pixels;
@@ -106,11 +122,17 @@ void write_exr(const std::filesystem::path& path, const Image& image) {
       frame.insert(names[c], Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(const_cast<float*>(image.rgba.data() + c)),
                                         sizeof(float) * 4, sizeof(float) * 4 * image.width));
     }
-    Imf::OutputFile file(temporary.c_str(), header);
-    file.setFrameBuffer(frame);
-    file.writePixels(static_cast<int>(image.height));
+    try {
+      Imf::OutputFile file(temporary.c_str(), header);
+      file.setFrameBuffer(frame);
+      file.writePixels(static_cast<int>(image.height));
+    } catch (const std::exception& e) {  // OpenEXR reports a file it cannot create or write with an exception
+      std::error_code ec;
+      std::filesystem::remove(temporary, ec);
+      fail(DiagId::OutputUnwritable, path, std::string("cannot write the OpenEXR image: ") + e.what());
+    }
   }
-  std::filesystem::rename(temporary, path);
+  rename_into_place(temporary, path);
 }
 
 void write_kimg(const std::filesystem::path& path, const Image& image) {
@@ -128,16 +150,17 @@ Image read_kimg(const std::filesystem::path& path) {
   std::stringstream text;
   text << in.rdbuf();
   std::string bytes = text.str();
-  auto fail = [&](const std::string& m) { return std::runtime_error(path.string() + ": error: " + m); };
-  if (bytes.size() < 16 || bytes.compare(0, 4, "KIMG") != 0) throw fail("not a KIMG image");
+  auto bad = [&](const std::string& m) { fail(DiagId::GoldenData, path, m); };
+  if (!in) bad("cannot open the image");
+  if (bytes.size() < 16 || bytes.compare(0, 4, "KIMG") != 0) bad("not a KIMG image");
   uint32_t header[3];
   std::memcpy(header, bytes.data() + 4, 12);
-  if (header[0] != 1) throw fail("KIMG version " + std::to_string(header[0]) + " (expected 1)");
+  if (header[0] != 1) bad("KIMG version " + std::to_string(header[0]) + " (expected 1)");
   Image image;
   image.width = header[1];
   image.height = header[2];
   size_t floats = size_t(image.width) * image.height * 4;
-  if (bytes.size() != 16 + floats * 4) throw fail("truncated KIMG image");
+  if (bytes.size() != 16 + floats * 4) bad("truncated KIMG image");
   image.rgba.resize(floats);
   std::memcpy(image.rgba.data(), bytes.data() + 16, floats * 4);
   return image;

@@ -32,6 +32,8 @@ void write_exr(const std::filesystem::path& path, const Image& image);
 void write_kimg(const std::filesystem::path& path, const Image& image);
 Image read_kimg(const std::filesystem::path& path);
 
+// Creates `dir` and its parents; one that cannot be made is K1601 (OutputUnwritable, exit 3).
+void create_output_directory(const std::filesystem::path& dir);
 // Writes `bytes` to `path` through a temporary file in the same directory and a rename.
 void write_file_atomically(const std::filesystem::path& path, const std::string& bytes);
 

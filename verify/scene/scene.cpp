@@ -1,4 +1,5 @@
 #include "scene/scene.hpp"
+#include "scene/verify_error.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -24,7 +25,7 @@ Vec3 cross(const Vec3& a, const Vec3& b) {
 Vec3 normalize(const Vec3& v) { return scale(v, 1.0 / std::sqrt(dot(v, v))); }
 
 [[noreturn]] void fail(const std::filesystem::path& path, const std::string& message) {
-  throw std::runtime_error(path.string() + ": error: " + message);
+  render::fail(DiagId::RenderScene, path, message);
 }
 
 Vec3 read_vec3(const nlohmann::json& j, const std::filesystem::path& path, const std::string& field) {
@@ -198,12 +199,7 @@ bool Scene::judges(const std::string& variant) const {
 Scene load_scene(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) fail(path, "cannot open the scene file");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    fail(path, std::string("invalid JSON: ") + e.what());
-  }
+  const nlohmann::json j = parse_json_file(in, path, DiagId::RenderScene);
   if (!j.is_object() || !j.contains("render")) fail(path, "a render scene needs a \"render\" object");
   const nlohmann::json& r = j["render"];
   Scene scene;
@@ -550,9 +546,9 @@ FrameSetup setup_frame(const Scene& scene, int cascades) {
       for (int tx = tx0; tx <= tx1; ++tx) {
         uint32_t* list = &f.tile_lists[(size_t(ty) * f.tiles_x + tx) * kTileStride];
         if (list[0] >= kMaxLightsPerTile)
-          throw std::runtime_error(scene.path.string() + ": error: more than " + std::to_string(kMaxLightsPerTile) +
-                                   " lights reach Forward+ tile (" + std::to_string(tx) + ", " + std::to_string(ty) +
-                                   "); use smaller light ranges or a smaller tile_size");
+          fail(scene.path, "more than " + std::to_string(kMaxLightsPerTile) + " lights reach Forward+ tile (" +
+                               std::to_string(tx) + ", " + std::to_string(ty) +
+                               "); use smaller light ranges or a smaller tile_size");
         list[1 + list[0]++] = index;
       }
   }

@@ -106,7 +106,7 @@ struct Scene {
 // The keyword list of a variant as goldens and reports name it: sorted, space-separated, "(none)" if empty.
 std::string variant_name(const std::vector<std::string>& keywords);
 
-// Loads a scene; throws std::runtime_error "path: error: ..." naming the bad field.
+// Loads a scene; throws a VerifyError (K2001) naming the bad field.
 Scene load_scene(const std::filesystem::path& path);
 
 // Mesh data: interleaved position (3), normal (3), tangent (4: xyz, w bitangent sign), uv (2).

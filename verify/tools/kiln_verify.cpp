@@ -15,10 +15,14 @@
 
 #include "golden/golden.hpp"
 #include "kiln/guarded_main.hpp"
+#ifdef KILN_FAULT_INJECTION
+#include "fault_injection.hpp"
+#endif
 #include "kiln/pack_reader.hpp"
 #include "kiln/manifest_json.hpp"
 #include "render/backend.hpp"
 #include "scene/image.hpp"
+#include "scene/verify_error.hpp"
 
 namespace {
 
@@ -39,12 +43,10 @@ std::vector<std::string> split_words(const std::string& text) {
 int run_render(const std::string& pack_dir, const std::string& keywords, const std::string& scene_file,
                const std::string& png_out, const std::string& exr_out, const std::string& size_text,
                const std::string& api) {
-  try {
+  return kiln::render::reporting_errors([&] {
     uint32_t width = 0, height = 0;
-    if (!size_text.empty() && std::sscanf(size_text.c_str(), "%ux%u", &width, &height) != 2) {
-      std::cerr << "kiln render: error: --size wants WxH, e.g. 256x256 (got '" << size_text << "')\n";
-      return 1;
-    }
+    if (!size_text.empty() && std::sscanf(size_text.c_str(), "%ux%u", &width, &height) != 2)
+      kiln::render::fail(kiln::DiagId::VerifyArgument, {}, "--size wants WxH, e.g. 256x256 (got '" + size_text + "')");
     kiln::PackReader pack = kiln::PackReader::open(pack_dir);
     kiln::render::Scene scene = kiln::render::load_scene(scene_file);
     auto renderer = kiln::render::Backend::open(kiln::render::parse_api(api), pack, scene, width, height);
@@ -63,10 +65,7 @@ int run_render(const std::string& pack_dir, const std::string& keywords, const s
               << kiln::render::variant_name(variant.keywords) << ", " << renderer->device() << ", " << format_ms(ms)
               << " including shader compilation)\n";
     return 0;
-  } catch (const std::exception& e) {
-    std::cerr << e.what() << "\n";
-    return 1;
-  }
+  });
 }
 
 int run_test(const std::string& pack_dir, const std::string& scene_file, const std::string& golden_dir,
@@ -84,18 +83,12 @@ int run_test(const std::string& pack_dir, const std::string& scene_file, const s
   options.against = against;
   options.cover = cover;
   options.usage_log = usage_log;
-  if (!shard.empty() && (std::sscanf(shard.c_str(), "%u/%u", &options.shard_index, &options.shard_count) != 2 ||
-                         options.shard_count == 0 || options.shard_index >= options.shard_count)) {
-    std::cerr << "kiln test: error: --shard wants I/N with I < N (got '" << shard << "')\n";
-    return 1;
-  }
-  try {
-    kiln::render::GoldenTestSummary summary = kiln::render::run_golden_test(options, std::cout);
-    return summary.ok() ? 0 : 1;
-  } catch (const std::exception& e) {
-    std::cerr << e.what() << "\n";
-    return 1;
-  }
+  return kiln::render::reporting_errors([&] {
+    if (!shard.empty() && (std::sscanf(shard.c_str(), "%u/%u", &options.shard_index, &options.shard_count) != 2 ||
+                           options.shard_count == 0 || options.shard_index >= options.shard_count))
+      kiln::render::fail(kiln::DiagId::VerifyArgument, {}, "--shard wants I/N with I < N (got '" + shard + "')");
+    return kiln::render::run_golden_test(options, std::cout).exit_status();
+  });
 }
 
 // lavapipe and llvmpipe allocate and free megabytes per pipeline and per draw (shader code, tile and vertex
@@ -161,12 +154,15 @@ int run(int argc, char** argv) {
   } catch (const CLI::ParseError& error) {
     return app.exit(error) == 0 ? 0 : 1;
   }
+#ifdef KILN_FAULT_INJECTION  // the tests' kiln-verify-fault only (tests/support/fault_injection.hpp)
+  kiln::testing::inject_fault(*render ? "render" : "test");
+#endif
   if (*render) return run_render(pack_dir, variant_keywords, scene_file, png_out, exr_out, size_text, api);
   return run_test(pack_dir, scene_file, golden_dir, tolerances, report_dir, filter, shard, api, against, cover, usage_log);
 }
 
 }  // namespace
 
-// The guarded entry point (kiln/guarded_main.hpp): an exception that escapes is an internal error, exit 2.
-// (render and test still report the renderer's and the reader's errors as exit 1.)
+// The guarded entry point (kiln/guarded_main.hpp): an exception that escapes is an internal error, exit 2. The
+// renderer's and the reader's errors are the verbs' own (reporting_errors): exit 1, 3 or 2 by their class.
 int main(int argc, char** argv) { return kiln::run_guarded([&] { return run(argc, argv); }); }

@@ -12,10 +12,9 @@
 #include "kiln/defaults.hpp"
 #include "kiln/diagnostics.hpp"
 #include "kiln/model.hpp"
+#include "kiln/version.hpp"  // generated from CMake's project version (cmake/version.hpp.in)
 
 namespace kiln {
-
-inline constexpr const char* kKilnVersion = "0.1.0";
 
 // What `--emit` can dump, one name per pipeline stage.
 inline const std::set<std::string>& emit_stage_names() {

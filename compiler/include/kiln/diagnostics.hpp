@@ -48,6 +48,9 @@ struct SourceLocation {
   int column = 0;
 };
 
+// The line and column (1-based) of byte `offset` of `text`, a file at `path`.
+SourceLocation location_of_offset(const std::string& path, std::string_view text, size_t offset);
+
 struct Diagnostic {
   DiagId id{};
   Severity severity = Severity::Error;
@@ -101,6 +104,10 @@ int worse_exit_status(int a, int b);
 // With `colour`, in ANSI colours as GCC and clang use them: the location and message bold, the severity in
 // red (error), magenta (warning) or cyan (note), the caret green; the text is otherwise the same.
 std::string format_diagnostic(const Diagnostic& diagnostic, bool colour = false);
+
+// Whether diagnostics on stderr are coloured, by kiln's --color modes: "always", "never", or "auto" (stderr is a
+// terminal, TERM is set and not "dumb", and NO_COLOR is unset or empty: no-color.org).
+bool stderr_wants_colour(std::string_view mode);
 
 // Edit distance, used to suggest the closest known name.
 size_t edit_distance(std::string_view a, std::string_view b);

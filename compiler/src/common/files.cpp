@@ -42,19 +42,6 @@ std::string display_path(const std::filesystem::path& path) {
   return path.string();
 }
 
-SourceLocation location_of_offset(const std::string& path, std::string_view text, size_t offset) {
-  SourceLocation location{path, 1, 1};
-  for (size_t i = 0; i < offset && i < text.size(); ++i) {
-    if (text[i] == '\n') {
-      ++location.line;
-      location.column = 1;
-    } else {
-      ++location.column;
-    }
-  }
-  return location;
-}
-
 SourceLocation locate_json_string(const std::string& path, std::string_view text, std::string_view value) {
   std::string quoted = "\"" + std::string(value) + "\"";
   size_t at = text.find(quoted);

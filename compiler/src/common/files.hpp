@@ -40,8 +40,6 @@ std::filesystem::path make_scratch_directory(const std::filesystem::path& direct
 // A path as shown to users: relative to the working directory when below it.
 std::string display_path(const std::filesystem::path& path);
 
-// 1-based line and column of a byte offset.
-SourceLocation location_of_offset(const std::string& path, std::string_view text, size_t offset);
 
 // Where a JSON string value first appears in a JSON file's text (for diagnostics on JSON inputs).
 SourceLocation locate_json_string(const std::string& path, std::string_view text, std::string_view value);

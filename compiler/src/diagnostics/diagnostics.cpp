@@ -1,6 +1,9 @@
 #include "kiln/diagnostics.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cstdlib>
 #include <sstream>
 
 namespace kiln {
@@ -182,6 +185,26 @@ std::string format_diagnostic(const Diagnostic& d, bool colour) {
   for (const std::string& note : d.notes)
     out << "  " << (colour ? severity_colour(Severity::Note) : "") << "note:" << reset << ' ' << note << '\n';
   return out.str();
+}
+
+SourceLocation location_of_offset(const std::string& path, std::string_view text, size_t offset) {
+  SourceLocation location{path, 1, 1};
+  for (size_t i = 0; i < offset && i < text.size(); ++i) {
+    if (text[i] == '\n') {
+      ++location.line;
+      location.column = 1;
+    } else {
+      ++location.column;
+    }
+  }
+  return location;
+}
+
+bool stderr_wants_colour(std::string_view mode) {
+  if (mode == "always" || mode == "never") return mode == "always";
+  const char* no_colour = std::getenv("NO_COLOR");
+  const char* term = std::getenv("TERM");
+  return !(no_colour && *no_colour) && ::isatty(2) && term && *term && std::string_view(term) != "dumb";
 }
 
 // Optimal string alignment distance: insertions, deletions, substitutions and swaps of two adjacent
