@@ -2,11 +2,12 @@
 # that each user installs only what they need:
 #   libkiln-reader0     libkiln_reader.so.0, what a game ships (the reader's C and C++ API; libc, libstdc++, xxHash
 #                       and zstd at run time)
-#   libkiln-reader-dev  the reader's headers, libkiln_reader.so and .a, kiln-reader.pc: what a game builds with
-#                       (`cc game.c $(pkg-config --cflags --libs kiln-reader)` links with the C compiler alone)
-#   kiln                kiln and kiln-worker, the CMake package (find_package(kiln), kiln_add_shader_pack), the
+#   libkiln-reader-dev  the reader's headers, libkiln_reader.so and .a, kiln-reader.pc and find_package(kiln)'s
+#                       reader part: what a game builds with (`cc game.c $(pkg-config --cflags --libs kiln-reader)`
+#                       links with the C compiler alone)
+#   kiln                kiln and kiln-worker, find_package(kiln)'s compiler part (kiln_add_shader_pack), the
 #                       schemas, man page, completion, docs and examples: what a build machine or a lint job needs,
-#                       with no Vulkan, EGL or X11
+#                       with no Vulkan, EGL or X11 (it recommends libkiln-reader-dev, whose config file loads it)
 #   kiln-verify         kiln-verify (kiln render, kiln test): Vulkan, EGL, PNG and OpenEXR
 # Each holds its copyright file and a compressed Debian changelog (lintian). Depends: the shared libraries each
 # package's files link (dpkg-shlibdeps; glslang and SPIRV-Tools are static on Debian 12) and the packages below it.
@@ -35,7 +36,6 @@ if(TARGET kiln-verify)
 endif()
 set(CPACK_DEBIAN_ENABLE_COMPONENT_DEPENDS ON)
 set(CPACK_COMPONENT_DEV_DEPENDS reader)
-set(CPACK_COMPONENT_CLI_DEPENDS dev)
 set(CPACK_COMPONENT_VERIFY_DEPENDS cli)
 
 # Synopses under 80 characters and description lines under 80 (lintian); the first line of each is its synopsis.
@@ -66,7 +66,8 @@ headers, the shared and static libraries, and kiln-reader.pc for pkg-config.")
 set(CPACK_DEBIAN_CLI_PACKAGE_NAME kiln)
 set(CPACK_DEBIAN_CLI_PACKAGE_SECTION devel)
 set(CPACK_DEBIAN_CLI_PACKAGE_DEPENDS "pkgconf | pkg-config")
-set(CPACK_DEBIAN_CLI_PACKAGE_RECOMMENDS "cmake (>= 3.25)")
+# find_package(kiln)'s config file is the reader's developer package's (the compiler's part is loaded from it).
+set(CPACK_DEBIAN_CLI_PACKAGE_RECOMMENDS "libkiln-reader-dev (= ${PROJECT_VERSION}-${CPACK_DEBIAN_PACKAGE_RELEASE}), cmake (>= 3.25)")
 set(CPACK_DEBIAN_CLI_PACKAGE_SUGGESTS "kiln-verify")
 set(CPACK_DEBIAN_CLI_DESCRIPTION "shader permutation build system (HLSL to SPIR-V, GLSL, MSL)
 ${kiln_about}

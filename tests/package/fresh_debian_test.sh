@@ -36,29 +36,56 @@ mkdir -p "$root/root/project/kiln-src"
 cp -r "$source/tests/cmake_consumer" "$root/root/project/consumer"
 cp -r "$source/shaderlib" "$source/variants" "$root/root/project/"
 ln -s ../variants "$root/root/project/kiln-src/variants"
-cp "$source/tests/capi/tiny.pack.json" "$source/tests/capi/Tiny.hlsl" "$root/root/project/"
+# A pack for the reader's stage (kiln is not installed then): built here by the tree's kiln.
+"$build/compiler/kiln" build "$source/tests/capi/tiny.pack.json" -o "$root/root/project/pack" --no-cache -q
+cat > "$root/root/project/game.c" <<'C'
+#include <kiln/kiln_reader.h>
+int main(void) {
+  kiln_pack* pack;
+  kiln_error error;
+  if (kiln_pack_open("pack", &pack, &error) != KILN_OK) return 1;
+  kiln_pack_close(pack);
+  return 0;
+}
+C
+mkdir "$root/root/project/c-project"
+cp "$root/root/project/game.c" "$root/root/project/c-project/"
+printf 'cmake_minimum_required(VERSION 3.25)\nproject(c_game LANGUAGES C)\nfind_package(kiln REQUIRED)\nadd_executable(game game.c)\ntarget_link_libraries(game PRIVATE kiln::reader)\n' \
+  > "$root/root/project/c-project/CMakeLists.txt"
+printf '#if QUALITY != 2\n#error QUALITY must be 2\n#endif\nfloat4 F() : SV_Target { return 1.0; }\n' > "$root/root/project/Q.hlsl"
 
+# Each package is installed on a machine that has only what it depends on, and each stage checks what did not come.
 chroot "$root" bash -euo pipefail -c "
   export DEBIAN_FRONTEND=noninteractive
   apt-get update -q > /dev/null
-  cd /root/deb
-  # kiln alone, as a CI runner that only lints installs it: the reader and the CLI, with gcc and nothing else; kiln's
-  # own libraries come from the packages' Depends only, and nothing of Vulkan, EGL or X11 comes with them.
-  apt-get install -y -q --no-install-recommends ./kiln_*.deb ./libkiln-reader0_*.deb ./libkiln-reader-dev_*.deb gcc libc6-dev \
-    > /root/apt.log 2>&1 || { tail -30 /root/apt.log; exit 1; }
-  kiln --version | head -1
-  for absent in libvulkan1 libegl1 libx11-6 g++; do
-    if dpkg-query -W -f='\${Status}' \$absent 2> /dev/null | grep -q 'install ok installed'; then echo \"FAIL: kiln brought \$absent\"; exit 1; fi
-  done
-  # A C program, linked by gcc alone with pkg-config's flags (no C++ compiler on the machine).
+  absent() {
+    for package in \"\$@\"; do
+      if dpkg-query -W -f='\${Status}' \$package 2> /dev/null | grep -q 'install ok installed'; then
+        echo \"FAIL: \$package came with the packages installed so far\"; exit 1
+      fi
+    done
+  }
+  apt_install() { apt-get install -y -q --no-install-recommends \"\$@\" > /root/apt.log 2>&1 || { tail -30 /root/apt.log; exit 1; }; }
   cd /root/project
-  kiln build tiny.pack.json -o pack --no-cache -q
-  printf '#include <kiln/kiln_reader.h>\\nint main(void) { kiln_pack* p; kiln_error e; int ok = kiln_pack_open(\"pack\", &p, &e) == KILN_OK; if (ok) kiln_pack_close(p); return !ok; }\\n' > game.c
+  echo '== the reader for developers, and gcc: a C program links with the C compiler alone'
+  apt_install /root/deb/libkiln-reader-dev_*.deb /root/deb/libkiln-reader0_*.deb gcc libc6-dev pkgconf
+  absent kiln g++ libvulkan1 libegl1 libx11-6
   gcc -std=c11 game.c \$(pkg-config --cflags --libs kiln-reader) -o game
   ./game
-  # Then kiln-verify and what builds a C++ consumer project.
-  apt-get install -y -q --no-install-recommends /root/deb/kiln-verify_*.deb cmake ninja-build g++ > /root/apt.log 2>&1 ||
-    { tail -30 /root/apt.log; exit 1; }
+  echo '== the CLI alone: kiln lints with defines, and nothing of Vulkan, EGL or X11 comes'
+  apt_install /root/deb/kiln_*.deb
+  absent kiln-verify g++ libvulkan1 libegl1 libx11-6
+  kiln --version | head -1
+  kiln lint Q.hlsl -D QUALITY=2 --werror
+  ! kiln lint Q.hlsl -D QUALITY=1 --werror > /dev/null 2>&1
+  echo '== CMake: a LANGUAGES C project links kiln::reader'
+  apt_install cmake ninja-build
+  absent g++
+  cmake -S c-project -B c-build -G Ninja > c-configure.log
+  cmake --build c-build > c-build.log
+  (cd /root/project && c-build/game)
+  echo '== kiln-verify, and a C++ consumer project built with kiln_add_shader_pack'
+  apt_install /root/deb/kiln-verify_*.deb g++
   kiln-verify --help > /dev/null
   cmake -S consumer -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DKILN_CONSUMER_MODE=find_package \
     -DKILN_SOURCE_DIR=/root/project/kiln-src -DKILN_CONSUMER_SCENES=/root/project/variants/scenes/mobile.json > configure.log

@@ -33,8 +33,8 @@ expect_depends() {  # package, then +name (must be there) or -name (must not)
 }
 expect_depends libkiln-reader0 +libc6 +libstdc++6 +libzstd1 +libxxhash0 -libvulkan1 -libcurl4
 expect_depends libkiln-reader-dev +libkiln-reader0 +libxxhash-dev +libzstd-dev
-expect_depends kiln +libkiln-reader-dev +libc6 +libstdc++6 +libcurl4 +libssl3 +libzstd1 +libmimalloc2.0 \
-  -libvulkan1 -libegl1 -libpng16-16 -libgl1 -libx11-6
+expect_depends kiln +libc6 +libstdc++6 +libcurl4 +libssl3 +libzstd1 +libmimalloc2.0 \
+  -libvulkan1 -libegl1 -libpng16-16 -libgl1 -libx11-6 -libkiln-reader-dev -libxxhash-dev
 expect_depends kiln-verify +kiln +libvulkan1 +libegl1 +libpng16-16
 grep -q "(= $(dpkg-deb -f "$(deb kiln)" Version))" <<< "$(dpkg-deb -f "$(deb kiln-verify)" Depends)" ||
   fail "kiln-verify does not depend on this version of kiln"
@@ -52,10 +52,10 @@ expect_files() {  # package, files
 }
 expect_files libkiln-reader0 ./usr/lib/libkiln_reader.so.0 ./usr/lib/libkiln_reader.so.0.1.0
 expect_files libkiln-reader-dev ./usr/lib/libkiln_reader.so ./usr/lib/libkiln_reader.a ./usr/lib/pkgconfig/kiln-reader.pc \
-  ./usr/include/kiln/pack_reader.hpp ./usr/include/kiln/manifest.hpp ./usr/include/kiln/kiln_reader.h
+  ./usr/include/kiln/pack_reader.hpp ./usr/include/kiln/manifest.hpp ./usr/include/kiln/kiln_reader.h \
+  ./usr/lib/cmake/kiln/kilnConfig.cmake ./usr/lib/cmake/kiln/kilnConfigVersion.cmake ./usr/lib/cmake/kiln/kilnReaderTargets.cmake
 expect_files kiln ./usr/bin/kiln ./usr/bin/kiln-worker \
-  ./usr/lib/cmake/kiln/kilnConfig.cmake ./usr/lib/cmake/kiln/kilnConfigVersion.cmake \
-  ./usr/lib/cmake/kiln/kilnTargets.cmake ./usr/lib/cmake/kiln/KilnShaderPack.cmake \
+  ./usr/lib/cmake/kiln/kilnCompilerTargets.cmake ./usr/lib/cmake/kiln/KilnShaderPack.cmake \
   ./usr/share/kiln/schema/pack.schema.json ./usr/share/kiln/schema/scene.schema.json \
   ./usr/share/man/man1/kiln.1.gz ./usr/share/bash-completion/completions/kiln ./usr/share/doc/kiln/lint.md \
   ./usr/share/doc/kiln/README.md ./usr/share/doc/kiln/examples/README.md \
@@ -79,16 +79,11 @@ others=$(nm -D --defined-only "$work/root/usr/lib/libkiln_reader.so.0" | awk '{p
 [ -z "$others" ] || fail "libkiln_reader.so.0 exports more than kiln's API: $(head -5 <<< "$others")"
 objdump -p "$work/root/usr/lib/libkiln_reader.so.0" | grep -q "SONAME *libkiln_reader.so.0$" || fail "no SONAME libkiln_reader.so.0"
 
-echo "== unpacked: kiln runs from it, a C program links with the C compiler alone, consumer projects build"
-for package in libkiln-reader-dev kiln kiln-verify; do dpkg-deb -x "$(deb $package)" "$work/root"; done
-"$work/root/usr/bin/kiln" --version | head -1
-# SARIF's help links point into the package's own docs (the unpacked tree stands for /usr).
-printf 'float4 F() : SV_Target { return 1.0; }\n' > "$work/S.hlsl"
-# (into a file first: `grep -q` stops reading at its match, and kiln's next write would die of SIGPIPE under pipefail)
-"$work/root/usr/bin/kiln" lint "$work/S.hlsl" --format sarif > "$work/S.sarif" || fail "kiln lint failed"
-grep -qF "file://$work/root/usr/share/doc/kiln/lint.md#" "$work/S.sarif" ||
-  fail "SARIF helpUri does not point at the package's lint.md: $(grep -o '"helpUri": *"[^"]*"' "$work/S.sarif" | head -1)"
-"$work/root/usr/bin/kiln" build "$source/tests/capi/tiny.pack.json" -o "$work/pack" --no-cache -q
+echo "== the reader's developer package alone: gcc links a C program, a LANGUAGES C CMake project links kiln::reader"
+dpkg-deb -x "$(deb libkiln-reader-dev)" "$work/root"
+[ ! -e "$work/root/usr/bin/kiln" ] || fail "the reader's packages hold kiln"
+# (the pack comes from the build tree's kiln: the CLI is not unpacked yet)
+"$build/compiler/kiln" build "$source/tests/capi/tiny.pack.json" -o "$work/pack" --no-cache -q
 cat > "$work/game.c" <<'C'
 #include <stdio.h>
 #include <kiln/kiln_reader.h>
@@ -116,15 +111,31 @@ cp "$work/game.c" "$work/c-project/"
 cat > "$work/c-project/CMakeLists.txt" <<'CMAKE'
 cmake_minimum_required(VERSION 3.25)
 project(c_game LANGUAGES C)
-find_package(kiln REQUIRED)
+find_package(kiln REQUIRED COMPONENTS ${KILN_COMPONENTS})
 add_executable(game game.c)
 target_link_libraries(game PRIVATE kiln::reader)
 CMAKE
-cmake -S "$work/c-project" -B "$work/c-build" -G Ninja -DCMAKE_PREFIX_PATH="$work/root/usr" > "$work/c-configure.log" 2>&1 ||
-  { cat "$work/c-configure.log"; fail "a LANGUAGES C project cannot find_package(kiln)"; }
+cmake -S "$work/c-project" -B "$work/c-build" -G Ninja -DCMAKE_PREFIX_PATH="$work/root/usr" -DKILN_COMPONENTS=reader \
+  > "$work/c-configure.log" 2>&1 || { cat "$work/c-configure.log"; fail "a LANGUAGES C project cannot find_package(kiln)"; }
 cmake --build "$work/c-build" > "$work/c-build.log" 2>&1 || { cat "$work/c-build.log"; fail "a LANGUAGES C project cannot link kiln::reader"; }
 "$work/c-build/game" "$work/pack" > /dev/null || fail "the LANGUAGES C program failed"
+# The compiler's part is the kiln package's: asked for without it, find_package says so.
+! cmake -S "$work/c-project" -B "$work/c-build2" -G Ninja -DCMAKE_PREFIX_PATH="$work/root/usr" -DKILN_COMPONENTS=compiler \
+  > "$work/c-configure2.log" 2>&1 || fail "find_package(kiln COMPONENTS compiler) succeeded without the kiln package"
+grep -q "compiler" "$work/c-configure2.log" || { cat "$work/c-configure2.log"; fail "find_package does not name the missing part"; }
 
+echo "== with kiln and kiln-verify: kiln runs from the unpacked tree, the consumer project builds"
+for package in kiln kiln-verify; do dpkg-deb -x "$(deb $package)" "$work/root"; done
+# With the compiler's part installed, find_package(kiln) loads it in a LANGUAGES C project too.
+cmake -S "$work/c-project" -B "$work/c-build3" -G Ninja -DCMAKE_PREFIX_PATH="$work/root/usr" -DKILN_COMPONENTS="reader;compiler" \
+  > "$work/c-configure3.log" 2>&1 || { cat "$work/c-configure3.log"; fail "find_package(kiln COMPONENTS reader compiler) failed"; }
+"$work/root/usr/bin/kiln" --version | head -1
+# SARIF's help links point into the package's own docs (the unpacked tree stands for /usr).
+printf 'float4 F() : SV_Target { return 1.0; }\n' > "$work/S.hlsl"
+# (into a file first: `grep -q` stops reading at its match, and kiln's next write would die of SIGPIPE under pipefail)
+"$work/root/usr/bin/kiln" lint "$work/S.hlsl" --format sarif > "$work/S.sarif" || fail "kiln lint failed"
+grep -qF "file://$work/root/usr/share/doc/kiln/lint.md#" "$work/S.sarif" ||
+  fail "SARIF helpUri does not point at the package's lint.md: $(grep -o '"helpUri": *"[^"]*"' "$work/S.sarif" | head -1)"
 cp -r "$source/shaderlib" "$source/variants" "$work/"
 mkdir "$work/kiln-src"
 ln -s "$work/variants" "$work/kiln-src/variants"
