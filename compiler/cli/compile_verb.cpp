@@ -55,6 +55,9 @@ class CompileVerb final : public Verb {
     plan_.add_to(verb, /*scenes=*/false);
     verb->add_option("-O", optimize_, "Optimization: s (the default: kiln's recipe) or 0 (none: the legalized front-end code)")
         ->check(CLI::IsMember({"s", "0"}));
+    verb->add_flag("-g", debug_,
+                   "Debug information: the HLSL source (preprocessed, with its #line markers), line numbers and "
+                   "names, as glslangValidator -g writes them; implies -O0");
     verb->add_option("--depfile", depfile_, "Write a Makefile-style depfile: the output depends on every file read");
     verb->add_flag("--werror", werror_, "Treat warnings as errors");
     return verb;
@@ -93,7 +96,8 @@ class CompileVerb final : public Verb {
     }
     options.pack_file = pack_file;
     options.output_dir = scratch / "out";
-    options.optimize = optimize_ != "0";
+    options.optimize = optimize_ != "0" && !debug_;
+    options.debug_info = debug_;
     // What the build says about the scratch pack definition is about the command line.
     DiagnosticSink sink;
     sink.set_listener([&pack_file](const Diagnostic& d) {
@@ -152,6 +156,18 @@ class CompileVerb final : public Verb {
       }
       return 0;
     } catch (const PackError& error) {
+      using Code = PackError::Code;
+      const Code code = error.code();
+      if (code == Code::MissingKeyword || code == Code::ConflictingKeywords || code == Code::Stripped) {
+        // The -D keywords name no variant (a keyword group without one of its keywords, two of one group): the
+        // command line's fault, as a glslc user expects of a -D.
+        Diagnostic diagnostic;
+        diagnostic.id = DiagId::InvalidCommandLineOption;
+        diagnostic.location.path = "<command line>";
+        diagnostic.message = std::string("-D: the keywords select no variant: ") + error.what();
+        std::cerr << format_diagnostic(diagnostic, colour());
+        return exit_status(ExitClass::Input);
+      }
       std::cerr << "kiln: internal error: the scratch pack cannot be read: " << error.what() << "\n";
       return 2;
     }
@@ -161,6 +177,7 @@ class CompileVerb final : public Verb {
   std::vector<std::string> include_dirs_;
   PlanArguments plan_;
   bool werror_ = false;
+  bool debug_ = false;
 };
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <sys/ioctl.h>
 #include <sys/stat.h>
 
+#include <cstring>
 #include <future>
 #include <map>
 #include <regex>
@@ -1623,6 +1624,57 @@ TEST_F(Cli, CompileBuildsOneFileForOneStageAsGlslcDoes) {
   EXPECT_NE(warned.err.find("warning[K1407]"), std::string::npos) << warned.err;
   auto werror = testing::run_kiln({"compile", "warn.hlsl", "-S", "frag", "-o", "w.spv", "--werror"}, dir.path());
   EXPECT_EQ(werror.exit_code, 1) << werror.err;
+}
+
+// kiln compile -g: the module carries the HLSL source (the entry file and its includes, preprocessed) and line
+// numbers, on every variant the file's keywords make; without -g, neither. glslang 12 read a debug scope it never
+// pushed at each lexical block and crashed under kiln's allocator (frontend/glslang_shader.hpp): the shader has
+// blocks in a loop, a branch and a bare pair of braces.
+// Whether a SPIR-V module holds an OpLine (opcode 8), walking its instructions from the header.
+bool has_op_line(const std::string& bytes) {
+  std::vector<uint32_t> words(bytes.size() / 4);
+  std::memcpy(words.data(), bytes.data(), words.size() * 4);
+  for (size_t i = 5; i < words.size();) {
+    const uint32_t count = words[i] >> 16;
+    if ((words[i] & 0xFFFF) == 8) return true;
+    if (count == 0) return false;
+    i += count;
+  }
+  return false;
+}
+
+TEST_F(Cli, CompileWithGKeepsTheHlslSourceAndLinesForEveryVariant) {
+  dir.write("inc/Fog.hlsli", "float4 FogIncludeMarker(float4 c) { { c.rgb *= 0.5; } return c; }\n");
+  dir.write("x.hlsl", "#pragma multi_compile _ FOG\n#pragma multi_compile Q0 Q1 Q2 Q3\n#include \"Fog.hlsli\"\n"
+                      "cbuffer Tint : register(b0) { float4 tint; int count; };\n"
+                      "float4 main(float2 uv : TEXCOORD0) : SV_Target {\n  float4 c = tint;\n"
+                      "  for (int i = 0; i < count; ++i) { float k = uv.x * i; c.r += k; }\n"
+                      "  if (uv.y > 0.5) { c.g = 1; }\n#ifdef FOG\n  c = FogIncludeMarker(c);\n#endif\n  return c;\n}\n");
+  for (const std::string fog : {"", "FOG"}) {
+    std::vector<std::string> args{"compile", "x.hlsl", "-S", "frag", "-I", "inc", "-g", "-D", "Q2", "-o", "g.spv"};
+    if (!fog.empty()) args.insert(args.end(), {"-D", fog});
+    auto debug = testing::run_kiln(args, dir.path());
+    ASSERT_EQ(debug.exit_code, 0) << debug.err;
+    const std::string spirv = testing::read_file(dir / "g.spv");
+    EXPECT_NE(spirv.find("cbuffer Tint : register(b0)"), std::string::npos) << "the entry file's source text, " << fog;
+    EXPECT_NE(spirv.find("float4 FogIncludeMarker(float4 c)"), std::string::npos) << "the include's source text, " << fog;
+    EXPECT_NE(spirv.find("Fog.hlsli"), std::string::npos) << "the include's name, for its lines, " << fog;
+    EXPECT_TRUE(has_op_line(spirv)) << fog;
+  }
+  auto plain = testing::run_kiln({"compile", "x.hlsl", "-S", "frag", "-I", "inc", "-O0", "-D", "Q2", "-o", "p.spv"}, dir.path());
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_EQ(testing::read_file(dir / "p.spv").find("cbuffer Tint"), std::string::npos);
+  EXPECT_FALSE(has_op_line(testing::read_file(dir / "p.spv")));
+  // The debug module cross-compiles as any other.
+  auto glsl = testing::run_kiln({"compile", "x.hlsl", "-S", "frag", "-I", "inc", "-g", "-D", "Q0", "-o", "g.frag"}, dir.path());
+  ASSERT_EQ(glsl.exit_code, 0) << glsl.err;
+  EXPECT_TRUE(testing::read_file(dir / "g.frag").starts_with("#version 450"));
+  // -D keywords that select no variant are the command line's fault, not kiln's.
+  auto none = testing::run_kiln({"compile", "x.hlsl", "-S", "frag", "-I", "inc", "-D", "FOG", "-o", "n.spv"}, dir.path());
+  EXPECT_EQ(none.exit_code, 1) << none.err;
+  EXPECT_TRUE(none.err.starts_with("<command line>: error[K1014]: -D: the keywords select no variant: pass 'main' needs one of: "
+                                   "Q0 Q1 Q2 Q3"))
+      << none.err;
 }
 
 }  // namespace

@@ -48,7 +48,7 @@ _kiln() {
     check-scene|diff-packs) options+=" --json" ;;
     check-usage) options+=" --usage-tag" ;;
     merge-usage) options+=" --output -o --usage-tag --pass" ;;
-    compile) options+=" --stage -S --entry -E --output -o --target --include-dir -I $binding -O --depfile --werror" ;;
+    compile) options+=" --stage -S --entry -E --output -o --target --include-dir -I $binding -O -g --depfile --werror" ;;
     render) options+=" --variant --scene --output -o --exr --size --api" ;;
     test) options+=" --scene --golden --tolerances --report --filter --shard --cover --usage-log --api --against" ;;
   esac

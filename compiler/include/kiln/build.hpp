@@ -56,6 +56,9 @@ struct BuildOptions {
   std::chrono::milliseconds worker_timeout = defaults::kWorkerTimeout;
   uint64_t worker_memory_limit_mb = defaults::kWorkerMemoryLimitMb;
   bool optimize = true;
+  // Debug information in the SPIR-V (kiln compile -g): OpSource with the preprocessed HLSL text, OpLine and names,
+  // as glslangValidator -g writes them (RenderDoc shows the source). Best with `optimize` off.
+  bool debug_info = false;
   OptimizerRecipe optimizer_recipe = OptimizerRecipe::Kiln;  // --optimize=kiln|O (with `optimize`)
   std::string frontend = "glslang";                 // HLSL front end, by name (frontend_names())
   std::vector<Target> targets;                      // empty: the pack definition's targets

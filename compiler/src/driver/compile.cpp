@@ -191,6 +191,7 @@ class Scheduler {
     job.source = s.text;
     job.targets = settings_.targets_for(plan_.pack.passes[s.pass]);
     job.optimize = settings_.optimize;
+    job.debug_info = settings_.debug_info;
     job.optimizer_recipe = settings_.optimizer_recipe;
     job.bindings = plan_.pack.passes[s.pass].bindings_for(s.stage);
     jobs_.push_back(std::move(job));
@@ -316,6 +317,7 @@ class Scheduler {
         back.spirv = std::move(outcome.output.spirv);  // `spirv` is not read again on this path
         back.targets = job.targets;
         back.optimize = job.optimize;
+        back.debug_info = job.debug_info;
         back.optimizer_recipe = job.optimizer_recipe;
         back.bindings = job.bindings;
         jobs_.push_back(std::move(back));  // runs next, in whichever worker is free

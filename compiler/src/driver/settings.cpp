@@ -29,6 +29,7 @@ std::optional<BuildSettings> choose_settings(const BuildOptions& options, const 
   std::sort(settings.targets.begin(), settings.targets.end());
   for (Target t : settings.targets) settings.target_names += std::string(target_name(t)) + ",";
   settings.optimize = options.optimize;
+  settings.debug_info = options.debug_info;
   settings.optimizer_recipe = options.optimizer_recipe;
   return settings;
 }

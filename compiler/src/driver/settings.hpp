@@ -42,6 +42,7 @@ struct BuildSettings {
     return names;
   }
   bool optimize = true;
+  bool debug_info = false;  // hashed only when on: the keys of every build without it are unchanged
   OptimizerRecipe optimizer_recipe = OptimizerRecipe::Kiln;
 
   // The start of every compile's cache key: what its output depends on besides its input (the pass gives the
@@ -56,9 +57,11 @@ struct BuildSettings {
   // and NonUniformResourceIndex is DXC's (frontend/nonuniform.hpp): an older build's module had other interfaces.
   template <typename KeyHasher>
   KeyHasher& add_compile_options(KeyHasher& hasher, const PassDefinition& pass, Stage stage) const {
-    return hasher.add(fingerprint).add(optimize ? 1 : 0).add(optimizer_recipe_name(optimizer_recipe)).add(target_names_for(pass)).add(stage_name(stage))
+    hasher.add(fingerprint).add(optimize ? 1 : 0).add(optimizer_recipe_name(optimizer_recipe)).add(target_names_for(pass)).add(stage_name(stage))
         .add(pass.entry_points[static_cast<size_t>(stage)]).add("binding model 1").add("hlsl compat 2")
         .add(pass.bindings_for(stage).canonical());
+    if (debug_info) hasher.add("debug info");
+    return hasher;
   }
 };
 
@@ -69,6 +72,7 @@ void add_build_inputs(KeyHasher& hasher, const BuildSettings& settings, const Pl
   hasher.add(uint64_t{kPackFormatVersion});
   hasher.add(settings.fingerprint).add(settings.optimize ? 1 : 0).add(optimizer_recipe_name(settings.optimizer_recipe))
       .add(settings.target_names).add(plan.pack.text);
+  if (settings.debug_info) hasher.add("debug info");
   for (const SceneProfile& scene : plan.scenes) hasher.add(scene.text);
   for (const UsageLog& log : plan.usage) hasher.add("usage log").add(log.text);
   if (!plan.usage.empty()) hasher.add("usage margin").add(uint64_t{options.usage_margin});

@@ -47,6 +47,7 @@ struct CompileRequest {
   std::string source_name;
   std::string_view source;  // preprocessed
   BindingOptions bindings;  // how registers become bindings (docs/bindings.md)
+  bool debug_info = false;  // OpSource with the text, OpLine and names (BuildOptions::debug_info)
 };
 
 struct CompileResult {

@@ -247,7 +247,9 @@ class GlslangFrontend final : public Frontend {
     shader.setEntryPoint(request.entry_point.c_str());
     configure(shader, request.stage);
     if (nonuniform) shader.setPreamble(kNonUniformMarkerDefinition.data());  // a string literal: terminated
-    bool parsed = shader.parse(GetDefaultResources(), 100, false, kMessages);
+    if (request.debug_info) shader.setDebugInfo(true);
+    const auto rules = request.debug_info ? static_cast<EShMessages>(kMessages | EShMsgDebugInfo) : kMessages;
+    bool parsed = shader.parse(GetDefaultResources(), 100, false, rules);
     result.messages = parse_frontend_log(shader.getInfoLog(), request.source_name);
     if (!parsed) return result;
     // glslang only warns about a missing entry point; kiln makes it an error.
@@ -257,7 +259,7 @@ class GlslangFrontend final : public Frontend {
     }
     glslang::TProgram program;
     program.addShader(&shader);
-    if (!program.link(kMessages)) {
+    if (!program.link(rules)) {
       auto link = parse_frontend_log(program.getInfoLog(), request.source_name);
       result.messages.insert(result.messages.end(), link.begin(), link.end());
       return result;
@@ -271,6 +273,13 @@ class GlslangFrontend final : public Frontend {
     glslang::SpvOptions options;
     options.disableOptimizer = true;  // kiln runs legalization and optimization itself (stage 5)
     options.validate = false;
+    if (request.debug_info) {
+      // OpSource with the source text, OpLine and names: what glslangValidator -g writes. Not glslang 12's
+      // non-semantic shader debug info (-gVS): its modules fail validation (OpVariable after debug instructions)
+      // and legalization (an OpString one word short).
+      options.generateDebugInfo = true;
+      without_lexical_scopes(*program.getIntermediate(to_glslang(request.stage)));
+    }
     spv::SpvBuildLogger logger;
     glslang::GlslangToSpv(*program.getIntermediate(to_glslang(request.stage)), result.spirv, &logger, &options);
     // DXC's meanings that glslang 12 would change without a word (frontend/dxc_semantics.hpp, nonuniform.hpp).

@@ -13,4 +13,10 @@ namespace kiln {
 // `semantics`: the SPIR-V carries each interface variable's HLSL semantic (UserSemantic decorations).
 std::unique_ptr<glslang::TShader> make_glslang_shader(EShLanguage stage, bool semantics);
 
+// glslang 12 reads a debug scope it never pushed when it meets a lexical block (EOpScope) with debug information on:
+// spv::Builder::makeDebugLexicalBlock takes the top of an empty stack (valgrind: an invalid read; under mimalloc, a
+// crash). Before GlslangToSpv, each block becomes a plain sequence: the module keeps its lines, functions and
+// variables, with each variable in its function's scope instead of its block's.
+void without_lexical_scopes(glslang::TIntermediate& intermediate);
+
 }  // namespace kiln

@@ -34,7 +34,8 @@ JobOutput run_front_end(Frontend& frontend, const CompileJob& job) {
       return out;
     }
   }
-  CompileResult compiled = frontend.compile({job.stage, job.entry_point, job.source_name, job.source, job.bindings});
+  CompileResult compiled =
+      frontend.compile({job.stage, job.entry_point, job.source_name, job.source, job.bindings, job.debug_info});
   out.messages = std::move(compiled.messages);
   // A [[vk::...]] attribute glslang ignores where DXC changes the interface: the author's error, never a build with
   // another interface (frontend/hlsl_compat.hpp).
@@ -231,6 +232,7 @@ std::vector<uint8_t> encode_job(const CompileJob& job) {
   for (Target t : job.targets) targets.push_back(target_name(t));
   j["targets"] = targets;
   if (!job.spirv.empty()) j["spirv"] = json::binary(spirv_to_bytes(job.spirv));
+  if (job.debug_info) j["debug_info"] = true;
   if (job.kind == JobKind::Preprocess) {
     j["defines"] = job.defines;
     json files = json::array();
@@ -255,6 +257,7 @@ CompileJob decode_job(const std::vector<uint8_t>& bytes) {
   job.source_name = j.at("source_name").get<std::string>();
   job.source = j.at("source").get<std::string>();
   job.optimize = j.at("optimize").get<bool>();
+  job.debug_info = j.contains("debug_info") && j.at("debug_info").get<bool>();
   job.optimizer_recipe =
       parse_optimizer_recipe(j.at("optimizer_recipe").get<std::string>()).value_or(OptimizerRecipe::Kiln);
   job.bindings = bindings_from_json(j.at("bindings"));

@@ -52,6 +52,7 @@ struct CompileJob {
   std::vector<uint32_t> spirv;  // the front end's module (BackEnd)
   std::vector<Target> targets;
   bool optimize = true;
+  bool debug_info = false;  // FrontEnd, Full: the front end writes debug information (BuildOptions::debug_info)
   OptimizerRecipe optimizer_recipe = OptimizerRecipe::Kiln;
   BindingOptions bindings;  // FrontEnd, Full: registers -> bindings; BackEnd, Full: combined image samplers
   // Preprocess: the pass's files, the entry first (shared by every job of the pass), and the keywords.
