@@ -442,16 +442,16 @@ TEST_F(Lint, SarifResultsHaveRegionsAndRootRelativePercentEncodedUris) {
   ASSERT_EQ(run["results"].size(), 1u) << r.out;
   const json& location = run["results"][0]["locations"][0]["physicalLocation"];
   EXPECT_EQ(run["results"][0]["ruleId"], "interface-mismatch");
-  EXPECT_EQ(location["artifactLocation"]["uri"], "my%20shaders/p.pack.json");
+  EXPECT_EQ(location["artifactLocation"]["uri"], "my%20shaders/S.hlsl");
   EXPECT_EQ(location["artifactLocation"]["uriBaseId"], "%SRCROOT%");
-  EXPECT_EQ(location["region"]["startLine"], 3);  // "Forward", the pass's name
-  EXPECT_EQ(location["region"]["startColumn"], 15);
+  EXPECT_EQ(location["region"]["startLine"], 3);  // the fragment input 'n' no stage before writes
+  EXPECT_EQ(location["region"]["startColumn"], 64);
   // --sarif-root moves the base; a file outside it gets an absolute file: URI.
   json rooted = json::parse(lint_sarif({"../my shaders/p.pack.json", "--sarif-root", "../my shaders"}, dir / "sub").out);
-  EXPECT_EQ(rooted["runs"][0]["results"][0]["locations"][0]["physicalLocation"]["artifactLocation"]["uri"], "p.pack.json");
+  EXPECT_EQ(rooted["runs"][0]["results"][0]["locations"][0]["physicalLocation"]["artifactLocation"]["uri"], "S.hlsl");
   json outside = json::parse(lint_sarif({"../my shaders/p.pack.json", "--sarif-root", "."}, dir / "sub").out);
   EXPECT_EQ(outside["runs"][0]["results"][0]["locations"][0]["physicalLocation"]["artifactLocation"]["uri"],
-            "file://" + dir.path().string() + "/my%20shaders/p.pack.json");
+            "file://" + dir.path().string() + "/my%20shaders/S.hlsl");
 }
 
 TEST(LintBundledLibrary, TheShaderLibraryIsLintClean) {

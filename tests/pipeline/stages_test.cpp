@@ -73,8 +73,14 @@ TEST_F(StagePerFile, AMismatchedPairIsAnInterfaceMismatchForBuildAndLint) {
   EXPECT_EQ(report["findings"][0]["message"], message);
   auto built = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--no-cache", "-q"}, dir.path());
   EXPECT_EQ(built.exit_code, 1);
-  EXPECT_NE(built.err.find("error[K1410]: " + message), std::string::npos) << built.err;
-  EXPECT_EQ(std::count(built.err.begin(), built.err.end(), '^'), 1) << "one mismatch, one error: " << built.err;
+  // At the fragment input's declaration in its own file, with the vertex output's declaration in a note.
+  EXPECT_NE(built.err.find("shaders/Sky.frag.hlsl:3:46: error[K1410]: " + message), std::string::npos) << built.err;
+  EXPECT_NE(built.err.find("shaders/Sky.vert.hlsl:3:49: note[K1410]: 'dir' is the vertex stage's output declared here"),
+            std::string::npos)
+      << built.err;
+  size_t errors = 0;
+  for (size_t at = built.err.find("error[K1410]"); at != std::string::npos; at = built.err.find("error[K1410]", at + 1)) ++errors;
+  EXPECT_EQ(errors, 1u) << "one mismatch, one error: " << built.err;
   EXPECT_FALSE(std::filesystem::exists(dir / "out/sky.manifest.json"));
 }
 

@@ -121,8 +121,23 @@ TEST(LintRules, InterfaceMismatchIsAFragmentInputTheStageBeforeDoesNotWriteAlike
   EXPECT_EQ(sink.diagnostics()[1].message,
             "pass 'Forward', 2 variants, the first [B]: location 0 is float2 ('uv') in the vertex stage and float3 ('uv') "
             "in the fragment stage");
-  EXPECT_EQ(sink.diagnostics()[0].location.line, 3);
+  EXPECT_EQ(sink.diagnostics()[0].location.line, 3);  // no declaration found: the pass's definition
   EXPECT_EQ(sink.diagnostics()[0].location.column, 15);
+  // With the sources, at the fragment input's declaration, and the type mismatch with a note at the output's.
+  input.locate_stage_variable = [](const std::string& name, Stage stage) {
+    if (name == "n" && stage == Stage::Fragment) return SourceLocation{"S.hlsl", 7, 40};
+    if (name == "uv") return SourceLocation{"S.hlsl", stage == Stage::Fragment ? 7 : 2, stage == Stage::Fragment ? 20 : 30};
+    return SourceLocation{};
+  };
+  DiagnosticSink located;
+  EXPECT_FALSE(check_stage_interfaces(input, located));
+  ASSERT_EQ(located.diagnostics().size(), 3u);
+  EXPECT_EQ(located.diagnostics()[0].location.line, 7);
+  EXPECT_EQ(located.diagnostics()[0].location.column, 40);
+  EXPECT_EQ(located.diagnostics()[1].location.column, 20);
+  EXPECT_EQ(located.diagnostics()[2].severity, Severity::Note);
+  EXPECT_EQ(located.diagnostics()[2].location.line, 2);
+  EXPECT_EQ(located.diagnostics()[2].message, "'uv' is the vertex stage's output declared here");
   EXPECT_EQ(rule_for_diagnostic(DiagId::InterfaceMismatch), RuleId::InterfaceMismatch);
   // A geometry stage is what the fragment stage reads from.
   input.binaries = {{Stage::Vertex, &vertex, {0}}, {Stage::Geometry, &geometry, {0}}, {Stage::Fragment, &both, {0}}};

@@ -32,6 +32,9 @@ PassLayoutInput layout_input(const Plan& plan, const SourceLocator& locator, uin
   }
   const std::string entry_name = display_path(plan.declarations[pass].entry);
   input.locate = [&locator, pass, entry_name](const std::string& name) { return locator.declaration(pass, name, entry_name); };
+  input.locate_stage_variable = [&locator, &plan, pass, entry_name](const std::string& name, Stage stage) {
+    return locator.declaration(pass, name, entry_name, plan.declarations[pass].stage_entry[static_cast<size_t>(stage)]);
+  };
   return input;
 }
 

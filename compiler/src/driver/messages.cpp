@@ -75,7 +75,8 @@ SourceLocation SourceLocator::located(const FrontendMessage& m, const std::strin
   return at;
 }
 
-SourceLocation SourceLocator::declaration(uint32_t pass, const std::string& name, const std::string& entry_name) const {
+SourceLocation SourceLocator::declaration(uint32_t pass, const std::string& name, const std::string& entry_name,
+                                         const std::filesystem::path& first) const {
   if (name.empty()) return SourceLocation{entry_name, 0, 0};
   auto word_char = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; };
   // A declaration: a type before the name (a word that is not `return`, or a template's `>`), and after it `:`,
@@ -93,7 +94,10 @@ SourceLocation SourceLocator::declaration(uint32_t pass, const std::string& name
   };
   // The declaration first; else the first mention (a declaration spelled some other way).
   std::optional<SourceLocation> first_mention;
-  for (const std::filesystem::path& path : plan_.declarations[pass].files) {
+  std::vector<std::filesystem::path> files = plan_.declarations[pass].files;
+  if (auto it = std::find(files.begin(), files.end(), first); !first.empty() && it != files.end())
+    std::rotate(files.begin(), it, it + 1);
+  for (const std::filesystem::path& path : files) {
     const SourceFile* file = plan_.sources.find(path);
     if (!file) continue;
     std::vector<std::string> lines = code_lines(file->text);

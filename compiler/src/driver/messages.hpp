@@ -26,7 +26,9 @@ class SourceLocator {
 
   // Where a pass's sources first name `name` as a whole word outside comments: the declaration of a resource
   // a back-end step reports on (SPIR-V keeps no source lines); the entry file when not found.
-  SourceLocation declaration(uint32_t pass, const std::string& name, const std::string& entry_name) const;
+  // `first`: a file searched before the pass's others (a stage's own entry file, for a stage's variable).
+  SourceLocation declaration(uint32_t pass, const std::string& name, const std::string& entry_name,
+                             const std::filesystem::path& first = {}) const;
 
   // The text of a line of a file of the snapshot; empty when unknown.
   std::string line(const std::string& display_name, int line) const;

@@ -23,6 +23,14 @@ std::string user_name(const std::string& name) {
   return name.starts_with(prefix) ? name.substr(prefix.size()) : name;
 }
 
+// Where a stage's sources declare a variable the reflection names: glslang names a struct member of an input
+// "i.uv" or "@entryPointOutput.uv"; the source declares "uv".
+SourceLocation declaration_of(const PassLayoutInput& input, const std::string& reflected, Stage stage) {
+  if (!input.locate_stage_variable || reflected.empty()) return {};
+  const size_t dot = reflected.rfind('.');
+  return input.locate_stage_variable(dot == std::string::npos ? reflected : reflected.substr(dot + 1), stage);
+}
+
 }  // namespace
 
 bool check_stage_interfaces(const PassLayoutInput& input, DiagnosticSink& sink) {
@@ -44,15 +52,17 @@ bool check_stage_interfaces(const PassLayoutInput& input, DiagnosticSink& sink) 
       }
   }
   // One report per distinct mismatch, with every variant it is in (a keyword that changes another stage's code
-  // makes more pairs of binaries, not more mismatches).
+  // makes more pairs of binaries, not more mismatches), at the fragment input's declaration in the HLSL; for a type
+  // mismatch, a note at the output's.
   struct Finding {
-    std::string text, note;
+    std::string text, note, input, output;
+    Stage producer = Stage::Vertex;
     std::vector<size_t> variants;
   };
   std::vector<Finding> findings;
-  auto add = [&](std::string text, std::string note, const std::vector<size_t>& variants) {
-    auto it = std::find_if(findings.begin(), findings.end(), [&](const Finding& f) { return f.text == text; });
-    if (it == findings.end()) it = findings.insert(findings.end(), Finding{std::move(text), std::move(note), {}});
+  auto add = [&](Finding found, const std::vector<size_t>& variants) {
+    auto it = std::find_if(findings.begin(), findings.end(), [&](const Finding& f) { return f.text == found.text; });
+    if (it == findings.end()) it = findings.insert(findings.end(), std::move(found));
     it->variants.insert(it->variants.end(), variants.begin(), variants.end());
   };
   for (const auto& [pair, variants] : pairs) {
@@ -62,21 +72,32 @@ bool check_stage_interfaces(const PassLayoutInput& input, DiagnosticSink& sink) 
     for (const StageVariable& in : input.binaries[pair.second].reflection->inputs) {
       auto written = std::find_if(outputs.begin(), outputs.end(), [&](const StageVariable& out) { return out.location == in.location; });
       if (written == outputs.end())
-        add("fragment input '" + in.name + "' (location " + std::to_string(in.location) + ") is not written by the " +
-                producer_name + " stage",
-            "Vulkan needs every fragment input location written by the stage before it: write it, or remove the input",
+        add({"fragment input '" + in.name + "' (location " + std::to_string(in.location) + ") is not written by the " +
+                 producer_name + " stage",
+             "Vulkan needs every fragment input location written by the stage before it: write it, or remove the input",
+             in.name, "", producer.stage, {}},
             variants);
       else if (written->type != in.type)
-        add("location " + std::to_string(in.location) + " is " + written->type + " ('" + user_name(written->name) + "') in the " +
-                producer_name + " stage and " + in.type + " ('" + in.name + "') in the fragment stage",
-            "Vulkan needs an output and the input at its location to have the same type", variants);
+        add({"location " + std::to_string(in.location) + " is " + written->type + " ('" + user_name(written->name) + "') in the " +
+                 producer_name + " stage and " + in.type + " ('" + in.name + "') in the fragment stage",
+             "Vulkan needs an output and the input at its location to have the same type", in.name, user_name(written->name),
+             producer.stage, {}},
+            variants);
     }
   }
   for (Finding& finding : findings) {
     std::sort(finding.variants.begin(), finding.variants.end());
-    sink.report(DiagId::InterfaceMismatch, input.pass_location,
+    SourceLocation at = declaration_of(input, finding.input, Stage::Fragment);
+    if (at.line == 0) at = input.pass_location;
+    sink.report(DiagId::InterfaceMismatch, at,
                 "pass '" + input.pass + "', " + variants_text(input.variant_names, finding.variants) + ": " + finding.text,
                 {finding.note});
+    if (!finding.output.empty())
+      if (SourceLocation out = declaration_of(input, finding.output, finding.producer); out.line > 0)
+        sink.report(Diagnostic{DiagId::InterfaceMismatch, Severity::Note, out,
+                               "'" + finding.output + "' is the " + std::string(stage_name(finding.producer)) +
+                                   " stage's output declared here",
+                               {}});
   }
   return findings.empty();
 }

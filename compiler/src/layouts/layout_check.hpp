@@ -27,6 +27,8 @@ struct PassLayoutInput {
   std::vector<Binary> binaries;
   // Where the pass's sources declare a resource (path 0 line when not found).
   std::function<SourceLocation(const std::string& name)> locate;
+  // Where a stage's sources (its entry file first) declare an input or output variable (path 0 line when not found).
+  std::function<SourceLocation(const std::string& name, Stage stage)> locate_stage_variable;
 };
 
 // The pass's merged layout; nothing when it has clashes (each reported to `sink`).
