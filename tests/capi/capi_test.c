@@ -254,8 +254,10 @@ static void test_variant_contents(const kiln_pack* pack) {
   CHECK(kiln_reflection_input_count(vertex) == 2);
   CHECK(kiln_reflection_input(vertex, 0, &input));
   CHECK(input.location == 0 && strcmp(input.type, "float3") == 0 && input.scalar == KILN_SCALAR_FLOAT && input.components == 3);
+  CHECK(strcmp(input.semantic, "POSITION") == 0); /* the HLSL semantic, by which an engine binds its vertex streams */
   CHECK(kiln_reflection_input(vertex, 1, &input));
   CHECK(input.location == 1 && input.scalar == KILN_SCALAR_FLOAT && input.components == 2);
+  CHECK(strcmp(input.semantic, "TEXCOORD0") == 0);
   CHECK(kiln_reflection_output_count(vertex) == 1);
 
   /* Fragment: the texture and sampler, the push constants TINT uses. */

@@ -1436,13 +1436,13 @@ TEST_F(Cli, InspectNamesTheFileOfEachPackError) {
        "unexpected ','; expected string literal\n"},
       {testing::resealed_manifest(replaced("\"format\": \"kiln-pack-manifest\"", "\"format\": \"other\"")),
        "out/p.manifest.json: error: not a kiln pack manifest (no \"format\": \"kiln-pack-manifest\")\n"},
-      {testing::resealed_manifest(replaced("\"format_version\": 4", "\"format_version\": 7")),
-       "out/p.manifest.json: error: pack format version 7 is not supported (this reader reads version 4): rebuild the "
+      {testing::resealed_manifest(replaced("\"format_version\": 5", "\"format_version\": 7")),
+       "out/p.manifest.json: error: pack format version 7 is not supported (this reader reads version 5): rebuild the "
        "pack with this version of kiln\n"},
-      {testing::resealed_manifest(replaced("\"format_version\": 4", "\"format_revision\": 4")),
-       "out/p.manifest.json: error: the manifest has no format_version (this reader reads version 4): rebuild the pack "
+      {testing::resealed_manifest(replaced("\"format_version\": 5", "\"format_revision\": 5")),
+       "out/p.manifest.json: error: the manifest has no format_version (this reader reads version 5): rebuild the pack "
        "with this version of kiln\n"},
-      {testing::resealed_manifest(replaced("\"format_version\": 4", "\"format_version\": 4, \"format_version\": 4")),
+      {testing::resealed_manifest(replaced("\"format_version\": 5", "\"format_version\": 5, \"format_version\": 5")),
        "out/p.manifest.json:34:38: error: not a kiln manifest: invalid JSON: the key \"format_version\" appears twice in "
        "one object (JSON does not say which one counts)\n"},
       // Valid JSON, edited: the manifest's own checksum refuses it.
@@ -1630,6 +1630,37 @@ TEST_F(Cli, CompileBuildsOneFileForOneStageAsGlslcDoes) {
 // numbers, on every variant the file's keywords make; without -g, neither. glslang 12 read a debug scope it never
 // pushed at each lexical block and crashed under kiln's allocator (frontend/glslang_shader.hpp): the shader has
 // blocks in a loop, a branch and a bare pair of braces.
+// The reflection names each input's and output's HLSL semantic (a game binds its vertex streams by them), for struct
+// members and entry parameters, in any case as written; the modules carry none of the decorations that brought them
+// from the front end to the back end.
+TEST_F(Cli, ReflectionNamesTheHlslSemanticsOfInputsAndOutputs) {
+  dir.write("S.hlsl", "struct VIn { float3 pos : Position; float2 uv : TEXCOORD0; };\n"
+                      "struct VOut { float4 p : SV_Position; float2 uv : TEXCOORD3; };\n"
+                      "VOut V(VIn i, float4 tint : COLOR1) { VOut o; o.p = float4(i.pos, 1) * tint; o.uv = i.uv; return o; }\n"
+                      "float4 F(VOut i) : SV_Target { return float4(i.uv, 0, 1); }\n");
+  ASSERT_EQ(build().exit_code, 0);
+  PackReader pack = PackReader::open(dir / "out");
+  const SelectedVariant variant = pack.select("P", {});
+  auto semantics = [](const std::vector<StageVariable>& variables) {
+    std::map<uint32_t, std::string> by_location;
+    for (const StageVariable& v : variables) by_location[v.location] = v.name + " " + v.semantic;
+    return by_location;
+  };
+  const StageView* vertex = variant.stage("vertex");
+  const StageView* fragment = variant.stage("fragment");
+  ASSERT_TRUE(vertex && fragment);
+  EXPECT_EQ(semantics(vertex->reflection->inputs),
+            (std::map<uint32_t, std::string>{{0, "i.pos POSITION"}, {1, "i.uv TEXCOORD0"}, {2, "tint COLOR1"}}));
+  EXPECT_EQ(semantics(vertex->reflection->outputs), (std::map<uint32_t, std::string>{{0, "@entryPointOutput.uv TEXCOORD3"}}));
+  EXPECT_EQ(semantics(fragment->reflection->inputs), (std::map<uint32_t, std::string>{{0, "i.uv TEXCOORD3"}}));
+  EXPECT_EQ(semantics(fragment->reflection->outputs), (std::map<uint32_t, std::string>{{0, "@entryPointOutput SV_TARGET"}}));
+  for (const StageView* view : {vertex, fragment}) {
+    EXPECT_EQ(view->spirv.find("SPV_GOOGLE_hlsl_functionality1"), std::string::npos) << view->stage;
+    EXPECT_EQ(view->spirv.find("TEXCOORD"), std::string::npos) << view->stage;
+  }
+  EXPECT_NE(testing::read_file(dir / "out/p.manifest.json").find("COLOR1"), std::string::npos);
+}
+
 // Whether a SPIR-V module holds an OpLine (opcode 8), walking its instructions from the header.
 bool has_op_line(const std::string& bytes) {
   std::vector<uint32_t> words(bytes.size() / 4);

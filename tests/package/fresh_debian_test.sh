@@ -78,6 +78,10 @@ chroot "$root" bash -euo pipefail -c "
   kiln --version | head -1
   kiln lint Q.hlsl -D QUALITY=2 --werror
   ! kiln lint Q.hlsl -D QUALITY=1 --werror > /dev/null 2>&1
+  # SARIF's help links open the installed docs.
+  kiln lint Q.hlsl -D QUALITY=2 --format sarif -o q.sarif
+  grep -q 'helpUri.: *.file:///usr/share/doc/kiln/lint.md#' q.sarif
+  test -f /usr/share/doc/kiln/lint.md
   echo '== CMake: a LANGUAGES C project links kiln::reader'
   apt_install cmake ninja-build
   absent g++

@@ -101,14 +101,16 @@ bool is_provided_resource(const std::string& name) { return provided_resources()
 std::vector<MeshAttribute> mesh_attributes(const StageView& vertex) {
   std::vector<MeshAttribute> attributes;
   if (!vertex.reflection) return attributes;
+  // By the inputs' HLSL semantics, as a game binds its vertex streams (the names are the shader author's).
   for (const StageVariable& input : vertex.reflection->inputs) {
-    std::string name = input.name.substr(input.name.rfind('.') + 1);
     const uint32_t location = input.location;
-    if (name == "positionOS") attributes.push_back({location, 3, 0});
-    else if (name == "normalOS") attributes.push_back({location, 3, 12});
-    else if (name == "tangentOS") attributes.push_back({location, 4, 24});
-    else if (name == "uv") attributes.push_back({location, 2, 40});
-    else render_error("vertex input '" + input.name + "' has no mesh attribute (POSITION, NORMAL, TANGENT, TEXCOORD0)");
+    if (input.semantic == "POSITION") attributes.push_back({location, 3, 0});
+    else if (input.semantic == "NORMAL") attributes.push_back({location, 3, 12});
+    else if (input.semantic == "TANGENT") attributes.push_back({location, 4, 24});
+    else if (input.semantic == "TEXCOORD0") attributes.push_back({location, 2, 40});
+    else
+      render_error("vertex input '" + input.name + "' (semantic '" + input.semantic +
+                   "') has no mesh attribute (POSITION, NORMAL, TANGENT, TEXCOORD0)");
   }
   return attributes;
 }

@@ -214,6 +214,7 @@ typedef struct kiln_stage_variable {
   const char* type;
   kiln_scalar scalar;
   uint32_t components; /* 1-4; 0 when the type is not a scalar or vector */
+  const char* semantic; /* the HLSL semantic, upper case ("POSITION", "TEXCOORD0"); "" when none */
 } kiln_stage_variable;
 
 /* GLSL and GLSL ES bindings: HLSL's separate textures and samplers become combined samplers, each at its texture's

@@ -79,7 +79,8 @@ struct PushConstantBlock {
 struct StageVariable {
   std::string name;
   uint32_t location = 0;
-  std::string type;  // "float4", ...
+  std::string type;      // "float4", ...
+  std::string semantic;  // the HLSL semantic, upper case ("POSITION", "TEXCOORD0", "SV_TARGET"); empty when none
   friend bool operator==(const StageVariable&, const StageVariable&) = default;
 };
 

@@ -35,7 +35,7 @@
 // and archives no manifest names are removed only after the rename. A build killed at any point leaves a
 // whole pack, the previous or the new one, and at worst an orphaned archive that the next build removes.
 //
-// Version 4: the runtime index in the archive (a reader parses no JSON) and a 64-byte header. Version 3: the archive is named by its content (version 2 called it `<name>.kpack`, and renamed it into
+// Version 5: the runtime index's stage inputs and outputs carry their HLSL semantic. Version 4: the runtime index in the archive (a reader parses no JSON) and a 64-byte header. Version 3: the archive is named by its content (version 2 called it `<name>.kpack`, and renamed it into
 // place before the manifest, so a build killed between the two renames broke the previous pack); sizes are
 // limited (below). Version 2: the manifest checksum. Version 1 had none.
 #pragma once
@@ -47,7 +47,7 @@
 namespace kiln {
 
 inline constexpr char kPackMagic[8] = {'K', 'I', 'L', 'N', 'P', 'A', 'C', 'K'};
-inline constexpr uint32_t kPackFormatVersion = 4;
+inline constexpr uint32_t kPackFormatVersion = 5;
 inline constexpr uint64_t kPackHeaderSize = 64;
 inline constexpr uint64_t kPackBlobEntrySize = 32;
 inline constexpr const char* kManifestFormat = "kiln-pack-manifest";

@@ -21,6 +21,7 @@
 #include "frontend/glslang_bindings.hpp"
 #include "frontend/glslang_literals.hpp"
 #include "frontend/glslang_shader.hpp"
+#include "frontend/interface_semantics.hpp"
 
 namespace kiln {
 namespace {
@@ -284,7 +285,9 @@ class GlslangFrontend final : public Frontend {
     glslang::GlslangToSpv(*program.getIntermediate(to_glslang(request.stage)), result.spirv, &logger, &options);
     // DXC's meanings that glslang 12 would change without a word (frontend/dxc_semantics.hpp, nonuniform.hpp).
     for (const std::string& error : {make_arrays_unbounded(result.spirv, unbounded_resource_arrays(source)),
-                                     builtin_semantics ? restore_builtin_semantics(result.spirv) : std::string()})
+                                     builtin_semantics ? restore_builtin_semantics(result.spirv) : std::string(),
+                                     attach_interface_semantics(result.spirv,
+                                                                interface_semantics(*program.getIntermediate(to_glslang(request.stage))))})
       if (!error.empty()) {
         result.messages.push_back({Severity::Error, request.source_name, 0, error});
         return result;

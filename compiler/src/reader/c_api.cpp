@@ -268,6 +268,7 @@ kiln_stage_variable variable_of(const kiln::StageVariable& v) {
   out.location = v.location;
   out.type = v.type.c_str();
   out.scalar = scalar_of(v.type, &out.components);
+  out.semantic = v.semantic.c_str();
   return out;
 }
 

@@ -216,11 +216,15 @@ void from_json(const json& j, PushConstantBlock& v) {
   read(j, "members", v.members);
 }
 
-void to_json(json& j, const StageVariable& v) { j = {{"name", v.name}, {"location", v.location}, {"type", v.type}}; }
+void to_json(json& j, const StageVariable& v) {
+  j = {{"name", v.name}, {"location", v.location}, {"type", v.type}};
+  if (!v.semantic.empty()) j["semantic"] = v.semantic;
+}
 void from_json(const json& j, StageVariable& v) {
   read(j, "name", v.name);
   read(j, "location", v.location);
   read(j, "type", v.type);
+  read_if_present(j, "semantic", v.semantic);
 }
 
 void to_json(json& j, const GlCombinedSampler& v) {

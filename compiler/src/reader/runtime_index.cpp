@@ -171,8 +171,8 @@ void reflection_fields(IO& io, R& r) {
     io.fields(block.name, block.size);
     members(io, block.members);
   });
-  io.list(r.inputs, [&](auto& v) { io.fields(v.name, v.location, v.type); });
-  io.list(r.outputs, [&](auto& v) { io.fields(v.name, v.location, v.type); });
+  io.list(r.inputs, [&](auto& v) { io.fields(v.name, v.location, v.type, v.semantic); });
+  io.list(r.outputs, [&](auto& v) { io.fields(v.name, v.location, v.type, v.semantic); });
   io.optional(r.local_size, [&](auto& size) { io.fields(size[0], size[1], size[2]); });
   io.optional(r.glsl, [&](auto& gl) { gl_bindings(io, gl); });
   io.optional(r.gles, [&](auto& gl) { gl_bindings(io, gl); });

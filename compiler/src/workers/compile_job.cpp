@@ -2,6 +2,7 @@
 
 #include "cross/targets.hpp"
 #include "frontend/hlsl_compat.hpp"
+#include "frontend/interface_semantics.hpp"
 #include "frontend/module_limits.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "reflect/reflect.hpp"
@@ -76,6 +77,8 @@ JobOutput run_front_end(Frontend& frontend, const CompileJob& job) {
 // Legalize, validate, optimize, validate, reflect, cross-compile: everything after the front end.
 JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
   JobOutput out;
+  // The front end's note of each interface variable's HLSL semantic, off the module before anything reads it.
+  const InterfaceSemantics semantics = detach_interface_semantics(module);
   SpirvStepResult spirv = legalize_validate_optimize(std::move(module), job.optimize, job.optimizer_recipe);
   if (!spirv.ok) {
     out.failed_step = spirv.step;
@@ -95,6 +98,9 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
   }
   try {
     out.reflection = reflect_spirv(spirv.spirv);
+    for (std::vector<StageVariable>* variables : {&out.reflection.inputs, &out.reflection.outputs})
+      for (StageVariable& variable : *variables)
+        if (auto found = semantics.find(variable.name); found != semantics.end()) variable.semantic = found->second;
   } catch (const ReflectionError& error) {
     out.failed_step = CompileStep::Reflect;
     out.messages.push_back({Severity::Error, "", 0, error.what()});

@@ -23,7 +23,8 @@ namespace kiln {
 // (the same code, other ID numbers), outputs record which recipe legalized them. 5: outputs are packed blobs
 // (zstd frames made by the worker). 6: preprocessed text keeps character literals, 1.#INF and string escapes
 // (memoized source keys of older builds name the wrong text); block sizes are reflected in 64 bits.
-inline constexpr int kCompileJobRevision = 6;
+// 7: outputs reflect the HLSL semantic of each input and output (frontend/interface_semantics.hpp).
+inline constexpr int kCompileJobRevision = 7;
 
 // A compile runs in two halves so that stage sources which differ only in code the entry point never
 // reaches (a fragment-only keyword's branch in a file the vertex stage also includes) are legalized,
