@@ -61,7 +61,7 @@ echo "pkg-config: $flags"
 cc -std=c11 -Wall -Wextra -pedantic -Werror -o "$work/consumer" "$work/main.c" $flags || fail "the C consumer does not build"
 # The shared reader, found where it was installed (a system prefix needs no LD_LIBRARY_PATH).
 LD_LIBRARY_PATH="$work/prefix/lib" "$work/consumer" "$work/pack" > "$work/out.txt" || { cat "$work/out.txt"; fail "the C consumer failed"; }
-readelf -d "$work/consumer" | grep -q "NEEDED.*\[libkiln_reader.so.0\]" || fail "the consumer does not link libkiln_reader.so.0"
+readelf -d "$work/consumer" | grep "NEEDED.*\[libkiln_reader.so.0\]" > /dev/null || fail "the consumer does not link libkiln_reader.so.0"
 cat "$work/out.txt"
 grep -qE '^tiny Main: variant [0-9]+, [1-9][0-9]* bytes of vertex SPIR-V$' "$work/out.txt" || fail "unexpected output"
 echo "ok"

@@ -60,7 +60,7 @@ chroot "$root" bash -euo pipefail -c "
   apt-get update -q > /dev/null
   absent() {
     for package in \"\$@\"; do
-      if dpkg-query -W -f='\${Status}' \$package 2> /dev/null | grep -q 'install ok installed'; then
+      if dpkg-query -W -f='\${Status}' \$package 2> /dev/null | grep 'install ok installed' > /dev/null; then
         echo \"FAIL: \$package came with the packages installed so far\"; exit 1
       fi
     done

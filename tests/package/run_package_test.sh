@@ -6,6 +6,8 @@
 # package.fresh_debian installs them with apt into a fresh Debian 12 instead.
 # usage: run_package_test.sh <kiln source dir> <kiln build dir>
 set -euo pipefail
+# (No `... | grep -q` here: grep exits at its first match, the writer's next write dies of SIGPIPE, and pipefail
+# fails the pipeline; matches are read whole, `grep ... > /dev/null`.)
 source=$1 build=$2
 work=$(mktemp -d /tmp/kiln-package-XXXXXX)
 trap 'rm -rf "$work"' EXIT
@@ -38,7 +40,7 @@ expect_depends kiln +libc6 +libstdc++6 +libcurl4 +libssl3 +libzstd1 +libmimalloc
 expect_depends kiln-verify +kiln +libvulkan1 +libegl1 +libpng16-16
 grep -q "(= $(dpkg-deb -f "$(deb kiln)" Version))" <<< "$(dpkg-deb -f "$(deb kiln-verify)" Depends)" ||
   fail "kiln-verify does not depend on this version of kiln"
-dpkg-deb --ctrl-tarfile "$(deb libkiln-reader0)" | tar -t | grep -qx "./shlibs" || fail "libkiln-reader0 has no shlibs file"
+dpkg-deb --ctrl-tarfile "$(deb libkiln-reader0)" | tar -t | grep -x "./shlibs" > /dev/null || fail "libkiln-reader0 has no shlibs file"
 
 echo "== contents: each package holds its part of what cmake --install installs, under /usr"
 expect_files() {  # package, files
@@ -62,7 +64,7 @@ expect_files kiln ./usr/bin/kiln ./usr/bin/kiln-worker \
   ./usr/share/doc/kiln/examples/vulkan_triangle/triangle.c ./usr/share/doc/kiln/examples/remote_cache/evict.sh
 expect_files kiln-verify ./usr/bin/kiln-verify
 for package in libkiln-reader0 libkiln-reader-dev kiln-verify; do
-  ! dpkg-deb -c "$(deb $package)" | awk '{print $6}' | grep -q "^\./usr/bin/kiln$" || fail "$package holds kiln"
+  ! dpkg-deb -c "$(deb $package)" | awk '{print $6}' | grep "^\./usr/bin/kiln$" > /dev/null || fail "$package holds kiln"
 done
 
 echo "== lintian: no errors"
@@ -77,7 +79,7 @@ dpkg-deb -x "$(deb libkiln-reader0)" "$work/root"
 others=$(nm -D --defined-only "$work/root/usr/lib/libkiln_reader.so.0" | awk '{print $3}' |
          grep -v '^kiln_\|4kiln\|^KILN_READER_0$' || true)
 [ -z "$others" ] || fail "libkiln_reader.so.0 exports more than kiln's API: $(head -5 <<< "$others")"
-objdump -p "$work/root/usr/lib/libkiln_reader.so.0" | grep -q "SONAME *libkiln_reader.so.0$" || fail "no SONAME libkiln_reader.so.0"
+objdump -p "$work/root/usr/lib/libkiln_reader.so.0" | grep "SONAME *libkiln_reader.so.0$" > /dev/null || fail "no SONAME libkiln_reader.so.0"
 
 echo "== the reader's developer package alone: gcc links a C program, a LANGUAGES C CMake project links kiln::reader"
 dpkg-deb -x "$(deb libkiln-reader-dev)" "$work/root"
