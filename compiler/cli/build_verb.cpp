@@ -9,6 +9,7 @@
 #include "common/files.hpp"
 #include "definition/definition.hpp"
 #include "frontend/frontend.hpp"
+#include "kiln/manifest_json.hpp"
 #include "progress_line.hpp"
 
 namespace kiln::cli {
@@ -67,7 +68,9 @@ void print_summary(const kiln::BuildReport& r, std::ostream& out, const std::str
 // `kiln build --summary-json FILE`: what the summary says, for CI dashboards; written whether the build
 // succeeded or not (README.md lists the fields; they are only ever added).
 json summary_json(const kiln::BuildReport& r, const kiln::DiagnosticSink& sink, int exit_code, const kiln::BuildOptions& options) {
-  const kiln::Funnel& f = r.funnel;
+  // The manifest's funnel fields (one field table: src/reader/manifest.cpp), and whether the count saturated.
+  json funnel = static_cast<const kiln::ManifestFunnel&>(r.funnel);
+  funnel["declared_saturated"] = r.funnel.declared_saturated;
   json timings = json::array();
   for (const kiln::StageTiming& t : r.timings)
     timings.push_back({{"stage", t.stage}, {"milliseconds", t.milliseconds}, {"start_ms", t.start_ms}, {"end_ms", t.end_ms}});
@@ -87,10 +90,7 @@ json summary_json(const kiln::BuildReport& r, const kiln::DiagnosticSink& sink, 
            {"internal_errors", r.internal_errors},
            {"up_to_date", r.up_to_date},
            {"manifest", r.ok ? json(r.manifest.string()) : json()},
-           {"funnel", {{"declared", f.declared}, {"declared_saturated", f.declared_saturated}, {"valid", f.valid},
-                       {"kept", f.kept}, {"stage_instances", f.stage_instances},
-                       {"unique_preprocessed", f.unique_preprocessed}, {"unique_compiles", f.unique_compiles},
-                       {"unique_modules", f.unique_modules}, {"unique_binaries", f.unique_binaries}}},
+           {"funnel", funnel},
            {"compiled", r.compiled},
            {"back_ends", r.back_ends},
            {"back_end_cache_hits", r.back_end_hits},
@@ -160,7 +160,7 @@ class BuildVerb final : public Verb {
     verb->add_option("--cache-max-mb", options_.cache_max_mb,
                       "Cache size limit: least recently used entries go first (default: " + std::to_string(kiln::defaults::kCacheMaxMb) + ")")
         ->check(CLI::PositiveNumber);
-    verb->add_option("--emit", emit_, "Dump a stage: variants, preprocessed, spvasm, glsl, msl, reflection (repeatable)")
+    verb->add_option("--emit", emit_, "Dump a stage: " + kiln::emit_stage_list() + " (repeatable)")
         ->check(CLI::IsMember(kiln::emit_stage_names()))
         ->delimiter(',');
     verb->add_option("--depfile", depfile_, "Write a Makefile-style depfile listing every input read");

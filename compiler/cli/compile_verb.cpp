@@ -4,6 +4,7 @@
 // scratch directory, of which the chosen stage's code for the chosen target is written to -o (or stdout).
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
 
@@ -26,16 +27,42 @@ std::optional<Stage> stage_from(const std::string& text) {
   return std::nullopt;
 }
 
-// The target by --target, else by the output's extension (.spv, .glsl/.vert/.frag/..., .es.glsl, .metal/.msl),
-// else SPIR-V.
+// The target by --target, else by the output's extension (a row's extension or other extensions in kiln/targets.def,
+// the longest that matches: .es.glsl before .glsl), else SPIR-V.
 std::optional<Target> target_for(const std::string& flag, const std::string& output) {
   if (!flag.empty()) return parse_target(flag);
-  auto ends = [&](const char* suffix) { return output.ends_with(suffix); };
-  if (ends(".es.glsl") || ends(".essl")) return Target::Gles;
-  if (ends(".glsl") || ends(".vert") || ends(".frag") || ends(".comp") || ends(".geom") || ends(".tesc") || ends(".tese"))
-    return Target::Glsl;
-  if (ends(".metal") || ends(".msl")) return Target::Msl;
-  return Target::Spirv;
+  std::optional<Target> best;
+  size_t best_length = 0;
+  auto consider = [&](Target target, std::string_view extension) {
+    if (!extension.empty() && extension.size() > best_length && output.ends_with(extension)) {
+      best = target;
+      best_length = extension.size();
+    }
+  };
+  for (const TargetName& t : kTargetNames) {
+    consider(t.target, t.extension);
+    std::string_view others = t.other_extensions;
+    while (!others.empty()) {
+      const size_t space = others.find(' ');
+      consider(t.target, others.substr(0, space));
+      others = space == std::string_view::npos ? std::string_view() : others.substr(space + 1);
+    }
+  }
+  return best.value_or(Target::Spirv);
+}
+
+// ".spv, .glsl or .vert/.frag/..., .es.glsl, .metal": each target's extensions, for --help.
+std::string extension_list() {
+  std::string list;
+  for (const TargetName& t : kTargetNames) {
+    list += (list.empty() ? "" : ", ") + std::string(t.extension);
+    if (!t.other_extensions.empty()) {
+      std::string others(t.other_extensions);
+      std::replace(others.begin(), others.end(), ' ', '/');
+      list += " or " + others;
+    }
+  }
+  return list;
 }
 
 class CompileVerb final : public Verb {
@@ -49,8 +76,7 @@ class CompileVerb final : public Verb {
     verb->add_option("-E,--entry", entry_, "Entry point (default: main)");
     verb->add_option("-o,--output", output_, "Output file, or - for standard output")->required();
     verb->add_option("--target", target_text_,
-                     "spirv, glsl, gles or msl (default: by the output's extension: .spv, .glsl or .vert/.frag/..., .es.glsl, "
-                     ".metal; else spirv)");
+                     target_name_list() + " (default: by the output's extension: " + extension_list() + "; else spirv)");
     verb->add_option("-I,--include-dir", include_dirs_, "Include root (repeatable; the file's own directory is one)");
     plan_.add_to(verb, /*scenes=*/false);
     verb->add_option("-O", optimize_, "Optimization: s (the default: kiln's recipe) or 0 (none: the legalized front-end code)")
@@ -136,11 +162,7 @@ class CompileVerb final : public Verb {
       for (const Define& define : defines) keywords.push_back(define.name);
       const SelectedVariant variant = pack.select("main", keywords);
       const StageView* view = variant.stage(stage_name(stage));
-      const std::string_view code = !view                     ? std::string_view()
-                                    : target == Target::Spirv ? view->spirv
-                                    : target == Target::Glsl  ? view->glsl
-                                    : target == Target::Gles  ? view->gles
-                                                              : view->msl;
+      const std::string_view code = view ? view->code(target) : std::string_view();
       if (code.empty()) {
         std::cerr << "kiln: error: the build wrote no " << target_name(target) << " for the " << stage_name(stage) << " stage\n";
         return 2;

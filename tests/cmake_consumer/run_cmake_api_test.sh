@@ -14,7 +14,7 @@ cmake --install "$build" --prefix "$work/prefix" > /dev/null
 
 echo "== the man page and bash completion are installed"
 gzip -dc "$work/prefix/share/man/man1/kiln.1.gz" | cmp - "$source/docs/man/kiln.1" || fail "the man page is not installed (gzip -9n)"
-cmp "$work/prefix/share/bash-completion/completions/kiln" "$source/compiler/cli/completion/kiln.bash" ||
+cmp "$work/prefix/share/bash-completion/completions/kiln" "$build/compiler/completion/kiln.bash" ||
   fail "the bash completion is not installed"
 echo "== the pack and scene schemas are installed"
 for schema in pack.schema.json scene.schema.json; do

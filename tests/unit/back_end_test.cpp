@@ -258,8 +258,9 @@ TEST(Targets, EveryTargetButSpirvHasOneBackEndThatTranslatesAndRecords) {
     const TargetBackend* backend = target_backend(name.target);
     ASSERT_NE(backend, nullptr) << name.name;
     EXPECT_EQ(backend->target, name.target);
-    EXPECT_TRUE(emit_stage_names().count(std::string(backend->emit))) << backend->emit;
-    EXPECT_EQ(step_name(backend->step).substr(0, 6), "cross-") << name.name;
+    EXPECT_TRUE(emit_stage_names().count(std::string(name.emit))) << name.emit;
+    EXPECT_EQ(step_name(cross_step(name.target)), "cross-" + std::string(name.name));
+    EXPECT_EQ(parse_step("cross-" + std::string(name.name)), cross_step(name.target));
     backend->record_options(options);
   }
   EXPECT_EQ(target_backends().size(), kTargetNames.size() - 1);

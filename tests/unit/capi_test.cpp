@@ -147,7 +147,7 @@ TEST(CApi, CodeIsTheBytesTheCppReaderReturns) {
         ASSERT_NE(view, nullptr);
         EXPECT_EQ(kiln_variant_entry_point(c.pack, pass, v, stage), view->entry_point);
         const std::string_view expected[] = {view->spirv, view->glsl, view->gles, view->msl};
-        for (int target = KILN_TARGET_SPIRV; target <= KILN_TARGET_MSL; ++target) {
+        for (int target = KILN_TARGET_SPIRV; target < KILN_TARGET_COUNT; ++target) {
           kiln_code code{};
           ASSERT_EQ(kiln_variant_code(c.pack, pass, v, stage, static_cast<kiln_target>(target), &code, nullptr), KILN_OK);
           EXPECT_EQ(std::string_view(static_cast<const char*>(code.bytes), code.size), expected[target])

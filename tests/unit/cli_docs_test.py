@@ -1,19 +1,19 @@
 #!/usr/bin/env python3
-"""The man page (docs/man/kiln.1) and the bash completion (compiler/cli/completion/kiln.bash) against the CLI:
-every option each verb's --help lists is described in the man page and completed for that verb, every verb is
-completed, and the completion function answers as bash calls it.
+"""The man page (docs/man/kiln.1) and the bash completion (compiler/cli/completion/kiln.bash.in, configured into the
+build tree) against the CLI: every option each verb's --help lists is described in the man page and completed for
+that verb, every verb is completed, the completion function answers as bash calls it, and its lists of targets and
+--emit stages are the ones --help states (both come from kiln/targets.def).
 
-usage: cli_docs_test.py KILN [KILN_VERIFY] SOURCE_DIR"""
+usage: cli_docs_test.py KILN COMPLETION [KILN_VERIFY] SOURCE_DIR"""
 import os
 import re
 import subprocess
 import sys
 
 args = sys.argv[1:]
-kiln, source = args[0], args[-1]
-kiln_verify = args[1] if len(args) == 3 else None
+kiln, completion_file, source = args[0], args[1], args[-1]
+kiln_verify = args[2] if len(args) == 4 else None
 man = open(os.path.join(source, "docs/man/kiln.1")).read()
-completion_file = os.path.join(source, "compiler/cli/completion/kiln.bash")
 failures = []
 
 
@@ -63,6 +63,19 @@ for option in ("--color", "--version"):
 # Values, and a prefix.
 if complete(["kiln", "build", "x.json", "--emit", "sp"]) != {"spvasm"}:
     failures.append("--emit values are not completed")
+# The lists generated from kiln/targets.def: as --help states them.
+build_help = subprocess.run([kiln, "build", "--help"], capture_output=True, text=True, check=True).stdout
+stated_targets = re.search(r"Override the pack's targets: ([a-z0-9, ]+?) \(comma", build_help)
+stated_emit = re.search(r"Dump a stage: ([a-z0-9, ]+?) \(repeatable", build_help)
+if not stated_targets or not stated_emit:
+    failures.append("kiln build --help does not list the targets and --emit stages")
+else:
+    targets = set(re.split(r", | or ", stated_targets.group(1)))
+    if complete(["kiln", "build", "--targets", ""]) != targets or len(targets) < 4:
+        failures.append(f"--targets completes {sorted(complete(['kiln', 'build', '--targets', '']))}, --help says {sorted(targets)}")
+    emit = set(stated_emit.group(1).split(", "))
+    if complete(["kiln", "build", "--emit", ""]) != emit or "spvasm" not in emit:
+        failures.append(f"--emit completes {sorted(complete(['kiln', 'build', '--emit', '']))}, --help says {sorted(emit)}")
 if complete(["kiln", "--color", "n"]) != {"never"}:
     failures.append("--color values are not completed")
 if complete(["kiln", "build", "--remote-u"]) != {"--remote-upload"}:

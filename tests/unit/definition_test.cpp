@@ -33,6 +33,17 @@ std::vector<std::string> sorted(const std::vector<std::string_view>& fields) {
   return names;
 }
 
+// The schema's target names are kiln/targets.def's, in its order, for the pack and for a pass.
+TEST(Definition, SchemaTargetsAreTheTargetTable) {
+  std::vector<std::string> table;
+  for (const TargetName& target : kTargetNames) table.emplace_back(target.name);
+  const json pack = read_schema("pack.schema.json");
+  EXPECT_EQ(pack.at("properties").at("targets").at("items").at("enum").get<std::vector<std::string>>(), table);
+  EXPECT_EQ(pack.at("properties").at("passes").at("items").at("properties").at("targets").at("items").at("enum")
+                .get<std::vector<std::string>>(),
+            table);
+}
+
 TEST(Definition, SchemasListExactlyTheFieldsKilnAccepts) {
   const DefinitionFields& kiln = definition_fields();
   const json pack = read_schema("pack.schema.json");

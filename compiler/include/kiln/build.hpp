@@ -11,15 +11,28 @@
 
 #include "kiln/defaults.hpp"
 #include "kiln/diagnostics.hpp"
+#include "kiln/manifest.hpp"
 #include "kiln/model.hpp"
 #include "kiln/version.hpp"  // generated from CMake's project version (cmake/version.hpp.in)
 
 namespace kiln {
 
-// What `--emit` can dump, one name per pipeline stage.
+// What `--emit` can dump, one name per pipeline stage, in the pipeline's order: the variants, the preprocessed HLSL,
+// each target's code (its row's emit stage in kiln/targets.def: spvasm, glsl, msl) and the reflection.
 inline const std::set<std::string>& emit_stage_names() {
-  static const std::set<std::string> names{"variants", "preprocessed", "spvasm", "glsl", "msl", "reflection"};
+  static const std::set<std::string> names = [] {
+    std::set<std::string> all{"variants", "preprocessed", "reflection"};
+    for (const TargetName& target : kTargetNames) all.emplace(target.emit);
+    return all;
+  }();
   return names;
+}
+inline std::string emit_stage_list() {
+  std::string list = "variants, preprocessed";
+  std::set<std::string_view> listed;
+  for (const TargetName& target : kTargetNames)
+    if (listed.insert(target.emit).second) list += ", " + std::string(target.emit);
+  return list + ", reflection";
 }
 
 // The shared remote cache under the local one (docs/remote-cache.md): the Bazel HTTP cache protocol.
@@ -75,16 +88,9 @@ struct BuildOptions {
 };
 
 // declared -> valid -> after scene stripping -> unique per stage -> compiles -> modules -> unique binaries
-struct Funnel {
-  uint64_t declared = 0;
+// The funnel the manifest records (kiln/manifest.hpp), and whether the declared count saturated (the summary's).
+struct Funnel : ManifestFunnel {
   bool declared_saturated = false;
-  uint64_t valid = 0;
-  uint64_t kept = 0;
-  uint64_t stage_instances = 0;    // variants x stages
-  uint64_t unique_preprocessed = 0;  // distinct (pass, stage, stage keywords)
-  uint64_t unique_compiles = 0;    // distinct preprocessed text + entry + stage: front ends run
-  uint64_t unique_modules = 0;     // distinct front-end SPIR-V modules: back ends run
-  uint64_t unique_binaries = 0;    // distinct optimized SPIR-V: what the pack stores
 };
 
 // One variant, as `kiln list` shows it.

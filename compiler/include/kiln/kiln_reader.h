@@ -97,11 +97,13 @@ enum {
   KILN_STAGE_FLAG_FRAGMENT = 0x10,
   KILN_STAGE_FLAG_COMPUTE = 0x20
 };
+/* One per row of kiln/targets.def, in its order from 0 (each row's description says what the code is):
+   KILN_TARGET_SPIRV (SPIR-V words, for vkCreateShaderModule), KILN_TARGET_GLSL (GLSL 450 source text, not
+   NUL-terminated: use the size), KILN_TARGET_GLES (GLSL ES 3.10), KILN_TARGET_MSL (MSL 2.1). */
 typedef enum kiln_target {
-  KILN_TARGET_SPIRV = 0, /* SPIR-V words, for vkCreateShaderModule */
-  KILN_TARGET_GLSL = 1,  /* GLSL 450 source text (not NUL-terminated: use the size) */
-  KILN_TARGET_GLES = 2,  /* GLSL ES 3.10 source text */
-  KILN_TARGET_MSL = 3    /* MSL 2.1 source text */
+#define KILN_TARGET(Enumerator, id, extension, other_extensions, C_NAME, emit, library, description) KILN_TARGET_##C_NAME,
+#include "kiln/targets.def"
+  KILN_TARGET_COUNT /* not a target: how many there are */
 } kiln_target;
 
 /* ---- Opening ------------------------------------------------------------------------------------------------ */

@@ -211,6 +211,9 @@ struct ManifestOptions {
   friend bool operator==(const ManifestOptions&, const ManifestOptions&) = default;
 };
 
+// What the build's stages made of the pack: variants declared, valid and kept; stage instances (variants x stages);
+// distinct (pass, stage, stage keywords) preprocessed; distinct preprocessed text + entry + stage compiled (front ends
+// run); distinct front-end modules (back ends run); distinct optimized SPIR-V (what the pack stores).
 struct ManifestFunnel {
   uint64_t declared = 0, valid = 0, kept = 0, stage_instances = 0, unique_preprocessed = 0, unique_compiles = 0,
            unique_modules = 0, unique_binaries = 0;

@@ -46,11 +46,22 @@ class PackError : public std::runtime_error {
 struct StageView {
   std::string stage;        // "vertex", "fragment"
   std::string entry_point;  // as compiled
-  std::string_view spirv;   // bytes; empty if the target was not built
-  std::string_view glsl;
-  std::string_view gles;
-  std::string_view msl;
+  // One member per target, named by its id (kiln/targets.def): spirv, glsl, gles, msl. Bytes; empty if the target
+  // was not built.
+#define KILN_TARGET(Enumerator, id, ...) std::string_view id;
+#include "kiln/targets.def"
   const Reflection* reflection = nullptr;
+
+  // The member of `target`.
+  std::string_view code(Target target) const { return const_cast<StageView&>(*this).code(target); }
+  std::string_view& code(Target target) {
+    switch (target) {
+#define KILN_TARGET(Enumerator, id, ...) \
+  case Target::Enumerator: return id;
+#include "kiln/targets.def"
+    }
+    return spirv;  // not reached: every Target has its case
+  }
 };
 
 struct SelectedVariant {

@@ -44,20 +44,27 @@ constexpr std::optional<Stage> parse_stage(std::string_view name) {
   return std::nullopt;
 }
 
-// In the order of the table below: a target's index is its value.
-enum class Target : uint8_t { Spirv, Glsl, Gles, Msl };
+// The output targets, generated from kiln/targets.def (one row per target): a target's index is its value.
+enum class Target : uint8_t {
+#define KILN_TARGET(Enumerator, ...) Enumerator,
+#include "kiln/targets.def"
+};
 
 struct TargetName {
   Target target;
-  std::string_view name;       // in pack definitions, `--target`, the manifest's blob records
-  std::string_view extension;  // of `--emit` files and `kiln extract` outputs
+  std::string_view name;              // in pack definitions, `--target`, the manifest's blob records
+  std::string_view extension;         // of `--emit` files and `kiln extract` outputs
+  std::string_view other_extensions;  // further output extensions `kiln compile` takes, space-separated
+  std::string_view emit;              // the `--emit` stage that dumps it
+  bool cross_compiled;                // by a SPIRV-Cross back end (cross/targets.hpp); SPIR-V is not
 };
-inline constexpr std::array<TargetName, 4> kTargetNames{{
-    {Target::Spirv, "spirv", ".spv"},
-    {Target::Glsl, "glsl", ".glsl"},
-    {Target::Gles, "gles", ".es.glsl"},
-    {Target::Msl, "msl", ".metal"},
-}};
+inline constexpr auto kTargetNames = std::to_array<TargetName>({
+#define KILN_TARGET(Enumerator, id, extension, other_extensions, C_NAME, emit, library, description) \
+  {Target::Enumerator, #id, extension, other_extensions, emit, false},
+#define KILN_CROSS_TARGET(Enumerator, id, extension, other_extensions, C_NAME, emit, library, description) \
+  {Target::Enumerator, #id, extension, other_extensions, emit, true},
+#include "kiln/targets.def"
+});
 inline constexpr int kTargetCount = static_cast<int>(kTargetNames.size());
 
 constexpr std::string_view target_name(Target target) { return kTargetNames[static_cast<size_t>(target)].name; }

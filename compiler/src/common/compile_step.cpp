@@ -6,7 +6,7 @@
 namespace kiln {
 namespace {
 
-constexpr std::array<std::pair<CompileStep, std::string_view>, 15> kNames{{
+constexpr auto kNames = std::to_array<std::pair<CompileStep, std::string_view>>({
     {CompileStep::None, ""},
     {CompileStep::Preprocess, "preprocess"},
     {CompileStep::Frontend, "frontend"},
@@ -17,12 +17,11 @@ constexpr std::array<std::pair<CompileStep, std::string_view>, 15> kNames{{
     {CompileStep::Optimize, "optimize"},
     {CompileStep::ValidateOptimized, "validate-optimized"},
     {CompileStep::Reflect, "reflect"},
-    {CompileStep::CrossGlsl, "cross-glsl"},
-    {CompileStep::CrossGles, "cross-gles"},
-    {CompileStep::CrossMsl, "cross-msl"},
+#define KILN_CROSS_TARGET(Enumerator, id, ...) {CompileStep::Cross##Enumerator, "cross-" #id},
+#include "kiln/targets.def"
     {CompileStep::OutOfMemory, "out-of-memory"},
     {CompileStep::Internal, "internal"},
-}};
+});
 
 }  // namespace
 
@@ -38,5 +37,14 @@ std::optional<CompileStep> parse_step(std::string_view name) {
   return std::nullopt;
 }
 
+CompileStep cross_step(Target target) {
+  switch (target) {
+#define KILN_CROSS_TARGET(Enumerator, ...) \
+  case Target::Enumerator: return CompileStep::Cross##Enumerator;
+#include "kiln/targets.def"
+    default: break;
+  }
+  return CompileStep::None;
+}
 
 }  // namespace kiln

@@ -6,6 +6,7 @@
 #include <string_view>
 
 #include "kiln/model.hpp"
+#include "kiln/stage_target.hpp"
 
 namespace kiln {
 
@@ -20,9 +21,9 @@ enum class CompileStep {
   Optimize,
   ValidateOptimized,  // spirv-val on the optimized module
   Reflect,
-  CrossGlsl,
-  CrossGles,
-  CrossMsl,
+  // Cross<Enumerator> for each SPIRV-Cross back end (kiln/targets.def), named "cross-<id>".
+#define KILN_CROSS_TARGET(Enumerator, ...) Cross##Enumerator,
+#include "kiln/targets.def"
   OutOfMemory,        // the worker ran out of memory during the job
   Internal,           // the worker threw: a bug in kiln
 };
@@ -30,5 +31,8 @@ enum class CompileStep {
 // "validate-optimized", "cross-msl", ... ("" for None).
 std::string_view step_name(CompileStep step);
 std::optional<CompileStep> parse_step(std::string_view name);
+
+// The step a failure of `target`'s back end is reported as (CompileStep::None for SPIR-V, which is not cross-compiled).
+CompileStep cross_step(Target target);
 
 }  // namespace kiln

@@ -16,6 +16,6 @@ void record_gles_options(ManifestOptions& options) { record_gl_options(kGlesOpti
 
 }  // namespace
 
-extern const TargetBackend kGlesTarget{Target::Gles, "GLSL ES 310", "glsl", CompileStep::CrossGles, record_gles_options, translate_gles};
+extern const TargetBackend kGlesTarget{Target::Gles, "GLSL ES 310", record_gles_options, translate_gles};
 
 }  // namespace kiln

@@ -16,6 +16,6 @@ void record_glsl_options(ManifestOptions& options) { record_gl_options(kGlslOpti
 
 }  // namespace
 
-extern const TargetBackend kGlslTarget{Target::Glsl, "GLSL 450", "glsl", CompileStep::CrossGlsl, record_glsl_options, translate_glsl};
+extern const TargetBackend kGlslTarget{Target::Glsl, "GLSL 450", record_glsl_options, translate_glsl};
 
 }  // namespace kiln

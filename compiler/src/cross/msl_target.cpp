@@ -64,6 +64,6 @@ void record_msl_options(ManifestOptions& options) { options.msl_version = kTarge
 
 }  // namespace
 
-extern const TargetBackend kMslTarget{Target::Msl, "MSL 2.1 (macOS)", "msl", CompileStep::CrossMsl, record_msl_options, translate_msl};
+extern const TargetBackend kMslTarget{Target::Msl, "MSL 2.1 (macOS)", record_msl_options, translate_msl};
 
 }  // namespace kiln

@@ -2,6 +2,7 @@
 
 #include <spirv_cross/spirv_cross_c.h>
 
+#include <cstdlib>
 #include <stdexcept>
 
 #include "cross/widen_float16.hpp"
@@ -10,17 +11,31 @@
 
 namespace kiln {
 
-// One file each (glsl_target.cpp, ...).
-extern const TargetBackend kGlslTarget, kGlesTarget, kMslTarget;
+// One file each, <id>_target.cpp, defining k<Enumerator>Target: one per KILN_CROSS_TARGET row of kiln/targets.def.
+#define KILN_CROSS_TARGET(Enumerator, ...) extern const TargetBackend k##Enumerator##Target;
+#include "kiln/targets.def"
 
 namespace {
 
-const TargetBackend* const kBackends[] = {&kGlslTarget, &kGlesTarget, &kMslTarget};
+const TargetBackend* const kBackends[] = {
+#define KILN_CROSS_TARGET(Enumerator, ...) &k##Enumerator##Target,
+#include "kiln/targets.def"
+};
+
+// Each back end translates to the target its row names (k<Enumerator>Target for Target::Enumerator).
+bool backends_match_their_rows() {
+  for (size_t i = 0; i < std::size(kBackends); ++i)
+    if (!kTargetNames[static_cast<size_t>(kBackends[i]->target)].cross_compiled ||
+        cross_step(kBackends[i]->target) == CompileStep::None)
+      return false;
+  return true;
+}
 
 }  // namespace
 
 std::span<const TargetBackend> target_backends() {
   static const std::vector<TargetBackend> backends = [] {
+    if (!backends_match_their_rows()) std::abort();  // a programming error in a back end's file, caught by every build test
     std::vector<TargetBackend> list;
     for (const TargetBackend* backend : kBackends) list.push_back(*backend);
     return list;

@@ -1,9 +1,10 @@
 // Stage 6: SPIR-V to the source targets (GLSL 450, GLSL ES 3.10, MSL 2.1) with SPIRV-Cross, each back end behind
 // one registry entry. Only ever called on modules that passed spirv-val (SPIRV-Cross crashes on some invalid ones).
 //
-// Adding a target: its enumerator and name in kiln/stage_target.hpp, one file here defining its TargetBackend
-// (see glsl_target.cpp), its line in targets.cpp's table; and, when it records bindings of its own, their
-// record in kiln/manifest.hpp's Reflection.
+// Adding a target: its row in kiln/targets.def (a KILN_CROSS_TARGET) and one file here, <id>_target.cpp, defining
+// its TargetBackend as k<Enumerator>Target (see glsl_target.cpp); the build compiles that file and links the
+// row's SPIRV-Cross library. When it records language options or bindings of its own, their fields in
+// kiln/manifest.hpp (ManifestOptions, Reflection) and the manifest codec. docs/design.md counts the files.
 #pragma once
 
 #include <cstdint>
@@ -37,8 +38,6 @@ class CrossModules {
 struct TargetBackend {
   Target target;
   std::string_view language;  // "GLSL 450", for --version and docs
-  std::string_view emit;      // the `--emit` stage that writes its output
-  CompileStep step;           // the step its failures are reported as (K1405)
   // Records the options this back end translates with in the manifest.
   void (*record_options)(ManifestOptions& options);
   // One module to the target's source; fills the target's binding records in `reflection`. Throws

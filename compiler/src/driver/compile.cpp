@@ -25,9 +25,9 @@ DiagId diagnostic_for(CompileStep step) {
     case CompileStep::Validate:
     case CompileStep::ValidateOptimized: return DiagId::SpirvInvalid;
     case CompileStep::Reflect: return DiagId::BlockTooLarge;
-    case CompileStep::CrossGlsl:
-    case CompileStep::CrossGles:
-    case CompileStep::CrossMsl: return DiagId::CrossCompileFailed;
+#define KILN_CROSS_TARGET(Enumerator, ...) case CompileStep::Cross##Enumerator:
+#include "kiln/targets.def"
+      return DiagId::CrossCompileFailed;
     case CompileStep::None:
     case CompileStep::OutOfMemory:  // the pool reports these as outcomes, not as failed steps
     case CompileStep::Internal: break;

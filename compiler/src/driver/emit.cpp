@@ -35,9 +35,9 @@ void emit_dumps(const Plan& plan, const StageSources& sources, const std::vector
     if (s.binary < 0 || !binaries[static_cast<size_t>(s.binary)].output) continue;  // did not compile
     const JobOutput& out = *binaries[static_cast<size_t>(s.binary)].output;
     if (options.emit.count("spvasm")) put(base.string() + ".spvasm", disassemble_spirv(unpack_spirv(out.blobs.at(Target::Spirv))));
-    for (const TargetBackend& backend : target_backends())
-      if (options.emit.count(std::string(backend.emit)) && out.blobs.count(backend.target))
-        put(base.string() + std::string(target_extension(backend.target)), unpack_blob(out.blobs.at(backend.target)));
+    for (const TargetName& target : kTargetNames)
+      if (target.cross_compiled && options.emit.count(std::string(target.emit)) && out.blobs.count(target.target))
+        put(base.string() + std::string(target.extension), unpack_blob(out.blobs.at(target.target)));
     if (options.emit.count("reflection")) put(base.string() + ".reflection.json", nlohmann::json(out.reflection).dump(2) + "\n");
   }
 }

@@ -123,8 +123,7 @@ std::optional<std::string> write_variant_pack(const Plan& plan, const BuildOptio
   manifest.tools = {settings.frontend->name() + " " + settings.frontend->version(), spirv_tools_version(), spirv_cross_version()};
   manifest.options = option_records(options, settings);
   manifest.inputs_hash = inputs_hash;
-  manifest.funnel = {f.declared,        f.valid,           f.kept,           f.stage_instances,
-                     f.unique_preprocessed, f.unique_compiles, f.unique_modules, f.unique_binaries};
+  manifest.funnel = f;  // the manifest's part of the build's funnel
   manifest.constraints = constraint_records(plan.pack);
   manifest.materials = material_records(plan.pack);
   if (!plan.pack.scene_features_json.empty()) manifest.scene_features_json = plan.pack.scene_features_json;

@@ -1,4 +1,5 @@
-// The rule table: every rule kiln lint has, in RuleId order. A new rule is a file in rules/ and a line here.
+// The rule table: every rule kiln lint has, in RuleId order, from lint/rules.def. A new rule is a file in rules/
+// and a row there.
 #include <array>
 #include <cstdlib>
 #include <sstream>
@@ -11,18 +12,8 @@ namespace {
 using namespace rules;
 
 const std::array<const LintRule*, kRuleCount> kRules{
-    &unused_keyword,
-    &undeclared_keyword,
-    &multi_compile_could_be_feature,
-    &budget_exceeded,
-    &missing_entry_point,
-    &interface_mismatch,
-    &layout_mismatch,
-    &spirv_invalid,
-    &fp16_unguarded,
-    &hlsl_warning,
-    &build_error,
-    &block_member_mismatch,
+#define KILN_LINT_RULE(Enumerator, id, variable) &variable,
+#include "lint/rules.def"
 };
 
 // The array's size is checked by the compiler; its order is checked once, here, and by unit.LintRules.

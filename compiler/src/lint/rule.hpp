@@ -1,6 +1,6 @@
 // One lint rule: its id, what it finds, where its documentation is, its default severity and how it checks.
-// Each rule lives in rules/<id>.cpp and is listed once in registry.cpp. Adding a rule: a RuleId and its text
-// (rule_id.hpp), the rule's file, its line in registry.cpp, its section in docs/lint.md, and its unit test.
+// Each rule lives in rules/<variable>.cpp and has one row in rules.def. Adding a rule: its row in rules.def, the
+// rule's file, its section in docs/lint.md, and its unit test.
 #pragma once
 
 #include <optional>

@@ -1,6 +1,6 @@
-// The stable ids of kiln lint's rules. Code names a rule by RuleId, so a misspelt rule is a compile error;
-// the id text (`unused-keyword`) is what users see, in text, JSON and SARIF, and the anchor of its section in
-// docs/lint.md. Never rename an id: CI configurations and SARIF baselines refer to it.
+// The stable ids of kiln lint's rules, generated from rules.def (one row per rule). Code names a rule by RuleId, so
+// a misspelt rule is a compile error; the id text (`unused-keyword`) is what users see, in text, JSON and SARIF, and
+// the anchor of its section in docs/lint.md. Never rename an id: CI configurations and SARIF baselines refer to it.
 #pragma once
 
 #include <array>
@@ -11,27 +11,16 @@
 namespace kiln {
 
 enum class RuleId : unsigned char {
-  UnusedKeyword,
-  UndeclaredKeyword,
-  MultiCompileCouldBeFeature,
-  BudgetExceeded,
-  MissingEntryPoint,
-  InterfaceMismatch,
-  LayoutMismatch,
-  SpirvInvalid,
-  Fp16Unguarded,
-  HlslWarning,
-  BuildError,
-  BlockMemberMismatch,
+#define KILN_LINT_RULE(Enumerator, id, variable) Enumerator,
+#include "lint/rules.def"
 };
-inline constexpr size_t kRuleCount = static_cast<size_t>(RuleId::BlockMemberMismatch) + 1;
 
 // Indexed by RuleId; the order is the rule table's (and SARIF's tool.driver.rules).
-inline constexpr std::array<std::string_view, kRuleCount> kRuleIdTexts{
-    "unused-keyword", "undeclared-keyword", "multi-compile-could-be-feature", "budget-exceeded",
-    "missing-entry-point", "interface-mismatch", "layout-mismatch", "spirv-invalid",
-    "fp16-unguarded", "hlsl-warning", "build-error", "block-member-mismatch",
-};
+inline constexpr auto kRuleIdTexts = std::to_array<std::string_view>({
+#define KILN_LINT_RULE(Enumerator, id, variable) id,
+#include "lint/rules.def"
+});
+inline constexpr size_t kRuleCount = kRuleIdTexts.size();
 
 constexpr std::string_view rule_id_text(RuleId id) { return kRuleIdTexts[static_cast<size_t>(id)]; }
 

@@ -461,7 +461,7 @@ kiln_result kiln_variant_code(const kiln_pack* pack, kiln_pass pass, uint32_t va
   *code = kiln_code{nullptr, 0};
   if (!find_variant(pack, pass, variant)) return invalid(error, "kiln_variant_code: no variant %u of pass %u", variant, pass);
   if (static_cast<int>(stage) < 0 || static_cast<int>(stage) >= kiln::kStageCount) return invalid(error, "kiln_variant_code: stage %d", static_cast<int>(stage));
-  if (target < KILN_TARGET_SPIRV || target > KILN_TARGET_MSL) return invalid(error, "kiln_variant_code: target %d", static_cast<int>(target));
+  if (static_cast<int>(target) < 0 || static_cast<int>(target) >= kiln::kTargetCount) return invalid(error, "kiln_variant_code: target %d", static_cast<int>(target));
   const uint32_t binary = find_binary(pack, pass, variant, stage);
   if (binary == kiln::runtime::kNone) return ok(error);
   const uint32_t blob = pack->index->binaries[binary].blobs[static_cast<size_t>(target)];
@@ -585,8 +585,10 @@ int kiln_reflection_msl_resource(const kiln_reflection* r, uint32_t index, kiln_
 static_assert(KILN_STAGE_VERTEX == static_cast<int>(kiln::Stage::Vertex) && KILN_STAGE_FRAGMENT == static_cast<int>(kiln::Stage::Fragment) &&
               KILN_STAGE_COMPUTE == static_cast<int>(kiln::Stage::Compute) && KILN_STAGE_GEOMETRY == static_cast<int>(kiln::Stage::Geometry) &&
               KILN_STAGE_HULL == static_cast<int>(kiln::Stage::Hull) && KILN_STAGE_DOMAIN == static_cast<int>(kiln::Stage::Domain));
-static_assert(KILN_TARGET_SPIRV == static_cast<int>(kiln::Target::Spirv) && KILN_TARGET_GLSL == static_cast<int>(kiln::Target::Glsl) &&
-              KILN_TARGET_GLES == static_cast<int>(kiln::Target::Gles) && KILN_TARGET_MSL == static_cast<int>(kiln::Target::Msl));
+#define KILN_TARGET(Enumerator, id, extension, other_extensions, C_NAME, emit, library, description) \
+  static_assert(KILN_TARGET_##C_NAME == static_cast<int>(kiln::Target::Enumerator));
+#include "kiln/targets.def"
+static_assert(KILN_TARGET_COUNT == kiln::kTargetCount);
 static_assert(KILN_RESOURCE_UNIFORM_BUFFER == static_cast<int>(kiln::ResourceKind::UniformBuffer) &&
               KILN_RESOURCE_STORAGE_BUFFER == static_cast<int>(kiln::ResourceKind::StorageBuffer) &&
               KILN_RESOURCE_TEXTURE == static_cast<int>(kiln::ResourceKind::Texture) &&

@@ -149,18 +149,253 @@ void read_if_present(const json& object, const char* key, T& out) {
   if (object.contains(key)) read(object, key, out);
 }
 
-// ---- Writing ---------------------------------------------------------------------------------------------------
+// ---- Writing: the value kiln writes for each type --------------------------------------------------------------
 
+json write_value(const std::string& v) { return v; }
+json write_value(bool v) { return v; }
+template <class T>
+  requires std::is_unsigned_v<T> && (!std::is_same_v<T, bool>)
+json write_value(T v) {
+  return v;
+}
+json write_value(Stage v) { return stage_name(v); }
+json write_value(Target v) { return target_name(v); }
+json write_value(ResourceKind v) { return kResourceKindNames[static_cast<size_t>(v)]; }
+json write_value(MslResourceKind v) { return kMslKindNames[static_cast<size_t>(v)]; }
+json write_value(const std::array<uint32_t, 3>& v) { return v; }
+json write_value(const std::set<std::string>& v) { return v; }
+// The manifest's structs: their own to_json (a field table's, or one of their own).
+template <class T>
+  requires std::is_class_v<T>
+json write_value(const T& v) {
+  return json(v);
+}
+template <class T>
+json write_value(const std::optional<T>& v) {
+  return write_value(*v);
+}
+template <class T>
+json write_value(const std::vector<T>& v) {
+  json out = json::array();
+  for (const T& item : v) out.push_back(write_value(item));
+  return out;
+}
+// An object keyed by stage or target names ("vertex": ..., "spirv": ...), or by any string.
 template <class Key, class T>
-json keyed_object(const std::map<Key, T>& map) {
+json write_value(const std::map<Key, T>& map) {
   json out = json::object();
   for (const auto& [key, value] : map) {
-    if constexpr (std::is_same_v<Key, Stage>) out[std::string(stage_name(key))] = value;
-    else if constexpr (std::is_same_v<Key, Target>) out[std::string(target_name(key))] = value;
-    else out[key] = value;
+    if constexpr (std::is_same_v<Key, std::string>) out[key] = write_value(value);
+    else out[write_value(key).template get<std::string>()] = write_value(value);
   }
   return out;
 }
+
+// Whether a field written only when set has something to say: true, an engaged optional, a non-empty string or list.
+template <class T>
+bool is_set(const T& v) {
+  if constexpr (std::is_same_v<T, bool>) return v;
+  else if constexpr (requires { v.has_value(); }) return v.has_value();
+  else if constexpr (requires { v.empty(); }) return !v.empty();
+  else return true;  // a number or a struct: always something to say
+}
+
+// ---- Field tables: each struct's fields, stated once, for writing and for reading ---------------------------------
+//
+// A field is written under its name and read from it (errors name it in their JSON pointer). Always: written, and
+// required. WhenSet: written only when it has something to say (true, a non-empty string or list, an engaged
+// optional), read when present. A field may also apply only to some values of its struct (a block's members, an
+// image's dimension): `applies`, asked of the struct as read so far, so a field it depends on comes first.
+
+enum class When { Always, WhenSet };
+
+template <class S, class T>
+struct Field {
+  const char* name;
+  T S::*member;
+  When when = When::Always;
+  bool (*applies)(const S&) = nullptr;
+};
+template <class S, class T>
+constexpr Field<S, T> always(const char* name, T S::*member, bool (*applies)(const S&) = nullptr) {
+  return {name, member, When::Always, applies};
+}
+template <class S, class T>
+constexpr Field<S, T> when_set(const char* name, T S::*member, bool (*applies)(const S&) = nullptr) {
+  return {name, member, When::WhenSet, applies};
+}
+
+// Fields<S>::list: S's fields, in the order they are read (a reader's first error is the first field's).
+template <class S>
+struct Fields;
+
+template <class S>
+void write_fields(json& j, const S& v) {
+  if (!j.is_object()) j = json::object();
+  std::apply(
+      [&](const auto&... field) {
+        auto write_one = [&](const auto& f) {
+          if (f.applies && !f.applies(v)) return;
+          if (f.when == When::WhenSet && !is_set(v.*f.member)) return;
+          j[f.name] = write_value(v.*f.member);
+        };
+        (write_one(field), ...);
+      },
+      Fields<S>::list);
+}
+
+template <class S>
+void read_fields(const json& j, S& v) {
+  std::apply(
+      [&](const auto&... field) {
+        auto read_one = [&](const auto& f) {
+          if (f.applies && !f.applies(v)) return;
+          if (f.when == When::WhenSet) read_if_present(j, f.name, v.*f.member);
+          else read(j, f.name, v.*f.member);
+        };
+        (read_one(field), ...);
+      },
+      Fields<S>::list);
+}
+
+constexpr bool block_resource(const Resource& r) { return is_block(r.kind); }
+constexpr bool image_resource(const Resource& r) { return is_image(r.kind); }
+
+template <>
+struct Fields<BlockMember> {
+  static constexpr auto list = std::tuple{always("name", &BlockMember::name), always("offset", &BlockMember::offset),
+                                          always("size", &BlockMember::size), always("type", &BlockMember::type),
+                                          when_set("array_stride", &BlockMember::array_stride)};
+};
+template <>
+struct Fields<Resource> {
+  static constexpr auto list =
+      std::tuple{always("name", &Resource::name),      always("kind", &Resource::kind),
+                 always("set", &Resource::set),        always("binding", &Resource::binding),
+                 always("count", &Resource::count),    always("size", &Resource::size, block_resource),
+                 always("members", &Resource::members, block_resource),
+                 always("dimension", &Resource::dimension, image_resource),
+                 when_set("depth", &Resource::depth, image_resource)};
+};
+template <>
+struct Fields<PushConstantBlock> {
+  static constexpr auto list = std::tuple{always("name", &PushConstantBlock::name), always("size", &PushConstantBlock::size),
+                                          always("members", &PushConstantBlock::members)};
+};
+template <>
+struct Fields<StageVariable> {
+  static constexpr auto list = std::tuple{always("name", &StageVariable::name), always("location", &StageVariable::location),
+                                          always("type", &StageVariable::type), when_set("semantic", &StageVariable::semantic)};
+};
+template <>
+struct Fields<GlCombinedSampler> {
+  static constexpr auto list = std::tuple{always("name", &GlCombinedSampler::name), always("texture", &GlCombinedSampler::texture),
+                                          always("sampler", &GlCombinedSampler::sampler), always("binding", &GlCombinedSampler::binding)};
+};
+template <>
+struct Fields<GlBlock> {
+  static constexpr auto list = std::tuple{always("name", &GlBlock::name), always("kind", &GlBlock::kind),
+                                          always("binding", &GlBlock::binding)};
+};
+template <>
+struct Fields<GlBindings> {
+  static constexpr auto list = std::tuple{always("combined_image_samplers", &GlBindings::combined_image_samplers),
+                                          always("blocks", &GlBindings::blocks)};
+};
+template <>
+struct Fields<MslResource> {
+  static constexpr auto list = std::tuple{always("name", &MslResource::name), always("kind", &MslResource::kind),
+                                          always("index", &MslResource::index)};
+};
+template <>
+struct Fields<MslBindings> {
+  static constexpr auto list = std::tuple{always("resources", &MslBindings::resources)};
+};
+// Each target's own binding records under the target's name (kiln/targets.def).
+template <>
+struct Fields<Reflection> {
+  static constexpr auto list =
+      std::tuple{always("resources", &Reflection::resources), always("push_constants", &Reflection::push_constants),
+                 always("inputs", &Reflection::inputs),       always("outputs", &Reflection::outputs),
+                 when_set("local_size", &Reflection::local_size), when_set("glsl", &Reflection::glsl),
+                 when_set("gles", &Reflection::gles),         when_set("msl", &Reflection::msl)};
+};
+template <>
+struct Fields<PassLayout> {
+  static constexpr auto list = std::tuple{always("resources", &PassLayout::resources), always("push_constants", &PassLayout::push_constants)};
+};
+template <>
+struct Fields<ManifestVariant> {
+  static constexpr auto list = std::tuple{always("keywords", &ManifestVariant::keywords), always("binaries", &ManifestVariant::binaries)};
+};
+template <>
+struct Fields<ManifestPass> {
+  static constexpr auto list =
+      std::tuple{always("name", &ManifestPass::name),         always("stages", &ManifestPass::entry_points),
+                 always("keyword_groups", &ManifestPass::keyword_groups), always("layout", &ManifestPass::layout),
+                 always("variants", &ManifestPass::variants), when_set("bindings", &ManifestPass::bindings),
+                 when_set("defines", &ManifestPass::defines), when_set("targets", &ManifestPass::targets)};
+};
+template <>
+struct Fields<ManifestBinary> {
+  static constexpr auto list = std::tuple{always("stage", &ManifestBinary::stage), always("entry", &ManifestBinary::entry),
+                                          always("blobs", &ManifestBinary::blobs), always("reflection", &ManifestBinary::reflection)};
+};
+template <>
+struct Fields<ManifestConstraint> {
+  static constexpr auto list =
+      std::tuple{always("keyword", &ManifestConstraint::keyword), when_set("requires", &ManifestConstraint::requires_all),
+                 when_set("requires_any", &ManifestConstraint::requires_any),
+                 when_set("excludes", &ManifestConstraint::excludes), when_set("reason", &ManifestConstraint::reason)};
+};
+template <>
+struct Fields<ManifestMaterial> {
+  static constexpr auto list = std::tuple{always("name", &ManifestMaterial::name), always("keywords", &ManifestMaterial::keywords)};
+};
+template <>
+struct Fields<ManifestTools> {
+  static constexpr auto list = std::tuple{always("frontend", &ManifestTools::frontend), always("spirv_tools", &ManifestTools::spirv_tools),
+                                          always("spirv_cross", &ManifestTools::spirv_cross)};
+};
+template <>
+struct Fields<ManifestOptions> {
+  static constexpr auto list =
+      std::tuple{always("optimize", &ManifestOptions::optimize),     always("optimizer_recipe", &ManifestOptions::optimizer_recipe),
+                 always("targets", &ManifestOptions::targets),       always("spirv_env", &ManifestOptions::spirv_env),
+                 always("glsl_version", &ManifestOptions::glsl_version), always("gles_version", &ManifestOptions::gles_version),
+                 always("msl_version", &ManifestOptions::msl_version),
+                 always("gl_clip_space_fixup", &ManifestOptions::gl_clip_space_fixup)};
+};
+template <>
+struct Fields<ManifestFunnel> {
+  static constexpr auto list =
+      std::tuple{always("declared", &ManifestFunnel::declared),
+                 always("valid", &ManifestFunnel::valid),
+                 always("kept", &ManifestFunnel::kept),
+                 always("stage_instances", &ManifestFunnel::stage_instances),
+                 always("unique_preprocessed", &ManifestFunnel::unique_preprocessed),
+                 always("unique_compiles", &ManifestFunnel::unique_compiles),
+                 always("unique_modules", &ManifestFunnel::unique_modules),
+                 always("unique_binaries", &ManifestFunnel::unique_binaries)};
+};
+template <>
+struct Fields<ManifestArchive> {
+  static constexpr auto list = std::tuple{always("file", &ManifestArchive::file), always("size", &ManifestArchive::size),
+                                          always("xxh3_64", &ManifestArchive::xxh3_64), always("blobs", &ManifestArchive::blobs)};
+};
+// The fields a reader needs first (the name, the archive, the records selection reads), then the rest. "format" and
+// "scene_features" are Manifest's to_json and from_json's own.
+template <>
+struct Fields<Manifest> {
+  static constexpr auto list =
+      std::tuple{always("format_version", &Manifest::format_version), always("name", &Manifest::name),
+                 always("archive", &Manifest::archive),               always("binaries", &Manifest::binaries),
+                 always("reflections", &Manifest::reflections),       always("passes", &Manifest::passes),
+                 always("kiln_version", &Manifest::kiln_version),     always("tools", &Manifest::tools),
+                 always("options", &Manifest::options),               always("inputs_hash", &Manifest::inputs_hash),
+                 always("funnel", &Manifest::funnel),                 always("constraints", &Manifest::constraints),
+                 always("materials", &Manifest::materials)};
+};
 
 }  // namespace
 
@@ -170,135 +405,50 @@ std::optional<ResourceKind> parse_resource_kind(std::string_view name) {
   return parse_name<ResourceKind>(kResourceKindNames, name);
 }
 
-// ---- Reflection ------------------------------------------------------------------------------------------------
+// ---- The manifest's types: their field tables, and what a table cannot say ------------------------------------
 
-void to_json(json& j, const BlockMember& v) {
-  j = {{"name", v.name}, {"offset", v.offset}, {"size", v.size}, {"type", v.type}};
-  if (v.array_stride) j["array_stride"] = *v.array_stride;
-}
-void from_json(const json& j, BlockMember& v) {
-  read(j, "name", v.name);
-  read(j, "offset", v.offset);
-  read(j, "size", v.size);
-  read(j, "type", v.type);
-  read_if_present(j, "array_stride", v.array_stride);
-}
+#define KILN_FIELD_TABLE_JSON(Type)                                            \
+  void to_json(json& j, const Type& v) { write_fields(j, v); }                  \
+  void from_json(const json& j, Type& v) { read_fields(j, v); }
+KILN_FIELD_TABLE_JSON(BlockMember)
+KILN_FIELD_TABLE_JSON(Resource)
+KILN_FIELD_TABLE_JSON(PushConstantBlock)
+KILN_FIELD_TABLE_JSON(StageVariable)
+KILN_FIELD_TABLE_JSON(GlCombinedSampler)
+KILN_FIELD_TABLE_JSON(GlBindings)
+KILN_FIELD_TABLE_JSON(MslResource)
+KILN_FIELD_TABLE_JSON(MslBindings)
+KILN_FIELD_TABLE_JSON(PassLayout)
+KILN_FIELD_TABLE_JSON(ManifestVariant)
+KILN_FIELD_TABLE_JSON(ManifestPass)
+KILN_FIELD_TABLE_JSON(ManifestBinary)
+KILN_FIELD_TABLE_JSON(ManifestConstraint)
+KILN_FIELD_TABLE_JSON(ManifestMaterial)
+KILN_FIELD_TABLE_JSON(ManifestTools)
+KILN_FIELD_TABLE_JSON(ManifestOptions)
+KILN_FIELD_TABLE_JSON(ManifestFunnel)
+KILN_FIELD_TABLE_JSON(ManifestArchive)
+#undef KILN_FIELD_TABLE_JSON
 
-void to_json(json& j, const Resource& v) {
-  j = {{"name", v.name}, {"kind", resource_kind_name(v.kind)}, {"set", v.set}, {"binding", v.binding}, {"count", v.count}};
-  if (is_block(v.kind)) {
-    j["size"] = v.size;
-    j["members"] = v.members;
-  } else if (is_image(v.kind)) {
-    j["dimension"] = v.dimension;
-    if (v.depth) j["depth"] = true;
-  }
-}
-void from_json(const json& j, Resource& v) {
-  read(j, "name", v.name);
-  read(j, "kind", v.kind);
-  read(j, "set", v.set);
-  read(j, "binding", v.binding);
-  read(j, "count", v.count);
-  if (is_block(v.kind)) {
-    read(j, "size", v.size);
-    read(j, "members", v.members);
-  } else if (is_image(v.kind)) {
-    read(j, "dimension", v.dimension);
-    read_if_present(j, "depth", v.depth);
-  }
-}
-
-void to_json(json& j, const PushConstantBlock& v) { j = {{"name", v.name}, {"size", v.size}, {"members", v.members}}; }
-void from_json(const json& j, PushConstantBlock& v) {
-  read(j, "name", v.name);
-  read(j, "size", v.size);
-  read(j, "members", v.members);
-}
-
-void to_json(json& j, const StageVariable& v) {
-  j = {{"name", v.name}, {"location", v.location}, {"type", v.type}};
-  if (!v.semantic.empty()) j["semantic"] = v.semantic;
-}
-void from_json(const json& j, StageVariable& v) {
-  read(j, "name", v.name);
-  read(j, "location", v.location);
-  read(j, "type", v.type);
-  read_if_present(j, "semantic", v.semantic);
-}
-
-void to_json(json& j, const GlCombinedSampler& v) {
-  j = {{"name", v.name}, {"texture", v.texture}, {"sampler", v.sampler}, {"binding", v.binding}};
-}
-void from_json(const json& j, GlCombinedSampler& v) {
-  read(j, "name", v.name);
-  read(j, "texture", v.texture);
-  read(j, "sampler", v.sampler);
-  read(j, "binding", v.binding);
-}
-
-void to_json(json& j, const GlBlock& v) {
-  j = {{"name", v.name}, {"kind", resource_kind_name(v.kind)}, {"binding", v.binding}};
-}
+void to_json(json& j, const GlBlock& v) { write_fields(j, v); }
 void from_json(const json& j, GlBlock& v) {
-  read(j, "name", v.name);
-  read(j, "kind", v.kind);
+  read_fields(j, v);
   if (!is_block(v.kind)) throw ManifestError("/kind", "is not a block kind");
-  read(j, "binding", v.binding);
 }
 
-void to_json(json& j, const GlBindings& v) {
-  j = {{"combined_image_samplers", v.combined_image_samplers}, {"blocks", v.blocks}};
-}
-void from_json(const json& j, GlBindings& v) {
-  read(j, "combined_image_samplers", v.combined_image_samplers);
-  read(j, "blocks", v.blocks);
-}
-
-void to_json(json& j, const MslResource& v) {
-  j = {{"name", v.name}, {"kind", kMslKindNames[static_cast<size_t>(v.kind)]}, {"index", v.index}};
-}
-void from_json(const json& j, MslResource& v) {
-  read(j, "name", v.name);
-  read(j, "kind", v.kind);
-  read(j, "index", v.index);
-}
-
-void to_json(json& j, const MslBindings& v) { j = {{"resources", v.resources}}; }
-void from_json(const json& j, MslBindings& v) { read(j, "resources", v.resources); }
-
-void to_json(json& j, const Reflection& v) {
-  j = {{"resources", v.resources}, {"push_constants", v.push_constants}, {"inputs", v.inputs}, {"outputs", v.outputs}};
-  if (v.local_size) j["local_size"] = *v.local_size;
-  if (v.glsl) j[std::string(target_name(Target::Glsl))] = *v.glsl;
-  if (v.gles) j[std::string(target_name(Target::Gles))] = *v.gles;
-  if (v.msl) j[std::string(target_name(Target::Msl))] = *v.msl;
-}
+void to_json(json& j, const Reflection& v) { write_fields(j, v); }
 void from_json(const json& j, Reflection& v) {
-  read(j, "resources", v.resources);
-  read(j, "push_constants", v.push_constants);
-  read(j, "inputs", v.inputs);
-  read(j, "outputs", v.outputs);
-  read_if_present(j, "local_size", v.local_size);
+  read_fields(j, v);
   if (v.local_size && ((*v.local_size)[0] == 0 || (*v.local_size)[1] == 0 || (*v.local_size)[2] == 0))
     throw ManifestError("/local_size", "has a thread-group size of 0");
-  read_if_present(j, "glsl", v.glsl);
-  read_if_present(j, "gles", v.gles);
-  read_if_present(j, "msl", v.msl);
 }
 
 bool Reflection::holds(const Resource& resource) const {
   return std::find(resources.begin(), resources.end(), resource) != resources.end();
 }
 
-void to_json(json& j, const PassLayout& v) { j = {{"resources", v.resources}, {"push_constants", v.push_constants}}; }
-void from_json(const json& j, PassLayout& v) {
-  read(j, "resources", v.resources);
-  read(j, "push_constants", v.push_constants);
-}
-
-// ---- Manifest --------------------------------------------------------------------------------------------------
-
+// A group's off value is "" in the model and "_" in the file; its stages are a mask in the model, names in the file
+// (absent: every stage, as manifests before stage masks were written).
 void to_json(json& j, const ManifestKeywordGroup& v) {
   json values = json::array();
   for (const std::string& value : v.values) values.push_back(value.empty() ? "_" : value);
@@ -320,159 +470,13 @@ void from_json(const json& j, ManifestKeywordGroup& v) {
   }
 }
 
-void to_json(json& j, const ManifestVariant& v) { j = {{"keywords", v.keywords}, {"binaries", keyed_object(v.binaries)}}; }
-void from_json(const json& j, ManifestVariant& v) {
-  read(j, "keywords", v.keywords);
-  read(j, "binaries", v.binaries);
-}
-
-void to_json(json& j, const ManifestPass& v) {
-  j = {{"name", v.name},
-       {"stages", keyed_object(v.entry_points)},
-       {"keyword_groups", v.keyword_groups},
-       {"layout", v.layout},
-       {"variants", v.variants}};
-  if (!v.bindings.empty()) j["bindings"] = v.bindings;
-  if (!v.defines.empty()) j["defines"] = keyed_object(v.defines);
-  if (!v.targets.empty()) {
-    json targets = json::array();
-    for (Target t : v.targets) targets.push_back(target_name(t));
-    j["targets"] = targets;
-  }
-}
-void from_json(const json& j, ManifestPass& v) {
-  read(j, "name", v.name);
-  read(j, "stages", v.entry_points);
-  read(j, "keyword_groups", v.keyword_groups);
-  read(j, "layout", v.layout);
-  read(j, "variants", v.variants);
-  read_if_present(j, "bindings", v.bindings);
-  read_if_present(j, "defines", v.defines);
-  read_if_present(j, "targets", v.targets);
-}
-
-void to_json(json& j, const ManifestBinary& v) {
-  j = {{"stage", stage_name(v.stage)}, {"entry", v.entry}, {"blobs", keyed_object(v.blobs)}, {"reflection", v.reflection}};
-}
-void from_json(const json& j, ManifestBinary& v) {
-  read(j, "stage", v.stage);
-  read(j, "entry", v.entry);
-  read(j, "blobs", v.blobs);
-  read(j, "reflection", v.reflection);
-}
-
-void to_json(json& j, const ManifestConstraint& v) {
-  j = {{"keyword", v.keyword}};
-  if (!v.requires_all.empty()) j["requires"] = v.requires_all;
-  if (!v.requires_any.empty()) j["requires_any"] = v.requires_any;
-  if (!v.excludes.empty()) j["excludes"] = v.excludes;
-  if (!v.reason.empty()) j["reason"] = v.reason;
-}
-void from_json(const json& j, ManifestConstraint& v) {
-  read(j, "keyword", v.keyword);
-  read_if_present(j, "requires", v.requires_all);
-  read_if_present(j, "requires_any", v.requires_any);
-  read_if_present(j, "excludes", v.excludes);
-  read_if_present(j, "reason", v.reason);
-}
-
-void to_json(json& j, const ManifestMaterial& v) { j = {{"name", v.name}, {"keywords", v.keywords}}; }
-void from_json(const json& j, ManifestMaterial& v) {
-  read(j, "name", v.name);
-  read(j, "keywords", v.keywords);
-}
-
-void to_json(json& j, const ManifestTools& v) {
-  j = {{"frontend", v.frontend}, {"spirv_tools", v.spirv_tools}, {"spirv_cross", v.spirv_cross}};
-}
-void from_json(const json& j, ManifestTools& v) {
-  read(j, "frontend", v.frontend);
-  read(j, "spirv_tools", v.spirv_tools);
-  read(j, "spirv_cross", v.spirv_cross);
-}
-
-void to_json(json& j, const ManifestOptions& v) {
-  json targets = json::array();
-  for (Target t : v.targets) targets.push_back(target_name(t));
-  j = {{"optimize", v.optimize},         {"optimizer_recipe", v.optimizer_recipe}, {"targets", targets},
-       {"spirv_env", v.spirv_env},       {"glsl_version", v.glsl_version},
-       {"gles_version", v.gles_version}, {"msl_version", v.msl_version},
-       {"gl_clip_space_fixup", v.gl_clip_space_fixup}};
-}
-void from_json(const json& j, ManifestOptions& v) {
-  read(j, "optimize", v.optimize);
-  read(j, "optimizer_recipe", v.optimizer_recipe);
-  read(j, "targets", v.targets);
-  read(j, "spirv_env", v.spirv_env);
-  read(j, "glsl_version", v.glsl_version);
-  read(j, "gles_version", v.gles_version);
-  read(j, "msl_version", v.msl_version);
-  read(j, "gl_clip_space_fixup", v.gl_clip_space_fixup);
-}
-
-void to_json(json& j, const ManifestFunnel& v) {
-  j = {{"declared", v.declared},
-       {"valid", v.valid},
-       {"kept", v.kept},
-       {"stage_instances", v.stage_instances},
-       {"unique_preprocessed", v.unique_preprocessed},
-       {"unique_compiles", v.unique_compiles},
-       {"unique_modules", v.unique_modules},
-       {"unique_binaries", v.unique_binaries}};
-}
-void from_json(const json& j, ManifestFunnel& v) {
-  read(j, "declared", v.declared);
-  read(j, "valid", v.valid);
-  read(j, "kept", v.kept);
-  read(j, "stage_instances", v.stage_instances);
-  read(j, "unique_preprocessed", v.unique_preprocessed);
-  read(j, "unique_compiles", v.unique_compiles);
-  read(j, "unique_modules", v.unique_modules);
-  read(j, "unique_binaries", v.unique_binaries);
-}
-
-void to_json(json& j, const ManifestArchive& v) {
-  j = {{"file", v.file}, {"size", v.size}, {"xxh3_64", v.xxh3_64}, {"blobs", v.blobs}};
-}
-void from_json(const json& j, ManifestArchive& v) {
-  read(j, "file", v.file);
-  read(j, "size", v.size);
-  read(j, "xxh3_64", v.xxh3_64);
-  read(j, "blobs", v.blobs);
-}
-
 void to_json(json& j, const Manifest& v) {
-  j = {{"format", kManifestFormat},
-       {"format_version", v.format_version},
-       {"name", v.name},
-       {"kiln_version", v.kiln_version},
-       {"tools", v.tools},
-       {"options", v.options},
-       {"inputs_hash", v.inputs_hash},
-       {"funnel", v.funnel},
-       {"constraints", v.constraints},
-       {"materials", v.materials},
-       {"scene_features", json::parse(v.scene_features_json)},
-       {"passes", v.passes},
-       {"binaries", v.binaries},
-       {"reflections", v.reflections},
-       {"archive", v.archive}};
+  write_fields(j, v);
+  j["format"] = kManifestFormat;
+  j["scene_features"] = json::parse(v.scene_features_json);
 }
 void from_json(const json& j, Manifest& v) {
-  // The fields a reader needs first (the name, the archive, the records selection reads), then the rest.
-  read(j, "format_version", v.format_version);
-  read(j, "name", v.name);
-  read(j, "archive", v.archive);
-  read(j, "binaries", v.binaries);
-  read(j, "reflections", v.reflections);
-  read(j, "passes", v.passes);
-  read(j, "kiln_version", v.kiln_version);
-  read(j, "tools", v.tools);
-  read(j, "options", v.options);
-  read(j, "inputs_hash", v.inputs_hash);
-  read(j, "funnel", v.funnel);
-  read(j, "constraints", v.constraints);
-  read(j, "materials", v.materials);
+  read_fields(j, v);
   const json& scene_features = member(j, "scene_features");
   if (!scene_features.is_object()) throw ManifestError("/scene_features", "is not an object");
   v.scene_features_json = scene_features.dump();

@@ -712,14 +712,9 @@ SelectedVariant PackReader::variant_of(uint32_t pass_id, uint32_t index) const {
     StageView view;
     view.stage = std::string(stage_name(stage));
     view.entry_point = std::string(binary.entry);
-    auto get = [&](Target target) {
-      const uint32_t blob_id = binary.blobs[static_cast<size_t>(target)];
-      return blob_id == runtime::kNone ? std::string_view{} : blob(blob_id);
-    };
-    view.spirv = get(Target::Spirv);
-    view.glsl = get(Target::Glsl);
-    view.gles = get(Target::Gles);
-    view.msl = get(Target::Msl);
+    for (const TargetName& target : kTargetNames)
+      if (const uint32_t blob_id = binary.blobs[static_cast<size_t>(target.target)]; blob_id != runtime::kNone)
+        view.code(target.target) = blob(blob_id);
     view.reflection = &reflection(binary.reflection);
     selected.stages.push_back(view);
   }

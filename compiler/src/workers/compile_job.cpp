@@ -112,7 +112,7 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
     if (!backend) continue;  // SPIR-V: the optimized module itself
     CrossResult cross = cross_compile(*backend, modules, out.reflection);
     if (!cross.ok) {
-      out.failed_step = backend->step;
+      out.failed_step = cross_step(backend->target);
       out.messages.push_back({Severity::Error, "", 0, cross.error});
       out.blobs.clear();
       return out;
