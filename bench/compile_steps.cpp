@@ -89,7 +89,7 @@ nlohmann::json run_steps(kiln::Frontend& frontend, const std::string& path, kiln
   // As in a worker: the GL module (16-bit floats widened) is made once, inside the first GL step.
   kiln::CrossModules modules(optimized.spirv);
   kiln::Reflection records;
-  auto cross = [&](kiln::Target target) { return kiln::cross_compile(*kiln::target_backend(target), modules, records).ok; };
+  auto cross = [&](kiln::Target target) { return kiln::cross_compile(*kiln::target_backend(target), modules, records).has_value(); };
   timed(i++, "SPIRV-Cross GLSL 450", [&] { return cross(kiln::Target::Glsl); });
   timed(i++, "SPIRV-Cross GLSL ES 310", [&] { return cross(kiln::Target::Gles); });
   timed(i++, "SPIRV-Cross MSL", [&] { return cross(kiln::Target::Msl); });

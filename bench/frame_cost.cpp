@@ -108,9 +108,9 @@ int main(int argc, char** argv) {
   }
   const int frames = argc > 3 ? std::max(3, std::atoi(argv[3])) : 9;
   try {
-    std::string error;
-    auto context = render::VulkanContext::open_lavapipe(error);
-    if (!context) throw std::runtime_error(error);
+    auto opened = render::VulkanContext::open_lavapipe();
+    if (!opened) throw std::runtime_error(opened.error().message);
+    auto context = std::move(*opened);
     PackReader pack = PackReader::open(argv[1]);
     const std::filesystem::path scenes = std::filesystem::path(KILN_SOURCE_DIR) / "variants/scenes/render";
     json out;

@@ -204,12 +204,12 @@ int main(int argc, char** argv) {
     std::cerr << "usage: kiln-shading-study OUT.json\n";
     return 2;
   }
-  std::string error;
-  auto gpu = kiln::gpu::Lavapipe::open(error);
-  if (!gpu) {
-    std::cerr << "kiln-shading-study: error: " << error << "\n";
+  auto opened = kiln::gpu::Lavapipe::open();
+  if (!opened) {
+    std::cerr << "kiln-shading-study: error: " << opened.error().message << "\n";
     return 1;
   }
+  auto gpu = std::move(*opened);
   auto start = std::chrono::steady_clock::now();
   const auto roughness = linspace(0.045, 1.0, 24);
   const auto cosines = linspace(0.05, 1.0, 24);
@@ -387,9 +387,12 @@ int main(int argc, char** argv) {
   // ---- Run everything.
   auto compile_term = [&](std::vector<std::string> defines) {
     defines.push_back("PROBE_TERM");
-    auto program = kiln::gpu::compile_probe(kProbe, {kRoot / "shaderlib"}, defines, error);
-    if (!program) std::cerr << "kiln-shading-study: error: " << error << "\n";
-    return program;
+    auto program = kiln::gpu::compile_probe(kProbe, {kRoot / "shaderlib"}, defines);
+    if (!program) {
+      std::cerr << "kiln-shading-study: error: " << program.error().message << "\n";
+      return std::optional<kiln::gpu::ProbeProgram>();
+    }
+    return std::optional<kiln::gpu::ProbeProgram>(std::move(*program));
   };
   auto baseline = compile_term({"TERM_NONE"});
   if (!baseline) return 1;

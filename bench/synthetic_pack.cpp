@@ -41,9 +41,9 @@ int main(int argc, char** argv) {
     }
   }
   std::filesystem::create_directories(argv[3]);
-  const kiln::WrittenPack written = kiln::write_pack(argv[3], out.name, archive, out);
-  if (!written.error.empty()) {
-    std::fprintf(stderr, "kiln-synthetic-pack: %s\n", written.error.c_str());
+  const kiln::Result<std::string> written = kiln::write_pack(argv[3], out.name, archive, out);
+  if (!written) {
+    std::fprintf(stderr, "kiln-synthetic-pack: %s\n", written.error().message.c_str());
     return 1;
   }
   std::printf("%s/%s.manifest.json\n", argv[3], out.name.c_str());

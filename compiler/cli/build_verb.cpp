@@ -135,9 +135,9 @@ int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cach
   if (summary_file == "-")
     std::cout << summary_json(report, sink, code, options).dump(2) << "\n" << std::flush;
   else if (!summary_file.empty())
-    if (std::string error = kiln::write_file_atomic(summary_file, summary_json(report, sink, code, options).dump(2) + "\n");
-        !error.empty()) {
-      std::cerr << "kiln: error[K1601]: --summary-json: " << error << "\n";
+    if (kiln::Result<void> written = kiln::write_file_atomic(summary_file, summary_json(report, sink, code, options).dump(2) + "\n");
+        !written) {
+      std::cerr << "kiln: error[K1601]: --summary-json: " << written.error().message << "\n";
       code = kiln::worse_exit_status(code, kiln::exit_status(kiln::ExitClass::Environment));
       ++errors;  // counted: "kiln: 0 error(s)" under an error was a contradiction
     }

@@ -30,9 +30,9 @@ int run_inspect(const std::string& pack_dir, bool as_json, const std::string& ex
         for (const auto& [target, id] : binary.blobs) {
           std::string name = "binary" + std::to_string(b) + "." + std::string(kiln::stage_name(binary.stage)) +
                              std::string(kiln::target_extension(target));
-          if (auto error = kiln::write_file_atomic(std::filesystem::path(extract) / name, std::string(pack.blob(id)));
-              !error.empty()) {
-            std::cerr << extract << ": error[K1601]: " << error << "\n";
+          if (kiln::Result<void> written = kiln::write_file_atomic(std::filesystem::path(extract) / name, std::string(pack.blob(id)));
+              !written) {
+            std::cerr << extract << ": error[K1601]: " << written.error().message << "\n";
             return kiln::exit_status(kiln::ExitClass::Environment);
           }
         }

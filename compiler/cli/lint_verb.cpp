@@ -66,8 +66,8 @@ class LintVerb final : public Verb {
     if (output_ == "-") {
       std::cout << text << std::flush;
     } else if (!output_.empty()) {
-      if (std::string error = kiln::write_file_atomic(output_, text); !error.empty()) {
-        std::cerr << output_ << ": error[K1601]: " << error << "\n";
+      if (kiln::Result<void> written = kiln::write_file_atomic(output_, text); !written) {
+        std::cerr << output_ << ": error[K1601]: " << written.error().message << "\n";
         return kiln::exit_status(kiln::ExitClass::Environment);
       }
     } else {

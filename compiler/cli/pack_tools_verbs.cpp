@@ -165,8 +165,8 @@ class MergeUsageVerb final : public Verb {
     if (!merged) return 1;
     if (output_ == "-") {
       std::cout << merged->text << std::flush;
-    } else if (std::string error = kiln::write_file_atomic(output_, merged->text); !error.empty()) {
-      std::cerr << output_ << ": error[K1601]: " << error << "\n";
+    } else if (kiln::Result<void> written = kiln::write_file_atomic(output_, merged->text); !written) {
+      std::cerr << output_ << ": error[K1601]: " << written.error().message << "\n";
       return kiln::exit_status(kiln::ExitClass::Environment);
     }
     (output_ == "-" ? std::cerr : std::cout)

@@ -67,9 +67,9 @@ bool GlDrivers::built_ = false;
 // otherwise require GL_AMD_gpu_shader_half_float or GL_NV_gpu_shader5, which llvmpipe (like most GL drivers)
 // lacks.
 void expect_every_program_links(render::GlApi api, bool gles) {
-  std::string error;
-  auto driver = render::GlContext::open(api, error);
-  ASSERT_TRUE(driver) << error;
+  auto opened = render::GlContext::open(api);
+  ASSERT_TRUE(opened) << opened.error().message;
+  auto driver = std::move(*opened);
   GlDrivers::Outcome outcome = GlDrivers::run(*driver, gles);
   EXPECT_GT(outcome.programs, 3u);  // Forward (one), ShadowCaster (two), DepthOnly, DepthNormals
   EXPECT_TRUE(outcome.failures.empty()) << outcome.failures.size() << " of " << outcome.programs << " failed on "

@@ -28,9 +28,9 @@ struct Geometry {
 
 const Geometry& geometry() {
   static const Geometry g = [] {
-    std::string error;
-    auto context = VulkanContext::open_lavapipe(error);
-    if (!context) throw std::runtime_error(error);
+    auto opened = VulkanContext::open_lavapipe();
+    if (!opened) throw std::runtime_error(opened.error().message);
+    auto context = std::move(*opened);
     PackReader pack = PackReader::open(kWork / "packs/lit");
     PackReader debug = PackReader::open(kWork / "packs/debug");
     SceneRenderer renderer(*context, pack, load_scene(kScene));

@@ -59,9 +59,9 @@ Agreement agreement(const GBuffer& gpu, const GBuffer& cpu) {
 class ReferenceGeometry : public testing::TestWithParam<const char*> {};
 
 TEST_P(ReferenceGeometry, TheReferencesOwnRasterizationAgreesWithLavapipesGBufferOutsideCoverageTies) {
-  std::string error;
-  auto context = VulkanContext::open_lavapipe(error);
-  ASSERT_TRUE(context) << error;
+  auto opened = VulkanContext::open_lavapipe();
+  ASSERT_TRUE(opened) << opened.error().message;
+  auto context = std::move(*opened);
   PackReader pack = PackReader::open(kWork / "packs/lit");
   PackReader debug = PackReader::open(kWork / "packs/debug");
   const Scene scene = load_scene(std::filesystem::path(KILN_SOURCE_DIR) / "variants/scenes/render" / (std::string(GetParam()) + ".json"));
@@ -118,9 +118,9 @@ AtlasAgreement agreement(const ShadowAtlas& gpu, const ShadowAtlas& cpu) {
 }
 
 TEST_P(ReferenceGeometry, TheReferencesOwnShadowMapsAgreeWithTheShadowCasterPassOutsideCoverageTies) {
-  std::string error;
-  auto context = VulkanContext::open_lavapipe(error);
-  ASSERT_TRUE(context) << error;
+  auto opened = VulkanContext::open_lavapipe();
+  ASSERT_TRUE(opened) << opened.error().message;
+  auto context = std::move(*opened);
   PackReader pack = PackReader::open(kWork / "packs/lit");
   const Scene scene = load_scene(std::filesystem::path(KILN_SOURCE_DIR) / "variants/scenes/render" / (std::string(GetParam()) + ".json"));
   SceneRenderer renderer(*context, pack, scene);

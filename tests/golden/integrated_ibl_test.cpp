@@ -63,9 +63,9 @@ struct Judged {
 
   explicit Judged(const std::filesystem::path& environment = {}) {
     if (!environment.empty()) scene.environment = environment;
-    std::string error;
-    context = VulkanContext::open_lavapipe(error);
-    if (!context) throw std::runtime_error(error);
+    auto opened = VulkanContext::open_lavapipe();
+    if (!opened) throw std::runtime_error(opened.error().message);
+    context = std::move(*opened);
     renderer = std::make_unique<SceneRenderer>(*context, pack, scene);
     inputs = std::make_unique<reference::SceneInputs>(renderer->scene());
     for (const auto& keywords : kVariants) inputs->prepare(keywords);

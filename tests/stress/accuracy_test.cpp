@@ -66,9 +66,8 @@ class Accuracy : public LavapipeSuite<Accuracy> {
  protected:
   std::vector<ProbeOutput> run(std::vector<std::string> defines, const std::vector<ProbeInput>& inputs,
                                const std::optional<ProbeTexture>& texture = std::nullopt) {
-    std::string error;
-    auto program = compile_probe(kProbe, {kShaderlib}, defines, error);
-    EXPECT_TRUE(program) << error;
+    auto program = compile_probe(kProbe, {kShaderlib}, defines);
+    EXPECT_TRUE(program) << program.error().message;
     if (!program) return {};
     auto out = gpu_->run(*program, inputs, texture);
     EXPECT_EQ(out.size(), inputs.size());

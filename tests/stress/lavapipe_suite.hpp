@@ -19,9 +19,9 @@ template <typename Suite>
 class LavapipeSuite : public testing::Test {
  protected:
   static void SetUpTestSuite() {
-    std::string error;
-    gpu_ = Lavapipe::open(error).release();
-    open_error_ = error;
+    auto opened = Lavapipe::open();
+    if (opened) gpu_ = std::move(*opened).release();
+    else open_error_ = opened.error().message;
   }
   static void TearDownTestSuite() {
     delete gpu_;

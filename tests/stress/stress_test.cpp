@@ -238,9 +238,8 @@ class Stress : public LavapipeSuite<Stress> {
  protected:
   std::vector<ProbeOutput> run(const std::string& probe, std::vector<std::string> defines, const Grid& grid) {
     defines.push_back(probe);
-    std::string error;
-    auto program = compile_probe(kProbe, {kShaderlib}, defines, error);
-    EXPECT_TRUE(program) << error;
+    auto program = compile_probe(kProbe, {kShaderlib}, defines);
+    EXPECT_TRUE(program) << program.error().message;
     if (!program) return {};
     return gpu_->run(*program, grid.points);
   }
@@ -347,11 +346,10 @@ namespace {
 // more than the multiply chain it replaces, a table lookup is one texture fetch, an empty term costs nothing
 // beyond the record fetch.
 TEST(CostModel, WeightedCountsRankKnownPairsAndCountFetches) {
-  std::string error;
   auto cost_of = [&](std::vector<std::string> defines) {
     defines.push_back("PROBE_TERM");
-    auto program = compile_probe(kProbe, {kShaderlib}, defines, error);
-    EXPECT_TRUE(program) << error;
+    auto program = compile_probe(kProbe, {kShaderlib}, defines);
+    EXPECT_TRUE(program) << program.error().message;
     return program ? weighted_cost(program->fragment) : ShaderCost{};
   };
   ShaderCost none = cost_of({"TERM_NONE"});

@@ -225,27 +225,29 @@ half3 Tonemap(half3 c) { return c / (half3(1.0, 1.0, 1.0) + c); }
 float4 F(float4 color : COLOR0) : SV_Target { return float4(Tonemap(half3(color.rgb) * (half)exposure), 1); }
 )");
   ASSERT_TRUE(has_float16(module));
-  WidenResult widened = widen_float16_for_gl(module);
-  ASSERT_TRUE(widened.ok) << widened.reason;
-  EXPECT_TRUE(widened.changed);
-  EXPECT_FALSE(has_float16(widened.spirv));
-  EXPECT_GT(relaxed_decorations(widened.spirv), 0u);
-  EXPECT_TRUE(validate_spirv(widened.spirv).ok) << validate_spirv(widened.spirv).messages.front();
+  Result<Widened> widened = widen_float16_for_gl(module);
+  ASSERT_TRUE(widened) << widened.error().message;
+  EXPECT_TRUE(widened->changed);
+  EXPECT_FALSE(has_float16(widened->spirv));
+  EXPECT_GT(relaxed_decorations(widened->spirv), 0u);
+  EXPECT_TRUE(validate_spirv(widened->spirv).ok) << validate_spirv(widened->spirv).messages.front();
 }
 
 TEST(WidenFloat16, LeavesModulesWithoutHalfOrWithHalfStorageAlone) {
   const std::vector<uint32_t> plain = optimized("float4 F(float4 c : COLOR0) : SV_Target { return c * 2; }\n");
-  WidenResult unchanged = widen_float16_for_gl(plain);
-  EXPECT_TRUE(unchanged.ok);
-  EXPECT_FALSE(unchanged.changed);
-  EXPECT_EQ(unchanged.spirv.empty() ? plain : unchanged.spirv, plain);
+  Result<Widened> unchanged = widen_float16_for_gl(plain);
+  ASSERT_TRUE(unchanged);
+  EXPECT_FALSE(unchanged->changed);
+  EXPECT_EQ(unchanged->spirv, plain);
+  EXPECT_FALSE(widen_float16_for_gl({1, 2, 3}).has_value()) << "not a SPIR-V module";
 
   // A 16-bit stage interface: widening would change what the other stage reads.
   const std::vector<uint32_t> interface = optimized("half4 F(half4 c : COLOR0) : SV_Target { return c * (half)2.0; }\n");
   ASSERT_TRUE(has_float16(interface));
-  WidenResult kept = widen_float16_for_gl(interface);
-  EXPECT_FALSE(kept.changed);
-  EXPECT_FALSE(kept.reason.empty());
+  Result<Widened> kept = widen_float16_for_gl(interface);
+  ASSERT_TRUE(kept);
+  EXPECT_FALSE(kept->changed);
+  EXPECT_FALSE(kept->unchanged_because.empty());
 }
 
 // ---- the target registry ---------------------------------------------------------------------------------------
@@ -274,9 +276,9 @@ TEST(Targets, EveryTargetButSpirvHasOneBackEndThatTranslatesAndRecords) {
   CrossModules modules(module);
   Reflection reflection;
   for (const TargetBackend& backend : target_backends()) {
-    CrossResult result = cross_compile(backend, modules, reflection);
-    ASSERT_TRUE(result.ok) << backend.language << ": " << result.error;
-    EXPECT_FALSE(result.source.empty());
+    Result<std::string> result = cross_compile(backend, modules, reflection);
+    ASSERT_TRUE(result) << backend.language << ": " << result.error().message;
+    EXPECT_FALSE(result->empty());
   }
   ASSERT_TRUE(reflection.glsl && reflection.gles && reflection.msl);
   ASSERT_EQ(reflection.glsl->combined_image_samplers.size(), 1u);

@@ -193,7 +193,7 @@ TEST(Manifest, RefusesWhatKilnDoesNotWriteAndSaysWhere) {
   const Case cases[] = {
       {"/name", nullptr, "top level: has no \"name\""},
       {"/binaries/1/stage", "amplification", "/binaries/1/stage: \"amplification\" is not a stage"},
-      {"/binaries/0/blobs/hlsl", 7, "/binaries/0/blobs/hlsl: \"hlsl\" is not a target"},
+      {"/binaries/0/blobs/dxil-9", 7, "/binaries/0/blobs/dxil-9: \"dxil-9\" is not a target"},
       {"/binaries/0/reflection", -1, "/binaries/0/reflection: is not an unsigned integer"},
       {"/binaries/0/reflection", uint64_t{4294967296}, "/binaries/0/reflection: 4294967296 is out of range"},
       {"/reflections/0/resources/1/kind", "texel_buffer", "/reflections/0/resources/1/kind: \"texel_buffer\" is not a resource kind"},

@@ -49,7 +49,7 @@ std::filesystem::path write_sample_pack(const testing::TempDir& dir) {
   pass.keyword_groups = {{"multi_compile", {"", "A", "B"}, kAllStageBits}, {"multi_compile", {"", "C"}, kAllStageBits}};
   for (auto keywords : std::vector<std::vector<std::string>>{{}, {"A"}, {"B"}, {"C"}, {"A", "C"}})
     pass.variants.push_back({keywords, {{Stage::Fragment, 0}}});
-  EXPECT_EQ(write_pack(dir.path(), "sample", archive, manifest).error, "");
+  EXPECT_TRUE(write_pack(dir.path(), "sample", archive, manifest));
   return dir / "sample.manifest.json";
 }
 
@@ -456,7 +456,7 @@ TEST(HostilePack, AFrameClaimingMoreThanItsBytesCanHoldIsRefusedBeforeItIsDecomp
   Manifest manifest;
   manifest.format_version = kPackFormatVersion;
   manifest.name = "sample";
-  ASSERT_EQ(write_pack(dir.path(), "sample", archive, manifest).error, "");
+  ASSERT_TRUE(write_pack(dir.path(), "sample", archive, manifest));
   try {
     PackReader::open(dir / "sample.manifest.json").blob(0);
     FAIL() << "read";

@@ -40,10 +40,11 @@ struct Lavapipe::State {
 Lavapipe::Lavapipe(std::unique_ptr<State> state) : state_(std::move(state)) {}
 Lavapipe::~Lavapipe() = default;
 
-std::unique_ptr<Lavapipe> Lavapipe::open(std::string& error) {
+Result<std::unique_ptr<Lavapipe>> Lavapipe::open() {
+  Result<std::unique_ptr<render::VulkanContext>> context = render::VulkanContext::open_lavapipe();
+  if (!context) return failure(context.error());
   auto state = std::make_unique<State>();
-  state->context = render::VulkanContext::open_lavapipe(error);
-  if (!state->context) return nullptr;
+  state->context = std::move(*context);
   return std::unique_ptr<Lavapipe>(new Lavapipe(std::move(state)));
 }
 
@@ -314,7 +315,7 @@ namespace {
 class DirectoryIncludes final : public IncludeSource {
  public:
   explicit DirectoryIncludes(std::vector<std::filesystem::path> dirs) : dirs_(std::move(dirs)) {}
-  bool resolve(std::string_view requested, std::string_view from, Found& found, std::string& error) const override {
+  Result<Found> resolve(std::string_view requested, std::string_view from) const override {
     std::vector<std::filesystem::path> candidates;
     if (!from.empty()) candidates.push_back(std::filesystem::path(from).parent_path() / requested);
     for (const auto& dir : dirs_) candidates.push_back(dir / requested);
@@ -324,12 +325,9 @@ class DirectoryIncludes final : public IncludeSource {
       std::string key = std::filesystem::weakly_canonical(candidate).string();
       auto [it, inserted] = texts_.try_emplace(key);
       if (inserted) it->second = read_text(key);
-      found.name = key;
-      found.text = it->second;
-      return true;
+      return Found{key, it->second};
     }
-    error = "cannot find '" + std::string(requested) + "'";
-    return false;
+    return failure("cannot find '" + std::string(requested) + "'");
   }
 
  private:
@@ -339,9 +337,8 @@ class DirectoryIncludes final : public IncludeSource {
 
 }  // namespace
 
-std::optional<ProbeProgram> compile_probe(const std::filesystem::path& probe_file,
-                                          const std::vector<std::filesystem::path>& include_dirs,
-                                          const std::vector<std::string>& defines, std::string& error, bool optimize) {
+Result<ProbeProgram> compile_probe(const std::filesystem::path& probe_file, const std::vector<std::filesystem::path>& include_dirs,
+                                   const std::vector<std::string>& defines, bool optimize) {
   auto frontend = make_glslang_frontend();
   DirectoryIncludes includes(include_dirs);
   std::string entry_text = read_text(probe_file);
@@ -355,22 +352,16 @@ std::optional<ProbeProgram> compile_probe(const std::filesystem::path& probe_fil
       for (const auto& m : messages) text += m.path + ":" + std::to_string(m.line) + ": " + m.text + "\n";
       return text;
     };
-    if (!preprocessed.ok) {
-      error = "preprocessing " + entry_name + " failed:\n" + describe(preprocessed.messages);
-      return std::nullopt;
-    }
+    if (!preprocessed.ok) return failure("preprocessing " + entry_name + " failed:\n" + describe(preprocessed.messages));
     const char* entry = stage == Stage::Vertex ? "ProbeVertex" : "ProbeFragment";
     CompileResult compiled = frontend->compile({stage, entry, entry_name, preprocessed.text});
-    if (!compiled.ok) {
-      error = "compiling " + entry_name + " (" + std::string(stage_name(stage)) + ") failed:\n" +
-              describe(compiled.messages);
-      return std::nullopt;
-    }
+    if (!compiled.ok)
+      return failure("compiling " + entry_name + " (" + std::string(stage_name(stage)) + ") failed:\n" + describe(compiled.messages));
     SpirvStepResult steps = legalize_validate_optimize(std::move(compiled.spirv), optimize);
     if (!steps.ok) {
-      error = std::string(step_name(steps.step)) + " failed for " + entry_name + ":";
+      std::string error = std::string(step_name(steps.step)) + " failed for " + entry_name + ":";
       for (const auto& m : steps.messages) error += "\n" + m;
-      return std::nullopt;
+      return failure(std::move(error));
     }
     (stage == Stage::Vertex ? program.vertex : program.fragment) = std::move(steps.spirv);
   }

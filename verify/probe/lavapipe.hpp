@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "kiln/result.hpp"
+
 namespace kiln::gpu {
 
 // One input record: four float4 (a, b, c, d), as tests/gpu/Probe.hlsl declares ProbeInput.
@@ -49,9 +51,8 @@ struct ProbeBuffer {
 
 class Lavapipe {
  public:
-  // Opens the lavapipe device explicitly (by driver name), never another GPU. On failure returns null and
-  // a message saying what is missing.
-  static std::unique_ptr<Lavapipe> open(std::string& error);
+  // Opens the lavapipe device explicitly (by driver name), never another GPU. The error says what is missing.
+  static Result<std::unique_ptr<Lavapipe>> open();
   ~Lavapipe();
   Lavapipe(const Lavapipe&) = delete;
   Lavapipe& operator=(const Lavapipe&) = delete;
@@ -74,11 +75,9 @@ class Lavapipe {
 
 // Compiles `probe_file` (vertex ProbeVertex, fragment ProbeFragment) with `#define NAME 1` for each define,
 // includes resolved in `include_dirs`, through kiln's glslang front end, legalization, spirv-val and
-// (if `optimize`) spirv-opt. Returns nothing and sets `error` on failure.
-std::optional<ProbeProgram> compile_probe(const std::filesystem::path& probe_file,
-                                          const std::vector<std::filesystem::path>& include_dirs,
-                                          const std::vector<std::string>& defines, std::string& error,
-                                          bool optimize = true);
+// (if `optimize`) spirv-opt. The error names the step that failed and its messages.
+Result<ProbeProgram> compile_probe(const std::filesystem::path& probe_file, const std::vector<std::filesystem::path>& include_dirs,
+                                   const std::vector<std::string>& defines, bool optimize = true);
 
 // Weighted instruction count of a SPIR-V module (the primary shading-cost axis): ALU 1; rcp, sqrt,
 // inverse sqrt, exp2, log2, exp, log, sin, cos 4; divide 5; pow 9; texture fetches counted separately.

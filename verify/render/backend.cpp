@@ -50,16 +50,17 @@ class ContextBackend final : public Backend {
 
 std::unique_ptr<Backend> Backend::open(Api api, const PackReader& pack, const Scene& scene, uint32_t width,
                                        uint32_t height) {
-  std::string error;
   if (api == Api::Vulkan) {
-    auto context = VulkanContext::open_lavapipe(error);
-    if (!context) fail(DiagId::DeviceUnavailable, {}, error);
+    Result<std::unique_ptr<VulkanContext>> opened = VulkanContext::open_lavapipe();
+    if (!opened) fail(DiagId::DeviceUnavailable, {}, opened.error().message);
+    std::unique_ptr<VulkanContext> context = std::move(*opened);
     std::string device = "Vulkan on " + context->device_name() + " (" + context->driver_info() + ")";
     return std::make_unique<ContextBackend<VulkanContext, SceneRenderer>>(std::move(context), pack, scene, width,
                                                                           height, std::move(device));
   }
-  auto context = GlContext::open(api == Api::Gles ? GlApi::Gles32 : GlApi::DesktopGl45, error);
-  if (!context) fail(DiagId::DeviceUnavailable, {}, error);
+  Result<std::unique_ptr<GlContext>> opened = GlContext::open(api == Api::Gles ? GlApi::Gles32 : GlApi::DesktopGl45);
+  if (!opened) fail(DiagId::DeviceUnavailable, {}, opened.error().message);
+  std::unique_ptr<GlContext> context = std::move(*opened);
   std::string device = std::string(api == Api::Gles ? "GLSL ES" : "GLSL 450") + " on " + context->renderer();
   return std::make_unique<ContextBackend<GlContext, GlSceneRenderer>>(std::move(context), pack, scene, width, height,
                                                                       std::move(device));

@@ -10,34 +10,30 @@
 
 namespace kiln::render {
 
-std::unique_ptr<GlContext> GlContext::open(GlApi api, std::string& error) {
+Result<std::unique_ptr<GlContext>> GlContext::open(GlApi api) {
   std::unique_ptr<GlContext> gl(new GlContext());
   gl->api_ = api;
   auto get_platform_display =
       reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
   if (!get_platform_display) {
-    error = "EGL lacks eglGetPlatformDisplayEXT (install libegl1 and libegl-mesa0)";
-    return nullptr;
+    return failure("EGL lacks eglGetPlatformDisplayEXT (install libegl1 and libegl-mesa0)");
   }
   EGLDisplay display = get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
   EGLint major = 0, minor = 0;
   if (display == EGL_NO_DISPLAY || !eglInitialize(display, &major, &minor)) {
-    error = "cannot open an EGL surfaceless display (install libegl-mesa0 and libgl1-mesa-dri)";
-    return nullptr;
+    return failure("cannot open an EGL surfaceless display (install libegl-mesa0 and libgl1-mesa-dri)");
   }
   gl->display_ = display;
   const bool gles = api == GlApi::Gles32;
   if (!eglBindAPI(gles ? EGL_OPENGL_ES_API : EGL_OPENGL_API)) {
-    error = gles ? "EGL cannot bind OpenGL ES" : "EGL cannot bind desktop OpenGL";
-    return nullptr;
+    return failure(gles ? "EGL cannot bind OpenGL ES" : "EGL cannot bind desktop OpenGL");
   }
   const EGLint config_attributes[] = {EGL_SURFACE_TYPE, EGL_PBUFFER_BIT, EGL_RENDERABLE_TYPE,
                                       gles ? EGL_OPENGL_ES3_BIT : EGL_OPENGL_BIT, EGL_NONE};
   EGLConfig config = nullptr;
   EGLint configs = 0;
   if (!eglChooseConfig(display, config_attributes, &config, 1, &configs) || configs == 0) {
-    error = "no EGL config for the requested API";
-    return nullptr;
+    return failure("no EGL config for the requested API");
   }
   std::vector<EGLint> context_attributes = {EGL_CONTEXT_MAJOR_VERSION, gles ? 3 : 4, EGL_CONTEXT_MINOR_VERSION,
                                             gles ? 2 : 5};
@@ -47,24 +43,19 @@ std::unique_ptr<GlContext> GlContext::open(GlApi api, std::string& error) {
   context_attributes.push_back(EGL_NONE);
   EGLContext context = eglCreateContext(display, config, EGL_NO_CONTEXT, context_attributes.data());
   if (context == EGL_NO_CONTEXT) {
-    error = gles ? "cannot create an OpenGL ES 3.2 context" : "cannot create an OpenGL 4.5 core context";
-    return nullptr;
+    return failure(gles ? "cannot create an OpenGL ES 3.2 context" : "cannot create an OpenGL 4.5 core context");
   }
   gl->context_ = context;
   if (!eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context)) {
-    error = "cannot make the context current without a surface (EGL_KHR_surfaceless_context)";
-    return nullptr;
+    return failure("cannot make the context current without a surface (EGL_KHR_surfaceless_context)");
   }
-  bool ok = true;
+  std::string missing;  // the first function the driver lacks
 #define KILN_GL_LOAD(name)                                                                         \
   gl->gl_.name = reinterpret_cast<decltype(&::gl##name)>(eglGetProcAddress("gl" #name));           \
-  if (!gl->gl_.name) {                                                                             \
-    error = "the GL driver lacks gl" #name;                                                        \
-    ok = false;                                                                                    \
-  }
+  if (!gl->gl_.name && missing.empty()) missing = "gl" #name;
   KILN_GL_FUNCTIONS(KILN_GL_LOAD)
 #undef KILN_GL_LOAD
-  if (!ok) return nullptr;
+  if (!missing.empty()) return failure("the GL driver lacks " + missing);
   return gl;
 }
 

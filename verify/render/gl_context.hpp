@@ -9,6 +9,8 @@
 #include <memory>
 #include <string>
 
+#include "kiln/result.hpp"
+
 namespace kiln::render {
 
 enum class GlApi { DesktopGl45, Gles32 };
@@ -38,8 +40,8 @@ struct GlFunctions {
 class GlContext {
  public:
   // Opens an EGL display on the surfaceless platform and makes a context of `api` current (no surface).
-  // On failure returns null and says what is missing.
-  static std::unique_ptr<GlContext> open(GlApi api, std::string& error);
+  // The error says what is missing.
+  static Result<std::unique_ptr<GlContext>> open(GlApi api);
   ~GlContext();
   GlContext(const GlContext&) = delete;
   GlContext& operator=(const GlContext&) = delete;

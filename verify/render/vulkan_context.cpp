@@ -11,7 +11,7 @@ void check(VkResult result, const char* what) {
   if (result != VK_SUCCESS) fail(DiagId::DriverCallFailed, {}, std::string(what) + " failed: VkResult " + std::to_string(result));
 }
 
-std::unique_ptr<VulkanContext> VulkanContext::open_lavapipe(std::string& error) {
+Result<std::unique_ptr<VulkanContext>> VulkanContext::open_lavapipe() {
   std::unique_ptr<VulkanContext> context(new VulkanContext());
   VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
   app.pApplicationName = "kiln";
@@ -19,8 +19,7 @@ std::unique_ptr<VulkanContext> VulkanContext::open_lavapipe(std::string& error) 
   VkInstanceCreateInfo instance_info{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
   instance_info.pApplicationInfo = &app;
   if (vkCreateInstance(&instance_info, nullptr, &context->instance_) != VK_SUCCESS) {
-    error = "cannot create a Vulkan instance (is the Vulkan loader installed? Debian: libvulkan1 mesa-vulkan-drivers)";
-    return nullptr;
+    return failure("cannot create a Vulkan instance (is the Vulkan loader installed? Debian: libvulkan1 mesa-vulkan-drivers)");
   }
   uint32_t count = 0;
   vkEnumeratePhysicalDevices(context->instance_, &count, nullptr);
@@ -40,9 +39,8 @@ std::unique_ptr<VulkanContext> VulkanContext::open_lavapipe(std::string& error) 
     }
   }
   if (!context->physical_) {
-    error = "no lavapipe device among " + std::to_string(count) +
-            " Vulkan device(s): install Debian's mesa-vulkan-drivers (kiln runs shaders on lavapipe only)";
-    return nullptr;
+    return failure("no lavapipe device among " + std::to_string(count) +
+            " Vulkan device(s): install Debian's mesa-vulkan-drivers (kiln runs shaders on lavapipe only)");
   }
   vkGetPhysicalDeviceMemoryProperties(context->physical_, &context->memory_);
 
@@ -59,8 +57,7 @@ std::unique_ptr<VulkanContext> VulkanContext::open_lavapipe(std::string& error) 
   auto graphics = std::find_if(family_properties.begin(), family_properties.end(),
                                [](const VkQueueFamilyProperties& f) { return f.queueFlags & VK_QUEUE_GRAPHICS_BIT; });
   if (graphics == family_properties.end()) {
-    error = "the lavapipe device has no graphics queue";
-    return nullptr;
+    return failure("the lavapipe device has no graphics queue");
   }
   context->queue_family_ = static_cast<uint32_t>(graphics - family_properties.begin());
 
@@ -78,16 +75,14 @@ std::unique_ptr<VulkanContext> VulkanContext::open_lavapipe(std::string& error) 
   device_info.queueCreateInfoCount = 1;
   device_info.pQueueCreateInfos = &queue_info;
   if (vkCreateDevice(context->physical_, &device_info, nullptr, &context->device_) != VK_SUCCESS) {
-    error = "cannot create the lavapipe logical device";
-    return nullptr;
+    return failure("cannot create the lavapipe logical device");
   }
   vkGetDeviceQueue(context->device_, context->queue_family_, 0, &context->queue_);
   VkCommandPoolCreateInfo pool_info{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
   pool_info.queueFamilyIndex = context->queue_family_;
   pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
   if (vkCreateCommandPool(context->device_, &pool_info, nullptr, &context->pool_) != VK_SUCCESS) {
-    error = "cannot create a command pool";
-    return nullptr;
+    return failure("cannot create a command pool");
   }
   return context;
 }

@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "kiln/result.hpp"
+
 namespace kiln::render {
 
 // Throws a VerifyError (K2007) naming `what` and the VkResult.
@@ -19,8 +21,8 @@ void check(VkResult result, const char* what);
 
 class VulkanContext {
  public:
-  // Opens lavapipe explicitly; on failure returns null and says what is missing (loader, driver, queue).
-  static std::unique_ptr<VulkanContext> open_lavapipe(std::string& error);
+  // Opens lavapipe explicitly; the error says what is missing (loader, driver, queue).
+  static Result<std::unique_ptr<VulkanContext>> open_lavapipe();
   ~VulkanContext();
   VulkanContext(const VulkanContext&) = delete;
   VulkanContext& operator=(const VulkanContext&) = delete;

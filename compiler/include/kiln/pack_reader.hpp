@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "kiln/manifest.hpp"
+#include "kiln/result.hpp"
 
 namespace kiln {
 
@@ -76,28 +77,19 @@ namespace runtime {
 struct Index;
 }
 
-// What a PackReader::try_ call gives code built without exceptions (-fno-exceptions, as many games are): the value,
-// or the PackError that would have been thrown (its code, message and file). Test it before using the value.
+// What a PackReader::try_ call gives code built without exceptions (-fno-exceptions, as many games are): kiln's
+// Result (kiln/result.hpp) of the value or the PackError that would have been thrown, with the error's code,
+// message and file at hand. Test it before using the value.
 template <class T>
-class PackResult {
+class PackResult : public Result<T, PackError> {
  public:
-  PackResult(T value) : value_(std::move(value)) {}  // NOLINT(google-explicit-constructor): a result is its value
-  PackResult(PackError::Code code, std::string message, std::string file)
-      : code_(code), message_(std::move(message)), file_(std::move(file)) {}
-  explicit operator bool() const noexcept { return value_.has_value(); }
-  T& operator*() noexcept { return *value_; }
-  const T& operator*() const noexcept { return *value_; }
-  T* operator->() noexcept { return &*value_; }
-  const T* operator->() const noexcept { return &*value_; }
+  PackResult(T value) : Result<T, PackError>(std::move(value)) {}  // NOLINT(google-explicit-constructor): a result is its value
+  PackResult(PackError::Code code, const std::string& message, std::string file)
+      : Result<T, PackError>(failure(PackError(code, message, std::move(file)))) {}
   // The error, when there is no value.
-  PackError::Code code() const noexcept { return code_; }
-  const std::string& message() const noexcept { return message_; }
-  const std::string& file() const noexcept { return file_; }
-
- private:
-  std::optional<T> value_;
-  PackError::Code code_ = PackError::Code::Io;
-  std::string message_, file_;
+  PackError::Code code() const noexcept { return this->error().code(); }
+  std::string message() const { return this->error().what(); }
+  const std::string& file() const noexcept { return this->error().file(); }
 };
 
 class PackReader {

@@ -147,12 +147,12 @@ std::optional<std::string> Cache::read_record(const Location& at) {
   return record;
 }
 
-Cache::Copy Cache::visit_copies(const Hash128& key, const std::function<Copy(uint32_t, std::string_view)>& visit,
-                               bool& rejected) {
-  rejected = false;
+Cache::Copy Cache::visit_copies(const Hash128& key, const std::function<Copy(uint32_t, std::string_view)>& visit) {
   if (!scanned_) scan();
   auto found = index_.find(key);
   if (found == index_.end()) return Copy::Skip;
+  bool bad = false;
+  Copy result = Copy::Skip;
   for (const Location& at : found->second) {
     std::optional<std::string> record = read_record(at);
     std::string_view payload;
@@ -160,17 +160,19 @@ Cache::Copy Cache::visit_copies(const Hash128& key, const std::function<Copy(uin
     const Copy verdict = kind ? visit(*kind, payload) : Copy::Bad;
     if (verdict == Copy::Take) {
       segments_[at.segment].used = true;
-      return verdict;
+      result = Copy::Take;
+      break;
     }
     if (verdict == Copy::Bad) {
-      rejected = true;
+      bad = true;
       segments_[at.segment].damaged = true;  // the next commit copies its good entries out and removes it
     }
   }
-  return Copy::Skip;
+  if (bad) ++rejected_loads_;
+  return result;
 }
 
-std::optional<Cache::Entry> Cache::read(const Hash128& key, bool& rejected) {
+std::optional<Cache::Entry> Cache::read(const Hash128& key) {
   // Every good copy of an entry has the same bytes (same key, deterministic compile); the first good one wins.
   Entry entry;
   auto decode = [&](uint32_t kind, std::string_view payload) {
@@ -188,7 +190,7 @@ std::optional<Cache::Entry> Cache::read(const Hash128& key, bool& rejected) {
     }
     return entry.output.ok ? Copy::Take : Copy::Bad;
   };
-  if (visit_copies(key, decode, rejected) == Copy::Take) return entry;
+  if (visit_copies(key, decode) == Copy::Take) return entry;
   return std::nullopt;
 }
 
@@ -215,8 +217,7 @@ std::optional<PreprocessMemo> decode_memo(std::string_view p) {
 
 // Unlike results, one memo key can hold different memos (the same source before and after an edit), in
 // different segments: each copy is offered until one is accepted.
-std::optional<PreprocessMemo> Cache::load_memo(const Hash128& key, const std::function<bool(const PreprocessMemo&)>& accept,
-                                               bool& rejected) {
+std::optional<PreprocessMemo> Cache::load_memo(const Hash128& key, const std::function<bool(const PreprocessMemo&)>& accept) {
   std::lock_guard lock(mutex_);
   std::optional<PreprocessMemo> memo;
   auto offer = [&](uint32_t kind, std::string_view payload) {
@@ -224,7 +225,7 @@ std::optional<PreprocessMemo> Cache::load_memo(const Hash128& key, const std::fu
     if (!memo) return Copy::Bad;
     return accept(*memo) ? Copy::Take : Copy::Skip;
   };
-  if (visit_copies(key, offer, rejected) == Copy::Take) return memo;
+  if (visit_copies(key, offer) == Copy::Take) return memo;
   return std::nullopt;
 }
 
@@ -242,14 +243,14 @@ bool Cache::store_memo(const Hash128& key, const PreprocessMemo& memo) {
   return true;
 }
 
-std::optional<JobOutput> Cache::load(const Hash128& key, bool& rejected, std::optional<Hash128>* target_key) {
+std::optional<JobOutput> Cache::load(const Hash128& key, std::optional<Hash128>* target_key) {
   std::lock_guard lock(mutex_);
   if (target_key) target_key->reset();
-  std::optional<Entry> entry = read(key, rejected);
+  std::optional<Entry> entry = read(key);
   if (!entry || !entry->alias) return entry ? std::optional<JobOutput>(std::move(entry->output)) : std::nullopt;
-  std::optional<Entry> target = read(*entry->alias, rejected);
+  std::optional<Entry> target = read(*entry->alias);
   if (!target || target->alias) {
-    rejected = rejected || target.has_value();  // an alias to an alias is not something kiln writes
+    if (target) ++rejected_loads_;  // an alias to an alias is not something kiln writes: rejected, not followed
     return std::nullopt;
   }
   if (target_key) *target_key = entry->alias;
@@ -329,7 +330,7 @@ void Cache::evict_least_recently_used(const std::filesystem::path& keep) {
   }
 }
 
-std::string Cache::commit() {
+Result<void> Cache::commit() {
   std::lock_guard lock(mutex_);
   if (!scanned_ && staged_.empty()) return {};  // nothing loaded, nothing to write
   mark_used_segments();
@@ -340,7 +341,7 @@ std::string Cache::commit() {
   }
   std::error_code ec;
   std::filesystem::create_directories(directory_, ec);
-  if (ec) return "cannot create the cache directory '" + directory_.string() + "': " + ec.message();
+  if (ec) return failure("cannot create the cache directory '" + directory_.string() + "': " + ec.message());
   scan();  // what other builds committed meanwhile counts too
   remove_abandoned_temporaries();
 
@@ -382,14 +383,14 @@ std::string Cache::commit() {
   std::string checksums;
   for (const auto& [key, record] : records) checksums.append(record, 40, 8);
   const std::string name = "seg-" + hash128(header + index + checksums).hex() + kSegmentExtension;
-  std::string error = write_file_atomic(directory_ / name, parts);
-  if (error.empty()) {
+  Result<void> written = write_file_atomic(directory_ / name, parts);
+  if (written) {
     for (size_t s : merged)
       if (segments_[s].path.filename() != name) std::filesystem::remove(segments_[s].path, ec);
     evict_least_recently_used(directory_ / name);
   }
   close_segments();  // the next load sees the new segment
-  return error;
+  return written;
 }
 
 size_t Cache::unreadable_segments() {

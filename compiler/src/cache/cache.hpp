@@ -32,6 +32,7 @@
 
 #include "common/hash.hpp"
 #include "common/compile_result.hpp"
+#include "kiln/result.hpp"
 
 namespace kiln {
 
@@ -54,26 +55,28 @@ class Cache {
   Cache& operator=(const Cache&) = delete;
   const std::filesystem::path& directory() const { return directory_; }
 
-  // Nothing on a miss; `rejected` is set when an entry existed but failed its checks. An alias is
-  // followed: the result is its target's, with the alias's messages first, and `target` (if given) is
-  // set to the target's key. Sees the segments committed when it is first called (after a commit, again).
-  std::optional<JobOutput> load(const Hash128& key, bool& rejected, std::optional<Hash128>* target = nullptr);
+  // Nothing on a miss. An alias is followed: the result is its target's, with the alias's messages first, and
+  // `target` (if given) is set to the target's key. Sees the segments committed when it is first called (after a
+  // commit, again). A copy of the entry that fails its checks is a miss, and counts in rejected_loads().
+  std::optional<JobOutput> load(const Hash128& key, std::optional<Hash128>* target = nullptr);
   // Staged in memory until commit(); safe to call from many threads. Only successful results are ever
   // stored: a failure (or a crash) is never cached.
   bool store(const Hash128& key, const JobOutput& output);
   bool store_alias(const Hash128& key, const Hash128& target, const std::vector<FrontendMessage>& messages);
   // A third kind of entry, under keys of their own: preprocessing memos (staged like the others).
-  // The first memo under `key` that `accept` takes (one key can hold several: see load_memo).
-  // `rejected` as for load().
-  std::optional<PreprocessMemo> load_memo(const Hash128& key, const std::function<bool(const PreprocessMemo&)>& accept,
-                                          bool& rejected);
+  // The first memo under `key` that `accept` takes (one key can hold several: see load_memo). Damaged copies as
+  // for load().
+  std::optional<PreprocessMemo> load_memo(const Hash128& key, const std::function<bool(const PreprocessMemo&)>& accept);
   bool store_memo(const Hash128& key, const PreprocessMemo& memo);
   // Marks the segments loads were served from as used; writes the staged entries as one segment (nothing
   // when none are staged); then keeps the cache within its size limit. Empty, or what failed.
-  [[nodiscard]] std::string commit();
+  Result<void> commit();
 
   // Segments whose header or index failed its checks, as of the last scan.
   size_t unreadable_segments();
+  // Loads (load, load_memo) that found a copy of their entry failing its checks (corrupt, truncated, foreign), so
+  // far; each such copy is rewritten from a good one, or compiled again, at the next commit.
+  size_t rejected_loads() const { return rejected_loads_; }
   // Distinct keys with an entry in a readable segment (entries themselves are checked when loaded).
   size_t indexed_keys();
   std::vector<std::filesystem::path> segment_files();
@@ -103,14 +106,15 @@ class Cache {
   void close_segments();
   std::optional<std::string> read_record(const Location& at);
   // Each copy of a key's record that passes its checks goes to `visit` (kind, payload), in segment order,
-  // until one is taken; copies that fail their checks, or that `visit` finds bad, are marked damaged and
-  // set `rejected`.
+  // until one is taken; copies that fail their checks, or that `visit` finds bad, are marked damaged; a call that
+  // met one counts in rejected_loads_.
   enum class Copy { Take, Skip, Bad };
-  Copy visit_copies(const Hash128& key, const std::function<Copy(uint32_t, std::string_view)>& visit, bool& rejected);
-  std::optional<Entry> read(const Hash128& key, bool& rejected);
+  Copy visit_copies(const Hash128& key, const std::function<Copy(uint32_t, std::string_view)>& visit);
+  std::optional<Entry> read(const Hash128& key);
   bool stage(const Hash128& key, uint32_t kind, std::string_view prefix, const JobOutput& output);
   void stage_record(const Hash128& key, uint32_t kind, std::string_view payload);
 
+  size_t rejected_loads_ = 0;  // under mutex_
   std::filesystem::path directory_;
   uint64_t max_bytes_;
   std::mutex mutex_;

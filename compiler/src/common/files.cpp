@@ -154,16 +154,16 @@ std::filesystem::path make_scratch_directory(const std::filesystem::path& direct
   return scratch;
 }
 
-std::string write_file_atomic(const std::filesystem::path& path, std::string_view bytes) {
+Result<void> write_file_atomic(const std::filesystem::path& path, std::string_view bytes) {
   return write_file_atomic(path, std::vector<std::string_view>{bytes});
 }
 
-std::string write_file_atomic(const std::filesystem::path& path, const std::vector<std::string_view>& parts) {
+Result<void> write_file_atomic(const std::filesystem::path& path, const std::vector<std::string_view>& parts) {
   static std::atomic<uint64_t> counter{0};
   std::filesystem::path temp = path;
   temp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
   int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return "cannot create '" + temp.string() + "': " + std::strerror(errno);
+  if (fd < 0) return failure("cannot create '" + temp.string() + "': " + std::strerror(errno));
   for (std::string_view bytes : parts) {
     size_t written = 0;
     while (written < bytes.size()) {
@@ -173,19 +173,19 @@ std::string write_file_atomic(const std::filesystem::path& path, const std::vect
         std::string error = "cannot write '" + temp.string() + "': " + std::strerror(errno);
         ::close(fd);
         ::unlink(temp.c_str());
-        return error;
+        return failure(std::move(error));
       }
       written += static_cast<size_t>(put);
     }
   }
   if (::close(fd) != 0) {
     ::unlink(temp.c_str());
-    return "cannot write '" + temp.string() + "': " + std::strerror(errno);
+    return failure("cannot write '" + temp.string() + "': " + std::strerror(errno));
   }
   if (::rename(temp.c_str(), path.c_str()) != 0) {
     std::string error = "cannot rename '" + temp.string() + "' to '" + path.string() + "': " + std::strerror(errno);
     ::unlink(temp.c_str());
-    return error;
+    return failure(std::move(error));
   }
   return {};
 }

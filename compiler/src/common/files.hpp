@@ -9,6 +9,7 @@
 #include <string_view>
 
 #include "kiln/diagnostics.hpp"
+#include "kiln/result.hpp"
 
 namespace kiln {
 
@@ -27,10 +28,10 @@ std::optional<std::string> read_text_file(const std::filesystem::path& path, con
 std::optional<std::string> read_binary_file(const std::filesystem::path& path);
 
 // Writes via a temporary file in the same directory and rename(2): readers see the old file or the
-// new one, never a torn one. Returns an error message, or an empty string on success.
-[[nodiscard]] std::string write_file_atomic(const std::filesystem::path& path, std::string_view bytes);
+// new one, never a torn one. The error says which file could not be made, written or renamed, and why.
+Result<void> write_file_atomic(const std::filesystem::path& path, std::string_view bytes);
 // The same for a file made of several parts, written one after the other (no concatenated copy).
-[[nodiscard]] std::string write_file_atomic(const std::filesystem::path& path, const std::vector<std::string_view>& parts);
+Result<void> write_file_atomic(const std::filesystem::path& path, const std::vector<std::string_view>& parts);
 
 // A scratch directory `directory/<prefix><pid>-XXXXXX` of this process, made after removing every
 // `<prefix><pid>-*` left there by a process that no longer runs (killed mid-way: its scratch would otherwise stay

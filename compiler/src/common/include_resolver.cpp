@@ -30,33 +30,36 @@ bool IncludeRoots::contains(const std::filesystem::path& canonical) const {
   return false;
 }
 
-ResolvedInclude resolve_include(std::string_view name, const std::filesystem::path& including_file,
-                                const IncludeRoots& roots) {
-  ResolvedInclude result;
+Result<ResolvedInclude, Diagnostic> resolve_include(std::string_view name, const std::filesystem::path& including_file,
+                                                    const IncludeRoots& roots) {
+  auto refused = [&](DiagId id, std::string message, std::vector<std::string> notes = {}) {
+    Diagnostic diagnostic;
+    diagnostic.id = id;
+    diagnostic.message = std::move(message);
+    diagnostic.notes = std::move(notes);
+    return failure(std::move(diagnostic));
+  };
+  auto root_notes = [&] {
+    std::vector<std::string> notes;
+    for (const auto& root : roots.roots()) notes.push_back("include root: " + display_path(root));
+    return notes;
+  };
   std::filesystem::path requested{std::string(name)};
-  if (name.empty()) {
-    result.error = DiagId::IncludeSyntax;
-    result.message = "empty #include file name";
-    return result;
-  }
-  if (requested.is_absolute()) {
-    result.error = DiagId::IncludeEscapesRoot;
-    result.message = "absolute include path '" + std::string(name) + "' is not allowed; name files relative to an include root";
-    return result;
-  }
+  if (name.empty()) return refused(DiagId::IncludeSyntax, "empty #include file name");
+  if (requested.is_absolute())
+    return refused(DiagId::IncludeEscapesRoot,
+                   "absolute include path '" + std::string(name) + "' is not allowed; name files relative to an include root");
   std::vector<std::filesystem::path> directories{including_file.parent_path()};
   for (const auto& root : roots.roots()) directories.push_back(root);
 
+  ResolvedInclude result;
   for (const auto& directory : directories) {
     std::filesystem::path lexical = (directory / requested).lexically_normal();
     // Leaving the roots through ".." is refused whether or not the file exists: no probing outside.
-    if (!roots.contains(lexical)) {
-      result.error = DiagId::IncludeEscapesRoot;
-      result.message = "#include \"" + std::string(name) + "\" resolves to '" + lexical.string() +
-                       "', outside the include roots";
-      for (const auto& root : roots.roots()) result.notes.push_back("include root: " + display_path(root));
-      return result;
-    }
+    if (!roots.contains(lexical))
+      return refused(DiagId::IncludeEscapesRoot,
+                     "#include \"" + std::string(name) + "\" resolves to '" + lexical.string() + "', outside the include roots",
+                     root_notes());
     std::error_code ec;
     if (!std::filesystem::exists(std::filesystem::symlink_status(lexical, ec))) {
       std::filesystem::path holder = lexical.parent_path();
@@ -66,22 +69,17 @@ ResolvedInclude resolve_include(std::string_view name, const std::filesystem::pa
     }
     std::filesystem::path canonical = std::filesystem::weakly_canonical(lexical, ec);
     if (ec) continue;
-    if (!roots.contains(canonical)) {
-      result.error = DiagId::IncludeEscapesRoot;
-      result.message = "#include \"" + std::string(name) + "\" follows a symlink to '" + canonical.string() +
-                       "', outside the include roots";
-    } else {
-      result.ok = true;
-      result.path = canonical;
-      return result;
-    }
-    for (const auto& root : roots.roots()) result.notes.push_back("include root: " + display_path(root));
+    if (!roots.contains(canonical))
+      return refused(DiagId::IncludeEscapesRoot,
+                     "#include \"" + std::string(name) + "\" follows a symlink to '" + canonical.string() +
+                         "', outside the include roots",
+                     root_notes());
+    result.path = canonical;
     return result;
   }
-  result.error = DiagId::IncludeNotFound;
-  result.message = "cannot find include file '" + std::string(name) + "'";
-  for (const auto& directory : directories) result.notes.push_back("searched: " + display_path(directory));
-  return result;
+  std::vector<std::string> searched;
+  for (const auto& directory : directories) searched.push_back("searched: " + display_path(directory));
+  return refused(DiagId::IncludeNotFound, "cannot find include file '" + std::string(name) + "'", std::move(searched));
 }
 
 }  // namespace kiln

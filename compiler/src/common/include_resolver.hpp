@@ -7,6 +7,7 @@
 #include <string_view>
 #include <vector>
 
+#include "kiln/result.hpp"
 #include "common/files.hpp"
 #include "kiln/diagnostics.hpp"
 
@@ -23,11 +24,7 @@ class IncludeRoots {
 };
 
 struct ResolvedInclude {
-  bool ok = false;
-  std::filesystem::path path;  // canonical, when ok
-  DiagId error{};
-  std::string message;
-  std::vector<std::string> notes;
+  std::filesystem::path path;  // canonical
   // Where a new file would take this one's place: for each candidate searched before the match, the directory that
   // would hold it (or, if that does not exist yet, its nearest existing ancestor inside the roots). A build tool
   // that watches them (the depfile lists them) notices a new header that shadows an include.
@@ -35,9 +32,10 @@ struct ResolvedInclude {
 };
 
 // Resolves `name` as written in `#include "name"` inside `including_file` (canonical): first next to
-// the including file, then in each root, in order.
-ResolvedInclude resolve_include(std::string_view name, const std::filesystem::path& including_file,
-                                const IncludeRoots& roots);
+// the including file, then in each root, in order. The error is the diagnostic to report at the #include (its
+// id, message and notes; the caller knows the location).
+Result<ResolvedInclude, Diagnostic> resolve_include(std::string_view name, const std::filesystem::path& including_file,
+                                                    const IncludeRoots& roots);
 
 
 }  // namespace kiln

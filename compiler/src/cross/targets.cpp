@@ -53,27 +53,29 @@ const std::vector<uint32_t>& CrossModules::gl_spirv() {
   if (!gl_ready_) {
     gl_ready_ = true;
     // Explicit 16-bit floats become mediump 32-bit floats for GL (see widen_float16.hpp).
-    WidenResult widened = widen_float16_for_gl(spirv_);
-    if (!widened.ok) {
-      gl_error_ = "widening 16-bit floats for GL: " + widened.reason;
-    } else if (widened.changed) {
-      SpirvStepResult valid = validate_spirv(widened.spirv);
-      if (!valid.ok) {
-        gl_error_ = "widening 16-bit floats for GL produced invalid SPIR-V:";
-        for (const auto& m : valid.messages) gl_error_ += " " + m;
+    Result<Widened> widened = widen_float16_for_gl(spirv_);
+    if (!widened) {
+      gl_error_ = "widening 16-bit floats for GL: " + widened.error().message;
+    } else {
+      if (widened->changed) {
+        SpirvStepResult valid = validate_spirv(widened->spirv);
+        if (!valid.ok) {
+          gl_error_ = "widening 16-bit floats for GL produced invalid SPIR-V:";
+          for (const auto& m : valid.messages) gl_error_ += " " + m;
+        }
       }
+      gl_spirv_ = std::move(widened->spirv);
     }
-    gl_spirv_ = std::move(widened.spirv);
   }
   if (!gl_error_.empty()) throw std::runtime_error(gl_error_);
   return gl_spirv_;
 }
 
-CrossResult cross_compile(const TargetBackend& backend, CrossModules& modules, Reflection& reflection) {
+Result<std::string> cross_compile(const TargetBackend& backend, CrossModules& modules, Reflection& reflection) {
   try {
-    return CrossResult{true, {}, backend.translate(modules, reflection)};
+    return backend.translate(modules, reflection);
   } catch (const std::exception& error) {
-    return CrossResult{false, error.what(), {}};
+    return failure(error.what());
   }
 }
 

@@ -16,6 +16,7 @@
 #include "common/compile_step.hpp"
 #include "kiln/manifest_json.hpp"
 #include "kiln/model.hpp"
+#include "kiln/result.hpp"
 
 namespace kiln {
 
@@ -49,13 +50,8 @@ struct TargetBackend {
 std::span<const TargetBackend> target_backends();
 const TargetBackend* target_backend(Target target);  // null for SPIR-V
 
-struct CrossResult {
-  bool ok = false;
-  std::string error;
-  std::string source;
-};
-// Runs `backend` on `modules`, turning its exceptions into an error.
-CrossResult cross_compile(const TargetBackend& backend, CrossModules& modules, Reflection& reflection);
+// Runs `backend` on `modules`: the target's source, or the back end's exception as the error.
+Result<std::string> cross_compile(const TargetBackend& backend, CrossModules& modules, Reflection& reflection);
 
 // "C API 0.54.0, libraries sha256 <16 hex digits>": the header's API version and a hash of the linked
 // libraries (SPIRV-Cross has no run-time version); part of every cache key and of the manifest.

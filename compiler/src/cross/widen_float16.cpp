@@ -54,14 +54,11 @@ bool is_type_declaration(spv::Op op) { return op >= spv::OpTypeVoid && op <= spv
 
 }  // namespace
 
-WidenResult widen_float16_for_gl(const std::vector<uint32_t>& spirv) {
-  WidenResult result;
+Result<Widened> widen_float16_for_gl(const std::vector<uint32_t>& spirv) {
+  Widened result;
   result.spirv = spirv;
   std::vector<Instruction> list = instructions(spirv);
-  if (list.empty()) {
-    result.reason = "not a SPIR-V module";
-    return result;
-  }
+  if (list.empty()) return failure("not a SPIR-V module");
 
   // Scan: the 16-bit float capability, storage capabilities that forbid widening, half-based types, the
   // type of every value.
@@ -76,8 +73,7 @@ WidenResult widen_float16_for_gl(const std::vector<uint32_t>& spirv) {
         if (w[1] == spv::CapabilityFloat16) float16 = true;
         if (w[1] == spv::CapabilityStorageBuffer16BitAccess || w[1] == spv::CapabilityUniformAndStorageBuffer16BitAccess ||
             w[1] == spv::CapabilityStoragePushConstant16 || w[1] == spv::CapabilityStorageInputOutput16) {
-          result.ok = true;
-          result.reason = "16-bit storage or interface types: widening would change a memory layout";
+          result.unchanged_because = "16-bit storage or interface types: widening would change a memory layout";
           return result;
         }
         break;
@@ -97,9 +93,8 @@ WidenResult widen_float16_for_gl(const std::vector<uint32_t>& spirv) {
       }
     }
   }
-  result.ok = true;
   if (!float16 || half_scalars.empty()) {
-    result.reason = "no 16-bit floats";
+    result.unchanged_because = "no 16-bit floats";
     return result;
   }
   auto width_after = [&](uint32_t type) {
@@ -158,11 +153,7 @@ WidenResult widen_float16_for_gl(const std::vector<uint32_t>& spirv) {
   spvtools::OptimizerOptions options;
   options.set_run_validator(false);
   std::vector<uint32_t> merged;
-  if (!optimizer.Run(out.data(), out.size(), &merged, options)) {
-    result.ok = false;
-    result.reason = "merging widened types failed: " + messages;
-    return result;
-  }
+  if (!optimizer.Run(out.data(), out.size(), &merged, options)) return failure("merging widened types failed: " + messages);
   result.spirv = std::move(merged);
   result.changed = true;
   return result;

@@ -11,17 +11,19 @@
 #include <string>
 #include <vector>
 
+#include "kiln/result.hpp"
+
 namespace kiln {
 
-struct WidenResult {
-  bool ok = false;
-  bool changed = false;  // false: the module had no 16-bit floats, or only ones that cannot be widened
-  std::string reason;    // why it was left unchanged, or why it failed
+struct Widened {
+  bool changed = false;     // false: the module had no 16-bit floats, or only ones that cannot be widened
+  std::string unchanged_because;
   std::vector<uint32_t> spirv;
 };
 
 // Leaves modules with 16-bit storage (buffers, push constants, stage interfaces of 16-bit type) unchanged:
-// widening would change their memory layout or interface.
-WidenResult widen_float16_for_gl(const std::vector<uint32_t>& spirv);
+// widening would change their memory layout or interface. Fails on what is not a SPIR-V module, or when
+// SPIRV-Tools cannot merge the widened types.
+Result<Widened> widen_float16_for_gl(const std::vector<uint32_t>& spirv);
 
 }  // namespace kiln

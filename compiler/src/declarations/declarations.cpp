@@ -214,11 +214,12 @@ struct Scanner {
     }
     std::string_view name = rest.substr(open + 1, close - open - 1);
     at.column = directive.rest_column + static_cast<int>(open);
-    ResolvedInclude resolved = resolve_include(name, from.path, roots);
-    if (!resolved.ok) {
-      error(resolved.error, at, resolved.message, resolved.notes);
+    Result<ResolvedInclude, Diagnostic> found = resolve_include(name, from.path, roots);
+    if (!found) {
+      error(found.error().id, at, found.error().message, found.error().notes);
       return;
     }
+    const ResolvedInclude& resolved = *found;
     sources.files.at(from.path).includes.emplace(std::string(name), resolved.path);
     sources.watched.insert(resolved.watch.begin(), resolved.watch.end());
     if (std::find(chain.begin(), chain.end(), resolved.path) != chain.end()) {

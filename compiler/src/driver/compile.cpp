@@ -97,10 +97,8 @@ class Scheduler {
     KeyResult& result = results_by_key_.emplace_back();
     result.source = source;
     if (services_.cache) {
-      bool rejected = false;
-      if (auto cached = services_.cache->load(key, rejected, &result.module))
+      if (auto cached = services_.cache->load(key, &result.module))
         result.output = std::make_shared<const JobOutput>(std::move(*cached));
-      if (rejected) ++report_.cache_rejected;
       if (result.output) {
         ++report_.cache_hits;
         ++done_;
@@ -299,13 +297,11 @@ class Scheduler {
       if (services_.remote && options_.remote.upload)
         module.remote_key = remote_module_key(*services_.remote, settings_, plan_.pack.passes[s.pass], s.stage, spirv);
       if (services_.cache) {
-        bool rejected = false;
-        if (auto cached = services_.cache->load(key, rejected)) {
+        if (auto cached = services_.cache->load(key)) {
           module.settled = true;
           module.output = std::make_shared<const JobOutput>(std::move(*cached));
           ++report_.back_end_hits;
         }
-        if (rejected) ++report_.cache_rejected;
       }
       if (!module.settled) {
         CompileJob back;
@@ -450,18 +446,18 @@ class Scheduler {
     std::vector<std::string> unwritten;  // a reproducer that could not be written is said, not dropped
     if (module) {
       std::filesystem::path spv = dir / (base + ".spv");
-      std::string error =
+      Result<void> written =
           write_file_atomic(spv, std::string_view(reinterpret_cast<const char*>(module->data()), module->size() * 4));
       header += "// the front end succeeded; the worker died in the back end, given " + spv.filename().string() +
                 ":\n// spirv-opt --legalize-hlsl " + base + ".spv -o legal.spv && spirv-val --target-env " + kTargetEnvironment.spirv_env +
                 " legal.spv && spirv-opt -O legal.spv -o opt.spv && spirv-cross opt.spv\n";
-      if (error.empty()) notes.push_back("the front end's SPIR-V module (the back end's input) written to " + spv.string());
-      else unwritten.push_back("the front end's SPIR-V module could not be written: " + error);
+      if (written) notes.push_back("the front end's SPIR-V module (the back end's input) written to " + spv.string());
+      else unwritten.push_back("the front end's SPIR-V module could not be written: " + written.error().message);
     }
-    if (std::string error = write_file_atomic(repro, header + s.text); error.empty())
+    if (Result<void> written = write_file_atomic(repro, header + s.text))
       notes.insert(notes.begin(), "reproducer written to " + repro.string());
     else
-      unwritten.insert(unwritten.begin(), "the reproducer could not be written: " + error);
+      unwritten.insert(unwritten.begin(), "the reproducer could not be written: " + written.error().message);
     notes.insert(notes.end(), unwritten.begin(), unwritten.end());
     notes.push_back("this is a bug in the compiler, not in your shader");
     sink_.report(DiagId::InternalCompilerError, SourceLocation{display_path(plan_.declarations[s.pass].stage_entry[static_cast<size_t>(s.stage)]), 0, 0},
@@ -509,7 +505,7 @@ CompileResults compile_stage_sources(const Plan& plan, const BuildOptions& optio
 void store_in_cache(Cache& cache, bool memos, const CompileResults& results, const StageSources& sources,
                     const std::vector<Binary>& binaries, bool user_errors, unsigned threads, DiagnosticSink& sink,
                     BuildReport& report) {
-  report.cache_rejected += cache.unreadable_segments();
+  report.cache_rejected += cache.rejected_loads() + cache.unreadable_segments();
   if (report.cache_rejected)
     sink.report(DiagId::CacheEntryRejected, SourceLocation{cache.directory().string(), 0, 0},
                 std::to_string(report.cache_rejected) + " cache entr" + (report.cache_rejected == 1 ? "y was" : "ies were") +
@@ -538,8 +534,8 @@ void store_in_cache(Cache& cache, bool memos, const CompileResults& results, con
       }
       cache.store_memo(s.memo, memo);
     });
-  if (std::string error = cache.commit(); !error.empty())
-    sink.report(DiagId::CacheUnwritable, SourceLocation{cache.directory().string(), 0, 0}, error,
+  if (Result<void> committed = cache.commit(); !committed)
+    sink.report(DiagId::CacheUnwritable, SourceLocation{cache.directory().string(), 0, 0}, committed.error().message,
                 {"the outputs are unaffected; the next build compiles these variants again"});
 }
 

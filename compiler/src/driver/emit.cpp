@@ -18,8 +18,8 @@ void emit_dumps(const Plan& plan, const StageSources& sources, const std::vector
   auto put = [&](const std::filesystem::path& path, const std::string& bytes) {
     std::error_code ec;
     std::filesystem::create_directories(path.parent_path(), ec);
-    if (std::string error = write_file_atomic(path, bytes); !error.empty())
-      sink.report(DiagId::OutputUnwritable, SourceLocation{path.string(), 0, 0}, error);
+    if (Result<void> written = write_file_atomic(path, bytes); !written)
+      sink.report(DiagId::OutputUnwritable, SourceLocation{path.string(), 0, 0}, written.error().message);
   };
   if (options.emit.count("variants")) {
     nlohmann::json listing = nlohmann::json::array();

@@ -60,7 +60,7 @@ std::optional<std::string> current_archive(const std::filesystem::path& director
   return archive_file;
 }
 
-std::string write_stamp(const std::filesystem::path& directory, const std::string& name, const std::string& archive_file,
+Result<void> write_stamp(const std::filesystem::path& directory, const std::string& name, const std::string& archive_file,
                         const std::string& inputs_hash) {
   return write_file_atomic(stamp_path(directory, name), stamp_text(directory, name, archive_file, inputs_hash));
 }
@@ -69,9 +69,9 @@ bool write_depfile(const std::filesystem::path& depfile, const std::filesystem::
                    const std::vector<std::filesystem::path>& dependencies, DiagnosticSink& sink) {
   std::string text = depfile_escape(manifest.string()) + ":";
   for (const auto& dependency : dependencies) text += " \\\n  " + depfile_escape(dependency.string());
-  std::string error = write_file_atomic(depfile, text + "\n");
-  if (error.empty()) return true;
-  sink.report(DiagId::OutputUnwritable, SourceLocation{depfile.string(), 0, 0}, error);
+  Result<void> written = write_file_atomic(depfile, text + "\n");
+  if (written) return true;
+  sink.report(DiagId::OutputUnwritable, SourceLocation{depfile.string(), 0, 0}, written.error().message);
   return false;
 }
 

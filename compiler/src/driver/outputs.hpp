@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "kiln/diagnostics.hpp"
+#include "kiln/result.hpp"
 
 namespace kiln {
 
@@ -22,7 +23,7 @@ std::optional<std::string> current_archive(const std::filesystem::path& director
 // The stamp (<name>.stamp) records the inputs hash, the size and mtime of the manifest, and the name, size and
 // mtime of the archive it was written with: a no-change rebuild compares a few numbers instead of re-reading a
 // large pack. Empty, or what went wrong.
-[[nodiscard]] std::string write_stamp(const std::filesystem::path& directory, const std::string& name,
+Result<void> write_stamp(const std::filesystem::path& directory, const std::string& name,
                                       const std::string& archive_file, const std::string& inputs_hash);
 
 // A Makefile-syntax depfile: the manifest depends on every input read. False (reported) when it cannot be written.

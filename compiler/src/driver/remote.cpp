@@ -21,8 +21,8 @@ bool fetch_remote_pack(RemoteCache& remote, const RemoteKey& key, const BuildOpt
   std::optional<std::string> archive_file = remote.fetch_pack(key, options.output_dir, plan.pack.name);
   if (!archive_file) return false;
   remove_orphaned_archives(options.output_dir, plan.pack.name, *archive_file);
-  if (std::string error = write_stamp(options.output_dir, plan.pack.name, *archive_file, inputs_hash); !error.empty())
-    sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, error);
+  if (Result<void> stamped = write_stamp(options.output_dir, plan.pack.name, *archive_file, inputs_hash); !stamped)
+    sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, stamped.error().message);
   return true;
 }
 

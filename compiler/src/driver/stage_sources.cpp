@@ -65,14 +65,12 @@ void use_memos(StageSources& sources, const Plan& plan, const BuildSettings& set
     for (const std::string& define : pass_defines(plan.pack.passes[s.pass])) memo.add(define);
     for (const std::string& define : s.defines) memo.add(define);
     s.memo = memo.finish();
-    bool rejected = false;
     std::optional<PreprocessMemo> known = cache.load_memo(s.memo, [&](const PreprocessMemo& candidate) {
       return !candidate.files.empty() && std::all_of(candidate.files.begin(), candidate.files.end(), [&](const auto& file) {
                auto it = sources.file_hashes.find(file.first);
                return it != sources.file_hashes.end() && it->second == file.second;
              });
-    }, rejected);
-    if (rejected) ++report.cache_rejected;
+    });
     if (!known) continue;
     s.ok = true;
     s.key = known->source_key;
@@ -180,10 +178,10 @@ void Preprocessor::write_reproducer(StageSource& s) const {
                            preamble + "#line 1\n" + (file ? file->text : std::string());
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  if (std::string error = write_file_atomic(repro, text); error.empty())
+  if (Result<void> written = write_file_atomic(repro, text))
     s.internal_notes.push_back("reproducer written to " + repro.string());
   else
-    s.internal_notes.push_back("the reproducer could not be written: " + error);
+    s.internal_notes.push_back("the reproducer could not be written: " + written.error().message);
 }
 
 void Preprocessor::run(StageSources& sources, const std::vector<size_t>& which) {

@@ -127,18 +127,18 @@ std::optional<std::string> write_variant_pack(const Plan& plan, const BuildOptio
   manifest.constraints = constraint_records(plan.pack);
   manifest.materials = material_records(plan.pack);
   if (!plan.pack.scene_features_json.empty()) manifest.scene_features_json = plan.pack.scene_features_json;
-  WrittenPack written = write_pack(options.output_dir, plan.pack.name, archive, std::move(manifest));
-  if (!written.error.empty()) {
-    sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, written.error);
+  Result<std::string> archive_file = write_pack(options.output_dir, plan.pack.name, archive, std::move(manifest));
+  if (!archive_file) {
+    sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, archive_file.error().message);
     return std::nullopt;
   }
   // Last: the stamp that lets the next build with the same inputs skip everything. Without it the next build
   // only works again; the pack is whole.
-  if (std::string error = write_stamp(options.output_dir, plan.pack.name, written.archive_file, inputs_hash); !error.empty()) {
-    sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, error);
+  if (Result<void> stamped = write_stamp(options.output_dir, plan.pack.name, *archive_file, inputs_hash); !stamped) {
+    sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, stamped.error().message);
     return std::nullopt;
   }
-  return written.archive_file;
+  return *archive_file;
 }
 
 }  // namespace kiln

@@ -8,9 +8,10 @@
 #include <string_view>
 #include <vector>
 
-#include "kiln/diagnostics.hpp"
 #include "common/compile_result.hpp"
+#include "kiln/diagnostics.hpp"
 #include "kiln/model.hpp"
+#include "kiln/result.hpp"
 
 namespace kiln {
 
@@ -24,7 +25,7 @@ class IncludeSource {
     bool once = false;  // file has #pragma once / include guard
   };
   // `from` is the name (as returned here, or the entry's name) of the including file.
-  virtual bool resolve(std::string_view requested, std::string_view from, Found& found, std::string& error) const = 0;
+  virtual Result<Found> resolve(std::string_view requested, std::string_view from) const = 0;
 };
 
 struct PreprocessRequest {

@@ -82,20 +82,16 @@ class KilnResolver final : public glslang::TDefaultIoResolverBase {
 
 }  // namespace
 
-bool map_glslang_bindings(glslang::TProgram& program, EShLanguage stage, const BindingOptions& options,
-                          std::string_view source, std::string& error) {
+Result<void> map_glslang_bindings(glslang::TProgram& program, EShLanguage stage, const BindingOptions& options,
+                                  std::string_view source) {
   const glslang::TIntermediate* intermediate = program.getIntermediate(stage);
-  if (!intermediate) {
-    error = "no intermediate for the stage";
-    return false;
-  }
+  if (!intermediate) return failure("no intermediate for the stage");
   KilnResolver resolver(*intermediate, options, find_vk_bindings(source));
   if (!program.mapIO(&resolver)) {
-    error = program.getInfoLog();
-    if (error.empty()) error = "assigning bindings failed";
-    return false;
+    std::string log = program.getInfoLog();
+    return failure(log.empty() ? "assigning bindings failed" : log);
   }
-  return true;
+  return {};
 }
 
 }  // namespace kiln

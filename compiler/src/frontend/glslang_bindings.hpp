@@ -7,12 +7,13 @@
 #include <string_view>
 
 #include "kiln/model.hpp"
+#include "kiln/result.hpp"
 
 namespace kiln {
 
 // Assigns every resource of the linked program's one stage its set and binding; `source` is the
-// preprocessed text (read for [[vk::binding]] attributes). False, with the reason in `error`, on failure.
-bool map_glslang_bindings(glslang::TProgram& program, EShLanguage stage, const BindingOptions& options,
-                          std::string_view source, std::string& error);
+// preprocessed text (read for [[vk::binding]] attributes). The error is glslang's log.
+Result<void> map_glslang_bindings(glslang::TProgram& program, EShLanguage stage, const BindingOptions& options,
+                                  std::string_view source);
 
 }  // namespace kiln

@@ -138,10 +138,10 @@ class Includer final : public glslang::TShader::Includer {
     if (++inclusions_ > kMaxInclusions)
       return failure("more than " + std::to_string(kMaxInclusions) +
                      " #include expansions in one stage source (files included again and again without an include guard?)");
-    IncludeSource::Found found;
-    std::string error;
-    std::string from_name = (from && *from) ? from : entry_name_;
-    if (!source_->resolve(requested, from_name, found, error)) return failure(error);
+    const std::string from_name = (from && *from) ? from : entry_name_;
+    Result<IncludeSource::Found> resolved = source_->resolve(requested, from_name);
+    if (!resolved) return failure(resolved.error().message);
+    const IncludeSource::Found& found = *resolved;
     included_bytes_ += found.text.size();
     if (included_bytes_ > kMaxIncludedBytes)
       return failure("more than " + std::to_string(kMaxIncludedBytes >> 20) + " MiB of #include text in one stage source");
@@ -265,7 +265,8 @@ class GlslangFrontend final : public Frontend {
       result.messages.insert(result.messages.end(), link.begin(), link.end());
       return result;
     }
-    if (std::string error; !map_glslang_bindings(program, to_glslang(request.stage), request.bindings, request.source, error)) {
+    if (Result<void> mapped = map_glslang_bindings(program, to_glslang(request.stage), request.bindings, request.source); !mapped) {
+      const std::string& error = mapped.error().message;
       auto messages = parse_frontend_log(error, request.source_name);
       if (messages.empty()) messages.push_back({Severity::Error, request.source_name, 0, error});
       result.messages.insert(result.messages.end(), messages.begin(), messages.end());

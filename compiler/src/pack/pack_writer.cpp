@@ -78,32 +78,28 @@ std::filesystem::path manifest_path(const std::filesystem::path& directory, cons
   return directory / (name + ".manifest.json");
 }
 
-WrittenPack write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
+Result<std::string> write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
                        Manifest manifest) {
-  WrittenPack written;
   for (const PackedBlob& blob : archive.blobs())
     if (blob.raw_size > kMaxBlobBytes) {
-      written.error = "an output of " + std::to_string(blob.raw_size) + " bytes is over the pack format's limit of " +
-                      std::to_string(kMaxBlobBytes) + " bytes per blob";
-      return written;
+      return failure("an output of " + std::to_string(blob.raw_size) + " bytes is over the pack format's limit of " +
+                     std::to_string(kMaxBlobBytes) + " bytes per blob");
     }
   std::string bytes = archive.finish(runtime::encode(manifest));
   if (bytes.size() > kMaxArchiveBytes) {
-    written.error = "the archive would be " + std::to_string(bytes.size()) + " bytes, over the pack format's limit of " +
-                    std::to_string(kMaxArchiveBytes) + " bytes";
-    return written;
+    return failure("the archive would be " + std::to_string(bytes.size()) + " bytes, over the pack format's limit of " +
+                   std::to_string(kMaxArchiveBytes) + " bytes");
   }
   const std::string archive_hash = hex64(hash64(bytes));
-  written.archive_file = archive_file_name(name, archive_hash);
-  manifest.archive = {written.archive_file, bytes.size(), archive_hash, archive.size()};
+  const std::string archive_file = archive_file_name(name, archive_hash);
+  manifest.archive = {archive_file, bytes.size(), archive_hash, archive.size()};
   nlohmann::json file = manifest;
   file["manifest_xxh3_64"] = std::string(kManifestChecksumDigits, '0');
   // Indented one level per nesting would make the manifest ~3x larger; one line per binary is still diffable.
   std::string text = file.dump(1) + "\n";
   if (text.size() > kMaxManifestBytes) {
-    written.error = "the manifest would be " + std::to_string(text.size()) + " bytes, over the pack format's limit of " +
-                    std::to_string(kMaxManifestBytes) + " bytes";
-    return written;
+    return failure("the manifest would be " + std::to_string(text.size()) + " bytes, over the pack format's limit of " +
+                   std::to_string(kMaxManifestBytes) + " bytes");
   }
   // The checksum covers the text with its own digits zeroed (pack_format.hpp). Only a top-level key can be
   // followed by `": "` outside a string, and kiln writes this key nowhere else.
@@ -112,19 +108,13 @@ WrittenPack write_pack(const std::filesystem::path& directory, const std::string
 
   // The previous manifest names another archive (or this one, when the content is the same: then the rename
   // replaces it with the same bytes), so until the manifest's rename below the previous pack is whole.
-  if (std::string error = write_file_atomic(directory / written.archive_file, bytes); !error.empty()) {
-    written.error = std::move(error);
-    return written;
-  }
+  if (Result<void> written = write_file_atomic(directory / archive_file, bytes); !written) return failure(written.error());
   inject_fault("kill-after-archive");
-  if (std::string error = write_file_atomic(manifest_path(directory, name), text); !error.empty()) {
-    // The new archive is left for the next build to remove: with the same content, it is the previous pack's.
-    written.error = std::move(error);
-    return written;
-  }
+  // On failure the new archive is left for the next build to remove: with the same content, it is the previous pack's.
+  if (Result<void> written = write_file_atomic(manifest_path(directory, name), text); !written) return failure(written.error());
   inject_fault("kill-after-manifest");
-  remove_orphaned_archives(directory, name, written.archive_file);
-  return written;
+  remove_orphaned_archives(directory, name, archive_file);
+  return archive_file;
 }
 
 void remove_orphaned_archives(const std::filesystem::path& directory, const std::string& name, const std::string& keep) {

@@ -11,6 +11,7 @@
 #include "common/hash.hpp"
 #include "common/blob.hpp"
 #include "kiln/manifest_json.hpp"
+#include "kiln/result.hpp"
 
 namespace kiln {
 
@@ -30,15 +31,11 @@ class ArchiveBuilder {
   std::map<Hash128, uint32_t> by_hash_;
 };
 
-struct WrittenPack {
-  std::string error;         // empty on success
-  std::string archive_file;  // the archive's file name, `<name>.<XXH3-64>.kpack`
-};
-
 // Writes the archive under its content's name, then `<dir>/<name>.manifest.json` naming it (the rename that
 // switches the pack), then removes the pack's archives the manifest no longer names; fills manifest.archive.
-// One output directory serves one build at a time: a concurrent build of the same pack could lose its archive.
-[[nodiscard]] WrittenPack write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
+// Returns the archive's file name, `<name>.<XXH3-64>.kpack`. One output directory serves one build at a time: a
+// concurrent build of the same pack could lose its archive.
+Result<std::string> write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
                        Manifest manifest);
 
 // Removes the archives of pack `name` in `directory` other than `keep`: those a build killed before its

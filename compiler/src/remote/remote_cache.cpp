@@ -631,8 +631,8 @@ std::optional<std::string> RemoteCache::fetch_pack(const RemoteKey& key, const s
   const std::string scratch = make_scratch_directory(directory, ".kiln-remote-").string();
   if (scratch.empty()) return std::nullopt;
   std::error_code ec;
-  bool good = write_file_atomic(std::filesystem::path(scratch) / archive_file, *archive).empty() &&
-              write_file_atomic(manifest_path(scratch, pack_name), *manifest).empty();
+  bool good = write_file_atomic(std::filesystem::path(scratch) / archive_file, *archive).has_value() &&
+              write_file_atomic(manifest_path(scratch, pack_name), *manifest).has_value();
   try {
     good = good && PackReader::open(manifest_path(scratch, pack_name), PackReader::Check::Full).name() == pack_name;
   } catch (const PackError& error) {

@@ -110,14 +110,14 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
   for (Target target : job.targets) {
     const TargetBackend* backend = target_backend(target);
     if (!backend) continue;  // SPIR-V: the optimized module itself
-    CrossResult cross = cross_compile(*backend, modules, out.reflection);
-    if (!cross.ok) {
+    Result<std::string> cross = cross_compile(*backend, modules, out.reflection);
+    if (!cross) {
       out.failed_step = cross_step(backend->target);
-      out.messages.push_back({Severity::Error, "", 0, cross.error});
+      out.messages.push_back({Severity::Error, "", 0, cross.error().message});
       out.blobs.clear();
       return out;
     }
-    out.blobs[target] = pack_blob(cross.source);
+    out.blobs[target] = pack_blob(*cross);
   }
   out.blobs[Target::Spirv] = pack_spirv(spirv.spirv);  // whatever the targets: every binary keeps its SPIR-V
   out.ok = true;
@@ -131,23 +131,15 @@ class JobIncludes final : public IncludeSource {
   explicit JobIncludes(const std::vector<IncludableFile>& files) {
     for (const IncludableFile& file : files) by_name_.emplace(file.name, &file);
   }
-  bool resolve(std::string_view requested, std::string_view from, Found& found, std::string& error) const override {
+  Result<Found> resolve(std::string_view requested, std::string_view from) const override {
     auto including = by_name_.find(std::string(from));
-    if (including == by_name_.end()) {
-      error = "unknown including file '" + std::string(from) + "'";
-      return false;
-    }
+    if (including == by_name_.end()) return failure("unknown including file '" + std::string(from) + "'");
     auto edge = including->second->includes.find(std::string(requested));
     auto target = edge == including->second->includes.end() ? by_name_.end() : by_name_.find(edge->second);
-    if (target == by_name_.end()) {
-      error = "'" + std::string(requested) + "' was not seen by the declaration scan (is the #include name a macro?)";
-      return false;
-    }
-    found.name = target->second->name;
-    found.text = target->second->text;
-    found.once = target->second->once;
-    read_.insert(found.name);
-    return true;
+    if (target == by_name_.end())
+      return failure("'" + std::string(requested) + "' was not seen by the declaration scan (is the #include name a macro?)");
+    read_.insert(target->second->name);
+    return Found{target->second->name, target->second->text, target->second->once};
   }
   std::vector<std::string> read() const { return {read_.begin(), read_.end()}; }
 

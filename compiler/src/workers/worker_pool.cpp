@@ -103,17 +103,14 @@ WorkerPool::~WorkerPool() {
   }
 }
 
-bool WorkerPool::spawn(Worker& worker, std::string& error) {
+Result<void> WorkerPool::spawn(Worker& worker) {
   int in_pipe[2], out_pipe[2];
-  if (::pipe2(in_pipe, O_CLOEXEC) != 0) {
-    error = std::string("pipe: ") + std::strerror(errno);
-    return false;
-  }
+  if (::pipe2(in_pipe, O_CLOEXEC) != 0) return failure(std::string("pipe: ") + std::strerror(errno));
   if (::pipe2(out_pipe, O_CLOEXEC) != 0) {
+    const int error = errno;
     ::close(in_pipe[0]);
     ::close(in_pipe[1]);
-    error = std::string("pipe: ") + std::strerror(errno);
-    return false;
+    return failure(std::string("pipe: ") + std::strerror(error));
   }
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
@@ -132,8 +129,7 @@ bool WorkerPool::spawn(Worker& worker, std::string& error) {
   if (rc != 0) {
     ::close(in_pipe[1]);
     ::close(out_pipe[0]);
-    error = "cannot start compiler worker '" + exe + "': " + std::strerror(rc);
-    return false;
+    return failure("cannot start compiler worker '" + exe + "': " + std::strerror(rc));
   }
   worker.pid = pid;
   worker.to_worker = in_pipe[1];
@@ -142,7 +138,7 @@ bool WorkerPool::spawn(Worker& worker, std::string& error) {
   worker.job = -1;
   if (worker.activity.jobs == 0 && !worker.activity.compiled) worker.activity.spawned = std::chrono::steady_clock::now();
   ++spawned_;
-  return true;
+  return {};
 }
 
 void WorkerPool::stop(Worker& worker, bool kill_now) {
@@ -222,11 +218,10 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
       if (worker->job >= 0 || ready.empty()) continue;
       size_t next = ready.front();
       ready.pop_front();
-      std::string error;
-      if (worker->pid < 0 && !spawn(*worker, error)) {
+      if (Result<void> spawned = worker->pid < 0 ? spawn(*worker) : Result<void>(); !spawned) {
         WorkerOutcome outcome;
         outcome.kind = WorkerOutcome::Kind::Failed;
-        outcome.detail = error;
+        outcome.detail = spawned.error().message;
         finish(next, std::move(outcome));
         continue;
       }

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "kiln/result.hpp"
 #include "kiln/defaults.hpp"
 #include "workers/compile_job.hpp"
 #include "workers/job_runner.hpp"
@@ -39,7 +40,7 @@ class WorkerPool final : public JobRunner {
 
  private:
   struct Worker;
-  bool spawn(Worker& worker, std::string& error);
+  Result<void> spawn(Worker& worker);
   void stop(Worker& worker, bool kill_now);
 
   std::filesystem::path executable_;
