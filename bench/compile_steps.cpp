@@ -68,19 +68,25 @@ nlohmann::json run_steps(kiln::Frontend& frontend, const std::string& path, kiln
     }
   };
   kiln::CompileResult front;
-  kiln::SpirvStepResult legal, optimized;
+  kiln::SpirvModule legal, optimized;
+  // The step's module (its time is what counts here), and whether it succeeded.
+  auto took = [](kiln::SpirvModule& into, kiln::SpirvResult result) {
+    if (!result) return false;
+    into = std::move(*result);
+    return true;
+  };
   size_t i = 0;
   timed(i++, "front end (glslang)", [&] {
     front = frontend.compile({stage, entry, path, source});
     return front.ok;
   });
   if (!back_end(front.spirv)) return nullptr;
-  timed(i++, "legalize (core recipe)", [&] { return (legal = kiln::legalize_spirv_core(front.spirv)).ok; });
-  timed(i++, "validate", [&] { return kiln::validate_spirv(legal.spirv).ok; });
+  timed(i++, "legalize (core recipe)", [&] { return took(legal, kiln::legalize_spirv_core(front.spirv)); });
+  timed(i++, "validate", [&] { return kiln::validate_spirv(legal.spirv).has_value(); });
   timed(i++, "optimize (kiln's recipe)", [&] {
-    return (optimized = kiln::optimize_spirv(legal.spirv, kiln::OptimizerRecipe::Kiln)).ok;
+    return took(optimized, kiln::optimize_spirv(legal.spirv, kiln::OptimizerRecipe::Kiln));
   });
-  timed(i++, "validate again", [&] { return kiln::validate_spirv(optimized.spirv).ok; });
+  timed(i++, "validate again", [&] { return kiln::validate_spirv(optimized.spirv).has_value(); });
   // A depth-only vertex stage has no outputs but its position: reflection cannot fail, only take time.
   timed(i++, "reflect", [&] {
     (void)kiln::reflect_spirv(optimized.spirv);
@@ -179,9 +185,9 @@ int main(int argc, char** argv) {
     const kiln::CompileResult front = frontend->compile({stage, entry, path, read_file(path)});
     for (int r = 0; r < reps; ++r) {
       auto start = clock_type::now();
-      kiln::SpirvStepResult full = kiln::legalize_spirv(front.spirv);
+      kiln::SpirvResult full = kiln::legalize_spirv(front.spirv);
       full_times.push_back(std::chrono::duration<double, std::milli>(clock_type::now() - start).count());
-      full_words = full.spirv.size();
+      full_words = full ? full->spirv.size() : 0;
     }
     std::sort(full_times.begin(), full_times.end());
   }

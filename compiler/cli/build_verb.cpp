@@ -1,4 +1,4 @@
-// kiln build: a variant pack from a pack definition (the pipeline, compiler/src/pipeline.cpp), its summary and
+// kiln build: a variant pack from a pack definition (the pipeline, compiler/src/driver/pipeline.cpp), its summary and
 // --summary-json, the remote cache's options and --shard.
 #include <cstdlib>
 #include <iostream>

@@ -80,17 +80,19 @@ Comparison compare_recipes(const std::vector<Module>& front_ends) {
   std::vector<int> same(front_ends.size()), same_bytes(front_ends.size()), fit(front_ends.size());
   std::vector<std::string> why(front_ends.size());
   parallel_for(front_ends.size(), 2, [&](size_t i) {
-    const SpirvStepResult legal = legalize_spirv_core(front_ends[i]);
-    if (!legal.ok || !validate_spirv(legal.spirv).ok) {
+    const SpirvResult legal = legalize_spirv_core(front_ends[i]);
+    if (!legal || !validate_spirv(legal->spirv)) {
       why[i] = "the core recipe does not legalize it (a build uses the full recipe, then -O)";
       same[i] = same_bytes[i] = 1;
       return;
     }
-    fit[i] = fits_kiln_recipe(legal.spirv);
-    const SpirvStepResult stock = optimize_spirv(legal.spirv, OptimizerRecipe::Stock);
-    const SpirvStepResult kiln = optimize_spirv(legal.spirv, OptimizerRecipe::Kiln);
-    same_bytes[i] = stock.ok && kiln.ok && stock.spirv == kiln.spirv;
-    same[i] = same_bytes[i] || (stock.ok && kiln.ok && compact_ids(stock.spirv) == compact_ids(kiln.spirv));
+    fit[i] = fits_kiln_recipe(legal->spirv);
+    const SpirvResult stock_result = optimize_spirv(legal->spirv, OptimizerRecipe::Stock);
+    const SpirvResult kiln_result = optimize_spirv(legal->spirv, OptimizerRecipe::Kiln);
+    const bool both = stock_result && kiln_result;
+    const SpirvModule stock = stock_result ? *stock_result : SpirvModule{}, kiln = kiln_result ? *kiln_result : SpirvModule{};
+    same_bytes[i] = both && stock.spirv == kiln.spirv;
+    same[i] = same_bytes[i] || (both && compact_ids(stock.spirv) == compact_ids(kiln.spirv));
     if (!same[i])
       why[i] = "-O: " + std::to_string(stock.spirv.size()) + " words, kiln's recipe: " + std::to_string(kiln.spirv.size()) +
                " words\n-O:\n" + disassemble_spirv(compact_ids(stock.spirv)).substr(0, 4000) + "\nkiln's recipe:\n" +

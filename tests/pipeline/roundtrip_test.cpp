@@ -57,12 +57,12 @@ std::vector<uint32_t> compile_directly(const std::string& text, const std::strin
   options.validate = false;
   std::vector<uint32_t> spirv;
   glslang::GlslangToSpv(*program.getIntermediate(stage), spirv, &options);
-  SpirvStepResult optimized = legalize_validate_optimize(std::move(spirv), true);
-  if (!optimized.ok) {
-    for (const std::string& m : optimized.messages) log += m + "\n";
+  SpirvResult optimized = legalize_validate_optimize(std::move(spirv), true);
+  if (!optimized) {
+    for (const std::string& m : optimized.error().messages) log += m + "\n";
     return {};
   }
-  return optimized.spirv;
+  return optimized->spirv;
 }
 
 // One corpus file as a one-pass pack: its build errors, or nothing.

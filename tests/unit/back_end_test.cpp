@@ -23,9 +23,9 @@ std::vector<uint32_t> front_end(const std::string& source, Stage stage, const st
 }
 
 std::vector<uint32_t> optimized(const std::string& source, Stage stage = Stage::Fragment, const std::string& entry = "F") {
-  SpirvStepResult result = legalize_validate_optimize(front_end(source, stage, entry), true);
-  EXPECT_TRUE(result.ok) << (result.messages.empty() ? "" : result.messages.front());
-  return result.spirv;
+  SpirvResult result = legalize_validate_optimize(front_end(source, stage, entry), true);
+  EXPECT_TRUE(result) << (result.error().messages.empty() ? "" : result.error().messages.front());
+  return result ? result->spirv : std::vector<uint32_t>();
 }
 
 size_t count_opcode(const std::vector<uint32_t>& spirv, uint32_t opcode) {
@@ -50,30 +50,31 @@ float4 F() : SV_Target {
 
 TEST(Optimize, LegalizesValidatesAndOptimizesDeterministically) {
   const std::vector<uint32_t> module = front_end(kLoopy, Stage::Fragment, "F");
-  SpirvStepResult plain = legalize_validate_optimize(module, false);
-  SpirvStepResult fast = legalize_validate_optimize(module, true);
-  ASSERT_TRUE(plain.ok && fast.ok);
-  EXPECT_FALSE(fast.full_legalization);  // kiln's core recipe suffices for plain HLSL
+  SpirvResult plain = legalize_validate_optimize(module, false);
+  SpirvResult fast = legalize_validate_optimize(module, true);
+  ASSERT_TRUE(plain && fast);
+  EXPECT_FALSE(fast->full_legalization);  // kiln's core recipe suffices for plain HLSL
   // The performance recipe inlined Scale and removed the dead code: fewer functions and instructions.
   constexpr uint32_t kOpFunction = 54;
-  EXPECT_EQ(count_opcode(fast.spirv, kOpFunction), 1u);
-  EXPECT_LT(fast.spirv.size(), plain.spirv.size());
-  EXPECT_TRUE(validate_spirv(fast.spirv).ok);
-  EXPECT_EQ(legalize_validate_optimize(module, true).spirv, fast.spirv);  // the same bytes every time
+  EXPECT_EQ(count_opcode(fast->spirv, kOpFunction), 1u);
+  EXPECT_LT(fast->spirv.size(), plain->spirv.size());
+  EXPECT_TRUE(validate_spirv(fast->spirv));
+  EXPECT_EQ(legalize_validate_optimize(module, true)->spirv, fast->spirv);  // the same bytes every time
 }
 
 TEST(Optimize, NamesTheStepThatFailed) {
   std::vector<uint32_t> module = front_end(kLoopy, Stage::Fragment, "F");
   module[0] = 0xdeadbeef;  // not SPIR-V
-  SpirvStepResult result = legalize_validate_optimize(module, true);
-  EXPECT_FALSE(result.ok);
-  EXPECT_EQ(result.step, CompileStep::Legalize);
-  EXPECT_FALSE(result.messages.empty());
+  SpirvResult result = legalize_validate_optimize(module, true);
+  ASSERT_FALSE(result);
+  EXPECT_EQ(result.error().step, CompileStep::Legalize);
+  EXPECT_FALSE(result.error().messages.empty());
 
   // A module that parses but is invalid fails validation, not the optimizer.
-  SpirvStepResult invalid = validate_spirv({0x07230203, 0x00010300, 0, 1, 0});
-  EXPECT_FALSE(invalid.ok);
-  EXPECT_FALSE(invalid.messages.empty());
+  Result<void, SpirvFailure> invalid = validate_spirv({0x07230203, 0x00010300, 0, 1, 0});
+  ASSERT_FALSE(invalid);
+  EXPECT_EQ(invalid.error().step, CompileStep::Validate);
+  EXPECT_FALSE(invalid.error().messages.empty());
 }
 
 // ---- reflect --------------------------------------------------------------------------------------------------
@@ -230,7 +231,8 @@ float4 F(float4 color : COLOR0) : SV_Target { return float4(Tonemap(half3(color.
   EXPECT_TRUE(widened->changed);
   EXPECT_FALSE(has_float16(widened->spirv));
   EXPECT_GT(relaxed_decorations(widened->spirv), 0u);
-  EXPECT_TRUE(validate_spirv(widened->spirv).ok) << validate_spirv(widened->spirv).messages.front();
+  Result<void, SpirvFailure> valid = validate_spirv(widened->spirv);
+  EXPECT_TRUE(valid) << valid.error().messages.front();
 }
 
 TEST(WidenFloat16, LeavesModulesWithoutHalfOrWithHalfStorageAlone) {

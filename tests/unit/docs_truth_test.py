@@ -76,7 +76,7 @@ def check_map(root):
             fail(f"docs/design.md names `{token}`, which does not exist")
     print(f"docs/design.md names {named} files and folders")
     # The counts it states.
-    pipeline = (root / "compiler/src/pipeline.cpp").read_text(encoding="utf-8")
+    pipeline = (root / "compiler/src/driver/pipeline.cpp").read_text(encoding="utf-8")
     body = re.search(r"\nBuildReport build_pack\([^)]*\)[^{]*\{\n(.*?)\n\}\n", pipeline, re.S)
     stated = re.search(r"`build_pack` is the pipeline: about (\d+) lines", design)
     if not body or not stated:

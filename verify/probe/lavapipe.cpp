@@ -357,13 +357,13 @@ Result<ProbeProgram> compile_probe(const std::filesystem::path& probe_file, cons
     CompileResult compiled = frontend->compile({stage, entry, entry_name, preprocessed.text});
     if (!compiled.ok)
       return failure("compiling " + entry_name + " (" + std::string(stage_name(stage)) + ") failed:\n" + describe(compiled.messages));
-    SpirvStepResult steps = legalize_validate_optimize(std::move(compiled.spirv), optimize);
-    if (!steps.ok) {
-      std::string error = std::string(step_name(steps.step)) + " failed for " + entry_name + ":";
-      for (const auto& m : steps.messages) error += "\n" + m;
+    SpirvResult steps = legalize_validate_optimize(std::move(compiled.spirv), optimize);
+    if (!steps) {
+      std::string error = std::string(step_name(steps.error().step)) + " failed for " + entry_name + ":";
+      for (const auto& m : steps.error().messages) error += "\n" + m;
       return failure(std::move(error));
     }
-    (stage == Stage::Vertex ? program.vertex : program.fragment) = std::move(steps.spirv);
+    (stage == Stage::Vertex ? program.vertex : program.fragment) = std::move(steps->spirv);
   }
   program.float16 = std::find(defines.begin(), defines.end(), "_HALF_PRECISION") != defines.end();
   return program;

@@ -58,10 +58,9 @@ const std::vector<uint32_t>& CrossModules::gl_spirv() {
       gl_error_ = "widening 16-bit floats for GL: " + widened.error().message;
     } else {
       if (widened->changed) {
-        SpirvStepResult valid = validate_spirv(widened->spirv);
-        if (!valid.ok) {
+        if (Result<void, SpirvFailure> valid = validate_spirv(widened->spirv); !valid) {
           gl_error_ = "widening 16-bit floats for GL produced invalid SPIR-V:";
-          for (const auto& m : valid.messages) gl_error_ += " " + m;
+          for (const auto& m : valid.error().messages) gl_error_ += " " + m;
         }
       }
       gl_spirv_ = std::move(widened->spirv);

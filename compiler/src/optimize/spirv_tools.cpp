@@ -11,6 +11,20 @@
 namespace kiln {
 namespace {
 
+// One step's outcome inside this file; the public functions return it as a SpirvResult (spirv_tools.hpp).
+struct Step {
+  bool ok = false;
+  CompileStep step = CompileStep::None;
+  std::vector<std::string> messages;
+  std::vector<uint32_t> spirv;
+  bool full_legalization = false;
+};
+
+SpirvResult finished(Step step) {
+  if (step.ok) return SpirvModule{std::move(step.spirv), step.full_legalization};
+  return failure(SpirvFailure{step.step, std::move(step.messages)});
+}
+
 constexpr spv_target_env kTargetEnv = spirv_tools_environment();
 
 spvtools::MessageConsumer collect_into(std::vector<std::string>& messages) {
@@ -41,8 +55,8 @@ bool run_validator(const std::vector<uint32_t>& spirv, std::vector<std::string>&
 
 }  // namespace
 
-SpirvStepResult validate_spirv(const std::vector<uint32_t>& spirv) {
-  SpirvStepResult result;
+static Step validate_step(const std::vector<uint32_t>& spirv) {
+  Step result;
   result.step = CompileStep::Validate;
   result.ok = run_validator(spirv, result.messages);
   if (result.ok) result.spirv = spirv;
@@ -51,8 +65,8 @@ SpirvStepResult validate_spirv(const std::vector<uint32_t>& spirv) {
 
 namespace {
 
-SpirvStepResult run_recipe(const std::vector<uint32_t>& spirv, CompileStep step, void (*recipe)(spvtools::Optimizer&)) {
-  SpirvStepResult result;
+Step run_recipe(const std::vector<uint32_t>& spirv, CompileStep step, void (*recipe)(spvtools::Optimizer&)) {
+  Step result;
   result.step = step;
   spvtools::Optimizer optimizer(kTargetEnv);
   optimizer.SetMessageConsumer(collect_into(result.messages));
@@ -64,7 +78,7 @@ SpirvStepResult run_recipe(const std::vector<uint32_t>& spirv, CompileStep step,
 
 }  // namespace
 
-SpirvStepResult legalize_spirv(const std::vector<uint32_t>& spirv) {
+static Step legalize_step(const std::vector<uint32_t>& spirv) {
   return run_recipe(spirv, CompileStep::Legalize, [](spvtools::Optimizer& o) { o.RegisterLegalizationPasses(); });
 }
 
@@ -185,7 +199,7 @@ void register_recipe(spvtools::Optimizer& o, OptimizerRecipe recipe) {
 
 }  // namespace
 
-SpirvStepResult legalize_spirv_core(const std::vector<uint32_t>& spirv) {
+static Step legalize_core_step(const std::vector<uint32_t>& spirv) {
   return run_recipe(spirv, CompileStep::Legalize, register_core_legalization);
 }
 
@@ -223,9 +237,9 @@ bool fits_kiln_recipe(const std::vector<uint32_t>& spirv) {
   return functions == entry_points;
 }
 
-SpirvStepResult optimize_spirv(const std::vector<uint32_t>& spirv, OptimizerRecipe recipe) {
+static Step optimize_step(const std::vector<uint32_t>& spirv, OptimizerRecipe recipe) {
   if (recipe == OptimizerRecipe::Kiln && !fits_kiln_recipe(spirv)) recipe = OptimizerRecipe::Stock;
-  SpirvStepResult result;
+  Step result;
   result.step = CompileStep::Optimize;
   spvtools::Optimizer optimizer(kTargetEnv);
   optimizer.SetMessageConsumer(collect_into(result.messages));
@@ -271,9 +285,9 @@ namespace {
 // fails), the full recipe from the front end's module, as `spirv-opt --legalize-hlsl` would: every module
 // the full recipe legalizes is accepted. Without -O the full recipe only, so that an unoptimized build is
 // what `--legalize-hlsl` gives.
-SpirvStepResult legalize_and_validate(const std::vector<uint32_t>& spirv, bool optimize) {
+Step legalize_and_validate(const std::vector<uint32_t>& spirv, bool optimize) {
   if (optimize) {
-    SpirvStepResult core = legalize_spirv_core(spirv);
+    Step core = legalize_core_step(spirv);
     if (core.ok) {
       std::vector<std::string> rejected;
       if (run_validator(core.spirv, rejected)) {
@@ -282,7 +296,7 @@ SpirvStepResult legalize_and_validate(const std::vector<uint32_t>& spirv, bool o
       }
     }
   }
-  SpirvStepResult full = legalize_spirv(spirv);
+  Step full = legalize_step(spirv);
   full.full_legalization = true;
   if (!full.ok) return full;
   full.step = CompileStep::Validate;
@@ -292,11 +306,11 @@ SpirvStepResult legalize_and_validate(const std::vector<uint32_t>& spirv, bool o
 
 }  // namespace
 
-SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize, OptimizerRecipe recipe) {
-  SpirvStepResult result = legalize_and_validate(spirv, optimize);
+static Step chain_step(std::vector<uint32_t> spirv, bool optimize, OptimizerRecipe recipe) {
+  Step result = legalize_and_validate(spirv, optimize);
   if (!result.ok || !optimize) return result;
   // Kiln's recipe leaves out work the core legalization recipe did; after the full one, -O as a whole.
-  SpirvStepResult optimized = optimize_spirv(result.spirv, result.full_legalization ? OptimizerRecipe::Stock : recipe);
+  Step optimized = optimize_step(result.spirv, result.full_legalization ? OptimizerRecipe::Stock : recipe);
   optimized.full_legalization = result.full_legalization;
   optimized.messages.insert(optimized.messages.begin(), result.messages.begin(), result.messages.end());
   if (!optimized.ok) return optimized;
@@ -345,10 +359,10 @@ std::set<std::pair<uint32_t, uint32_t>> shared_texture_sampler_slots(const std::
 
 }  // namespace
 
-SpirvStepResult combine_image_samplers(const std::vector<uint32_t>& spirv) {
+static Step combine_step(const std::vector<uint32_t>& spirv) {
   const auto slots = shared_texture_sampler_slots(spirv);
   if (slots.empty()) {
-    SpirvStepResult unchanged;
+    Step unchanged;
     unchanged.ok = true;
     unchanged.step = CompileStep::CombineImageSamplers;
     unchanged.spirv = spirv;
@@ -357,7 +371,7 @@ SpirvStepResult combine_image_samplers(const std::vector<uint32_t>& spirv) {
   std::string flag = "--convert-to-sampled-image=";
   for (const auto& [set, binding] : slots) flag += std::to_string(set) + ":" + std::to_string(binding) + " ";
   flag.pop_back();
-  SpirvStepResult result;
+  Step result;
   result.step = CompileStep::CombineImageSamplers;
   spvtools::Optimizer optimizer(kTargetEnv);
   optimizer.SetMessageConsumer(collect_into(result.messages));
@@ -392,5 +406,20 @@ std::string disassemble_spirv(const std::vector<uint32_t>& spirv) {
 }
 
 std::string spirv_tools_version() { return spvSoftwareVersionString(); }
+
+SpirvResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize, OptimizerRecipe recipe) {
+  return finished(chain_step(std::move(spirv), optimize, recipe));
+}
+SpirvResult legalize_spirv(const std::vector<uint32_t>& spirv) { return finished(legalize_step(spirv)); }
+SpirvResult legalize_spirv_core(const std::vector<uint32_t>& spirv) { return finished(legalize_core_step(spirv)); }
+SpirvResult optimize_spirv(const std::vector<uint32_t>& spirv, OptimizerRecipe recipe) {
+  return finished(optimize_step(spirv, recipe));
+}
+SpirvResult combine_image_samplers(const std::vector<uint32_t>& spirv) { return finished(combine_step(spirv)); }
+Result<void, SpirvFailure> validate_spirv(const std::vector<uint32_t>& spirv) {
+  Step step = validate_step(spirv);
+  if (step.ok) return {};
+  return failure(SpirvFailure{step.step, std::move(step.messages)});
+}
 
 }  // namespace kiln

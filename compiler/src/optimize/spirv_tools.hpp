@@ -7,6 +7,7 @@
 #include "common/compile_step.hpp"
 #include "common/target_environment.hpp"
 #include "kiln/model.hpp"
+#include "kiln/result.hpp"
 
 #include <spirv-tools/libspirv.h>
 #include <vector>
@@ -20,26 +21,31 @@ constexpr spv_target_env spirv_tools_environment() {
   return SPV_ENV_VULKAN_1_1;
 }
 
-struct SpirvStepResult {
-  bool ok = false;
-  CompileStep step = CompileStep::None;  // Legalize, Validate, Optimize, ValidateOptimized
-  std::vector<std::string> messages;
+// A module that passed a step, and whether legalizing it took SPIRV-Tools' full recipe (the core one was not enough:
+// see legalize_spirv_core).
+struct SpirvModule {
   std::vector<uint32_t> spirv;
-  bool full_legalization = false;  // the core legalization recipe was not enough (see legalize_spirv_core)
+  bool full_legalization = false;
 };
+// Why a step failed: the step (Legalize, Validate, Optimize, ValidateOptimized, CombineImageSamplers) and
+// SPIRV-Tools' messages.
+struct SpirvFailure {
+  CompileStep step = CompileStep::None;
+  std::vector<std::string> messages;
+};
+using SpirvResult = Result<SpirvModule, SpirvFailure>;
 
-// The whole chain; on failure `step` names the step that failed. With `optimize`, legalization tries the core
+// The whole chain; a failure names the step that failed. With `optimize`, legalization tries the core
 // recipe first and falls back to SPIRV-Tools' full one when the result does not validate; `recipe` says
 // which optimization recipe follows (kiln's runs only after the core legalization recipe: a module that
 // needed the full one gets -O).
-SpirvStepResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize,
-                                           OptimizerRecipe recipe = OptimizerRecipe::Kiln);
+SpirvResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize, OptimizerRecipe recipe = OptimizerRecipe::Kiln);
 // Its steps alone (kiln-compile-steps times them): SPIRV-Tools' full legalization recipe (`spirv-opt
 // --legalize-hlsl`), kiln's core legalization recipe (its first sixteen passes), and an optimization recipe
 // (kiln's, or `spirv-opt -O`'s); none validates. Kiln's recipe expects the core legalization recipe's output.
-SpirvStepResult legalize_spirv(const std::vector<uint32_t>& spirv);
-SpirvStepResult legalize_spirv_core(const std::vector<uint32_t>& spirv);
-SpirvStepResult optimize_spirv(const std::vector<uint32_t>& spirv, OptimizerRecipe recipe);
+SpirvResult legalize_spirv(const std::vector<uint32_t>& spirv);
+SpirvResult legalize_spirv_core(const std::vector<uint32_t>& spirv);
+SpirvResult optimize_spirv(const std::vector<uint32_t>& spirv, OptimizerRecipe recipe);
 // What kiln's recipe assumes of its input, checked on every module (kiln runs -O on a module without it): no
 // function call, every function an entry point, no Private variable, at most one return per function and in
 // its last block. True of what the core legalization recipe gives for kiln's modules unless it could not
@@ -53,10 +59,10 @@ std::vector<std::string> optimizer_pass_names(OptimizerRecipe recipe);
 // recipes that make the same instructions with other ID numbers give the same words after it.
 std::vector<uint32_t> compact_ids(const std::vector<uint32_t>& spirv);
 // spirv-val alone (used by lint and tests).
-SpirvStepResult validate_spirv(const std::vector<uint32_t>& spirv);
+Result<void, SpirvFailure> validate_spirv(const std::vector<uint32_t>& spirv);
 // Every texture and sampler variable that share one (set, binding) become one combined image sampler
 // (SPIRV-Tools' convert-to-sampled-image pass), then validated. Step "combine-image-samplers".
-SpirvStepResult combine_image_samplers(const std::vector<uint32_t>& spirv);
+SpirvResult combine_image_samplers(const std::vector<uint32_t>& spirv);
 std::string disassemble_spirv(const std::vector<uint32_t>& spirv);
 std::string spirv_tools_version();
 

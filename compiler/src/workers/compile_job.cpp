@@ -79,22 +79,20 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
   JobOutput out;
   // The front end's note of each interface variable's HLSL semantic, off the module before anything reads it.
   const InterfaceSemantics semantics = detach_interface_semantics(module);
-  SpirvStepResult spirv = legalize_validate_optimize(std::move(module), job.optimize, job.optimizer_recipe);
-  if (!spirv.ok) {
-    out.failed_step = spirv.step;
-    for (std::string& message : spirv.messages) out.messages.push_back({Severity::Error, "", 0, std::move(message)});
+  auto failed = [&](const SpirvFailure& failure) {
+    out.failed_step = failure.step;
+    for (const std::string& message : failure.messages) out.messages.push_back({Severity::Error, "", 0, message});
     return out;
-  }
+  };
+  SpirvResult legal = legalize_validate_optimize(std::move(module), job.optimize, job.optimizer_recipe);
+  if (!legal) return failed(legal.error());
+  SpirvModule spirv = std::move(*legal);
   out.full_legalization = spirv.full_legalization;
   if (job.bindings.combines()) {
     // A texture and a sampler that share a binding become one combined image sampler (docs/bindings.md).
-    SpirvStepResult combined = combine_image_samplers(spirv.spirv);
-    if (!combined.ok) {
-      out.failed_step = combined.step;
-      for (std::string& message : combined.messages) out.messages.push_back({Severity::Error, "", 0, std::move(message)});
-      return out;
-    }
-    spirv.spirv = std::move(combined.spirv);
+    SpirvResult combined = combine_image_samplers(spirv.spirv);
+    if (!combined) return failed(combined.error());
+    spirv.spirv = std::move(combined->spirv);
   }
   try {
     out.reflection = reflect_spirv(spirv.spirv);
