@@ -92,6 +92,45 @@ def check_map(root):
             fail(f"docs/design.md says the fuzz corpus has {corpus.group(1)} files; it has {files}")
 
 
+def code_lines(root, folders, suffixes):
+    """(path relative to root, line) of every line of code (not a comment) under `folders`."""
+    for folder in folders:
+        for path in sorted((root / folder).rglob("*")):
+            if not path.is_file() or not path.name.endswith(suffixes):
+                continue
+            for line in path.read_text(encoding="utf-8", errors="replace").splitlines():
+                if not line.lstrip().startswith(("//", "#", "/*", "* ", "*/")):
+                    yield str(path.relative_to(root)), line
+
+
+def check_one_row_per_thing(root):
+    """What design.md's "What a contributor touches" promises: targets and lint rules are each listed in one table,
+    so no other code spells out the list of targets or a lint rule's id; and the numbers it states hold."""
+    design = (root / "docs/design.md").read_text(encoding="utf-8")
+    suffixes = (".cpp", ".hpp", ".h", ".def", ".cmake", ".txt", ".in")
+    target_list = re.compile(r"spirv\W+glsl\W+gles\W+msl", re.I)
+    table = "compiler/include/kiln/targets.def"
+    for path, line in code_lines(root, ["compiler", "verify", "cmake"], suffixes):
+        if path != table and target_list.search(line):
+            fail(f"{path} lists the targets ({line.strip()[:80]}): generate it from {table}")
+    rules = (root / "compiler/src/lint/rules.def").read_text(encoding="utf-8")
+    ids = re.findall(r'^KILN_LINT_RULE\(\w+, "([a-z0-9-]+)", \w+\)$', rules, re.M)
+    if len(ids) < 10:
+        fail(f"compiler/src/lint/rules.def: found only {len(ids)} rules")
+    for path, line in code_lines(root, ["compiler", "verify"], suffixes):
+        for rule in ids:
+            if f'"{rule}"' in line and not path.endswith("lint/rules.def"):
+                fail(f"{path} spells lint rule id \"{rule}\": name it by its RuleId (compiler/src/lint/rules.def)")
+    stated = re.search(r"`cross/glsl_target.cpp` is (\d+) lines", design)
+    lines = len((root / "compiler/src/cross/glsl_target.cpp").read_text(encoding="utf-8").splitlines())
+    if not stated or int(stated.group(1)) != lines:
+        fail(f"docs/design.md's length of cross/glsl_target.cpp is not its {lines} lines")
+    for what, count in re.findall(r"^- \*\*A (target|manifest field|lint rule|keyword pragma)\*\*(?: \([^)]*\))?, (\d+) files?\b", design, re.M):
+        print(f"docs/design.md: a {what} touches {count} file(s)")
+    if len(re.findall(r"^- \*\*A (?:target|manifest field|lint rule|keyword pragma)\*\*(?: \([^)]*\))?, \d+ files?\b", design, re.M)) != 4:
+        fail("docs/design.md does not say how many files a target, a manifest field, a lint rule and a keyword pragma touch")
+
+
 def main():
     if len(sys.argv) < 3:
         print(__doc__)
@@ -100,6 +139,7 @@ def main():
         check_defaults(sys.argv[2], Path(sys.argv[3]))
     else:
         check_map(Path(sys.argv[2]))
+        check_one_row_per_thing(Path(sys.argv[2]))
     return 1 if failures else 0
 
 
