@@ -6,9 +6,8 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.hpp"
-#include "common/files.hpp"
-#include "definition/definition.hpp"
-#include "frontend/frontend.hpp"
+#include "kiln/command_line.hpp"
+#include "kiln/files.hpp"
 #include "kiln/manifest_json.hpp"
 #include "progress_line.hpp"
 
@@ -233,11 +232,13 @@ class BuildVerb final : public Verb {
     options_.usage_tags = std::move(*tags);
     if (!shard_text_.empty()) {
       auto process_environment = [](const char* name) { return std::getenv(name); };
-      if (std::string error = kiln::parse_shard_option(shard_text_, process_environment, options_.shard_index, options_.shard_count);
-          !error.empty()) {
-        std::cerr << "kiln: error: " << error << "\n";
+      kiln::Result<kiln::Shard> shard = kiln::parse_shard_option(shard_text_, process_environment);
+      if (!shard) {
+        std::cerr << "kiln: error: " << shard.error().message << "\n";
         return 1;
       }
+      options_.shard_index = shard->index;
+      options_.shard_count = shard->count;
       if (remote.url.empty()) {
         std::cerr << "kiln: error: --shard needs a remote cache (--remote URL or KILN_REMOTE): the merge build reads the shards' work there\n";
         return 1;

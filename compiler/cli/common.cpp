@@ -10,10 +10,7 @@
 
 #include "allocator.hpp"
 #include "cli.hpp"
-#include "cross/targets.hpp"
-#include "definition/definition.hpp"
-#include "frontend/frontend.hpp"
-#include "optimize/spirv_tools.hpp"
+#include "kiln/command_line.hpp"
 
 namespace kiln::cli {
 namespace {
@@ -112,17 +109,8 @@ std::filesystem::path make_scratch(const std::string& prefix) {
 }
 
 std::string version_text() {
-  std::string text = std::string("kiln ") + kiln::kKilnVersion + "\n";
-  for (const std::string& name : kiln::frontend_names())
-    if (auto frontend = kiln::make_frontend(name)) text += "front end: " + frontend->name() + " " + frontend->version() + "\n";
-  text += "SPIRV-Tools: " + kiln::spirv_tools_version() + "\n";
-  text += "optimizer recipe: kiln (default; -O without " +
-          std::to_string(kiln::optimizer_pass_names(kiln::OptimizerRecipe::Stock).size() -
-                         kiln::optimizer_pass_names(kiln::OptimizerRecipe::Kiln).size()) +
-          " of its " + std::to_string(kiln::optimizer_pass_names(kiln::OptimizerRecipe::Stock).size()) +
-          " passes), O with --optimize=O\n";
-  text += "SPIRV-Cross: " + kiln::spirv_cross_version() + "\n";
-  return text + "allocator: " + kiln::allocator_description();
+  return std::string("kiln ") + kiln::kKilnVersion + "\n" + kiln::toolchain_description() + "allocator: " +
+         kiln::allocator_description();
 }
 
 std::optional<std::vector<std::pair<std::string, std::string>>> parse_usage_tags(const std::vector<std::string>& tags) {

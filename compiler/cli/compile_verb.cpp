@@ -11,8 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.hpp"
-#include "common/files.hpp"
-#include "driver/outputs.hpp"
+#include "kiln/files.hpp"
 #include "kiln/pack_reader.hpp"
 
 namespace kiln::cli {

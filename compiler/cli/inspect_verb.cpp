@@ -4,7 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.hpp"
-#include "common/files.hpp"
+#include "kiln/files.hpp"
 #include "kiln/manifest_json.hpp"
 #include "kiln/pack_reader.hpp"
 

@@ -1,5 +1,5 @@
 // kiln lint: a pack definition (every rule, over a scratch build) or HLSL files (the source rules), reported as
-// text, JSON or SARIF (lint/lint.hpp).
+// text, JSON or SARIF (kiln/lint.hpp).
 #include <stdlib.h>
 
 #include <algorithm>
@@ -7,8 +7,8 @@
 #include <iostream>
 
 #include "cli.hpp"
-#include "common/files.hpp"
-#include "lint/lint.hpp"
+#include "kiln/files.hpp"
+#include "kiln/lint.hpp"
 
 namespace kiln::cli {
 namespace {

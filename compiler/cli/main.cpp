@@ -5,7 +5,7 @@
 #include <iostream>
 
 #include "cli.hpp"
-#include "common/files.hpp"
+#include "kiln/files.hpp"
 #include "kiln/guarded_main.hpp"
 #ifdef KILN_FAULT_INJECTION
 #include "fault_injection.hpp"

@@ -1,13 +1,13 @@
-// kiln check-scene and kiln diff-packs: questions about built packs (tools/pack_tools.hpp).
+// kiln check-scene and kiln diff-packs: questions about built packs (kiln/pack_tools.hpp).
 #include <iostream>
 
 #include <nlohmann/json.hpp>
 
 #include "cli.hpp"
-#include "common/files.hpp"
+#include "kiln/files.hpp"
 #include "kiln/defaults.hpp"
 #include "kiln/pack_reader.hpp"
-#include "tools/pack_tools.hpp"
+#include "kiln/pack_tools.hpp"
 
 namespace kiln::cli {
 namespace {

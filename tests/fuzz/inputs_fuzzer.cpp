@@ -94,8 +94,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
             if (std::string_view(name) == kVariables[i]) return i + 1 < lines.size() ? lines[i + 1].c_str() : nullptr;
           return nullptr;
         };
-        unsigned index = 0, count = 0;
-        if (kiln::parse_shard_option(lines[0], environment, index, count).empty() && (count == 0 || index >= count))
+        const kiln::Result<kiln::Shard> shard = kiln::parse_shard_option(lines[0], environment);
+        if (shard && (shard->count == 0 || shard->index >= shard->count))
           std::abort();  // accepted a shard outside its count
       }
       break;

@@ -14,7 +14,7 @@
 #include "kiln/build.hpp"
 #include "kiln/pack_reader.hpp"
 #include "kiln/manifest_json.hpp"
-#include "tools/pack_tools.hpp"
+#include "kiln/pack_tools.hpp"
 #include "test_support.hpp"
 
 namespace kiln {

@@ -113,14 +113,14 @@ def check_one_row_per_thing(root):
     for path, line in code_lines(root, ["compiler", "verify", "cmake"], suffixes):
         if path != table and target_list.search(line):
             fail(f"{path} lists the targets ({line.strip()[:80]}): generate it from {table}")
-    rules = (root / "compiler/src/lint/rules.def").read_text(encoding="utf-8")
+    rules = (root / "compiler/include/kiln/lint_rules.def").read_text(encoding="utf-8")
     ids = re.findall(r'^KILN_LINT_RULE\(\w+, "([a-z0-9-]+)", \w+\)$', rules, re.M)
     if len(ids) < 10:
-        fail(f"compiler/src/lint/rules.def: found only {len(ids)} rules")
+        fail(f"compiler/include/kiln/lint_rules.def: found only {len(ids)} rules")
     for path, line in code_lines(root, ["compiler", "verify"], suffixes):
         for rule in ids:
-            if f'"{rule}"' in line and not path.endswith("lint/rules.def"):
-                fail(f"{path} spells lint rule id \"{rule}\": name it by its RuleId (compiler/src/lint/rules.def)")
+            if f'"{rule}"' in line and not path.endswith("kiln/lint_rules.def"):
+                fail(f"{path} spells lint rule id \"{rule}\": name it by its RuleId (compiler/include/kiln/lint_rules.def)")
     stated = re.search(r"`cross/glsl_target.cpp` is (\d+) lines", design)
     lines = len((root / "compiler/src/cross/glsl_target.cpp").read_text(encoding="utf-8").splitlines())
     if not stated or int(stated.group(1)) != lines:

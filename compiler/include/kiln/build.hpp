@@ -193,6 +193,17 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink);
 // Stages 0-3 only, as `kiln list` shows them.
 std::optional<PlanListing> list_variants(const BuildOptions& options, DiagnosticSink& sink);
 
+// A Makefile-syntax depfile: the manifest depends on every input read. False (reported) when it cannot be written.
+bool write_depfile(const std::filesystem::path& depfile, const std::filesystem::path& manifest,
+                   const std::vector<std::filesystem::path>& dependencies, DiagnosticSink& sink);
+
+// The names `--frontend` takes ("glslang").
+std::vector<std::string> frontend_names();
+
+// What kiln compiles with, a line each, for --version and bug reports: each front end and its version, SPIRV-Tools,
+// the optimizer recipes, SPIRV-Cross (its C API version and the fingerprint of its libraries).
+std::string toolchain_description();
+
 // The CLI's exit status: 0 ok, else the worst exit class of the errors (diagnostics.def): 1 input, 2 internal (also
 // when `internal_errors`), 3 environment.
 int exit_code(const DiagnosticSink& sink, bool internal_errors);

@@ -570,8 +570,7 @@ std::optional<long> shard_number(std::string_view text) {
 
 }  // namespace
 
-std::string parse_shard_option(const std::string& text, const std::function<const char*(const char*)>& environment,
-                               unsigned& shard_index, unsigned& shard_count) {
+Result<Shard> parse_shard_option(const std::string& text, const std::function<const char*(const char*)>& environment) {
   std::string bad_variable;  // the first variable that is set but not a number
   auto number = [&](const char* name) -> std::optional<long> {
     const char* value = environment(name);
@@ -588,7 +587,7 @@ std::string parse_shard_option(const std::string& text, const std::function<cons
                              "CI_NODE_INDEX", "CI_NODE_TOTAL", "JOB_COMPLETION_INDEX", "KILN_SHARD_COUNT"})
       number(name);
     if (!bad_variable.empty())
-      return "--shard auto read " + bad_variable + ", which is not a number (a decimal integer of at most 9 digits)";
+      return failure("--shard auto read " + bad_variable + ", which is not a number (a decimal integer of at most 9 digits)");
     if (auto id = number("SLURM_ARRAY_TASK_ID")) {
       if (auto n = number("SLURM_ARRAY_TASK_COUNT")) index = *id, count = *n, read = variable("SLURM_ARRAY_TASK_COUNT");
       auto min = number("SLURM_ARRAY_TASK_MIN"), max = number("SLURM_ARRAY_TASK_MAX");
@@ -601,29 +600,27 @@ std::string parse_shard_option(const std::string& text, const std::function<cons
     } else if (auto completion = number("JOB_COMPLETION_INDEX")) {
       auto n = number("KILN_SHARD_COUNT");
       if (!n)
-        return "--shard auto found JOB_COMPLETION_INDEX (a Kubernetes Indexed Job) but no KILN_SHARD_COUNT: set it to "
-               "the job's completions";
+        return failure("--shard auto found JOB_COMPLETION_INDEX (a Kubernetes Indexed Job) but no KILN_SHARD_COUNT: set it to "
+               "the job's completions");
       index = *completion, count = *n, read = variable("JOB_COMPLETION_INDEX") + ", " + variable("KILN_SHARD_COUNT");
     } else {
-      return "--shard auto found no SLURM_ARRAY_TASK_ID, CI_NODE_INDEX/CI_NODE_TOTAL or JOB_COMPLETION_INDEX in the "
-             "environment";
+      return failure("--shard auto found no SLURM_ARRAY_TASK_ID, CI_NODE_INDEX/CI_NODE_TOTAL or JOB_COMPLETION_INDEX in the "
+             "environment");
     }
   } else if (const size_t slash = text.find('/'); slash != std::string::npos) {
     auto i = shard_number(std::string_view(text).substr(0, slash)), n = shard_number(std::string_view(text).substr(slash + 1));
     if (i && n) index = *i, count = *n;
   }
   if (count > kMaxShardCount)
-    return "--shard: " + std::to_string(count) + " shards is more than kiln splits a build into (" +
-           std::to_string(kMaxShardCount) + ")" + (read.empty() ? "" : ", read from " + read);
+    return failure("--shard: " + std::to_string(count) + " shards is more than kiln splits a build into (" +
+           std::to_string(kMaxShardCount) + ")" + (read.empty() ? "" : ", read from " + read));
   if (count < 1 || index < 0 || index >= count) {
     if (!read.empty())
-      return "--shard auto read shard " + std::to_string(index) + " of " + std::to_string(count) + " from " + read +
-             ": a shard's index must be at least 0 and below the count (does the count match the scheduler's?)";
-    return "--shard wants I/N with I < N, or auto (got '" + text + "')";
+      return failure("--shard auto read shard " + std::to_string(index) + " of " + std::to_string(count) + " from " + read +
+             ": a shard's index must be at least 0 and below the count (does the count match the scheduler's?)");
+    return failure("--shard wants I/N with I < N, or auto (got '" + text + "')");
   }
-  shard_index = static_cast<unsigned>(index);
-  shard_count = static_cast<unsigned>(count);
-  return {};
+  return Shard{static_cast<unsigned>(index), static_cast<unsigned>(count)};
 }
 
 }  // namespace kiln

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "kiln/build.hpp"
 #include "kiln/diagnostics.hpp"
 #include "kiln/result.hpp"
 
@@ -25,9 +26,5 @@ std::optional<std::string> current_archive(const std::filesystem::path& director
 // large pack. Empty, or what went wrong.
 Result<void> write_stamp(const std::filesystem::path& directory, const std::string& name,
                                       const std::string& archive_file, const std::string& inputs_hash);
-
-// A Makefile-syntax depfile: the manifest depends on every input read. False (reported) when it cannot be written.
-bool write_depfile(const std::filesystem::path& depfile, const std::filesystem::path& manifest,
-                   const std::vector<std::filesystem::path>& dependencies, DiagnosticSink& sink);
 
 }  // namespace kiln

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "common/compile_result.hpp"
+#include "kiln/build.hpp"
 #include "kiln/diagnostics.hpp"
 #include "kiln/model.hpp"
 #include "kiln/result.hpp"
@@ -70,7 +71,6 @@ class Frontend {
 // The front ends by name: the build, its compiler workers and the cache key name the front end, so that
 // adding one touches only frontend/ (its implementation and a line in registry.cpp).
 inline constexpr std::string_view kDefaultFrontend = "glslang";
-std::vector<std::string> frontend_names();
 std::unique_ptr<Frontend> make_frontend(std::string_view name);  // nullptr: no front end of that name
 
 std::unique_ptr<Frontend> make_glslang_frontend();

@@ -1,7 +1,6 @@
-// kiln lint: rules over a pack's sources, its variant plan and its compiled outputs, for CI.
-// Each rule has a stable id (rule_id.hpp) and lives in rules/<id>.cpp behind the registry (rule.hpp);
-// findings print as `path:line:col: warning[rule-id]: message`, or as JSON, or as SARIF 2.1.0 for
-// code-scanning viewers.
+// kiln lint's machinery behind kiln/lint.hpp (the public API): running the rules, and the rule each build
+// diagnostic is reported under. Each rule has a stable id (kiln/lint_rule_id.hpp) and lives in rules/<variable>.cpp
+// behind the registry (rule.hpp).
 #pragma once
 
 #include <filesystem>
@@ -14,38 +13,9 @@
 
 namespace kiln {
 
-// Lints a pack definition: builds it into options.output_dir (a scratch directory), observes the build's plan
-// and its outputs, and runs every rule.
-LintReport lint_pack(BuildOptions options);
-// Lints loose HLSL files with the source rules (undeclared keywords, fp16 guards). Each file's includes are
-// read (next to the including file, then in `include_dirs`, confined to those roots), so keywords declared and
-// names defined in included headers are known; the included files are linted too. `defines` (-D) are defined, as
-// in a build.
-LintReport lint_files(const std::vector<std::filesystem::path>& files,
-                      const std::vector<std::filesystem::path>& include_dirs = {}, const std::vector<Define>& defines = {});
-
 // Runs the rules that `context` has the input for, by need (sources, plan, built pack), in table order.
 void run_lint_rules(const LintContext& context, LintReport& report);
 // The rule a build diagnostic is reported under (build-error when no rule claims its id).
 RuleId rule_for_diagnostic(DiagId id);
-
-// `colour`: the build's diagnostic colours (ANSI), for a terminal (--color).
-std::string format_lint_text(const LintReport& report, bool colour = false);
-std::string format_lint_json(const LintReport& report);
-
-struct SarifOptions {
-  // Artifact URIs are relative to this directory (uriBaseId "%SRCROOT%"); a file outside it keeps an absolute
-  // file: URI. Empty: the current directory.
-  std::filesystem::path root;
-};
-std::string format_lint_sarif(const LintReport& report, const SarifOptions& options = {});
-
-// The default --sarif-root: the git work tree containing `directory` (the nearest ancestor with a .git
-// entry), else `directory` itself.
-std::filesystem::path default_sarif_root(const std::filesystem::path& directory);
-
-// Lint's default cache: the per-user XDG cache directory, $XDG_CACHE_HOME/kiln (when absolute), else
-// $HOME/.cache/kiln; nothing (no cache) when neither is set.
-std::optional<std::filesystem::path> user_cache_directory();
 
 }  // namespace kiln

@@ -1,4 +1,4 @@
-// The rule table: every rule kiln lint has, in RuleId order, from lint/rules.def. A new rule is a file in rules/
+// The rule table: every rule kiln lint has, in RuleId order, from kiln/lint_rules.def. A new rule is a file in rules/
 // and a row there.
 #include <array>
 #include <cstdlib>
@@ -13,7 +13,7 @@ using namespace rules;
 
 const std::array<const LintRule*, kRuleCount> kRules{
 #define KILN_LINT_RULE(Enumerator, id, variable) &variable,
-#include "lint/rules.def"
+#include "kiln/lint_rules.def"
 };
 
 // The array's size is checked by the compiler; its order is checked once, here, and by unit.LintRules.

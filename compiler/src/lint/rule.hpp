@@ -1,5 +1,5 @@
 // One lint rule: its id, what it finds, where its documentation is, its default severity and how it checks.
-// Each rule lives in rules/<variable>.cpp and has one row in rules.def. Adding a rule: its row in rules.def, the
+// Each rule lives in rules/<variable>.cpp and has one row in kiln/lint_rules.def. Adding a rule: its row there, the
 // rule's file, its section in docs/lint.md, and its unit test.
 #pragma once
 
@@ -12,25 +12,10 @@
 
 #include "kiln/build.hpp"
 #include "lint/pack_view.hpp"
-#include "lint/rule_id.hpp"
+#include "kiln/lint.hpp"
+#include "kiln/lint_rule_id.hpp"
 
 namespace kiln {
-
-struct LintFinding {
-  RuleId rule = RuleId::BuildError;
-  Severity severity = Severity::Warning;
-  SourceLocation location;
-  std::string message;
-  std::vector<std::string> notes;
-  // Other places the finding involves (the second declaration of a binding clash): a build's note diagnostics.
-  std::vector<std::pair<SourceLocation, std::string>> related;
-};
-
-struct LintReport {
-  std::vector<LintFinding> findings;
-  int errors() const;
-  int warnings() const;
-};
 
 // What the rules observe. File mode (`kiln lint FILE...`) has sources only; pack mode adds the build's plan
 // (stages 0-3) and, when the build succeeded, the built pack.

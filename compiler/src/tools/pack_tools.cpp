@@ -1,4 +1,4 @@
-#include "tools/pack_tools.hpp"
+#include "kiln/pack_tools.hpp"
 
 #include <algorithm>
 #include <map>

@@ -1,4 +1,4 @@
-// The rules, one file each (rules/<variable>.cpp), declared from their rows in lint/rules.def.
+// The rules, one file each (rules/<variable>.cpp), declared from their rows in kiln/lint_rules.def.
 #pragma once
 
 #include "lint/rule.hpp"
@@ -6,6 +6,6 @@
 namespace kiln::rules {
 
 #define KILN_LINT_RULE(Enumerator, id, variable) extern const LintRule variable;
-#include "lint/rules.def"
+#include "kiln/lint_rules.def"
 
 }  // namespace kiln::rules
