@@ -1,115 +1,16 @@
 // kiln build: a variant pack from a pack definition (the pipeline, compiler/src/driver/pipeline.cpp), its summary and
-// --summary-json, the remote cache's options and --shard.
+// --summary-json (kiln/build_summary.hpp), the remote cache's options and --shard.
 #include <cstdlib>
 #include <iostream>
 
-#include <nlohmann/json.hpp>
-
 #include "cli.hpp"
+#include "kiln/build_summary.hpp"
 #include "kiln/command_line.hpp"
 #include "kiln/files.hpp"
-#include "kiln/manifest_json.hpp"
 #include "progress_line.hpp"
 
 namespace kiln::cli {
 namespace {
-
-using nlohmann::json;
-
-void print_summary(const kiln::BuildReport& r, std::ostream& out, const std::string& shard) {
-  if (!shard.empty()) {
-    out << "kiln: shard " << shard << " of " << r.manifest.string() << ": compiled " << r.compiled << ", "
-        << r.shard_skipped << " left to the other shards (no pack written: a build without --shard writes it)\n";
-    if (r.remote.configured)
-      out << "  remote cache: hits " << r.remote.hits << ", uploads " << r.remote.uploads << " (" << r.remote.blobs_uploaded
-          << " blobs), " << r.remote.bytes_up << " bytes up, errors " << r.remote.errors << "\n";
-    return;
-  }
-  const kiln::Funnel& f = r.funnel;
-  const bool built = !r.up_to_date && !r.remote.pack_fetched;  // else nothing was compiled or looked up
-  out << "kiln: " << (r.up_to_date ? "up to date: " : r.remote.pack_fetched ? "fetched from the remote cache: " : "wrote ")
-      << r.manifest.string() << "\n";
-  out << "  variants: " << (f.declared_saturated ? "more than " : "") << f.declared << " declared -> " << f.valid
-      << " valid -> " << f.kept << " after stripping";
-  if (built)
-    out << " -> " << f.stage_instances << " stage variants -> " << f.unique_preprocessed << " unique per stage -> "
-        << f.unique_compiles << " compiles -> " << f.unique_modules << " modules -> " << f.unique_binaries
-        << " unique binaries";
-  out << "\n";
-  if (built)
-    out << "  compiled " << r.compiled << " (back ends " << r.back_ends << ", full legalizations "
-        << r.full_legalizations << ", cached back ends " << r.back_end_hits
-        << "), cache hits " << r.cache_hits << " (not preprocessed " << r.preprocess_memo_hits << ")"
-        << (r.cache_rejected ? ", rejected cache entries " + std::to_string(r.cache_rejected) : std::string())
-        << ", workers " << r.workers_started << "\n";
-  if (!r.up_to_date && r.remote.configured && r.remote.pack_fetched)
-    out << "  remote cache: the finished pack of these inputs, " << r.remote.bytes_down << " bytes down\n";
-  else if (built && r.remote.configured)
-    out << "  remote cache: hits " << r.remote.hits << ", misses " << r.remote.misses
-        << (r.remote.incomplete ? " (" + std::to_string(r.remote.incomplete) + " entries found in part)" : std::string())
-        << ", uploads " << r.remote.uploads
-        << " (" << r.remote.blobs_uploaded << " blobs"
-        << (r.remote.repaired ? ", " + std::to_string(r.remote.repaired) + " damaged entries repaired" : std::string()) << "), "
-        << r.remote.bytes_down << " bytes down, " << r.remote.bytes_up
-        << " bytes up, errors " << r.remote.errors << (r.remote.switched_off ? " (switched off)" : "") << "\n";
-  if (built && !r.strip_report.empty()) {
-    out << "  strip report:\n";
-    for (const kiln::StripLine& line : r.strip_report)
-      out << "    " << line.pass << ": " << line.what << ": " << line.count
-          << (line.reason.empty() ? "" : " (" + line.reason + ")") << "\n";
-  }
-  out << "  time:";
-  for (size_t i = 0; i < r.timings.size(); ++i)
-    out << (i ? ", " : " ") << r.timings[i].stage << " " << format_ms(r.timings[i].milliseconds);
-  out << "\n";
-}
-
-// `kiln build --summary-json FILE`: what the summary says, for CI dashboards; written whether the build
-// succeeded or not (README.md lists the fields; they are only ever added).
-json summary_json(const kiln::BuildReport& r, const kiln::DiagnosticSink& sink, int exit_code, const kiln::BuildOptions& options) {
-  // The manifest's funnel fields (one field table: src/reader/manifest.cpp), and whether the count saturated.
-  json funnel = static_cast<const kiln::ManifestFunnel&>(r.funnel);
-  funnel["declared_saturated"] = r.funnel.declared_saturated;
-  json timings = json::array();
-  for (const kiln::StageTiming& t : r.timings)
-    timings.push_back({{"stage", t.stage}, {"milliseconds", t.milliseconds}, {"start_ms", t.start_ms}, {"end_ms", t.end_ms}});
-  json workers = json::array();
-  for (const kiln::WorkerTimeline& w : r.worker_timeline)
-    workers.push_back({{"spawned_ms", w.spawned_ms}, {"first_compile_ms", w.first_compile_ms >= 0 ? json(w.first_compile_ms) : json()},
-                       {"idle_before_first_compile_ms", w.first_compile_ms >= 0 ? json(w.idle_before_first_compile_ms) : json()},
-                       {"last_done_ms", w.last_done_ms}, {"preprocess_busy_ms", w.preprocess_busy_ms},
-                       {"compile_busy_ms", w.compile_busy_ms}, {"idle_ms", w.idle_ms}, {"jobs", w.jobs}});
-  json strip = json::array();
-  for (const kiln::StripLine& line : r.strip_report)
-    strip.push_back({{"pass", line.pass}, {"what", line.what}, {"count", line.count}, {"reason", line.reason}});
-  json out{{"ok", r.ok},
-           {"exit_code", exit_code},
-           {"errors", sink.error_count()},
-           {"warnings", sink.warning_count()},
-           {"internal_errors", r.internal_errors},
-           {"up_to_date", r.up_to_date},
-           {"manifest", r.ok ? json(r.manifest.string()) : json()},
-           {"funnel", funnel},
-           {"compiled", r.compiled},
-           {"back_ends", r.back_ends},
-           {"back_end_cache_hits", r.back_end_hits},
-           {"full_legalizations", r.full_legalizations},
-           {"cache_hits", r.cache_hits},
-           {"preprocess_memo_hits", r.preprocess_memo_hits},
-           {"cache_rejected", r.cache_rejected},
-           {"workers", r.workers_started},
-           {"remote", {{"configured", r.remote.configured}, {"switched_off", r.remote.switched_off},
-                       {"pack_fetched", r.remote.pack_fetched}, {"hits", r.remote.hits}, {"misses", r.remote.misses},
-                       {"incomplete", r.remote.incomplete},
-                       {"uploads", r.remote.uploads}, {"blobs_uploaded", r.remote.blobs_uploaded}, {"repaired", r.remote.repaired},
-                       {"bytes_down", r.remote.bytes_down}, {"bytes_up", r.remote.bytes_up}, {"errors", r.remote.errors}}},
-           {"timings", timings},
-           {"worker_timeline", workers},
-           {"strip_report", strip}};
-  if (options.shard_count > 1)
-    out["shard"] = {{"index", options.shard_index}, {"count", options.shard_count}, {"left_to_other_shards", r.shard_skipped}};
-  return out;
-}
 
 int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cache_dir, bool quiet, const std::string& summary_file) {
   kiln::DiagnosticSink sink;
@@ -126,15 +27,14 @@ int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cach
   }
   kiln::BuildReport report = kiln::build_pack(options, sink);
   if (progress) progress->finish();
-  const std::string shard = options.shard_count > 1 ? std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count) : "";
   // With --summary-json - the JSON is standard output, and the summary for people goes to standard error.
-  if (report.ok && !quiet) print_summary(report, summary_file == "-" ? std::cerr : std::cout, shard);
+  if (report.ok && !quiet) (summary_file == "-" ? std::cerr : std::cout) << kiln::build_summary_text(report, options);
   int code = kiln::exit_code(sink, report.internal_errors);
   int errors = sink.error_count();
   if (summary_file == "-")
-    std::cout << summary_json(report, sink, code, options).dump(2) << "\n" << std::flush;
+    std::cout << kiln::build_summary_json(report, sink, code, options) << std::flush;
   else if (!summary_file.empty())
-    if (kiln::Result<void> written = kiln::write_file_atomic(summary_file, summary_json(report, sink, code, options).dump(2) + "\n");
+    if (kiln::Result<void> written = kiln::write_file_atomic(summary_file, kiln::build_summary_json(report, sink, code, options));
         !written) {
       std::cerr << "kiln: error[K1601]: --summary-json: " << written.error().message << "\n";
       code = kiln::worse_exit_status(code, kiln::exit_status(kiln::ExitClass::Environment));

@@ -28,8 +28,6 @@ void print_diagnostics_as_they_come(DiagnosticSink& sink);
 std::string seconds_text(std::chrono::milliseconds duration);
 // --usage-tag KEY=VALUE arguments as pairs; nothing (the error printed) when one is not KEY=VALUE.
 std::optional<std::vector<std::pair<std::string, std::string>>> parse_usage_tags(const std::vector<std::string>& tags);
-// "12.3 ms", "1.25 s"
-std::string format_ms(double ms);
 
 // The arguments build, list and lint share: scene profiles, the binding model and defines (docs/bindings.md),
 // in DXC's spellings.

@@ -33,13 +33,6 @@ std::string seconds_text(std::chrono::milliseconds duration) {
   return out.str();
 }
 
-std::string format_ms(double ms) {
-  char text[32];
-  if (ms >= 1000) std::snprintf(text, sizeof text, "%.2f s", ms / 1000);
-  else std::snprintf(text, sizeof text, "%.1f ms", ms);
-  return text;
-}
-
 void PlanArguments::add_to(CLI::App* verb, bool scenes) {
   if (scenes)
     verb->add_option("--scene", scenes_, "Scene profile (JSON); keep only variants some scene can request")->check(CLI::ExistingFile);
