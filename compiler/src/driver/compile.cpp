@@ -354,7 +354,7 @@ class Scheduler {
       }
       if (binaries_[b].output) distinct_modules.insert(results_.module_of[b].value_or(binaries_[b].key));
     }
-    report_.funnel.unique_modules = distinct_modules.size();
+    results_.unique_modules = distinct_modules.size();
     progress();
   }
 

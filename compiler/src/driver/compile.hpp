@@ -47,6 +47,7 @@ struct CompileResults {
   std::vector<std::vector<FrontendMessage>> front_messages;  // per binary, when its front end ran now
   std::vector<bool> front_end_ran;                            // per binary
   std::vector<std::optional<RemoteKey>> remote_key_of;        // per binary: its source's remote key, when asked
+  size_t unique_modules = 0;  // distinct front-end modules among the built binaries (the funnel's)
 };
 
 struct CompileServices {

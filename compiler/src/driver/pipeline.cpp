@@ -102,6 +102,19 @@ void record_worker_timeline(const JobRunner& workers, BuildReport& report) {
   }
 }
 
+// The funnel, assembled here and nowhere else, from what the stages returned: the plan's counts (declared, valid,
+// kept), the stage instances the enumeration saw, the distinct stage sources, compiles and modules. The pack's
+// distinct binaries come with the written pack.
+Funnel funnel_of(const Plan& plan, const StageSources& sources, const std::vector<Binary>& binaries,
+                 const CompileResults& compiled) {
+  Funnel funnel = plan.funnel;
+  funnel.stage_instances = sources.stage_instances;
+  funnel.unique_preprocessed = sources.list.size();
+  funnel.unique_compiles = binaries.size();
+  funnel.unique_modules = compiled.unique_modules;
+  return funnel;
+}
+
 void record_dependencies(const BuildOptions& options, const Plan& plan, BuildReport& report) {
   report.funnel = plan.funnel;
   report.strip_report = plan.strip;
@@ -200,6 +213,7 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
                                                   CompileServices{workers, cache ? &*cache : nullptr, preprocessor, remote.get()},
                                                   locator, messages, sink, report);
   record_worker_timeline(workers, report);
+  report.funnel = funnel_of(*plan, sources, binaries, compiled);
   const bool input_errors = messages.has_errors();
   if (cache)
     store_in_cache(*cache, memo_cache != nullptr, compiled, sources, binaries, input_errors, parallelism(options), sink, report);
@@ -213,11 +227,13 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   }
   if (ok) {
     auto layouts = check_pass_layouts(*plan, locator, sources, binaries, sink, report);  // stage 7
-    std::optional<std::string> written;
-    if (layouts) written = write_variant_pack(*plan, options, *settings, sources, binaries, *layouts, inputs_hash, sink, report);
+    std::optional<WrittenVariantPack> written;
+    if (layouts)
+      written = write_variant_pack(*plan, options, *settings, sources, binaries, *layouts, inputs_hash, report.funnel, sink, report);
     ok = written.has_value();
+    if (ok) report.funnel.unique_binaries = written->unique_binaries;
     if (ok && remote && pack_key && options.remote.upload)  // after the pack's own entries: a reader finds them first
-      remote->upload_pack(*pack_key, options.output_dir, plan->pack.name, *written);
+      remote->upload_pack(*pack_key, options.output_dir, plan->pack.name, written->archive_file);
   }
   emit_dumps(*plan, sources, binaries, options, sink, report);  // failed builds too
   if (ok && options.depfile) write_depfile(*options.depfile, report.manifest, report.dependencies, sink);

@@ -21,7 +21,7 @@ std::vector<std::string> pass_defines(const PassDefinition& pass) {
   return out;
 }
 
-StageSources enumerate(const Plan& plan, BuildReport& report) {
+StageSources enumerate(const Plan& plan) {
   StageSources out;
   std::map<std::tuple<uint32_t, Stage, std::vector<std::string>>, size_t> index;
   out.variant_source.resize(plan.passes.size());
@@ -33,7 +33,7 @@ StageSources enumerate(const Plan& plan, BuildReport& report) {
         int& slot = out.variant_source[p][v][static_cast<size_t>(s)];
         slot = -1;
         if (plan.entry_point(p, s).empty()) continue;
-        ++report.funnel.stage_instances;
+        ++out.stage_instances;
         auto defines = enabled_keywords(plan.passes[p].groups, variants[v], s);
         auto [it, inserted] = index.emplace(std::make_tuple(p, s, defines), out.list.size());
         if (inserted) out.list.push_back(StageSource{p, s, defines, v});
@@ -196,10 +196,9 @@ void Preprocessor::run(StageSources& sources, const std::vector<size_t>& which) 
 
 StageSources enumerate_stage_sources(const Plan& plan, const BuildSettings& settings, Cache* memo_cache, BuildReport& report) {
   const auto started = std::chrono::steady_clock::now();
-  StageSources sources = enumerate(plan, report);
+  StageSources sources = enumerate(plan);
   sources.enumerated_from = started;
   if (memo_cache) use_memos(sources, plan, settings, *memo_cache, report);
-  report.funnel.unique_preprocessed = sources.list.size();
   return sources;
 }
 
@@ -254,7 +253,6 @@ std::vector<Binary> dedupe_stage_sources(StageSources& sources, const Plan& plan
     binaries[it->second].sources.push_back(i);
     s.binary = static_cast<int>(it->second);
   }
-  report.funnel.unique_compiles = binaries.size();
   return binaries;
 }
 

@@ -46,6 +46,7 @@ struct StageSources {
   std::vector<std::vector<std::array<int, kStageCount>>> variant_source;
   std::map<std::string, uint64_t> file_hashes;  // display name -> XXH3 of the text, for preprocessing memos
   std::chrono::steady_clock::time_point enumerated_from;  // when the preprocess stage started (its timing)
+  uint64_t stage_instances = 0;  // variants x the stages of their pass (the funnel's), before dedupe
 };
 
 // One distinct preprocessed source (with its stage and entry point): one front end, one compile.

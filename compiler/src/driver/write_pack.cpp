@@ -54,10 +54,11 @@ ManifestOptions option_records(const BuildOptions& options, const BuildSettings&
 
 }  // namespace
 
-std::optional<std::string> write_variant_pack(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
-                        const StageSources& sources, const std::vector<Binary>& binaries,
-                        const std::vector<PassLayout>& layouts, const std::string& inputs_hash, DiagnosticSink& sink,
-                        BuildReport& report) {
+std::optional<WrittenVariantPack> write_variant_pack(const Plan& plan, const BuildOptions& options,
+                                                    const BuildSettings& settings, const StageSources& sources,
+                                                    const std::vector<Binary>& binaries, const std::vector<PassLayout>& layouts,
+                                                    const std::string& inputs_hash, const Funnel& funnel, DiagnosticSink& sink,
+                                                    BuildReport& report) {
   StageTimer timer(report, "pack");
   ArchiveBuilder archive;
   Manifest manifest;
@@ -115,8 +116,8 @@ std::optional<std::string> write_variant_pack(const Plan& plan, const BuildOptio
     }
     add_pass_settings(pass, def);
   }
-  report.funnel.unique_binaries = manifest.binaries.size();
-  const Funnel& f = report.funnel;
+  Funnel f = funnel;
+  f.unique_binaries = manifest.binaries.size();
   manifest.format_version = kPackFormatVersion;
   manifest.name = plan.pack.name;
   manifest.kiln_version = kKilnVersion;
@@ -138,7 +139,7 @@ std::optional<std::string> write_variant_pack(const Plan& plan, const BuildOptio
     sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, stamped.error().message);
     return std::nullopt;
   }
-  return *archive_file;
+  return WrittenVariantPack{*archive_file, f.unique_binaries};
 }
 
 }  // namespace kiln

@@ -15,9 +15,16 @@ namespace kiln {
 
 // The archive's file name; nothing when a file could not be written (reported). Binaries and blobs are numbered in
 // (pass, variant, stage) order: the same bytes for any -j.
-[[nodiscard]] std::optional<std::string> write_variant_pack(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
-                                      const StageSources& sources, const std::vector<Binary>& binaries,
-                                      const std::vector<PassLayout>& layouts, const std::string& inputs_hash,
-                                      DiagnosticSink& sink, BuildReport& report);
+struct WrittenVariantPack {
+  std::string archive_file;
+  uint64_t unique_binaries = 0;  // distinct optimized SPIR-V: what the pack stores (the funnel's last count)
+};
+// `funnel` is the build's so far; the manifest records it with the pack's unique binaries.
+[[nodiscard]] std::optional<WrittenVariantPack> write_variant_pack(const Plan& plan, const BuildOptions& options,
+                                                                   const BuildSettings& settings, const StageSources& sources,
+                                                                   const std::vector<Binary>& binaries,
+                                                                   const std::vector<PassLayout>& layouts,
+                                                                   const std::string& inputs_hash, const Funnel& funnel,
+                                                                   DiagnosticSink& sink, BuildReport& report);
 
 }  // namespace kiln
