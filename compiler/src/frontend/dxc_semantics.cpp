@@ -47,10 +47,10 @@ bool names_builtin_semantics(std::string_view text) {
   return up.find("SV_VIEWID") != std::string::npos || up.find("SV_SHADINGRATE") != std::string::npos;
 }
 
-std::string make_arrays_unbounded(std::vector<uint32_t>& spirv, const std::vector<std::string>& names) {
+Result<void> make_arrays_unbounded(std::vector<uint32_t>& spirv, const std::vector<std::string>& names) {
   if (names.empty()) return {};
   std::optional<spirv_edit::Module> parsed = spirv_edit::Module::parse(spirv);
-  if (!parsed) return "glslang's module does not parse";
+  if (!parsed) return failure("glslang's module does not parse");
   spirv_edit::Module& module = *parsed;
   const std::set<std::string> wanted(names.begin(), names.end());
   bool changed = false;
@@ -101,9 +101,9 @@ std::string make_arrays_unbounded(std::vector<uint32_t>& spirv, const std::vecto
   return {};
 }
 
-std::string restore_builtin_semantics(std::vector<uint32_t>& spirv) {
+Result<void> restore_builtin_semantics(std::vector<uint32_t>& spirv) {
   std::optional<spirv_edit::Module> parsed = spirv_edit::Module::parse(spirv);
-  if (!parsed) return "glslang's module does not parse";
+  if (!parsed) return failure("glslang's module does not parse");
   spirv_edit::Module& module = *parsed;
   std::vector<Instruction>& code = module.instructions();
   std::map<uint32_t, uint32_t> storage_classes;  // variable -> its storage class (by id: the edits below move instructions)

@@ -12,6 +12,8 @@
 #include <string_view>
 #include <vector>
 
+#include "kiln/result.hpp"
+
 namespace kiln {
 
 // The names of the resource arrays the text declares unbounded at file scope (`T name[]`), in order.
@@ -22,9 +24,9 @@ std::vector<std::string> unbounded_resource_arrays(std::string_view text);
 // reads and removes.
 bool names_builtin_semantics(std::string_view text);
 
-// The edits on glslang's module. An error text when the module cannot be edited as it should (never expected of
-// glslang's output); empty when done.
-std::string make_arrays_unbounded(std::vector<uint32_t>& spirv, const std::vector<std::string>& names);
-std::string restore_builtin_semantics(std::vector<uint32_t>& spirv);
+// The edits on glslang's module. They fail when the module cannot be edited as it should (never expected of
+// glslang's output).
+Result<void> make_arrays_unbounded(std::vector<uint32_t>& spirv, const std::vector<std::string>& names);
+Result<void> restore_builtin_semantics(std::vector<uint32_t>& spirv);
 
 }  // namespace kiln

@@ -285,14 +285,14 @@ class GlslangFrontend final : public Frontend {
     spv::SpvBuildLogger logger;
     glslang::GlslangToSpv(*program.getIntermediate(to_glslang(request.stage)), result.spirv, &logger, &options);
     // DXC's meanings that glslang 12 would change without a word (frontend/dxc_semantics.hpp, nonuniform.hpp).
-    for (const std::string& error : {make_arrays_unbounded(result.spirv, unbounded_resource_arrays(source)),
-                                     builtin_semantics ? restore_builtin_semantics(result.spirv) : std::string(),
-                                     attach_interface_semantics(result.spirv,
-                                                                interface_semantics(*program.getIntermediate(to_glslang(request.stage))))})
-      if (!error.empty()) {
-        result.messages.push_back({Severity::Error, request.source_name, 0, error});
-        return result;
-      }
+    Result<void> edited = make_arrays_unbounded(result.spirv, unbounded_resource_arrays(source));
+    if (edited && builtin_semantics) edited = restore_builtin_semantics(result.spirv);
+    if (edited)
+      edited = attach_interface_semantics(result.spirv, interface_semantics(*program.getIntermediate(to_glslang(request.stage))));
+    if (!edited) {
+      result.messages.push_back({Severity::Error, request.source_name, 0, edited.error().message});
+      return result;
+    }
     if (nonuniform) decorate_nonuniform(result.spirv);
     if (std::string messages = logger.getAllMessages(); !messages.empty()) {
       std::istringstream lines(messages);

@@ -20,10 +20,10 @@ bool is_semantic(const Instruction& in) {
 
 }  // namespace
 
-std::string attach_interface_semantics(std::vector<uint32_t>& spirv, const InterfaceSemantics& semantics) {
+Result<void> attach_interface_semantics(std::vector<uint32_t>& spirv, const InterfaceSemantics& semantics) {
   if (semantics.empty()) return {};
   std::optional<spirv_edit::Module> parsed = spirv_edit::Module::parse(spirv);
-  if (!parsed) return "glslang's module does not parse";
+  if (!parsed) return failure("glslang's module does not parse");
   spirv_edit::Module& module = *parsed;
   std::vector<Instruction> decorations;
   for (const Instruction& in : module.instructions()) {

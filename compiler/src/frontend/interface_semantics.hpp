@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "kiln/result.hpp"
+
 namespace glslang {
 class TIntermediate;
 }
@@ -25,8 +27,8 @@ using InterfaceSemantics = std::map<std::string, std::string>;
 InterfaceSemantics interface_semantics(const glslang::TIntermediate& intermediate);
 
 // On the front end's module: a UserSemantic decoration on each Input and Output variable named in `semantics`, and
-// the extension. An error text when the module does not parse; empty when done (also when there is nothing to add).
-std::string attach_interface_semantics(std::vector<uint32_t>& spirv, const InterfaceSemantics& semantics);
+// the extension. Fails when the module does not parse (nothing to add is success).
+Result<void> attach_interface_semantics(std::vector<uint32_t>& spirv, const InterfaceSemantics& semantics);
 // In the back end, first: the semantics attach_interface_semantics put on, by variable name, taken off with the
 // extension (the module is then the front end's own). A module without them is left as it is.
 InterfaceSemantics detach_interface_semantics(std::vector<uint32_t>& spirv);

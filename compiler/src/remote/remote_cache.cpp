@@ -1,3 +1,4 @@
+#include "kiln/result.hpp"
 #include "remote/remote_cache.hpp"
 
 #include <curl/curl.h>
@@ -55,16 +56,16 @@ std::string make_record(uint32_t kind, const RemoteKey& key, std::string_view pa
 }
 
 // The payload when the record is whole and is the entry asked for; else why not.
-std::string check_record(std::string_view record, const RemoteKey& key, uint32_t kind, std::string_view& payload) {
-  if (record.size() < kRecordHeaderSize || std::memcmp(record.data(), kRecordMagic, 8) != 0) return "not a kiln record";
-  if (get32(record, 8) != kRemoteFormat) return "record format " + std::to_string(get32(record, 8)) + ", kiln reads " +
-                                                std::to_string(kRemoteFormat);
-  if (get32(record, 12) != kind) return "record of another kind";
-  if (get_key(record, 16) != key) return "record of another key";
-  if (get64(record, 48) != record.size() - kRecordHeaderSize) return "record size does not match its header";
-  payload = record.substr(kRecordHeaderSize);
-  if (sha256(payload) != get_key(record, 56)) return "record checksum does not match";
-  return {};
+Result<std::string_view> check_record(std::string_view record, const RemoteKey& key, uint32_t kind) {
+  if (record.size() < kRecordHeaderSize || std::memcmp(record.data(), kRecordMagic, 8) != 0) return failure("not a kiln record");
+  if (get32(record, 8) != kRemoteFormat)
+    return failure("record format " + std::to_string(get32(record, 8)) + ", kiln reads " + std::to_string(kRemoteFormat));
+  if (get32(record, 12) != kind) return failure("record of another kind");
+  if (get_key(record, 16) != key) return failure("record of another key");
+  if (get64(record, 48) != record.size() - kRecordHeaderSize) return failure("record size does not match its header");
+  const std::string_view payload = record.substr(kRecordHeaderSize);
+  if (sha256(payload) != get_key(record, 56)) return failure("record checksum does not match");
+  return payload;
 }
 
 std::vector<uint8_t> bytes_of(std::string_view text) { return std::vector<uint8_t>(text.begin(), text.end()); }
@@ -297,12 +298,13 @@ RemoteCache::Found RemoteCache::get_record(HttpClient& client, const RemoteKey& 
     return Found::Failed;
   }
   success();
-  std::string_view checked;
-  if (std::string why = check_record(result.body, key, kind, checked); !why.empty()) {
-    problem(DiagId::RemoteEntryRejected, "a remote cache entry failed verification: " + why, "at ac/" + key.hex());
+  Result<std::string_view> checked = check_record(result.body, key, kind);
+  if (!checked) {
+    problem(DiagId::RemoteEntryRejected, "a remote cache entry failed verification: " + checked.error().message,
+            "at ac/" + key.hex());
     return Found::Failed;
   }
-  payload.assign(checked);
+  payload.assign(*checked);
   return Found::Yes;
 }
 
