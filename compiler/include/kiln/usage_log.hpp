@@ -9,6 +9,8 @@
 #include <string_view>
 #include <vector>
 
+#include "kiln/result.hpp"
+
 namespace kiln::usage_log {
 
 struct Request {
@@ -27,7 +29,7 @@ struct Pass {
 std::string text(std::string_view pack, const std::map<std::string, std::string>& tags, std::vector<Pass> passes,
                  uint64_t missing_dropped);
 
-// `text` into `file`, atomically (a temporary file beside it, renamed over it). Empty on success, else what failed.
-std::string write_atomically(const std::filesystem::path& file, const std::string& text);
+// `text` into `file`, atomically (a temporary file beside it, renamed over it); the error says what failed.
+Result<void> write_atomically(const std::filesystem::path& file, const std::string& text);
 
 }  // namespace kiln::usage_log

@@ -69,7 +69,7 @@ class Cache {
   std::optional<PreprocessMemo> load_memo(const Hash128& key, const std::function<bool(const PreprocessMemo&)>& accept);
   bool store_memo(const Hash128& key, const PreprocessMemo& memo);
   // Marks the segments loads were served from as used; writes the staged entries as one segment (nothing
-  // when none are staged); then keeps the cache within its size limit. Empty, or what failed.
+  // when none are staged); then keeps the cache within its size limit. The error says what failed.
   Result<void> commit();
 
   // Segments whose header or index failed its checks, as of the last scan.

@@ -23,7 +23,7 @@ std::optional<std::string> current_archive(const std::filesystem::path& director
 
 // The stamp (<name>.stamp) records the inputs hash, the size and mtime of the manifest, and the name, size and
 // mtime of the archive it was written with: a no-change rebuild compares a few numbers instead of re-reading a
-// large pack. Empty, or what went wrong.
+// large pack. The error says what went wrong.
 Result<void> write_stamp(const std::filesystem::path& directory, const std::string& name,
                                       const std::string& archive_file, const std::string& inputs_hash);
 

@@ -613,8 +613,8 @@ PackResult<size_t> PackReader::State::flush_usage_log() const noexcept {
       sets += entry.served.size() + entry.missing.size();
       passes.push_back(std::move(entry));
     }
-    const std::string failed = usage_log::write_atomically(file, usage_log::text(pack_name, tags, std::move(passes), dropped));
-    if (!failed.empty()) return PackResult<size_t>(PackError::Code::Io, failed, file.string());
+    const Result<void> written = usage_log::write_atomically(file, usage_log::text(pack_name, tags, std::move(passes), dropped));
+    if (!written) return PackResult<size_t>(PackError::Code::Io, written.error().message, file.string());
     return sets;
   } catch (const std::bad_alloc&) {
     return PackResult<size_t>(PackError::Code::OutOfMemory, "out of memory writing the usage log", file.string());

@@ -35,7 +35,7 @@ std::string text(std::string_view pack, const std::map<std::string, std::string>
   return log.dump(2) + "\n";
 }
 
-std::string write_atomically(const std::filesystem::path& file, const std::string& text) {
+Result<void> write_atomically(const std::filesystem::path& file, const std::string& text) {
   const std::filesystem::path temporary = file.string() + ".tmp-" + std::to_string(::getpid());
   {
     std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
@@ -43,7 +43,7 @@ std::string write_atomically(const std::filesystem::path& file, const std::strin
     if (!out.flush()) {
       std::error_code ignored;
       std::filesystem::remove(temporary, ignored);
-      return "cannot write the usage log";
+      return failure("cannot write the usage log");
     }
   }
   std::error_code ec;
@@ -51,7 +51,7 @@ std::string write_atomically(const std::filesystem::path& file, const std::strin
   if (ec) {
     std::error_code ignored;
     std::filesystem::remove(temporary, ignored);
-    return "cannot write the usage log: " + ec.message();
+    return failure("cannot write the usage log: " + ec.message());
   }
   return {};
 }

@@ -128,9 +128,9 @@ std::unique_ptr<RemoteCache> RemoteCache::open(const RemoteCacheOptions& options
   if (options.url.empty()) return nullptr;
   std::unique_ptr<RemoteCache> remote(new RemoteCache(options));
   remote->report_.configured = true;
-  if (std::string problem = remote->configure(); !problem.empty()) {
+  if (Result<void> configured = remote->configure(); !configured) {
     remote->switched_off_ = true;
-    remote->problem(DiagId::RemoteConfiguration, problem,
+    remote->problem(DiagId::RemoteConfiguration, configured.error().message,
                     options.required || options.upload ? "the build stops before compiling anything"
                                                        : "the build goes on without the remote cache");
     remote->report_problems(sink);
@@ -138,13 +138,13 @@ std::unique_ptr<RemoteCache> RemoteCache::open(const RemoteCacheOptions& options
   return remote;
 }
 
-std::string RemoteCache::configure() {
+Result<void> RemoteCache::configure() {
   initialize_http();
   CURLU* url = curl_url();
-  if (!url) return "libcurl failed to parse the remote cache URL";
+  if (!url) return failure("libcurl failed to parse the remote cache URL");
   std::unique_ptr<CURLU, void (*)(CURLU*)> owned(url, curl_url_cleanup);
   // The URL itself is not echoed: it can carry a password.
-  if (curl_url_set(url, CURLUPART_URL, options_.url.c_str(), 0) != CURLUE_OK) return "the remote cache URL is not a URL";
+  if (curl_url_set(url, CURLUPART_URL, options_.url.c_str(), 0) != CURLUE_OK) return failure("the remote cache URL is not a URL");
   char* part = nullptr;
   std::string scheme, host;
   if (curl_url_get(url, CURLUPART_SCHEME, &part, 0) == CURLUE_OK) scheme = part;
@@ -153,7 +153,7 @@ std::string RemoteCache::configure() {
   if (curl_url_get(url, CURLUPART_HOST, &part, 0) == CURLUE_OK) host = part;
   curl_free(part);
   part = nullptr;
-  if (scheme != "http" && scheme != "https") return "the remote cache URL must start with http:// or https://";
+  if (scheme != "http" && scheme != "https") return failure("the remote cache URL must start with http:// or https://");
   curl_url_set(url, CURLUPART_QUERY, nullptr, 0);
   curl_url_set(url, CURLUPART_FRAGMENT, nullptr, 0);
   if (curl_url_get(url, CURLUPART_URL, &part, 0) == CURLUE_OK) base_ = part;
@@ -171,7 +171,7 @@ std::string RemoteCache::configure() {
       return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.' || c == '/';
     });
     if (!safe || instance.find("..") != std::string::npos || instance.front() == '/' || instance.back() == '/')
-      return "the remote cache instance name '" + instance + "' must be path segments of letters, digits, '-', '_' and '.'";
+      return failure("the remote cache instance name '" + instance + "' must be path segments of letters, digits, '-', '_' and '.'");
     base_ += "/" + instance;
   }
 
@@ -188,8 +188,8 @@ std::string RemoteCache::configure() {
   http_.bearer_token = options_.bearer_token;
   if (!http_.bearer_token.empty() && !is_one_token(http_.bearer_token)) {
     http_.bearer_token.clear();
-    return "the remote cache token (KILN_REMOTE_TOKEN) is not one token: it holds a space, a line break or another "
-           "character outside printable ASCII";
+    return failure("the remote cache token (KILN_REMOTE_TOKEN) is not one token: it holds a space, a line break or another "
+           "character outside printable ASCII");
   }
   if (http_.bearer_token.empty() && !options_.token_file.empty()) {
     ReadLimits limits{4096};
@@ -197,15 +197,15 @@ std::string RemoteCache::configure() {
     // A regular file of at most 4 KiB (read_text_file refuses FIFOs and devices); its own diagnostics would
     // quote the file, so they are dropped.
     auto text = read_text_file(options_.token_file, limits, ignored, SourceLocation{});
-    if (!text) return "the token file '" + options_.token_file.string() + "' cannot be read (or is over 4 KiB)";
+    if (!text) return failure("the token file '" + options_.token_file.string() + "' cannot be read (or is over 4 KiB)");
     std::string token = *text;
     while (!token.empty() && std::isspace(static_cast<unsigned char>(token.back()))) token.pop_back();
-    if (!is_one_token(token)) return "the token file '" + options_.token_file.string() + "' does not hold one token";
+    if (!is_one_token(token)) return failure("the token file '" + options_.token_file.string() + "' does not hold one token");
     http_.bearer_token = token;
   }
   // A token sent in clear text is a token given away; loopback is the exception tests and local proxies need.
   if (!http_.bearer_token.empty() && scheme == "http" && !is_loopback(host))
-    return "refusing to send the remote cache token over plain HTTP to '" + host + "': use https://";
+    return failure("refusing to send the remote cache token over plain HTTP to '" + host + "': use https://");
   return {};
 }
 

@@ -31,6 +31,7 @@
 #include "kiln/diagnostics.hpp"
 #include "remote/http_client.hpp"
 #include "common/compile_result.hpp"
+#include "kiln/result.hpp"
 
 namespace kiln {
 
@@ -115,7 +116,7 @@ class RemoteCache {
   friend class RemoteLookups;
   explicit RemoteCache(const RemoteCacheOptions& options);
   std::optional<RemoteFetched> fetch_counted(const RemoteKey& source_key);
-  std::string configure();  // empty, or why the settings cannot be used
+  Result<void> configure();  // the error says why the settings cannot be used
   std::unique_ptr<HttpClient> take_client();
   void give_back(std::unique_ptr<HttpClient> client);
   std::string url(std::string_view kind, const RemoteKey& key) const;
