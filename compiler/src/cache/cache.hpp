@@ -76,7 +76,10 @@ class Cache {
   size_t unreadable_segments();
   // Loads (load, load_memo) that found a copy of their entry failing its checks (corrupt, truncated, foreign), so
   // far; each such copy is rewritten from a good one, or compiled again, at the next commit.
-  size_t rejected_loads() const { return rejected_loads_; }
+  size_t rejected_loads() {
+    std::lock_guard lock(mutex_);
+    return rejected_loads_;
+  }
   // Distinct keys with an entry in a readable segment (entries themselves are checked when loaded).
   size_t indexed_keys();
   std::vector<std::filesystem::path> segment_files();
