@@ -2,12 +2,15 @@
 // the test decides in which order jobs finish.
 #include <gtest/gtest.h>
 #include <poll.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <deque>
 #include <set>
 
 #include "driver/compile.hpp"
+#include "driver/result_store.hpp"
 #include "driver/plan.hpp"
 #include "driver/settings.hpp"
 #include "driver/stage_sources.hpp"
@@ -89,11 +92,14 @@ class Scheduler : public ::testing::Test {
   }
 
   // Stages 4-7 (first half) against `runner`, as build_pack runs them.
-  CompileResults compile(FakeRunner& runner, Cache* cache = nullptr) {
+  // `store`: nothing, a store with no tier (nothing is ever found).
+  CompileResults compile(FakeRunner& runner, ResultStore* store = nullptr) {
     Preprocessor preprocessor(*plan_, *settings_, runner, options_);
     SourceLocator locator(*plan_);
     sources_ = enumerate_stage_sources(*plan_, *settings_, nullptr, report_);
-    return compile_stage_sources(*plan_, options_, *settings_, sources_, binaries_, CompileServices{runner, cache, preprocessor},
+    std::unique_ptr<ResultStore> empty = make_result_store(*plan_, *settings_, StoreTiers{});
+    return compile_stage_sources(*plan_, options_, *settings_, sources_, binaries_,
+                                 CompileServices{runner, store ? *store : *empty, preprocessor},
                                  locator, messages_, *sink_, report_);
   }
 
@@ -227,8 +233,9 @@ TEST_F(Scheduler, AModuleTheCacheHasRunsNoBackEnd) {
   Cache cache(dir_ / "cache");
   FakeRunner first;
   first.answer = default_answer;
-  CompileResults results = compile(first, &cache);
-  store_in_cache(cache, false, results, sources_, binaries_, false, 1, *sink_, report_);
+  std::unique_ptr<ResultStore> store = make_result_store(*plan_, *settings_, StoreTiers{&cache});
+  CompileResults results = compile(first, store.get());
+  store->keep(results, sources_, binaries_, false, *sink_, report_);
   ASSERT_FALSE(sink_->has_errors()) << reported();
 
   // The same sources: found whole, nothing runs. A new keyword's sources: front ends only, their modules known.
@@ -238,12 +245,97 @@ TEST_F(Scheduler, AModuleTheCacheHasRunsNoBackEnd) {
   report_ = BuildReport();
   FakeRunner second;
   second.answer = default_answer;
-  compile(second, &cache);
+  store = make_result_store(*plan_, *settings_, StoreTiers{&cache});
+  compile(second, store.get());
   EXPECT_EQ(report_.cache_hits, 6u);
   EXPECT_EQ(second.count(JobKind::FrontEnd), 2u);  // C, per stage
   EXPECT_EQ(second.count(JobKind::BackEnd), 0u);
   EXPECT_EQ(report_.back_end_hits, 2u);
   for (const Binary& b : binaries_) EXPECT_TRUE(b.output);
+}
+
+// A store whose tier answers later, while the workers run (as the remote does): it has every vertex source's result,
+// no fragment source's. Its answers come through an eventfd the runner polls. With `hold_misses` it says its misses
+// only when asked to finish (--remote-required).
+class SlowStore final : public ResultStore {
+ public:
+  explicit SlowStore(bool hold_misses) : hold_misses_(hold_misses), fd_(::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)) {}
+  ~SlowStore() override { ::close(fd_); }
+  std::optional<StoredResult> find(const Hash128&) override { return std::nullopt; }
+  std::optional<JobOutput> find_module(const Hash128&, const StageSource&, const std::vector<uint32_t>&) override {
+    return std::nullopt;
+  }
+  bool ask(size_t ticket, const StageSource& source) override {
+    asked_.emplace_back(ticket, source.stage);
+    const uint64_t one = 1;
+    EXPECT_EQ(::write(fd_, &one, sizeof one), static_cast<ssize_t>(sizeof one));
+    return true;
+  }
+  std::vector<Answer> answers() override {
+    uint64_t count = 0;
+    [[maybe_unused]] ssize_t got = ::read(fd_, &count, sizeof count);
+    std::vector<Answer> answers;
+    for (auto [ticket, stage] : asked_) {
+      if (stage == Stage::Fragment && hold_misses_) {
+        held_.push_back(ticket);
+        continue;
+      }
+      answers.push_back({ticket, std::nullopt});
+      if (stage == Stage::Vertex) {
+        StoredResult found;
+        found.output.ok = true;
+        found.output.messages = {{Severity::Warning, "", 0, "from the slow tier"}};
+        found.module = Hash128{7, 7};
+        answers.back().found = std::move(found);
+      }
+    }
+    asked_.clear();
+    return answers;
+  }
+  size_t outstanding() const override { return asked_.size(); }
+  int ready_fd() const override { return fd_; }
+  std::vector<Answer> finish(DiagnosticSink&) override {
+    ++finished_;
+    std::vector<Answer> answers = this->answers();
+    for (size_t ticket : held_) answers.push_back({ticket, std::nullopt});
+    held_.clear();
+    return answers;
+  }
+  void keep(const CompileResults&, const StageSources&, const std::vector<Binary>&, bool, DiagnosticSink&,
+            BuildReport&) override {}
+  int finished_ = 0;
+
+ private:
+  bool hold_misses_;
+  int fd_;
+  std::vector<std::pair<size_t, Stage>> asked_;
+  std::vector<size_t> held_;
+};
+
+TEST_F(Scheduler, TheStoresLaterAnswersSettleTheirKeysAndItsMissesAreCompiled) {
+  for (bool hold_misses : {false, true}) {
+    SCOPED_TRACE(hold_misses ? "misses held until finish" : "misses answered at once");
+    reset();
+    SlowStore store(hold_misses);
+    FakeRunner runner;
+    runner.answer = default_answer;
+    compile(runner, &store);
+    EXPECT_EQ(store.finished_, 1);
+    EXPECT_EQ(runner.count(JobKind::Preprocess), 6u);
+    ASSERT_EQ(runner.count(JobKind::FrontEnd), 3u);  // the fragment sources only
+    for (const CompileJob& job : runner.seen) {
+      if (job.kind != JobKind::Preprocess) {
+        EXPECT_EQ(job.stage, Stage::Fragment);
+      }
+    }
+    ASSERT_EQ(binaries_.size(), 6u);
+    for (const Binary& b : binaries_) {
+      ASSERT_TRUE(b.output);
+      const bool from_store = !b.output->messages.empty() && b.output->messages[0].text == "from the slow tier";
+      EXPECT_EQ(from_store, b.stage == Stage::Vertex);
+    }
+    EXPECT_FALSE(sink_->has_errors()) << reported();
+  }
 }
 
 // Streaming: a source's front end is sent as soon as it is preprocessed, while later sources still wait for

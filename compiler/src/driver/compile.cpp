@@ -6,7 +6,6 @@
 
 #include "common/files.hpp"
 #include "common/parallel.hpp"
-#include "driver/remote.hpp"
 #include "driver/stage_timer.hpp"
 #include "frontend/unsupported_hlsl.hpp"
 
@@ -47,14 +46,15 @@ class Scheduler {
 
   CompileResults run() {
     const auto compile_from = StageClock::now();
-    if (services_.remote && services_.remote->usable()) lookups_.emplace(*services_.remote);
     for (size_t i = 0; i < sources_.list.size(); ++i) enter(i);
     progress();
     stream();
     record_stage(report_, "preprocess", sources_.enumerated_from, last_preprocessed_.value_or(compile_from));
     binaries_ = dedupe_stage_sources(sources_, plan_, locator_, messages_, sink_, report_);  // in source order
     total_known_ = true;
-    remote_done();
+    // Every question to the store answered (its problems said before any compile message), and the answers it held
+    // until now taken.
+    answered(services_.store.finish(sink_));
     stream();
     settle_binaries();
     report_.compiled = front_ends_;
@@ -64,13 +64,12 @@ class Scheduler {
   }
 
  private:
-  // What became of one distinct source key: found whole (cache, remote), left to another shard, or compiled.
+  // What became of one distinct source key: found whole (in the store), left to another shard, or compiled.
   struct KeyResult {
     size_t source = 0;                         // the stage source whose text its front end compiles
-    bool started = false;                      // its front end is queued, or it waits for the remote
+    bool started = false;                      // its front end is queued, or it waits for the store's answer
     std::shared_ptr<const JobOutput> output;   // found whole
-    std::optional<Hash128> module;             // its module: from the front end, or a cache alias's
-    std::optional<RemoteKey> remote_key;
+    std::optional<Hash128> module;             // its module: from the front end, or the store's
     bool front_end_ran = false;
     std::optional<WorkerOutcome> front_end_failure;
     std::vector<FrontendMessage> front_messages;
@@ -83,93 +82,52 @@ class Scheduler {
       if (s.ok) preprocessed(i);
       return;
     }
-    // A memo gives the key without the text: the cache may have the result; if not, the workers need the text.
+    // A memo gives the key without the text: the store may have the result; if not, the workers need the text.
     if (s.key && results_by_key_[result_for(*s.key, i)].output) return;
     jobs_.push_back(services_.preprocessor.job(sources_, i));
     job_subject_.push_back(i);
     ++unpreprocessed_;
   }
 
-  // The result of `key` (its index), looked up in the cache the first time the key is seen.
+  // The result of `key` (its index), looked up in the store the first time the key is seen.
   size_t result_for(const Hash128& key, size_t source) {
     auto [it, inserted] = result_by_key_.emplace(key, results_by_key_.size());
     if (!inserted) return it->second;
     KeyResult& result = results_by_key_.emplace_back();
     result.source = source;
-    if (services_.cache) {
-      if (auto cached = services_.cache->load(key, &result.module))
-        result.output = std::make_shared<const JobOutput>(std::move(*cached));
-      if (result.output) {
-        ++report_.cache_hits;
-        ++done_;
-      }
+    if (std::optional<StoredResult> found = services_.store.find(key)) {
+      result.output = std::make_shared<const JobOutput>(std::move(found->output));
+      result.module = found->module;
+      ++report_.cache_hits;
+      ++done_;
     }
     return it->second;
   }
 
   // Source `i` has its text: its key's front end is queued unless an earlier source of that key queued it (a
-  // duplicate arriving late is never compiled twice) or the cache has its result.
+  // duplicate arriving late is never compiled twice) or the store has its result.
   void preprocessed(size_t i) {
     const size_t index = result_for(*sources_.list[i].key, i);
     KeyResult& result = results_by_key_[index];
     if (result.output || result.started) return;
     result.started = true;
     result.source = i;
-    if (lookups_ && services_.remote->usable()) {
-      ask_remote(index);
-      return;
-    }
-    if (lookups_ && options_.remote.required) {  // the remote failed: nothing is compiled (remote_done)
-      held_misses_.push_back(index);
-      return;
-    }
-    queue_front_end(index);
+    if (!services_.store.ask(index, sources_.list[i])) queue_front_end(index);
   }
 
-  // A local miss is asked of the remote as soon as its key is known, while the stream goes on; a remote miss queues
-  // its front end when the answer comes, while other lookups go on. With --remote-required the misses wait for
-  // every answer: a remote error fails the build before anything is compiled.
-  void ask_remote(size_t index) {
-    KeyResult& result = results_by_key_[index];
-    const StageSource& s = sources_.list[result.source];
-    result.remote_key = remote_source_key(*services_.remote, settings_, plan_.pack.passes[s.pass], s.stage, s.text);
-    lookups_->submit(index, *result.remote_key);
-  }
-
-  // The remote's answers so far. A hit's entry, verified by the remote tier, goes into the local cache.
-  void remote_answered() {
-    for (auto& [index, fetched] : lookups_->take()) {
-      KeyResult& result = results_by_key_[index];
-      if (!fetched) {
-        if (options_.remote.required) held_misses_.push_back(index);
-        else queue_front_end(index);
+  // The store's answers so far: a found result settles its key, a miss queues its front end.
+  void answered(std::vector<ResultStore::Answer> answers) {
+    for (ResultStore::Answer& answer : answers) {
+      if (!answer.found) {
+        queue_front_end(answer.ticket);
         continue;
       }
-      RemoteFetched& hit = *fetched;
-      if (services_.cache) {
-        services_.cache->store(hit.module, hit.module_output);
-        services_.cache->store_alias(*sources_.list[result.source].key, hit.module, hit.front_messages);
-      }
-      hit.module_output.messages.insert(hit.module_output.messages.begin(), hit.front_messages.begin(), hit.front_messages.end());
-      result.output = std::make_shared<const JobOutput>(std::move(hit.module_output));
-      result.module = hit.module;
+      KeyResult& result = results_by_key_[answer.ticket];
+      result.output = std::make_shared<const JobOutput>(std::move(answer.found->output));
+      result.module = answer.found->module;
       ++done_;
     }
     progress();
-  }
-
-  // Every lookup answered: the remote's problems are said (before any compile message), and with --remote-required
-  // the held misses are compiled unless a remote error (which switched the remote off) fails the build.
-  void remote_done() {
-    if (!lookups_) return;
-    while (lookups_->outstanding() > 0) {  // when the stream had nothing to run
-      lookups_->wait();
-      remote_answered();
-    }
-    services_.remote->report_problems(sink_);
-    if (services_.remote->usable())
-      for (size_t index : held_misses_) queue_front_end(index);
-    held_misses_.clear();
   }
 
   void queue_front_end(size_t index) {
@@ -200,14 +158,14 @@ class Scheduler {
   // Runs the queued jobs; finished jobs queue their follow-ups (a preprocessed source's front end, a new
   // module's back end), which the runner sends next.
   void stream() {
-    if (jobs_.empty() && !(lookups_ && lookups_->outstanding() > 0)) return;
+    if (jobs_.empty() && services_.store.outstanding() == 0) return;
     std::vector<CompileJob> jobs = std::move(jobs_);
     std::vector<size_t> subjects = std::move(job_subject_);
     jobs_.clear();
     job_subject_.clear();
     running_ = &jobs;
     running_subjects_ = &subjects;
-    // Follow-ups queued by an outcome or a remote answer join the running stream.
+    // Follow-ups queued by an outcome or a store's answer join the running stream.
     auto join_queued = [&] {
       for (size_t q = 0; q < jobs_.size(); ++q) {
         jobs.push_back(std::move(jobs_[q]));
@@ -216,15 +174,14 @@ class Scheduler {
       jobs_.clear();
       job_subject_.clear();
     };
+    // The store's later answers arrive while the workers run.
     ExternalWork answers;
-    if (lookups_) {
-      answers.fd = lookups_->ready_fd();
-      answers.pending = [&] { return lookups_->outstanding() > 0; };
-      answers.arrived = [&] {
-        remote_answered();
-        join_queued();
-      };
-    }
+    answers.fd = services_.store.ready_fd();
+    answers.pending = [&] { return services_.store.outstanding() > 0; };
+    answers.arrived = [&] {
+      answered(services_.store.answers());
+      join_queued();
+    };
     services_.runner.run(jobs, [&](size_t j, WorkerOutcome outcome) {
       switch (jobs[j].kind) {
         case JobKind::Preprocess: preprocess_done(j, std::move(outcome)); break;
@@ -234,7 +191,7 @@ class Scheduler {
       }
       join_queued();
       progress();
-    }, lookups_ ? &answers : nullptr);
+    }, answers.fd >= 0 ? &answers : nullptr);
     running_ = nullptr;
     running_subjects_ = nullptr;
   }
@@ -294,14 +251,10 @@ class Scheduler {
     if (inserted) {
       CompiledModule module;
       module.key = key;
-      if (services_.remote && options_.remote.upload)
-        module.remote_key = remote_module_key(*services_.remote, settings_, plan_.pack.passes[s.pass], s.stage, spirv);
-      if (services_.cache) {
-        if (auto cached = services_.cache->load(key)) {
-          module.settled = true;
-          module.output = std::make_shared<const JobOutput>(std::move(*cached));
-          ++report_.back_end_hits;
-        }
+      if (std::optional<JobOutput> found = services_.store.find_module(key, s, spirv)) {
+        module.settled = true;
+        module.output = std::make_shared<const JobOutput>(std::move(*found));
+        ++report_.back_end_hits;
       }
       if (!module.settled) {
         CompileJob back;
@@ -340,12 +293,10 @@ class Scheduler {
     results_.module_of.resize(binaries_.size());
     results_.front_messages.resize(binaries_.size());
     results_.front_end_ran.assign(binaries_.size(), false);
-    results_.remote_key_of.resize(binaries_.size());
-    std::set<Hash128> distinct_modules;  // among the built binaries, compiled now or found through cache aliases
+    std::set<Hash128> distinct_modules;  // among the built binaries, compiled now or found in the store
     for (size_t b = 0; b < binaries_.size(); ++b) {
       KeyResult& result = results_by_key_[result_by_key_.at(binaries_[b].key)];
       results_.module_of[b] = result.module;
-      results_.remote_key_of[b] = result.remote_key;
       if (result.output) {
         binaries_[b].output = result.output;
       } else if (result.front_end_ran) {
@@ -473,8 +424,6 @@ class Scheduler {
   const SourceLocator& locator_;
   MessageGroups& messages_;
   DiagnosticSink& sink_;
-  std::optional<RemoteLookups> lookups_;  // when the remote is usable at the start
-  std::vector<size_t> held_misses_;       // --remote-required: remote misses, compiled once every lookup answered
   BuildReport& report_;
 
   CompileResults results_;
@@ -500,43 +449,6 @@ CompileResults compile_stage_sources(const Plan& plan, const BuildOptions& optio
                                      const SourceLocator& locator, MessageGroups& messages, DiagnosticSink& sink,
                                      BuildReport& report) {
   return Scheduler(plan, options, settings, sources, binaries, services, locator, messages, sink, report).run();
-}
-
-void store_in_cache(Cache& cache, bool memos, const CompileResults& results, const StageSources& sources,
-                    const std::vector<Binary>& binaries, bool user_errors, unsigned threads, DiagnosticSink& sink,
-                    BuildReport& report) {
-  report.cache_rejected += cache.rejected_loads() + cache.unreadable_segments();
-  if (report.cache_rejected)
-    sink.report(DiagId::CacheEntryRejected, SourceLocation{cache.directory().string(), 0, 0},
-                std::to_string(report.cache_rejected) + " cache entr" + (report.cache_rejected == 1 ? "y was" : "ies were") +
-                    " corrupt, truncated or foreign: compiled again and rewritten",
-                {"nothing of them reached the outputs; if this repeats, check the disk or what else writes to the cache"});
-  if (user_errors) return;
-  // Entries are encoded on every core (the workers are done by now), then written as one segment file.
-  StageTimer timer(report, "cache store");
-  parallel_for(results.modules.size(), threads, [&](size_t m) {
-    if (results.modules[m].fresh) cache.store(results.modules[m].key, *results.modules[m].output);
-  });
-  // A binary has an output only when its module's result is good (compiled now or already cached).
-  parallel_for(binaries.size(), threads, [&](size_t b) {
-    if (results.front_end_ran[b] && binaries[b].output)
-      cache.store_alias(binaries[b].key, *results.module_of[b], results.front_messages[b]);
-  });
-  if (memos)
-    parallel_for(sources.list.size(), threads, [&](size_t i) {
-      const StageSource& s = sources.list[i];
-      if (!s.preprocessed || !s.ok) return;
-      PreprocessMemo memo{*s.key, {}};
-      for (const std::string& name : s.files_read) {
-        auto hash = sources.file_hashes.find(name);
-        if (hash == sources.file_hashes.end()) return;  // not a file of the snapshot: no memo
-        memo.files.emplace_back(name, hash->second);
-      }
-      cache.store_memo(s.memo, memo);
-    });
-  if (Result<void> committed = cache.commit(); !committed)
-    sink.report(DiagId::CacheUnwritable, SourceLocation{cache.directory().string(), 0, 0}, committed.error().message,
-                {"the outputs are unaffected; the next build compiles these variants again"});
 }
 
 }  // namespace kiln

@@ -18,12 +18,11 @@
 #include <optional>
 #include <vector>
 
-#include "cache/cache.hpp"
 #include "driver/messages.hpp"
 #include "driver/plan.hpp"
+#include "driver/result_store.hpp"
 #include "driver/settings.hpp"
 #include "driver/stage_sources.hpp"
-#include "remote/remote_cache.hpp"
 #include "workers/job_runner.hpp"
 
 namespace kiln {
@@ -37,45 +36,33 @@ struct CompiledModule {
   std::vector<uint32_t> failed_input;       // when its back end's worker died: the module it was given (reproducer)
   bool fresh = false;                       // compiled in this build: cached once the build is known good
   std::vector<size_t> waiting;              // source keys whose front end produced it, before it settled
-  std::optional<RemoteKey> remote_key;      // when this build uploads it (--remote-upload)
 };
 
-// What the cache store needs of a compile: the fresh modules, and each binary's module and front-end warnings.
+// What the result store keeps of a compile: the fresh modules, and each binary's module and front-end warnings.
 struct CompileResults {
   std::vector<CompiledModule> modules;
   std::vector<std::optional<Hash128>> module_of;              // per binary: its module's key, when known
   std::vector<std::vector<FrontendMessage>> front_messages;  // per binary, when its front end ran now
   std::vector<bool> front_end_ran;                            // per binary
-  std::vector<std::optional<RemoteKey>> remote_key_of;        // per binary: its source's remote key, when asked
   size_t unique_modules = 0;  // distinct front-end modules among the built binaries (the funnel's)
 };
 
 struct CompileServices {
   JobRunner& runner;
-  Cache* cache = nullptr;  // nothing: no cache
+  ResultStore& store;          // asked for every key before it is compiled
   Preprocessor& preprocessor;  // makes the Preprocess jobs (cache misses known only through a memo included)
-  RemoteCache* remote = nullptr;  // asked for the local cache's misses before they are compiled
 };
 
 // Stages 4-6 streamed: preprocesses the sources `sources` has no key for (and the memo-known ones the cache
 // lacks), dedupes them into `binaries` (dedupe_stage_sources), and fills each binary's output (a shared, settled
 // module's), or reports why it has none: preprocessing and compile errors are grouped into `messages`, worker
-// deaths are internal compiler errors with a reproducer in <output>/kiln-ice. The local cache's misses are asked
-// of the remote (verified entries go into the local cache too; with a remote, compiles start after preprocessing,
-// when the misses are asked in one request); with --shard I/N, only the misses whose source key falls in share I
-// are compiled. Times the stages "preprocess" (from enumerate_stage_sources to the last source preprocessed),
+// deaths are internal compiler errors with a reproducer in <output>/kiln-ice. Every key is asked of the store
+// first (driver/result_store: what it finds at once settles the key; what it answers later settles it then, while
+// the other compiles go on); with --shard I/N, only the misses whose source key falls in share I are compiled. Times the stages "preprocess" (from enumerate_stage_sources to the last source preprocessed),
 // "dedupe" and "compile" (from the first front end queued): the first and the last overlap.
 CompileResults compile_stage_sources(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
                                      StageSources& sources, std::vector<Binary>& binaries, CompileServices services,
                                      const SourceLocator& locator, MessageGroups& messages, DiagnosticSink& sink,
                                      BuildReport& report);
-
-// Stores this build's results in the cache (back ends under their module's key, aliases under each source's key,
-// preprocessing memos) and commits them as one segment, unless the input had errors: a build with errors in the
-// user's input leaves no cache entry behind. Internal compiler errors are not the input's fault: the other
-// variants' results are kept, so the next build only retries those.
-void store_in_cache(Cache& cache, bool memos, const CompileResults& results, const StageSources& sources,
-                    const std::vector<Binary>& binaries, bool user_errors, unsigned threads, DiagnosticSink& sink,
-                    BuildReport& report);
 
 }  // namespace kiln

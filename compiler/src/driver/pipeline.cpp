@@ -21,6 +21,7 @@
 #include "driver/outputs.hpp"
 #include "driver/plan.hpp"
 #include "driver/remote.hpp"
+#include "driver/result_store.hpp"
 #include "driver/settings.hpp"
 #include "driver/stage_sources.hpp"
 #include "driver/stage_timer.hpp"
@@ -207,18 +208,19 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   const SourceLocator locator(*plan);
   MessageGroups messages;
 
+  std::unique_ptr<ResultStore> store = make_result_store(
+      *plan, *settings,
+      StoreTiers{cache ? &*cache : nullptr, memo_cache != nullptr, remote.get(), options.remote.required,
+                 options.remote.upload, parallelism(options)});
+
   StageSources sources = enumerate_stage_sources(*plan, *settings, memo_cache, report);  // stage 4
   std::vector<Binary> binaries;  // stages 4-6, streamed: preprocess, dedupe (in source order), compile
   CompileResults compiled = compile_stage_sources(*plan, options, *settings, sources, binaries,
-                                                  CompileServices{workers, cache ? &*cache : nullptr, preprocessor, remote.get()},
-                                                  locator, messages, sink, report);
+                                                  CompileServices{workers, *store, preprocessor}, locator, messages,
+                                                  sink, report);
   record_worker_timeline(workers, report);
   report.funnel = funnel_of(*plan, sources, binaries, compiled);
-  const bool input_errors = messages.has_errors();
-  if (cache)
-    store_in_cache(*cache, memo_cache != nullptr, compiled, sources, binaries, input_errors, parallelism(options), sink, report);
-  if (remote && options.remote.upload && !input_errors) upload_to_remote(*remote, compiled, binaries, report);
-  if (remote) report_remote(*remote, sink, report);
+  store->keep(compiled, sources, binaries, messages.has_errors(), sink, report);
   messages.report(sink);
   bool ok = !sink.has_errors();
   if (ok && options.shard_count > 1) {  // a shard's share is in the caches (and uploaded); the merge writes the pack

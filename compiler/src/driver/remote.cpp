@@ -1,9 +1,6 @@
 #include "driver/remote.hpp"
 
-#include <map>
-
 #include "driver/outputs.hpp"
-#include "driver/stage_timer.hpp"
 #include "pack/pack_writer.hpp"
 
 namespace kiln {
@@ -40,25 +37,6 @@ RemoteKey remote_module_key(const RemoteCache& remote, const BuildSettings& sett
   return settings.add_compile_options(key, pass, stage)
       .add(std::string_view(reinterpret_cast<const char*>(spirv.data()), spirv.size() * 4))
       .finish();
-}
-
-void upload_to_remote(RemoteCache& remote, const CompileResults& results, const std::vector<Binary>& binaries,
-                      BuildReport& report) {
-  StageTimer timer(report, "remote upload");
-  std::vector<RemoteCache::ModuleUpload> uploads;
-  std::map<Hash128, size_t> upload_of;
-  for (const CompiledModule& m : results.modules)
-    if (m.output && m.remote_key) {
-      upload_of.emplace(m.key, uploads.size());
-      uploads.push_back({*m.remote_key, m.output.get()});
-    }
-  std::vector<RemoteCache::AliasUpload> aliases;
-  for (size_t b = 0; b < binaries.size(); ++b) {
-    auto module = results.module_of[b] ? upload_of.find(*results.module_of[b]) : upload_of.end();
-    if (results.front_end_ran[b] && binaries[b].output && results.remote_key_of[b] && module != upload_of.end())
-      aliases.push_back({*results.remote_key_of[b], module->second, *results.module_of[b], &results.front_messages[b]});
-  }
-  remote.upload(uploads, aliases);
 }
 
 void report_remote(RemoteCache& remote, DiagnosticSink& sink, BuildReport& report) {

@@ -1,12 +1,11 @@
-// The shared remote cache in a build (remote/; docs/remote-cache.md): its pack-level entry before any work, the
-// stage sources it has for the local cache's misses (driver/compile), and what this build uploads.
+// The shared remote cache in a build (remote/; docs/remote-cache.md): its pack-level entry before any work, and the
+// keys of its stage-source and module entries (the result store's remote tier, driver/result_store).
 #pragma once
 
 #include <memory>
 #include <optional>
 #include <string>
 
-#include "driver/compile.hpp"
 #include "driver/plan.hpp"
 #include "driver/settings.hpp"
 #include "remote/remote_cache.hpp"
@@ -27,11 +26,6 @@ RemoteKey remote_source_key(const RemoteCache& remote, const BuildSettings& sett
                             Stage stage, std::string_view text);
 RemoteKey remote_module_key(const RemoteCache& remote, const BuildSettings& settings, const PassDefinition& pass,
                             Stage stage, const std::vector<uint32_t>& spirv);
-
-// What this build's front ends produced: each module's result (blobs first), then each source's alias. Only for a
-// build without errors in its input, and with --remote-upload.
-void upload_to_remote(RemoteCache& remote, const CompileResults& results, const std::vector<Binary>& binaries,
-                      BuildReport& report);
 
 // Reports the remote's problems of the build so far (once each) and records its counts in the report.
 void report_remote(RemoteCache& remote, DiagnosticSink& sink, BuildReport& report);
