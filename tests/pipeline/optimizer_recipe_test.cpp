@@ -35,14 +35,14 @@ std::vector<Module> front_end_modules(const std::filesystem::path& pack_file, si
   options.jobs = 2;
   options.worker_executable = KILN_WORKER_PATH;
   DiagnosticSink sink;
-  BuildReport report;
-  auto plan = make_plan(options, sink, report);
+  BuildContext build(sink);
+  auto plan = make_plan(options, build);
   auto settings = plan ? choose_settings(options, *plan, sink) : std::nullopt;
   EXPECT_TRUE(settings) << pack_file;
   if (!settings) return {};
   WorkerPool workers(KILN_WORKER_PATH, 2, WorkerLimits{});
-  Preprocessor preprocessor(*plan, *settings, workers, options);
-  StageSources sources = prepare_stage_sources(*plan, *settings, nullptr, preprocessor, report);
+  Preprocessor preprocessor(*plan, *settings, workers, build, WorkerLimits{});
+  StageSources sources = prepare_stage_sources(build, *plan, *settings, nullptr, preprocessor);
   std::vector<CompileJob> jobs;
   std::set<std::tuple<Stage, std::string, std::string>> seen;  // (stage, entry point, text): one front end each
   for (const StageSource& source : sources.list) {

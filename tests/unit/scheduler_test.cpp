@@ -85,7 +85,7 @@ class Scheduler : public ::testing::Test {
     dir_.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
     options_.pack_file = dir_ / "p.pack.json";
     options_.output_dir = dir_ / "out";
-    plan_ = make_plan(options_, *sink_, report_);
+    plan_ = make_plan(options_, *build_);
     ASSERT_TRUE(plan_);
     settings_ = choose_settings(options_, *plan_, *sink_);
     ASSERT_TRUE(settings_);
@@ -94,13 +94,16 @@ class Scheduler : public ::testing::Test {
   // Stages 4-7 (first half) against `runner`, as build_pack runs them.
   // `store`: nothing, a store with no tier (nothing is ever found).
   CompileResults compile(FakeRunner& runner, ResultStore* store = nullptr) {
-    Preprocessor preprocessor(*plan_, *settings_, runner, options_);
+    Preprocessor preprocessor(*plan_, *settings_, runner, *build_, WorkerLimits{});
     SourceLocator locator(*plan_);
-    sources_ = enumerate_stage_sources(*plan_, *settings_, nullptr, report_);
+    sources_ = enumerate_stage_sources(*plan_, *settings_, nullptr);
     std::unique_ptr<ResultStore> empty = make_result_store(*plan_, *settings_, StoreTiers{});
-    return compile_stage_sources(*plan_, options_, *settings_, sources_, binaries_,
-                                 CompileServices{runner, store ? *store : *empty, preprocessor},
-                                 locator, messages_, *sink_, report_);
+    CompileResults results = compile_stage_sources(*build_, *plan_, *settings_, Shard{}, sources_,
+                                                   CompileServices{runner, store ? *store : *empty, preprocessor},
+                                                   locator, messages_);
+    binaries_ = results.binaries;
+    counts_ = results.counts;
+    return results;
   }
 
   std::string reported() {
@@ -112,14 +115,16 @@ class Scheduler : public ::testing::Test {
 
   void reset() {
     sink_ = std::make_unique<DiagnosticSink>();
-    report_ = BuildReport();
+    build_ = std::make_unique<BuildContext>(*sink_, dir_ / "out" / "kiln-ice");
+    counts_ = CompileCounts();
     messages_ = MessageGroups();
   }
 
   testing::TempDir dir_;
   BuildOptions options_;
   std::unique_ptr<DiagnosticSink> sink_ = std::make_unique<DiagnosticSink>();
-  BuildReport report_;
+  std::unique_ptr<BuildContext> build_ = std::make_unique<BuildContext>(*sink_, dir_ / "out" / "kiln-ice");
+  CompileCounts counts_;
   std::unique_ptr<Plan> plan_;
   std::optional<BuildSettings> settings_;
   StageSources sources_;
@@ -134,7 +139,7 @@ TEST_F(Scheduler, RunsOneBackEndPerDistinctModuleAndSharesItsOutput) {
   EXPECT_EQ(runner.count(JobKind::Preprocess), 6u);  // 3 variants x 2 stages, each stage sees the keyword
   EXPECT_EQ(runner.count(JobKind::FrontEnd), 6u);
   EXPECT_EQ(runner.count(JobKind::BackEnd), 2u);  // one module per stage
-  EXPECT_EQ(report_.back_ends, 2u);
+  EXPECT_EQ(counts_.back_ends, 2u);
   EXPECT_EQ(results.unique_modules, 2u);
   ASSERT_EQ(results.modules.size(), 2u);
   std::set<const JobOutput*> vertex, fragment;  // every binary of a stage shares its module's one output
@@ -187,7 +192,7 @@ TEST_F(Scheduler, ABackEndDeathIsAnInternalErrorOfEveryBinaryWaitingOnItsModule)
     return default_answer(job);
   };
   compile(runner);
-  EXPECT_TRUE(report_.internal_errors);
+  EXPECT_TRUE(sink_->contains(DiagId::InternalCompilerError));
   size_t fragment_without_output = 0, vertex_with_output = 0;
   for (const Binary& b : binaries_) {
     if (b.stage == Stage::Fragment && !b.output) ++fragment_without_output;
@@ -225,7 +230,7 @@ TEST_F(Scheduler, FailedStepsAreReportedWithTheirDiagnostic) {
     compile(runner);
     const std::string text = reported();
     EXPECT_NE(text.find(std::string("error[") + c.id + "]: " + c.name + ": something is wrong"), std::string::npos) << text;
-    EXPECT_FALSE(report_.internal_errors);
+    EXPECT_FALSE(sink_->contains(DiagId::InternalCompilerError));
   }
 }
 
@@ -235,22 +240,21 @@ TEST_F(Scheduler, AModuleTheCacheHasRunsNoBackEnd) {
   first.answer = default_answer;
   std::unique_ptr<ResultStore> store = make_result_store(*plan_, *settings_, StoreTiers{&cache});
   CompileResults results = compile(first, store.get());
-  store->keep(results, sources_, binaries_, false, *sink_, report_);
+  store->keep(*build_, results, sources_, false);
   ASSERT_FALSE(sink_->has_errors()) << reported();
 
   // The same sources: found whole, nothing runs. A new keyword's sources: front ends only, their modules known.
   dir_.write("S.hlsl", "#pragma multi_compile _ A B C\nfloat4 V() : SV_Position { return 0; }\nfloat4 F() : SV_Target { return 0; }\n");
-  plan_ = make_plan(options_, *sink_, report_);
+  plan_ = make_plan(options_, *build_);
   ASSERT_TRUE(plan_);
-  report_ = BuildReport();
   FakeRunner second;
   second.answer = default_answer;
   store = make_result_store(*plan_, *settings_, StoreTiers{&cache});
   compile(second, store.get());
-  EXPECT_EQ(report_.cache_hits, 6u);
+  EXPECT_EQ(counts_.cache_hits, 6u);
   EXPECT_EQ(second.count(JobKind::FrontEnd), 2u);  // C, per stage
   EXPECT_EQ(second.count(JobKind::BackEnd), 0u);
-  EXPECT_EQ(report_.back_end_hits, 2u);
+  EXPECT_EQ(counts_.back_end_hits, 2u);
   for (const Binary& b : binaries_) EXPECT_TRUE(b.output);
 }
 
@@ -301,8 +305,7 @@ class SlowStore final : public ResultStore {
     held_.clear();
     return answers;
   }
-  void keep(const CompileResults&, const StageSources&, const std::vector<Binary>&, bool, DiagnosticSink&,
-            BuildReport&) override {}
+  size_t keep(BuildContext&, const CompileResults&, const StageSources&, bool) override { return 0; }
   int finished_ = 0;
 
  private:
@@ -413,7 +416,7 @@ TEST_F(Scheduler, ADuplicateSourceArrivingLateIsNotCompiledAgain) {
     compile(runner);
     EXPECT_EQ(runner.count(JobKind::Preprocess), 6u);
     EXPECT_EQ(runner.count(JobKind::FrontEnd), 4u);  // per stage: none-or-B, A
-    EXPECT_EQ(report_.compiled, 4u);
+    EXPECT_EQ(counts_.compiled, 4u);
     ASSERT_EQ(binaries_.size(), 4u);
     std::vector<size_t> sources_of;
     for (const Binary& b : binaries_) {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "kiln/diagnostics.hpp"
+#include "kiln/manifest.hpp"
 #include "kiln/stage_target.hpp"
 
 namespace kiln {
@@ -100,20 +101,14 @@ struct PassDefinition {
 };
 
 // "keyword" may only appear with all of `requires_all`, at least one of `requires_any`, none of `excludes`.
-struct Constraint {
-  std::string keyword;
-  std::vector<std::string> requires_all;
-  std::vector<std::string> requires_any;
-  std::vector<std::string> excludes;
-  std::string reason;
+// The manifest records it as it is (ManifestConstraint), so that tools reason about a built pack on its own.
+struct Constraint : ManifestConstraint {
   SourceLocation defined_at;
 };
 
 // A material preset: the shader_feature keywords one material enables. When a pack lists materials,
 // only the shader_feature combinations some material uses are built (Unity strips by materials too).
-struct MaterialPreset {
-  std::string name;
-  std::set<std::string> keywords;
+struct MaterialPreset : ManifestMaterial {
   SourceLocation defined_at;
 };
 

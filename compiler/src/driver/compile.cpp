@@ -6,7 +6,7 @@
 
 #include "common/files.hpp"
 #include "common/parallel.hpp"
-#include "driver/stage_timer.hpp"
+#include "driver/build_context.hpp"
 #include "frontend/unsupported_hlsl.hpp"
 
 namespace kiln {
@@ -38,28 +38,27 @@ DiagId diagnostic_for(CompileStep step) {
 // key, one back end per distinct module, and each binary settled from its key's result after the stream.
 class Scheduler {
  public:
-  Scheduler(const Plan& plan, const BuildOptions& options, const BuildSettings& settings, StageSources& sources,
-            std::vector<Binary>& binaries, CompileServices services, const SourceLocator& locator, MessageGroups& messages,
-            DiagnosticSink& sink, BuildReport& report)
-      : plan_(plan), options_(options), settings_(settings), sources_(sources), binaries_(binaries), services_(services),
-        locator_(locator), messages_(messages), sink_(sink), report_(report) {}
+  Scheduler(BuildContext& build, const Plan& plan, const BuildSettings& settings, Shard shard, StageSources& sources,
+            CompileServices services, const SourceLocator& locator, MessageGroups& messages)
+      : build_(build), plan_(plan), settings_(settings), shard_(shard), sources_(sources), services_(services),
+        locator_(locator), messages_(messages), sink_(build.sink), binaries_(results_.binaries),
+        counts_(results_.counts) {}
 
   CompileResults run() {
     const auto compile_from = StageClock::now();
     for (size_t i = 0; i < sources_.list.size(); ++i) enter(i);
     progress();
     stream();
-    record_stage(report_, "preprocess", sources_.enumerated_from, last_preprocessed_.value_or(compile_from));
-    binaries_ = dedupe_stage_sources(sources_, plan_, locator_, messages_, sink_, report_);  // in source order
+    build_.record_stage("preprocess", sources_.enumerated_from, last_preprocessed_.value_or(compile_from));
+    binaries_ = dedupe_stage_sources(build_, sources_, plan_, locator_, messages_);  // in source order
     total_known_ = true;
     // Every question to the store answered (its problems said before any compile message), and the answers it held
     // until now taken.
     answered(services_.store.finish(sink_));
     stream();
     settle_binaries();
-    report_.compiled = front_ends_;
-    report_.workers_started = services_.runner.spawned();
-    record_stage(report_, "compile", first_front_end_.value_or(compile_from), StageClock::now());
+    counts_.compiled = front_ends_;
+    build_.record_stage("compile", first_front_end_.value_or(compile_from), StageClock::now());
     return std::move(results_);
   }
 
@@ -98,7 +97,7 @@ class Scheduler {
     if (std::optional<StoredResult> found = services_.store.find(key)) {
       result.output = std::make_shared<const JobOutput>(std::move(found->output));
       result.module = found->module;
-      ++report_.cache_hits;
+      ++counts_.cache_hits;
       ++done_;
     }
     return it->second;
@@ -133,8 +132,8 @@ class Scheduler {
   void queue_front_end(size_t index) {
     KeyResult& result = results_by_key_[index];
     const StageSource& s = sources_.list[result.source];
-    if (options_.shard_count > 1 && s.key->low % options_.shard_count != options_.shard_index) {
-      ++report_.shard_skipped;  // another shard's: settles with no output
+    if (shard_.count > 1 && s.key->low % shard_.count != shard_.index) {
+      ++counts_.shard_skipped;  // another shard's: settles with no output
       return;
     }
     if (!first_front_end_) first_front_end_ = StageClock::now();
@@ -217,7 +216,7 @@ class Scheduler {
     module.settled = true;
     module.fresh = outcome.kind == WorkerOutcome::Kind::Done && outcome.output.ok;
     if (module.fresh) {
-      if (outcome.output.full_legalization) ++report_.full_legalizations;
+      if (outcome.output.full_legalization) ++counts_.full_legalizations;
       module.output = std::make_shared<const JobOutput>(std::move(outcome.output));
       release_input(j);
     } else {
@@ -254,7 +253,7 @@ class Scheduler {
       if (std::optional<JobOutput> found = services_.store.find_module(key, s, spirv)) {
         module.settled = true;
         module.output = std::make_shared<const JobOutput>(std::move(*found));
-        ++report_.back_end_hits;
+        ++counts_.back_end_hits;
       }
       if (!module.settled) {
         CompileJob back;
@@ -271,7 +270,7 @@ class Scheduler {
         back.bindings = job.bindings;
         jobs_.push_back(std::move(back));  // runs next, in whichever worker is free
         job_subject_.push_back(results_.modules.size());
-        ++report_.back_ends;
+        ++counts_.back_ends;
       }
       results_.modules.push_back(std::move(module));
     }
@@ -283,9 +282,8 @@ class Scheduler {
   // Stage sources done out of those there will be: until every source is preprocessed, the keys known so far plus
   // the sources still to preprocess (duplicates among them make it shrink).
   void progress() {
-    if (!options_.progress) return;
     const size_t total = total_known_ ? binaries_.size() : results_by_key_.size() + unpreprocessed_;
-    options_.progress(done_, total, report_.cache_hits);
+    build_.report_progress(done_, total, counts_.cache_hits);
   }
 
   // Every binary, in order, takes its key's result: its module's output, or its diagnostics.
@@ -383,8 +381,7 @@ class Scheduler {
   // death the module it was given too, with the SPIRV-Tools commands that replay the back end.
   void internal_compiler_error(const Binary& binary, const StageSource& s, const std::string& variant,
                                const std::string& detail, const std::vector<uint32_t>* module) {
-    report_.internal_errors = true;
-    std::filesystem::path dir = options_.output_dir / "kiln-ice";
+    const std::filesystem::path& dir = build_.reproducers;
     std::error_code ec;
     std::filesystem::create_directories(dir, ec);
     const std::string base = plan_.pack.passes[s.pass].name + "." + std::string(stage_name(s.stage)) + "." + keywords_slug(s.defines);
@@ -415,18 +412,19 @@ class Scheduler {
                  "internal compiler error: the compiler worker " + detail + " while compiling " + variant, notes);
   }
 
+  BuildContext& build_;
   const Plan& plan_;
-  const BuildOptions& options_;
   const BuildSettings& settings_;
+  Shard shard_;
   StageSources& sources_;
-  std::vector<Binary>& binaries_;
   CompileServices services_;
   const SourceLocator& locator_;
   MessageGroups& messages_;
   DiagnosticSink& sink_;
-  BuildReport& report_;
 
   CompileResults results_;
+  std::vector<Binary>& binaries_;  // results_'s
+  CompileCounts& counts_;          // results_'s
   std::vector<KeyResult> results_by_key_;
   std::map<Hash128, size_t> result_by_key_;   // source key -> its index in results_by_key_
   std::map<Hash128, size_t> module_by_key_;
@@ -444,11 +442,10 @@ class Scheduler {
 
 }  // namespace
 
-CompileResults compile_stage_sources(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
-                                     StageSources& sources, std::vector<Binary>& binaries, CompileServices services,
-                                     const SourceLocator& locator, MessageGroups& messages, DiagnosticSink& sink,
-                                     BuildReport& report) {
-  return Scheduler(plan, options, settings, sources, binaries, services, locator, messages, sink, report).run();
+CompileResults compile_stage_sources(BuildContext& build, const Plan& plan, const BuildSettings& settings, Shard shard,
+                                     StageSources& sources, CompileServices services, const SourceLocator& locator,
+                                     MessageGroups& messages) {
+  return Scheduler(build, plan, settings, shard, sources, services, locator, messages).run();
 }
 
 }  // namespace kiln

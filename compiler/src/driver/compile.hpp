@@ -18,11 +18,13 @@
 #include <optional>
 #include <vector>
 
+#include "driver/build_context.hpp"
 #include "driver/messages.hpp"
 #include "driver/plan.hpp"
 #include "driver/result_store.hpp"
 #include "driver/settings.hpp"
 #include "driver/stage_sources.hpp"
+#include "kiln/command_line.hpp"
 #include "workers/job_runner.hpp"
 
 namespace kiln {
@@ -38,13 +40,26 @@ struct CompiledModule {
   std::vector<size_t> waiting;              // source keys whose front end produced it, before it settled
 };
 
-// What the result store keeps of a compile: the fresh modules, and each binary's module and front-end warnings.
+// What a compile did, for the summary.
+struct CompileCounts {
+  size_t compiled = 0;            // stage sources compiled (front ends run)
+  size_t back_ends = 0;           // back ends run: one per distinct front-end module the store did not have
+  size_t back_end_hits = 0;       // front-end modules whose back end the store had
+  size_t full_legalizations = 0;  // back ends run whose module needed SPIRV-Tools' full legalization recipe
+  size_t cache_hits = 0;          // stage sources the store had whole (nothing run)
+  size_t shard_skipped = 0;       // misses left to the other shards (--shard)
+};
+
+// What a compile made: the binaries (distinct stage sources, in source order, each with its output when it has
+// one), the modules (the fresh ones are kept by the result store), and each binary's module and front-end warnings.
 struct CompileResults {
+  std::vector<Binary> binaries;
   std::vector<CompiledModule> modules;
   std::vector<std::optional<Hash128>> module_of;              // per binary: its module's key, when known
   std::vector<std::vector<FrontendMessage>> front_messages;  // per binary, when its front end ran now
   std::vector<bool> front_end_ran;                            // per binary
   size_t unique_modules = 0;  // distinct front-end modules among the built binaries (the funnel's)
+  CompileCounts counts;
 };
 
 struct CompileServices {
@@ -53,16 +68,15 @@ struct CompileServices {
   Preprocessor& preprocessor;  // makes the Preprocess jobs (cache misses known only through a memo included)
 };
 
-// Stages 4-6 streamed: preprocesses the sources `sources` has no key for (and the memo-known ones the cache
-// lacks), dedupes them into `binaries` (dedupe_stage_sources), and fills each binary's output (a shared, settled
+// Stages 4-6 streamed: preprocesses the sources `sources` has no key for (and the memo-known ones the store
+// lacks), dedupes them into binaries (dedupe_stage_sources), and fills each binary's output (a shared, settled
 // module's), or reports why it has none: preprocessing and compile errors are grouped into `messages`, worker
-// deaths are internal compiler errors with a reproducer in <output>/kiln-ice. Every key is asked of the store
+// deaths are internal compiler errors with a reproducer in `build.reproducers`. Every key is asked of the store
 // first (driver/result_store: what it finds at once settles the key; what it answers later settles it then, while
 // the other compiles go on); with --shard I/N, only the misses whose source key falls in share I are compiled. Times the stages "preprocess" (from enumerate_stage_sources to the last source preprocessed),
 // "dedupe" and "compile" (from the first front end queued): the first and the last overlap.
-CompileResults compile_stage_sources(const Plan& plan, const BuildOptions& options, const BuildSettings& settings,
-                                     StageSources& sources, std::vector<Binary>& binaries, CompileServices services,
-                                     const SourceLocator& locator, MessageGroups& messages, DiagnosticSink& sink,
-                                     BuildReport& report);
+CompileResults compile_stage_sources(BuildContext& build, const Plan& plan, const BuildSettings& settings, Shard shard,
+                                     StageSources& sources, CompileServices services, const SourceLocator& locator,
+                                     MessageGroups& messages);
 
 }  // namespace kiln

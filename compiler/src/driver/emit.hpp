@@ -3,6 +3,9 @@
 // outputs when it compiled).
 #pragma once
 
+#include <filesystem>
+#include <set>
+#include <string>
 #include <vector>
 
 #include "driver/plan.hpp"
@@ -10,7 +13,8 @@
 
 namespace kiln {
 
-void emit_dumps(const Plan& plan, const StageSources& sources, const std::vector<Binary>& binaries,
-                const BuildOptions& options, DiagnosticSink& sink, BuildReport& report);
+// `emit`: the dumps asked for (--emit), written under `output_dir`/emit.
+void emit_dumps(BuildContext& build, const Plan& plan, const StageSources& sources, const std::vector<Binary>& binaries,
+                const std::set<std::string>& emit, const std::filesystem::path& output_dir);
 
 }  // namespace kiln

@@ -3,7 +3,7 @@
 #include <map>
 
 #include "common/files.hpp"
-#include "driver/stage_timer.hpp"
+#include "driver/build_context.hpp"
 #include "layouts/interface_check.hpp"
 #include "layouts/layout_check.hpp"
 
@@ -40,11 +40,11 @@ PassLayoutInput layout_input(const Plan& plan, const SourceLocator& locator, uin
 
 }  // namespace
 
-std::optional<std::vector<PassLayout>> check_pass_layouts(const Plan& plan, const SourceLocator& locator,
-                                                              const StageSources& sources,
-                                                              const std::vector<Binary>& binaries, DiagnosticSink& sink,
-                                                              BuildReport& report) {
-  StageTimer timer(report, "reflect");
+std::optional<std::vector<PassLayout>> check_pass_layouts(BuildContext& build, const Plan& plan,
+                                                              const SourceLocator& locator, const StageSources& sources,
+                                                              const std::vector<Binary>& binaries) {
+  StageTimer timer(build, "reflect");
+  DiagnosticSink& sink = build.sink;
   const int errors_before = sink.error_count();
   std::vector<PassLayout> layouts(plan.passes.size());
   for (uint32_t p = 0; p < plan.passes.size(); ++p) {

@@ -14,9 +14,8 @@ namespace kiln {
 
 // Each pass's merged layout; nothing when a pass's binaries disagree or its stages' interfaces do not match
 // (reported).
-std::optional<std::vector<PassLayout>> check_pass_layouts(const Plan& plan, const SourceLocator& locator,
-                                                              const StageSources& sources,
-                                                              const std::vector<Binary>& binaries, DiagnosticSink& sink,
-                                                              BuildReport& report);
+std::optional<std::vector<PassLayout>> check_pass_layouts(BuildContext& build, const Plan& plan,
+                                                              const SourceLocator& locator, const StageSources& sources,
+                                                              const std::vector<Binary>& binaries);
 
 }  // namespace kiln

@@ -24,7 +24,7 @@
 #include "driver/result_store.hpp"
 #include "driver/settings.hpp"
 #include "driver/stage_sources.hpp"
-#include "driver/stage_timer.hpp"
+#include "driver/build_context.hpp"
 #include "driver/write_pack.hpp"
 #include "kiln/build.hpp"
 #include "pack/pack_writer.hpp"
@@ -35,96 +35,107 @@ namespace {
 
 // -j: worker processes (preprocessing and compiling), and the threads of the stages that run in kiln itself
 // (cache, pack).
-unsigned parallelism(const BuildOptions& options) {
-  return options.jobs ? options.jobs : std::max(1u, std::thread::hardware_concurrency());
-}
+unsigned parallelism(unsigned jobs) { return jobs ? jobs : std::max(1u, std::thread::hardware_concurrency()); }
 
 // The compiler workers, started when the first job needs them (a build the cache serves starts none).
 class OnDemandWorkers final : public JobRunner {
  public:
-  explicit OnDemandWorkers(const BuildOptions& options) : options_(options) {}
+  OnDemandWorkers(std::filesystem::path executable, unsigned workers, WorkerLimits limits)
+      : executable_(std::move(executable)), workers_(workers), limits_(std::move(limits)) {}
   void run(std::vector<CompileJob>& jobs, const std::function<void(size_t, WorkerOutcome)>& on_done,
            const ExternalWork* external) override {
-    if (!pool_) {
-      std::filesystem::path exe =
-          options_.worker_executable.empty() ? default_worker_executable() : options_.worker_executable;
-      pool_.emplace(exe, parallelism(options_),
-                    WorkerLimits{options_.worker_timeout, options_.worker_memory_limit_mb, options_.frontend});
-    }
+    if (!pool_) pool_.emplace(executable_.empty() ? default_worker_executable() : executable_, workers_, limits_);
     pool_->run(jobs, on_done, external);
   }
   unsigned spawned() const override { return pool_ ? pool_->spawned() : 0; }
   std::vector<WorkerActivity> activity() const override { return pool_ ? pool_->activity() : std::vector<WorkerActivity>{}; }
 
  private:
-  const BuildOptions& options_;
+  std::filesystem::path executable_;  // empty: default_worker_executable()
+  unsigned workers_;
+  WorkerLimits limits_;
   std::optional<WorkerPool> pool_;
 };
 
 // The pack in the output directory is the one these inputs make (its stamp says so): nothing to do.
-bool is_up_to_date(const BuildOptions& options, const Plan& plan, const std::string& inputs_hash, DiagnosticSink& sink,
-                   BuildReport& report) {
-  if (!options.emit.empty()) return false;  // --emit wants the stages' outputs
-  auto archive = current_archive(options.output_dir, plan.pack.name, inputs_hash);
+bool is_up_to_date(const std::filesystem::path& output_dir, const Plan& plan, const std::string& inputs_hash) {
+  auto archive = current_archive(output_dir, plan.pack.name, inputs_hash);
   if (!archive) return false;
   // A build killed after writing its archive, before or after its manifest's rename, left an orphan.
-  remove_orphaned_archives(options.output_dir, plan.pack.name, *archive);
-  report.up_to_date = report.ok = true;
-  if (options.depfile) write_depfile(*options.depfile, report.manifest, report.dependencies, sink);
-  return true;
-}
-
-// The remote had the finished pack of these inputs (an unchanged checkout another machine built).
-bool fetched_from_remote(RemoteCache& remote, const RemoteKey& pack_key, const BuildOptions& options, const Plan& plan,
-                         const std::string& inputs_hash, DiagnosticSink& sink, BuildReport& report) {
-  if (!fetch_remote_pack(remote, pack_key, options, plan, inputs_hash, sink)) return false;
-  report_remote(remote, sink, report);
-  report.ok = !sink.has_errors();
-  if (options.depfile) write_depfile(*options.depfile, report.manifest, report.dependencies, sink);
+  remove_orphaned_archives(output_dir, plan.pack.name, *archive);
   return true;
 }
 
 // The summary's timeline of each worker slot, in milliseconds since the build started.
-void record_worker_timeline(const JobRunner& workers, BuildReport& report) {
+std::vector<WorkerTimeline> worker_timeline(const JobRunner& workers, const BuildContext& build) {
   auto ms = [](WorkerActivity::Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); };
+  std::vector<WorkerTimeline> timeline;
   for (const WorkerActivity& a : workers.activity()) {
     WorkerTimeline t;
-    t.spawned_ms = ms_since_start(report, a.spawned);
-    t.last_done_ms = ms_since_start(report, a.last_done);
+    t.spawned_ms = build.ms_since_start(a.spawned);
+    t.last_done_ms = build.ms_since_start(a.last_done);
     t.preprocess_busy_ms = ms(a.preprocessing);
     t.compile_busy_ms = ms(a.compiling);
     t.idle_ms = t.last_done_ms - t.spawned_ms - t.preprocess_busy_ms - t.compile_busy_ms;
     if (a.compiled) {
-      t.first_compile_ms = ms_since_start(report, a.first_compile);
+      t.first_compile_ms = build.ms_since_start(a.first_compile);
       t.idle_before_first_compile_ms = t.first_compile_ms - t.spawned_ms - ms(a.preprocessing_before_compile);
     }
     t.jobs = a.jobs;
-    report.worker_timeline.push_back(t);
+    timeline.push_back(t);
   }
+  return timeline;
 }
 
 // The funnel, assembled here and nowhere else, from what the stages returned: the plan's counts (declared, valid,
 // kept), the stage instances the enumeration saw, the distinct stage sources, compiles and modules. The pack's
 // distinct binaries come with the written pack.
-Funnel funnel_of(const Plan& plan, const StageSources& sources, const std::vector<Binary>& binaries,
-                 const CompileResults& compiled) {
+Funnel funnel_of(const Plan& plan, const StageSources& sources, const CompileResults& compiled) {
   Funnel funnel = plan.funnel;
   funnel.stage_instances = sources.stage_instances;
   funnel.unique_preprocessed = sources.list.size();
-  funnel.unique_compiles = binaries.size();
+  funnel.unique_compiles = compiled.binaries.size();
   funnel.unique_modules = compiled.unique_modules;
   return funnel;
 }
 
-void record_dependencies(const BuildOptions& options, const Plan& plan, BuildReport& report) {
-  report.funnel = plan.funnel;
-  report.strip_report = plan.strip;
-  report.dependencies.push_back(std::filesystem::absolute(options.pack_file));
-  for (const auto& scene : options.scene_files) report.dependencies.push_back(std::filesystem::absolute(scene));
-  for (const auto& log : options.usage_logs) report.dependencies.push_back(std::filesystem::absolute(log));
-  for (const auto& [path, file] : plan.sources.files) report.dependencies.push_back(path);
-  // A new header in one of these directories would shadow an include: Ninja and Make see the directory change.
-  for (const auto& directory : plan.sources.watched) report.dependencies.push_back(directory);
+// Every input file read: the pack definition, scene profiles, usage logs and sources, and the directories where a
+// new header would shadow an include (Ninja and Make see the directory change).
+std::vector<std::filesystem::path> dependencies_of(const BuildOptions& options, const Plan& plan) {
+  std::vector<std::filesystem::path> dependencies{std::filesystem::absolute(options.pack_file)};
+  for (const auto& scene : options.scene_files) dependencies.push_back(std::filesystem::absolute(scene));
+  for (const auto& log : options.usage_logs) dependencies.push_back(std::filesystem::absolute(log));
+  for (const auto& [path, file] : plan.sources.files) dependencies.push_back(path);
+  for (const auto& directory : plan.sources.watched) dependencies.push_back(directory);
+  return dependencies;
+}
+
+// What the compile did, into the report: its counts and each worker slot's timeline.
+void record_compile(const CompileResults& compiled, const JobRunner& workers, const BuildContext& build,
+                    BuildReport& report) {
+  report.compiled = compiled.counts.compiled;
+  report.back_ends = compiled.counts.back_ends;
+  report.back_end_hits = compiled.counts.back_end_hits;
+  report.full_legalizations = compiled.counts.full_legalizations;
+  report.cache_hits = compiled.counts.cache_hits;
+  report.shard_skipped = compiled.counts.shard_skipped;
+  report.workers_started = workers.spawned();
+  report.worker_timeline = worker_timeline(workers, build);
+}
+
+// The remote's problems so far (once each), and its counts.
+void report_remote(RemoteCache& remote, DiagnosticSink& sink, BuildReport& report) {
+  remote.report_problems(sink);
+  report.remote = remote.report();
+}
+
+// The end of a build, whichever stage it ended at: the stage times, and whether a compiler worker died.
+BuildReport finished(BuildContext& build, BuildReport& report) {
+  build.record_stage("total", build.started, StageClock::now());
+  report.started = build.started;
+  report.timings = std::move(build.timings);
+  report.internal_errors = build.sink.contains(DiagId::InternalCompilerError);
+  return std::move(report);
 }
 
 }  // namespace
@@ -163,85 +174,93 @@ PlanListing make_listing(const Plan* plan) {
 }  // namespace
 
 std::optional<PlanListing> list_variants(const BuildOptions& options, DiagnosticSink& sink) {
-  BuildReport report;
-  auto plan = make_plan(options, sink, report);
+  BuildContext build(sink);
+  auto plan = make_plan(options, build);
   if (!plan) return std::nullopt;
   return make_listing(plan.get());
 }
 
 BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
+  BuildContext build(sink, options.output_dir / "kiln-ice", options.progress);
   BuildReport report;
-  std::optional<StageTimer> total(std::in_place, report, "total");
-  auto finish = [&] {
-    total.reset();
-    return report;
-  };
-
-  auto plan = make_plan(options, sink, report);  // stages 0-3
-  if (!plan) return finish();
+  auto plan = make_plan(options, build);  // stages 0-3
+  if (!plan) return finished(build, report);
   if (options.keep_plan) report.plan = make_listing(plan.get());  // lint observes the build's plan
-  record_dependencies(options, *plan, report);
-  if (!prepare_output_directory(options.output_dir, sink)) return finish();
+  report.funnel = plan->funnel;
+  report.strip_report = plan->strip;
+  report.dependencies = dependencies_of(options, *plan);
+  if (!prepare_output_directory(options.output_dir, sink)) return finished(build, report);
   auto settings = choose_settings(options, *plan, sink);
-  if (!settings) return finish();
-  const std::string inputs_hash = hash_inputs(*settings, *plan, options);
+  if (!settings) return finished(build, report);
+  const std::string inputs_hash = hash_inputs(*settings, *plan);
   report.manifest = manifest_path(options.output_dir, plan->pack.name);
-  if (is_up_to_date(options, *plan, inputs_hash, sink, report)) return finish();
+  if (options.emit.empty() && is_up_to_date(options.output_dir, *plan, inputs_hash)) {  // --emit wants the stages' outputs
+    report.up_to_date = report.ok = true;
+    if (options.depfile) write_depfile(*options.depfile, report.manifest, report.dependencies, sink);
+    return finished(build, report);
+  }
   std::unique_ptr<RemoteCache> remote = RemoteCache::open(options.remote, sink);
   // Settings that cannot be used, when the build needs the remote (--remote-required, --remote-upload), fail it now,
   // not after compiling the whole pack.
-  if (remote && !remote->usable() && (options.remote.required || options.remote.upload)) return finish();
+  if (remote && !remote->usable() && (options.remote.required || options.remote.upload)) return finished(build, report);
   std::optional<RemoteKey> pack_key;
   if (remote && remote->usable() && options.emit.empty()) {
-    pack_key = remote_pack_key(*remote, *settings, *plan, options);
-    if (fetched_from_remote(*remote, *pack_key, options, *plan, inputs_hash, sink, report)) return finish();
+    pack_key = remote_pack_key(*remote, *settings, *plan);
+    // The remote has the finished pack of these inputs (an unchanged checkout another machine built).
+    if (fetch_remote_pack(*remote, *pack_key, options.output_dir, *plan, inputs_hash, sink)) {
+      report_remote(*remote, sink, report);
+      report.ok = !sink.has_errors();
+      if (options.depfile) write_depfile(*options.depfile, report.manifest, report.dependencies, sink);
+      return finished(build, report);
+    }
   }
   if (remote && options.remote.required && !remote->usable()) {  // --remote-required: a remote error fails the build now
     report_remote(*remote, sink, report);
-    return finish();
+    return finished(build, report);
   }
   std::optional<Cache> cache;
   if (options.cache_dir) cache.emplace(*options.cache_dir, options.cache_max_mb << 20);
   Cache* memo_cache = cache && !options.emit.count("preprocessed") ? &*cache : nullptr;  // --emit wants the text
-  OnDemandWorkers workers(options);
-  Preprocessor preprocessor(*plan, *settings, workers, options);
+  const WorkerLimits limits{options.worker_timeout, options.worker_memory_limit_mb, options.frontend};
+  OnDemandWorkers workers(options.worker_executable, parallelism(options.jobs), limits);
+  Preprocessor preprocessor(*plan, *settings, workers, build, limits);
+  std::unique_ptr<ResultStore> store = make_result_store(*plan, *settings,
+      StoreTiers{cache ? &*cache : nullptr, memo_cache != nullptr, remote.get(), options.remote.required,
+                 options.remote.upload, parallelism(options.jobs)});
   const SourceLocator locator(*plan);
   MessageGroups messages;
 
-  std::unique_ptr<ResultStore> store = make_result_store(
-      *plan, *settings,
-      StoreTiers{cache ? &*cache : nullptr, memo_cache != nullptr, remote.get(), options.remote.required,
-                 options.remote.upload, parallelism(options)});
-
-  StageSources sources = enumerate_stage_sources(*plan, *settings, memo_cache, report);  // stage 4
-  std::vector<Binary> binaries;  // stages 4-6, streamed: preprocess, dedupe (in source order), compile
-  CompileResults compiled = compile_stage_sources(*plan, options, *settings, sources, binaries,
-                                                  CompileServices{workers, *store, preprocessor}, locator, messages,
-                                                  sink, report);
-  record_worker_timeline(workers, report);
-  report.funnel = funnel_of(*plan, sources, binaries, compiled);
-  store->keep(compiled, sources, binaries, messages.has_errors(), sink, report);
+  StageSources sources = enumerate_stage_sources(*plan, *settings, memo_cache);  // stage 4
+  report.preprocess_memo_hits = sources.memo_hits;
+  CompileResults compiled =  // stages 4-6, streamed: preprocess, dedupe (in source order), compile
+      compile_stage_sources(build, *plan, *settings, Shard{options.shard_index, options.shard_count}, sources,
+                            CompileServices{workers, *store, preprocessor}, locator, messages);
+  record_compile(compiled, workers, build, report);
+  report.funnel = funnel_of(*plan, sources, compiled);
+  report.cache_rejected = store->keep(build, compiled, sources, messages.has_errors());
+  if (remote) report_remote(*remote, sink, report);
   messages.report(sink);
   bool ok = !sink.has_errors();
   if (ok && options.shard_count > 1) {  // a shard's share is in the caches (and uploaded); the merge writes the pack
     report.ok = true;
-    return finish();
+    return finished(build, report);
   }
   if (ok) {
-    auto layouts = check_pass_layouts(*plan, locator, sources, binaries, sink, report);  // stage 7
+    auto layouts = check_pass_layouts(build, *plan, locator, sources, compiled.binaries);  // stage 7
     std::optional<WrittenVariantPack> written;
-    if (layouts)
-      written = write_variant_pack(*plan, options, *settings, sources, binaries, *layouts, inputs_hash, report.funnel, sink, report);
+    if (layouts)  // stage 8
+      written = write_variant_pack(build, *plan, *settings, sources, compiled.binaries, *layouts, inputs_hash,
+                                   report.funnel, options.output_dir);
     ok = written.has_value();
     if (ok) report.funnel.unique_binaries = written->unique_binaries;
     if (ok && remote && pack_key && options.remote.upload)  // after the pack's own entries: a reader finds them first
       remote->upload_pack(*pack_key, options.output_dir, plan->pack.name, written->archive_file);
   }
-  emit_dumps(*plan, sources, binaries, options, sink, report);  // failed builds too
+  emit_dumps(build, *plan, sources, compiled.binaries, options.emit, options.output_dir);  // failed builds too
   if (ok && options.depfile) write_depfile(*options.depfile, report.manifest, report.dependencies, sink);
   if (remote) report_remote(*remote, sink, report);
   report.ok = ok && !sink.has_errors();
-  return finish();
+  return finished(build, report);
 }
 
 }  // namespace kiln

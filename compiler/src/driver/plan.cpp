@@ -1,15 +1,18 @@
 // Stages 0-3: definitions, declarations, expansion, stripping.
 #include "driver/plan.hpp"
 
-#include "driver/stage_timer.hpp"
 
 namespace kiln {
 
-std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sink, BuildReport& report) {
+std::unique_ptr<Plan> make_plan(const BuildOptions& options, BuildContext& build) {
+  DiagnosticSink& sink = build.sink;
   auto plan = std::make_unique<Plan>();
+  plan->usage_margin = options.usage_margin;
+  plan->command_line_bindings = options.bindings;
+  plan->command_line_defines = options.defines;
   ReadLimits limits{options.max_file_bytes};
   {
-    StageTimer timer(report, "load");
+    StageTimer timer(build, "load");
     auto pack = load_pack_definition(options.pack_file, limits, sink);
     bool ok = pack.has_value();
     for (const auto& file : options.scene_files) {
@@ -44,7 +47,7 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sin
     if (!ok) return nullptr;
   }
   {
-    StageTimer timer(report, "declarations");
+    StageTimer timer(build, "declarations");
     std::vector<std::filesystem::path> roots = plan->pack.include_dirs;
     // The directory of every file a pass names (its source, each stage's own file) is an include root.
     for (const PassDefinition& pass : plan->pack.passes) {
@@ -84,7 +87,7 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sin
     if (!ok) return nullptr;
   }
   {
-    StageTimer timer(report, "expand+strip");
+    StageTimer timer(build, "expand+strip");
     if (!check_rule_keywords(plan->passes, plan->pack, plan->scenes, sink)) return nullptr;
     StripRules rules{&plan->pack.constraints, &plan->scenes, &plan->pack.materials};
     auto expansions = expand_and_strip(plan->passes, rules, plan->pack.budget, plan->pack, sink);
@@ -109,7 +112,7 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sin
         plan->strip.push_back({pass, "scenes (" + std::to_string(plan->scenes.size()) + ")",
                                e.strip.after_materials.text() + " -> " + e.kept.text(), "keywords no scene enables"});
       if (!plan->usage.empty() &&
-          !strip_by_usage(plan->passes[p], pass, e, plan->usage, options.usage_margin, plan->strip, sink))
+          !strip_by_usage(plan->passes[p], pass, e, plan->usage, plan->usage_margin, plan->strip, sink))
         return nullptr;
     }
     for (const PassExpansion& e : plan->expansions) {

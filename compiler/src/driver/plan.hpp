@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "declarations/declarations.hpp"
+#include "driver/build_context.hpp"
 #include "definition/definition.hpp"
 #include "kiln/build.hpp"
 #include "permutations/permutations.hpp"
@@ -24,6 +25,10 @@ struct Plan {
   std::vector<PassExpansion> expansions;       // per pass: the variants kept
   std::vector<StripLine> strip;
   std::vector<UsageLog> usage;  // --usage: the logs with the tags asked for
+  unsigned usage_margin = 0;    // --usage-margin
+  // The command line's bindings and defines (applied to every pass already; the inputs hash covers them too).
+  BindingOptions command_line_bindings;
+  std::vector<Define> command_line_defines;
   Funnel funnel;
 
   const std::string& entry_point(uint32_t pass, Stage stage) const {
@@ -31,7 +36,7 @@ struct Plan {
   }
 };
 
-// Nothing when an input is wrong (reported to `sink`). Stage times go to `report`.
-std::unique_ptr<Plan> make_plan(const BuildOptions& options, DiagnosticSink& sink, BuildReport& report);
+// Nothing when an input is wrong (reported).
+std::unique_ptr<Plan> make_plan(const BuildOptions& options, BuildContext& build);
 
 }  // namespace kiln

@@ -5,21 +5,20 @@
 
 namespace kiln {
 
-RemoteKey remote_pack_key(const RemoteCache& remote, const BuildSettings& settings, const Plan& plan,
-                          const BuildOptions& options) {
+RemoteKey remote_pack_key(const RemoteCache& remote, const BuildSettings& settings, const Plan& plan) {
   RemoteKeyHasher key;
   remote.start_key(key, "pack");
-  add_build_inputs(key, settings, plan, options);
+  add_build_inputs(key, settings, plan);
   return key.add(plan.pack.name).finish();
 }
 
-bool fetch_remote_pack(RemoteCache& remote, const RemoteKey& key, const BuildOptions& options, const Plan& plan,
-                       const std::string& inputs_hash, DiagnosticSink& sink) {
-  std::optional<std::string> archive_file = remote.fetch_pack(key, options.output_dir, plan.pack.name);
+bool fetch_remote_pack(RemoteCache& remote, const RemoteKey& key, const std::filesystem::path& output_dir,
+                       const Plan& plan, const std::string& inputs_hash, DiagnosticSink& sink) {
+  std::optional<std::string> archive_file = remote.fetch_pack(key, output_dir, plan.pack.name);
   if (!archive_file) return false;
-  remove_orphaned_archives(options.output_dir, plan.pack.name, *archive_file);
-  if (Result<void> stamped = write_stamp(options.output_dir, plan.pack.name, *archive_file, inputs_hash); !stamped)
-    sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, stamped.error().message);
+  remove_orphaned_archives(output_dir, plan.pack.name, *archive_file);
+  if (Result<void> stamped = write_stamp(output_dir, plan.pack.name, *archive_file, inputs_hash); !stamped)
+    sink.report(DiagId::OutputUnwritable, SourceLocation{output_dir.string(), 0, 0}, stamped.error().message);
   return true;
 }
 
@@ -37,11 +36,6 @@ RemoteKey remote_module_key(const RemoteCache& remote, const BuildSettings& sett
   return settings.add_compile_options(key, pass, stage)
       .add(std::string_view(reinterpret_cast<const char*>(spirv.data()), spirv.size() * 4))
       .finish();
-}
-
-void report_remote(RemoteCache& remote, DiagnosticSink& sink, BuildReport& report) {
-  remote.report_problems(sink);
-  report.remote = remote.report();
 }
 
 }  // namespace kiln

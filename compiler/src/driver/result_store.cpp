@@ -5,7 +5,7 @@
 #include "common/parallel.hpp"
 #include "driver/compile.hpp"
 #include "driver/remote.hpp"
-#include "driver/stage_timer.hpp"
+#include "driver/build_context.hpp"
 
 namespace kiln {
 namespace {
@@ -91,27 +91,26 @@ class TieredStore final : public ResultStore {
     return answered;
   }
 
-  void keep(const CompileResults& results, const StageSources& sources, const std::vector<Binary>& binaries,
-            bool user_errors, DiagnosticSink& sink, BuildReport& report) override {
-    if (tiers_.cache) keep_locally(results, sources, binaries, user_errors, sink, report);
-    if (!tiers_.remote) return;
-    if (tiers_.upload && !user_errors) upload(results, binaries, report);
-    report_remote(*tiers_.remote, sink, report);
+  size_t keep(BuildContext& build, const CompileResults& results, const StageSources& sources, bool user_errors) override {
+    const size_t rejected = tiers_.cache ? keep_locally(build, results, sources, user_errors) : 0;
+    if (tiers_.remote && tiers_.upload && !user_errors) upload(build, results);
+    if (tiers_.remote) tiers_.remote->report_problems(build.sink);
+    return rejected;
   }
 
  private:
   // Entries are encoded on every core (the workers are done by now), then written as one segment file.
-  void keep_locally(const CompileResults& results, const StageSources& sources, const std::vector<Binary>& binaries,
-                    bool user_errors, DiagnosticSink& sink, BuildReport& report) {
+  size_t keep_locally(BuildContext& build, const CompileResults& results, const StageSources& sources, bool user_errors) {
     Cache& cache = *tiers_.cache;
-    report.cache_rejected += cache.rejected_loads() + cache.unreadable_segments();
-    if (report.cache_rejected)
-      sink.report(DiagId::CacheEntryRejected, SourceLocation{cache.directory().string(), 0, 0},
-                  std::to_string(report.cache_rejected) + " cache entr" + (report.cache_rejected == 1 ? "y was" : "ies were") +
-                      " corrupt, truncated or foreign: compiled again and rewritten",
-                  {"nothing of them reached the outputs; if this repeats, check the disk or what else writes to the cache"});
-    if (user_errors) return;
-    StageTimer timer(report, "cache store");
+    const std::vector<Binary>& binaries = results.binaries;
+    const size_t rejected = cache.rejected_loads() + cache.unreadable_segments();
+    if (rejected)
+      build.sink.report(DiagId::CacheEntryRejected, SourceLocation{cache.directory().string(), 0, 0},
+                        std::to_string(rejected) + " cache entr" + (rejected == 1 ? "y was" : "ies were") +
+                            " corrupt, truncated or foreign: compiled again and rewritten",
+                        {"nothing of them reached the outputs; if this repeats, check the disk or what else writes to the cache"});
+    if (user_errors) return rejected;
+    StageTimer timer(build, "cache store");
     parallel_for(results.modules.size(), tiers_.threads, [&](size_t m) {
       if (results.modules[m].fresh) cache.store(results.modules[m].key, *results.modules[m].output);
     });
@@ -133,14 +132,16 @@ class TieredStore final : public ResultStore {
         cache.store_memo(s.memo, memo);
       });
     if (Result<void> committed = cache.commit(); !committed)
-      sink.report(DiagId::CacheUnwritable, SourceLocation{cache.directory().string(), 0, 0}, committed.error().message,
-                  {"the outputs are unaffected; the next build compiles these variants again"});
+      build.sink.report(DiagId::CacheUnwritable, SourceLocation{cache.directory().string(), 0, 0}, committed.error().message,
+                        {"the outputs are unaffected; the next build compiles these variants again"});
+    return rejected;
   }
 
   // What this build's front ends produced: each module's result (blobs first), then the alias of each source the
   // remote was asked for.
-  void upload(const CompileResults& results, const std::vector<Binary>& binaries, BuildReport& report) {
-    StageTimer timer(report, "remote upload");
+  void upload(BuildContext& build, const CompileResults& results) {
+    StageTimer timer(build, "remote upload");
+    const std::vector<Binary>& binaries = results.binaries;
     std::vector<RemoteCache::ModuleUpload> uploads;
     std::map<Hash128, size_t> upload_of;
     for (const CompiledModule& m : results.modules) {

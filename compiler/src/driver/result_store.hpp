@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "cache/cache.hpp"
+#include "driver/build_context.hpp"
 #include "driver/plan.hpp"
 #include "driver/settings.hpp"
 #include "driver/stage_sources.hpp"
@@ -54,9 +55,10 @@ class ResultStore {
 
   // Keeps this build's results (each module's back end, each source's alias to it, the preprocessing memos), unless
   // the input had errors: a build with errors in the user's input keeps nothing. Internal compiler errors are not
-  // the input's fault: the other variants' results are kept, so the next build only retries those.
-  virtual void keep(const CompileResults& results, const StageSources& sources, const std::vector<Binary>& binaries,
-                    bool user_errors, DiagnosticSink& sink, BuildReport& report) = 0;
+  // the input's fault: the other variants' results are kept, so the next build only retries those. Returns how many
+  // entries the build found damaged in its tiers (corrupt, truncated, foreign: compiled again and rewritten).
+  virtual size_t keep(BuildContext& build, const CompileResults& results, const StageSources& sources,
+                      bool user_errors) = 0;
 };
 
 // The store of a build: the local cache (when there is one) and, under it, the remote (when there is one).

@@ -34,9 +34,9 @@ std::optional<BuildSettings> choose_settings(const BuildOptions& options, const 
   return settings;
 }
 
-std::string hash_inputs(const BuildSettings& settings, const Plan& plan, const BuildOptions& options) {
+std::string hash_inputs(const BuildSettings& settings, const Plan& plan) {
   Hasher inputs;
-  add_build_inputs(inputs, settings, plan, options);
+  add_build_inputs(inputs, settings, plan);
   return inputs.finish().hex();
 }
 

@@ -68,18 +68,18 @@ struct BuildSettings {
 // What the inputs hash covers: the tools, options, pack format (a pack another format version wrote is rebuilt),
 // the command line's bindings and defines, and every file read (its path from the pack's directory and its bytes). Also the remote's pack-level key.
 template <typename KeyHasher>
-void add_build_inputs(KeyHasher& hasher, const BuildSettings& settings, const Plan& plan, const BuildOptions& options) {
+void add_build_inputs(KeyHasher& hasher, const BuildSettings& settings, const Plan& plan) {
   hasher.add(uint64_t{kPackFormatVersion});
   hasher.add(settings.fingerprint).add(settings.optimize ? 1 : 0).add(optimizer_recipe_name(settings.optimizer_recipe))
       .add(settings.target_names).add(plan.pack.text);
   if (settings.debug_info) hasher.add("debug info");
   for (const SceneProfile& scene : plan.scenes) hasher.add(scene.text);
   for (const UsageLog& log : plan.usage) hasher.add("usage log").add(log.text);
-  if (!plan.usage.empty()) hasher.add("usage margin").add(uint64_t{options.usage_margin});
+  if (!plan.usage.empty()) hasher.add("usage margin").add(uint64_t{plan.usage_margin});
   // The pack's own bindings and defines are in its text; the command line's are added when given (a build
   // without them keeps the inputs hash, and so the manifest, it always had).
-  if (!options.bindings.canonical().empty()) hasher.add("bindings").add(options.bindings.canonical());
-  for (const Define& define : options.defines) hasher.add("define").add(define.name).add(define.value);
+  if (!plan.command_line_bindings.canonical().empty()) hasher.add("bindings").add(plan.command_line_bindings.canonical());
+  for (const Define& define : plan.command_line_defines) hasher.add("define").add(define.name).add(define.value);
   // Each file by its path from the pack's directory, in that order: the same sources checked out elsewhere (another
   // CI runner's work tree, a developer's home) have the same inputs, so the same manifest and pack-level key.
   const std::filesystem::path base = std::filesystem::weakly_canonical(plan.pack.file).parent_path();
@@ -95,6 +95,6 @@ std::optional<BuildSettings> choose_settings(const BuildOptions& options, const 
 
 // The inputs hash: the tools, options, pack format (a pack another format version wrote is rebuilt) and the
 // bytes of every file read.
-std::string hash_inputs(const BuildSettings& settings, const Plan& plan, const BuildOptions& options);
+std::string hash_inputs(const BuildSettings& settings, const Plan& plan);
 
 }  // namespace kiln

@@ -4,7 +4,7 @@
 #include <tuple>
 
 #include "common/files.hpp"
-#include "driver/stage_timer.hpp"
+#include "driver/build_context.hpp"
 
 namespace kiln {
 namespace {
@@ -48,7 +48,7 @@ StageSources enumerate(const Plan& plan) {
 // comes from the memo, and its text is made only if the cache does not have its result. The memo key covers
 // the versions, options, stage, entry point, defines, working directory (names in #line) and the list of every
 // file the scan found (a new file could change what an #include finds).
-void use_memos(StageSources& sources, const Plan& plan, const BuildSettings& settings, Cache& cache, BuildReport& report) {
+void use_memos(StageSources& sources, const Plan& plan, const BuildSettings& settings, Cache& cache) {
   Hasher listing;
   std::error_code cwd_error;
   listing.add(std::filesystem::current_path(cwd_error).string());
@@ -74,7 +74,7 @@ void use_memos(StageSources& sources, const Plan& plan, const BuildSettings& set
     if (!known) continue;
     s.ok = true;
     s.key = known->source_key;
-    ++report.preprocess_memo_hits;
+    ++sources.memo_hits;
   }
 }
 
@@ -91,8 +91,10 @@ std::string keywords_slug(const std::vector<std::string>& keywords) {
   return out;
 }
 
-Preprocessor::Preprocessor(const Plan& plan, const BuildSettings& settings, JobRunner& runner, const BuildOptions& options)
-    : plan_(plan), settings_(settings), runner_(runner), options_(options), pass_files_(plan.passes.size()) {}
+Preprocessor::Preprocessor(const Plan& plan, const BuildSettings& settings, JobRunner& runner, const BuildContext& build,
+                           WorkerLimits limits)
+    : plan_(plan), settings_(settings), runner_(runner), build_(build), limits_(std::move(limits)),
+      pass_files_(plan.passes.size()) {}
 
 std::shared_ptr<const std::vector<IncludableFile>> Preprocessor::files_of(uint32_t pass, Stage stage) {
   auto& cached = pass_files_[pass][static_cast<size_t>(stage)];
@@ -142,12 +144,12 @@ void Preprocessor::finished(StageSource& s, WorkerOutcome outcome) const {
     if (s.ok) s.key = source_key(plan_, settings_, s);
   } else if (outcome.kind == WorkerOutcome::Kind::OutOfMemory) {
     s.messages = {{Severity::Error, entry_name, 0,
-                   "preprocessing needed more than the compiler worker's " + std::to_string(options_.worker_memory_limit_mb) +
+                   "preprocessing needed more than the compiler worker's " + std::to_string(limits_.memory_limit_mb) +
                        " MiB (a macro that expands exponentially?)"}};
   } else if (outcome.kind == WorkerOutcome::Kind::TimedOut) {
     s.messages = {{Severity::Error, entry_name, 0,
                    "preprocessing took longer than the compiler worker's " +
-                       std::to_string(options_.worker_timeout.count() / 1000) + " s (a macro that expands exponentially?)"}};
+                       std::to_string(limits_.job_timeout.count() / 1000) + " s (a macro that expands exponentially?)"}};
   } else {
     s.internal_error = outcome.detail;  // the preprocessor crashed: a bug in it, not in the shader
     write_reproducer(s);
@@ -167,7 +169,7 @@ void Preprocessor::write_reproducer(StageSource& s) const {
     // As the front end's preamble writes it: a keyword is defined as 1.
     preamble += "#define " + define.substr(0, equals) + (equals == std::string::npos ? " 1" : " " + define.substr(equals + 1)) + "\n";
   }
-  const std::filesystem::path dir = options_.output_dir / "kiln-ice";
+  const std::filesystem::path& dir = build_.reproducers;
   const std::filesystem::path repro =
       dir / (plan_.pack.passes[s.pass].name + "." + std::string(stage_name(s.stage)) + "." + keywords_slug(s.defines) +
              ".preprocess.hlsl");
@@ -194,18 +196,18 @@ void Preprocessor::run(StageSources& sources, const std::vector<size_t>& which) 
   });
 }
 
-StageSources enumerate_stage_sources(const Plan& plan, const BuildSettings& settings, Cache* memo_cache, BuildReport& report) {
+StageSources enumerate_stage_sources(const Plan& plan, const BuildSettings& settings, Cache* memo_cache) {
   const auto started = std::chrono::steady_clock::now();
   StageSources sources = enumerate(plan);
   sources.enumerated_from = started;
-  if (memo_cache) use_memos(sources, plan, settings, *memo_cache, report);
+  if (memo_cache) use_memos(sources, plan, settings, *memo_cache);
   return sources;
 }
 
-StageSources prepare_stage_sources(const Plan& plan, const BuildSettings& settings, Cache* memo_cache,
-                                   Preprocessor& preprocessor, BuildReport& report) {
-  StageTimer timer(report, "preprocess");
-  StageSources sources = enumerate_stage_sources(plan, settings, memo_cache, report);
+StageSources prepare_stage_sources(BuildContext& build, const Plan& plan, const BuildSettings& settings,
+                                   Cache* memo_cache, Preprocessor& preprocessor) {
+  StageTimer timer(build, "preprocess");
+  StageSources sources = enumerate_stage_sources(plan, settings, memo_cache);
   std::vector<size_t> pending;
   for (size_t i = 0; i < sources.list.size(); ++i)
     if (!sources.list[i].key) pending.push_back(i);
@@ -214,10 +216,9 @@ StageSources prepare_stage_sources(const Plan& plan, const BuildSettings& settin
 }
 
 void report_preprocess_failure(const StageSource& s, size_t order, const Plan& plan, const SourceLocator& locator,
-                               MessageGroups& messages, DiagnosticSink& sink, BuildReport& report) {
+                               MessageGroups& messages, DiagnosticSink& sink) {
   const std::string entry_name = display_path(plan.declarations[s.pass].stage_entry[static_cast<size_t>(s.stage)]);
   if (!s.internal_error.empty()) {
-    report.internal_errors = true;
     std::vector<std::string> notes = s.internal_notes;
     notes.push_back("this is a bug in the compiler, not in your shader");
     sink.report(DiagId::InternalCompilerError, SourceLocation{entry_name, 0, 0},
@@ -236,15 +237,15 @@ void report_preprocess_failure(const StageSource& s, size_t order, const Plan& p
                      order);
 }
 
-std::vector<Binary> dedupe_stage_sources(StageSources& sources, const Plan& plan, const SourceLocator& locator,
-                                         MessageGroups& messages, DiagnosticSink& sink, BuildReport& report) {
-  StageTimer timer(report, "dedupe");
+std::vector<Binary> dedupe_stage_sources(BuildContext& build, StageSources& sources, const Plan& plan,
+                                         const SourceLocator& locator, MessageGroups& messages) {
+  StageTimer timer(build, "dedupe");
   std::vector<Binary> binaries;
   std::map<Hash128, size_t> by_key;
   for (size_t i = 0; i < sources.list.size(); ++i) {
     StageSource& s = sources.list[i];
     if (!s.ok) {
-      report_preprocess_failure(s, i, plan, locator, messages, sink, report);
+      report_preprocess_failure(s, i, plan, locator, messages, build.sink);
       continue;
     }
     const Hash128 key = *s.key;

@@ -20,6 +20,7 @@
 #include "driver/plan.hpp"
 #include "driver/settings.hpp"
 #include "workers/job_runner.hpp"
+#include "workers/worker_pool.hpp"
 
 namespace kiln {
 
@@ -47,6 +48,7 @@ struct StageSources {
   std::map<std::string, uint64_t> file_hashes;  // display name -> XXH3 of the text, for preprocessing memos
   std::chrono::steady_clock::time_point enumerated_from;  // when the preprocess stage started (its timing)
   uint64_t stage_instances = 0;  // variants x the stages of their pass (the funnel's), before dedupe
+  size_t memo_hits = 0;          // sources not preprocessed: what they read is unchanged since their memo
 };
 
 // One distinct preprocessed source (with its stage and entry point): one front end, one compile.
@@ -67,7 +69,9 @@ std::string keywords_slug(const std::vector<std::string>& keywords);
 // Runs Preprocess jobs: each pass's files travel with its jobs (the worker never reads the file system).
 class Preprocessor {
  public:
-  Preprocessor(const Plan& plan, const BuildSettings& settings, JobRunner& runner, const BuildOptions& options);
+  // `limits`: the workers' (messages name them); a worker's death leaves its reproducer in `build.reproducers`.
+  Preprocessor(const Plan& plan, const BuildSettings& settings, JobRunner& runner, const BuildContext& build,
+               WorkerLimits limits);
   // Preprocesses `which` (indexes into sources.list); sets text, messages, files read and key of each.
   void run(StageSources& sources, const std::vector<size_t>& which);
   // The same, one job at a time, for a caller that runs the jobs itself: source `index`'s Preprocess job, and
@@ -85,28 +89,29 @@ class Preprocessor {
   const Plan& plan_;
   const BuildSettings& settings_;
   JobRunner& runner_;
-  const BuildOptions& options_;
+  const BuildContext& build_;
+  WorkerLimits limits_;
   std::vector<std::array<std::shared_ptr<const std::vector<IncludableFile>>, kStageCount>> pass_files_;
 };
 
 // Enumerates the stage sources of every variant and takes what the cache's memos know (a source with a key
 // and no text). `cache`: nothing, or the cache whose memos to use (not with --emit preprocessed: its text is
 // wanted).
-StageSources enumerate_stage_sources(const Plan& plan, const BuildSettings& settings, Cache* memo_cache, BuildReport& report);
+StageSources enumerate_stage_sources(const Plan& plan, const BuildSettings& settings, Cache* memo_cache);
 
 // enumerate_stage_sources, then preprocesses every source the memos do not know, all before returning (for
 // tools and tests that want the texts; a build streams them into its compiles instead).
-StageSources prepare_stage_sources(const Plan& plan, const BuildSettings& settings, Cache* memo_cache,
-                                   Preprocessor& preprocessor, BuildReport& report);
+StageSources prepare_stage_sources(BuildContext& build, const Plan& plan, const BuildSettings& settings,
+                                   Cache* memo_cache, Preprocessor& preprocessor);
 
 // Reports why a stage source did not preprocess: its first error only (after one, glslang's preprocessor stops,
 // and what it reports next, like "missing #endif" after an #error, cascades from it); a crash is an internal
 // compiler error.
 void report_preprocess_failure(const StageSource& source, size_t order, const Plan& plan, const SourceLocator& locator,
-                               MessageGroups& messages, DiagnosticSink& sink, BuildReport& report);
+                               MessageGroups& messages, DiagnosticSink& sink);
 
 // Deduplicates the preprocessed sources by key into binaries; reports those that did not preprocess.
-std::vector<Binary> dedupe_stage_sources(StageSources& sources, const Plan& plan, const SourceLocator& locator,
-                                         MessageGroups& messages, DiagnosticSink& sink, BuildReport& report);
+std::vector<Binary> dedupe_stage_sources(BuildContext& build, StageSources& sources, const Plan& plan,
+                                         const SourceLocator& locator, MessageGroups& messages);
 
 }  // namespace kiln

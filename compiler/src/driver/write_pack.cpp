@@ -3,7 +3,7 @@
 
 #include "cross/targets.hpp"
 #include "driver/outputs.hpp"
-#include "driver/stage_timer.hpp"
+#include "driver/build_context.hpp"
 #include "kiln/pack_format.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "pack/pack_writer.hpp"
@@ -16,18 +16,6 @@ ManifestKeywordGroup keyword_group_record(const KeywordGroup& group, StageMask p
   return {group.pragma, group.values, static_cast<StageMask>(group.stages & pass_stages)};
 }
 
-// Recorded in the manifest so that tools (check-scene) can reason about a built pack on its own.
-std::vector<ManifestConstraint> constraint_records(const PackDefinition& pack) {
-  std::vector<ManifestConstraint> out;
-  for (const Constraint& c : pack.constraints) out.push_back({c.keyword, c.requires_all, c.requires_any, c.excludes, c.reason});
-  return out;
-}
-
-std::vector<ManifestMaterial> material_records(const PackDefinition& pack) {
-  std::vector<ManifestMaterial> out;
-  for (const MaterialPreset& m : pack.materials) out.push_back({m.name, m.keywords});
-  return out;
-}
 
 // The binding options and defines a pass was built with, when not the defaults (docs/bindings.md): empty fields
 // are left out of the file, which keeps the manifests of packs that use neither as they were.
@@ -42,10 +30,10 @@ void add_pass_settings(ManifestPass& record, const PassDefinition& pass) {
   for (const Define& define : pass.defines) record.defines[define.name] = define.value;
 }
 
-ManifestOptions option_records(const BuildOptions& options, const BuildSettings& settings) {
+ManifestOptions option_records(const BuildSettings& settings) {
   ManifestOptions out;
-  out.optimize = options.optimize;
-  out.optimizer_recipe = optimizer_recipe_name(options.optimizer_recipe);
+  out.optimize = settings.optimize;
+  out.optimizer_recipe = optimizer_recipe_name(settings.optimizer_recipe);
   out.targets = settings.targets;
   out.spirv_env = kTargetEnvironment.spirv_env;
   for (const TargetBackend& backend : target_backends()) backend.record_options(out);
@@ -54,12 +42,12 @@ ManifestOptions option_records(const BuildOptions& options, const BuildSettings&
 
 }  // namespace
 
-std::optional<WrittenVariantPack> write_variant_pack(const Plan& plan, const BuildOptions& options,
-                                                    const BuildSettings& settings, const StageSources& sources,
-                                                    const std::vector<Binary>& binaries, const std::vector<PassLayout>& layouts,
-                                                    const std::string& inputs_hash, const Funnel& funnel, DiagnosticSink& sink,
-                                                    BuildReport& report) {
-  StageTimer timer(report, "pack");
+std::optional<WrittenVariantPack> write_variant_pack(BuildContext& build, const Plan& plan, const BuildSettings& settings,
+                                                    const StageSources& sources, const std::vector<Binary>& binaries,
+                                                    const std::vector<PassLayout>& layouts, const std::string& inputs_hash,
+                                                    const Funnel& funnel, const std::filesystem::path& output_dir) {
+  StageTimer timer(build, "pack");
+  DiagnosticSink& sink = build.sink;
   ArchiveBuilder archive;
   Manifest manifest;
   std::map<size_t, uint32_t> binary_order;       // compile index -> manifest binary index
@@ -122,21 +110,23 @@ std::optional<WrittenVariantPack> write_variant_pack(const Plan& plan, const Bui
   manifest.name = plan.pack.name;
   manifest.kiln_version = kKilnVersion;
   manifest.tools = {settings.frontend->name() + " " + settings.frontend->version(), spirv_tools_version(), spirv_cross_version()};
-  manifest.options = option_records(options, settings);
+  manifest.options = option_records(settings);
   manifest.inputs_hash = inputs_hash;
   manifest.funnel = f;  // the manifest's part of the build's funnel
-  manifest.constraints = constraint_records(plan.pack);
-  manifest.materials = material_records(plan.pack);
+  // Recorded so that tools (check-scene) can reason about a built pack on its own: each as the definition has it,
+  // less where it is defined.
+  manifest.constraints.assign(plan.pack.constraints.begin(), plan.pack.constraints.end());
+  manifest.materials.assign(plan.pack.materials.begin(), plan.pack.materials.end());
   if (!plan.pack.scene_features_json.empty()) manifest.scene_features_json = plan.pack.scene_features_json;
-  Result<std::string> archive_file = write_pack(options.output_dir, plan.pack.name, archive, std::move(manifest));
+  Result<std::string> archive_file = write_pack(output_dir, plan.pack.name, archive, std::move(manifest));
   if (!archive_file) {
-    sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, archive_file.error().message);
+    sink.report(DiagId::OutputUnwritable, SourceLocation{output_dir.string(), 0, 0}, archive_file.error().message);
     return std::nullopt;
   }
   // Last: the stamp that lets the next build with the same inputs skip everything. Without it the next build
   // only works again; the pack is whole.
-  if (Result<void> stamped = write_stamp(options.output_dir, plan.pack.name, *archive_file, inputs_hash); !stamped) {
-    sink.report(DiagId::OutputUnwritable, SourceLocation{options.output_dir.string(), 0, 0}, stamped.error().message);
+  if (Result<void> stamped = write_stamp(output_dir, plan.pack.name, *archive_file, inputs_hash); !stamped) {
+    sink.report(DiagId::OutputUnwritable, SourceLocation{output_dir.string(), 0, 0}, stamped.error().message);
     return std::nullopt;
   }
   return WrittenVariantPack{*archive_file, f.unique_binaries};

@@ -20,11 +20,11 @@ struct WrittenVariantPack {
   uint64_t unique_binaries = 0;  // distinct optimized SPIR-V: what the pack stores (the funnel's last count)
 };
 // `funnel` is the build's so far; the manifest records it with the pack's unique binaries.
-[[nodiscard]] std::optional<WrittenVariantPack> write_variant_pack(const Plan& plan, const BuildOptions& options,
+[[nodiscard]] std::optional<WrittenVariantPack> write_variant_pack(BuildContext& build, const Plan& plan,
                                                                    const BuildSettings& settings, const StageSources& sources,
                                                                    const std::vector<Binary>& binaries,
                                                                    const std::vector<PassLayout>& layouts,
                                                                    const std::string& inputs_hash, const Funnel& funnel,
-                                                                   DiagnosticSink& sink, BuildReport& report);
+                                                                   const std::filesystem::path& output_dir);
 
 }  // namespace kiln

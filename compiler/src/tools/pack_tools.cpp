@@ -53,15 +53,8 @@ std::optional<SceneCheck> check_scene(const PackReader& pack, const std::filesys
   const Manifest& manifest = pack.manifest();
   PackDefinition definition;
   definition.name = pack.name();
-  for (const ManifestConstraint& c : manifest.constraints) {
-    Constraint constraint;
-    constraint.keyword = c.keyword;
-    constraint.requires_all = c.requires_all;
-    constraint.requires_any = c.requires_any;
-    constraint.excludes = c.excludes;
-    definition.constraints.push_back(std::move(constraint));
-  }
-  for (const ManifestMaterial& m : manifest.materials) definition.materials.push_back(MaterialPreset{m.name, m.keywords, {}});
+  for (const ManifestConstraint& c : manifest.constraints) definition.constraints.push_back(Constraint{c, {}});
+  for (const ManifestMaterial& m : manifest.materials) definition.materials.push_back(MaterialPreset{m, {}});
   for (const ManifestPass& pass : manifest.passes) definition.passes.push_back(PassDefinition{pass.name, {}, {}, {}});
   const std::string& features = manifest.scene_features_json;
   if (!resolve_scene_profile(*scene, features, definition.materials, sink)) return std::nullopt;
