@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -53,6 +54,19 @@ Vec3 cube_direction(int face, double s, double t) {
     case 4: return normalize({sc, -tc, 1});
     default: return normalize({-sc, -tc, -1});
   }
+}
+
+// Box projection, as a ray tracer finds it: the ray P + t R leaves the box where it crosses the first of the three
+// slabs' far planes (per axis, the plane R points towards); the cubemap, captured at the probe, is sampled towards
+// that exit point. A shading point outside the box (t < 0) looks from where it is.
+Vec3 box_projected(const render::ReflectionProbe& probe, const Vec3& P, const Vec3& R) {
+  const Vec3 lo = from(probe.box_min), hi = from(probe.box_max);
+  double exit = std::numeric_limits<double>::infinity();
+  for (auto [p, r, low, high] : {std::array{P.x, R.x, lo.x, hi.x}, std::array{P.y, R.y, lo.y, hi.y}, std::array{P.z, R.z, lo.z, hi.z}}) {
+    if (r == 0) continue;  // parallel to this slab: never leaves through it
+    exit = std::min(exit, ((r > 0 ? high : low) - p) / r);
+  }
+  return P + R * std::max(exit, 0.0) - from(probe.position);
 }
 
 // Trilinear cube sampling with seamless filtering (Vulkan always filters across cube faces): a bilinear tap
@@ -527,6 +541,7 @@ render::Image shade_image(const ReferenceInputs& in, const std::vector<std::stri
         prefiltered = {scene.glossy_environment_color[0], scene.glossy_environment_color[1], scene.glossy_environment_color[2]};
       } else {
         Vec3 R = s.N * (2 * dot(s.N, s.V)) - s.V;
+        if (scene.probe.box_projection) R = box_projected(scene.probe, P, R);
         prefiltered = sample_cube(*in.environment, R, saturate(authored_roughness) * (in.environment->mips - 1));
       }
       for (int c = 0; c < 3; ++c) {

@@ -201,7 +201,10 @@ const SceneData::Frame& SceneData::frame(int cascades) {
     w.floats("_AmbientSH", {environment_.sh[i][0], environment_.sh[i][1], environment_.sh[i][2], 0}, i);
   w.floats("_EnvironmentParams", {double(environment_.mips - 1), sc.exposure, sc.environment_intensity, 0});
   w.floats("_GlossyEnvironmentColor", {sc.glossy_environment_color[0], sc.glossy_environment_color[1], sc.glossy_environment_color[2], 0});
-  w.floats("_ProbePositionWS", {0, 0, 0, 0});  // no box projection in the test scenes
+  const ReflectionProbe& probe = sc.probe;
+  w.floats("_ProbePositionWS", {probe.position[0], probe.position[1], probe.position[2], probe.box_projection ? 1.0 : 0.0});
+  w.floats("_ProbeBoxMin", {probe.box_min[0], probe.box_min[1], probe.box_min[2], 0});
+  w.floats("_ProbeBoxMax", {probe.box_max[0], probe.box_max[1], probe.box_max[2], 0});
   w.uints("_LightCounts", {uint32_t(sc.lights.size()), sc.tile_size, f.setup.tiles_x, 0});
   w.floats("_CameraForwardWS", {f.setup.camera_forward[0], f.setup.camera_forward[1], f.setup.camera_forward[2], 0});
   f.per_frame = w.take();

@@ -296,6 +296,19 @@ Scene load_scene(const std::filesystem::path& path) {
   scene.dfg = path.parent_path() / env["dfg"].get<std::string>();
   scene.environment_intensity = read_number(env, "intensity", scene.environment_intensity, path, 0, 1e9);
   if (env.contains("glossy_color")) scene.glossy_environment_color = read_vec3(env["glossy_color"], path, "glossy_color");
+  if (r.contains("reflection_probe")) {
+    const auto& probe = r["reflection_probe"];
+    if (!probe.is_object() || !probe.contains("position") || !probe.contains("box_min") || !probe.contains("box_max"))
+      fail(path, "'reflection_probe' needs 'position', 'box_min' and 'box_max'");
+    scene.probe.box_projection = true;
+    scene.probe.position = read_vec3(probe["position"], path, "reflection_probe.position");
+    scene.probe.box_min = read_vec3(probe["box_min"], path, "reflection_probe.box_min");
+    scene.probe.box_max = read_vec3(probe["box_max"], path, "reflection_probe.box_max");
+    for (int a = 0; a < 3; ++a)
+      if (!(scene.probe.box_min[a] < scene.probe.box_max[a]) || scene.probe.position[a] < scene.probe.box_min[a] ||
+          scene.probe.position[a] > scene.probe.box_max[a])
+        fail(path, "'reflection_probe': 'box_min' must be below 'box_max' on every axis, with 'position' inside the box");
+  }
   for (const auto& o : r.value("objects", nlohmann::json::array())) {
     if (o.contains("sphere_grid")) {
       // Rows of spheres; columns sweep the roughness list.

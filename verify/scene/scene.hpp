@@ -67,6 +67,16 @@ struct ShadowDesc {
   double max_distance = 20;          // main light: shadows end here (cascade splits divide it)
 };
 
+// A reflection probe with box projection (Unity's): the environment cubemap is taken as captured at `position`
+// inside the box, so a reflection ray is followed to where it leaves the box and the cubemap is sampled towards that
+// point from the probe, which makes reflections of a room shift with the viewer as they do in it.
+struct ReflectionProbe {
+  bool box_projection = false;  // off: the cubemap is at infinity (sampled along the ray)
+  Vec3 position{0, 0, 0};
+  Vec3 box_min{-1, -1, -1};
+  Vec3 box_max{1, 1, 1};
+};
+
 struct Scene {
   std::string name;
   std::filesystem::path path;
@@ -96,6 +106,7 @@ struct Scene {
   std::filesystem::path dfg;               // KDFG table (shaderlib/data/dfg64.kdfg)
   double environment_intensity = 1;
   Vec3 glossy_environment_color{0.3, 0.3, 0.35};
+  ReflectionProbe probe;
   std::vector<Object> objects;
   // The Forward variants the scene is made to judge (sorted keyword names as variant_name() writes them, "(none)"
   // for no keywords); empty: every variant. kiln test and kiln-reference goldens skip the others.
