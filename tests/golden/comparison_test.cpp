@@ -6,11 +6,14 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <string>
 #include <functional>
 #include <numeric>
 
 #include "golden/golden.hpp"
 #include "scene/scene.hpp"
+#include "scene/verify_error.hpp"
 
 namespace kiln::render {
 namespace {
@@ -147,6 +150,50 @@ TEST(Scene, TheAdversarialSceneHasTransformedObjectsAndNamesTheVariantsItJudges)
   EXPECT_TRUE(load_scene(std::filesystem::path(KILN_SOURCE_DIR) / "variants/scenes/render/spheres.json").judges("_LINEAR_OUTPUT"));
 }
 
+
+// What no golden pixel ran before (issue 40): a reflection probe with box projection, its box holding the camera,
+// and the ground in front of the camera inside the first shadow cascade's sphere.
+TEST(Scene, TheAdversarialSceneHasABoxProjectedProbeAndTheFirstCascadeInView) {
+  const std::filesystem::path file = std::filesystem::path(KILN_SOURCE_DIR) / "variants/scenes/render/audit.json";
+  Scene scene = load_scene(file);
+  ASSERT_TRUE(scene.probe.box_projection);
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_LT(scene.probe.box_min[a], scene.camera_position[a]);
+    EXPECT_GT(scene.probe.box_max[a], scene.camera_position[a]);
+  }
+  // The ray through the bottom edge of the view, where it meets the ground (y = 0).
+  FrameSetup frame = setup_frame(scene, 4);
+  const Vec3 f = frame.camera_forward;
+  Vec3 right{-f[2], 0, f[0]};  // forward x up(0, 1, 0)
+  const double r = std::sqrt(right[0] * right[0] + right[2] * right[2]);
+  right = {right[0] / r, 0, right[2] / r};
+  const Vec3 up{right[1] * f[2] - right[2] * f[1], right[2] * f[0] - right[0] * f[2], right[0] * f[1] - right[1] * f[0]};
+  const double down = std::tan(scene.vertical_fov_degrees * 3.14159265358979 / 360);
+  const Vec3 d{f[0] - up[0] * down, f[1] - up[1] * down, f[2] - up[2] * down};
+  ASSERT_LT(d[1], 0);
+  const double t = -scene.camera_position[1] / d[1];
+  const auto& sphere = frame.cascade_spheres[0];
+  double distance2 = 0;
+  for (int a = 0; a < 3; ++a) distance2 += std::pow(scene.camera_position[a] + d[a] * t - sphere[a], 2);
+  EXPECT_LT(distance2, sphere[3]) << "the nearest visible ground is outside cascade 0";
+
+  // A probe outside its box is the scene's error, named.
+  std::ifstream in(file);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string box_max = "\"box_max\": [3.5, 3.5, 5.5]";
+  ASSERT_NE(text.find(box_max), std::string::npos);
+  text.replace(text.find(box_max), box_max.size(), "\"box_max\": [3.5, 3.5, 0.25]");
+  const std::filesystem::path bad = std::filesystem::temp_directory_path() / "kiln-scene-probe-outside-its-box.json";
+  std::ofstream(bad) << text;
+  try {
+    load_scene(bad);
+    ADD_FAILURE() << "a probe outside its box was accepted";
+  } catch (const VerifyError& e) {
+    EXPECT_EQ(e.diagnostic().id, DiagId::RenderScene);
+    EXPECT_NE(std::string(e.what()).find("'position' inside the box"), std::string::npos) << e.what();
+  }
+  std::filesystem::remove(bad);
+}
 
 // kiln test --cover: every combination of `strength` values some row holds is held by a chosen row.
 bool covers(const std::vector<std::vector<uint32_t>>& rows, const std::vector<size_t>& chosen, unsigned strength) {
