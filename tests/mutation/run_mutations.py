@@ -5,9 +5,12 @@ the golden comparison.
 For each mutation: copy shaderlib/ and variants/ to a scratch directory, replace one snippet that must occur
 exactly once in one file, build the few variants its scene profile keeps (`kiln build --scene`), render them with
 `kiln test` and compare them with the CPU reference's images of the unmodified library (golden.setup.<scene>'s),
-under the suite's tolerance file. A mutant is killed when `kiln test` fails at least one variant; it survives
-when every variant passes. A mutation whose snippet is missing, that does not compile, or whose variants have no
-reference image is an error of the gate, never a kill.
+under the suite's tolerance file, on every API (Vulkan on lavapipe, GLSL 450 and GLSL ES on llvmpipe) but those
+its "not_on" names with the reason the API cannot show it. On one API a mutant is killed when `kiln test` fails at
+least one variant, and killed with margin when a failing variant is at least MARGIN times over one of its limits.
+The mutant is killed when it is killed with margin on every API it runs on; it survives otherwise. A mutation whose
+snippet is missing, that does not compile, or whose variants have no reference image is an error of the gate,
+never a kill.
 
   run_mutations.py --kiln KILN --source SOURCE_DIR --work DIR --goldens GOLDEN_WORK/goldens
                    [--shard I/N] [--only NAME] [--json FILE] [--mutations FILE]
@@ -25,6 +28,20 @@ import time
 
 FAIL_LINE = re.compile(r"^FAIL +#\d+ (.*?): (.*)$")
 OVER = re.compile(r"; over the limit: (.*)$")
+# The measures of a comparison and their limits, as kiln test prints them.
+MEASURES = re.compile(r"pixels over 2/255 ([\d.]+)% of \d+ shaded \(limit ([\d.]+)%\), worst (\d+)/255 \(limit (\d+)\), "
+                      r"relative RMSE ([\d.e+-]+) \(limit ([\d.e+-]+)\)")
+APIS = ["vulkan", "gl", "gles"]
+MARGIN = 1.5
+
+
+def margin(comparison):
+    """How far a failed comparison is over its limits: the largest measure / limit."""
+    m = MEASURES.search(comparison)
+    if not m:
+        return 0.0
+    v = [float(x) for x in m.groups()]
+    return max(v[i] / v[i + 1] for i in (0, 2, 4) if v[i + 1] > 0)
 
 
 def apply(mutation, shaderlib):
@@ -58,7 +75,7 @@ def run_one(mutation, args, log):
         raise RuntimeError(f"the mutant does not compile (a mutation must still compile):\n{build.stdout}{build.stderr}")
     scene = mutation.get("scene", "spheres")
     results = {}
-    for api in mutation.get("apis", ["vulkan"]):
+    for api in [a for a in APIS if a not in mutation.get("not_on", {})]:
         test = subprocess.run([args.kiln, "test", pack, "--api", api,
                                "--scene", os.path.join(args.source, "variants/scenes/render", scene + ".json"),
                                "--golden", os.path.join(args.goldens, scene),
@@ -75,11 +92,13 @@ def run_one(mutation, args, log):
             over = OVER.search(m.group(2))
             for measure in (over.group(1).split(", ") if over else ["?"]):
                 measures[measure] = measures.get(measure, 0) + 1
+        worst = max(failed, key=lambda m: margin(m.group(2)), default=None)
         results[api] = {"variants": passed + len(failed), "failed": len(failed), "measures": measures,
-                        "first_failure": failed[0].group(1) + ": " + failed[0].group(2) if failed else None}
-    killed = any(r["failed"] > 0 for r in results.values())
+                        "margin": round(margin(worst.group(2)), 2) if worst else 0.0,
+                        "first_failure": worst.group(1) + ": " + worst.group(2) if worst else None}
+    killed = bool(results) and all(r["failed"] > 0 and r["margin"] >= MARGIN for r in results.values())
     return {"name": name, "file": mutation["file"], "why": mutation["why"], "scene": scene, "killed": killed,
-            "apis": results}
+            "apis": results, "not_on": mutation.get("not_on", {})}
 
 
 def main():
@@ -115,7 +134,7 @@ def main():
             outcome["seconds"] = round(time.monotonic() - start, 1)
             outcomes.append(outcome)
             summary = "; ".join(
-                f"{api}: {r['failed']}/{r['variants']} variants failed"
+                f"{api}: {r['failed']}/{r['variants']} variants failed, {r['margin']}x a limit"
                 + (" (" + ", ".join(f"{k} {v}" for k, v in sorted(r["measures"].items())) + ")" if r["measures"] else "")
                 for api, r in outcome["apis"].items())
             print(f"{'KILLED  ' if outcome['killed'] else 'SURVIVED'} {mutation['name']} [{outcome['scene']}]: {summary}")
