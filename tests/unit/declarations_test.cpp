@@ -6,8 +6,13 @@
 namespace kiln {
 namespace {
 
+// The group, or nothing; a malformed pragma's error goes to `sink` and sets `malformed`, as the scan reports it.
 std::optional<KeywordGroup> parse(const std::string& body, DiagnosticSink& sink, bool& malformed) {
-  return parse_keyword_pragma(body, SourceLocation{"f.hlsl", 3, 1}, 8, sink, malformed);
+  auto parsed = parse_keyword_pragma(body, SourceLocation{"f.hlsl", 3, 1}, 8);
+  if (parsed) return *parsed;
+  malformed = true;
+  sink.report(parsed.error());
+  return std::nullopt;
 }
 
 TEST(Declarations, MultiCompileUnderscoreMeansNone) {

@@ -190,10 +190,13 @@ struct Scanner {
         if (open_conditionals.empty()) error(DiagId::PreprocessorError, at, "#" + std::string(name) + " without #if");
         else if (name == "endif") open_conditionals.pop_back();
       } else if (name == "pragma") {
-        bool malformed = false;
-        auto group = parse_keyword_pragma(directive->rest, at, directive->rest_column, sink, malformed);
-        if (malformed) ok = false;
-        if (group) add_group(std::move(*group));
+        auto parsed = parse_keyword_pragma(directive->rest, at, directive->rest_column);
+        if (!parsed) {
+          sink.report(std::move(parsed).error());
+          ok = false;
+        } else if (*parsed) {
+          add_group(std::move(**parsed));
+        }
       } else if (directive->name == "include") {
         include(*directive, at, file);
       }
@@ -246,29 +249,28 @@ struct Scanner {
 
 }  // namespace
 
-std::optional<KeywordGroup> parse_keyword_pragma(std::string_view body, const SourceLocation& at, int body_column,
-                                                 DiagnosticSink& sink, bool& malformed) {
+Result<std::optional<KeywordGroup>, Diagnostic> parse_keyword_pragma(std::string_view body, const SourceLocation& at,
+                                                                    int body_column) {
+  using Parsed = Result<std::optional<KeywordGroup>, Diagnostic>;
   std::vector<Word> words = split_words(body, body_column);
-  if (words.empty()) return std::nullopt;
+  if (words.empty()) return Parsed(std::nullopt);
   std::string_view pragma = words[0].text;
   KeywordGroup group;
   group.pragma = std::string(pragma);
   group.declared_at = at;
-  auto fail = [&](DiagId id, int column, std::string message) {
-    malformed = true;
-    sink.report(id, SourceLocation{at.path, at.line, column}, std::move(message));
-    return std::nullopt;
+  auto fail = [&](DiagId id, int column, std::string message) -> Parsed {
+    return failure(Diagnostic{id, diagnostic_info(id).severity, SourceLocation{at.path, at.line, column}, std::move(message), {}});
   };
   // What each spelling means: common/keyword_pragmas.hpp.
   const std::optional<KeywordPragma> kind = classify_keyword_pragma(pragma);
-  if (!kind) return std::nullopt;  // some other pragma (vertex, target, ...): not ours
+  if (!kind) return Parsed(std::nullopt);  // some other pragma (vertex, target, ...): not ours
   group.material_feature = kind->kind->material_feature;
   group.local = kind->local;
   group.stages = kind->stages;
   if (!kind->kind->implied_values.empty()) {
     if (words.size() > 1) return fail(DiagId::PragmaSyntax, words[1].column, group.pragma + " takes no keywords");
     group.values.assign(kind->kind->implied_values.begin(), kind->kind->implied_values.end());
-    return group;
+    return Parsed(std::move(group));
   }
   if (!kind->known_suffix) {
     return fail(DiagId::PragmaSyntax, words[0].column,
@@ -290,7 +292,7 @@ std::optional<KeywordGroup> parse_keyword_pragma(std::string_view body, const So
   // Unity's rule: a lone shader_feature keyword may be off; a lone multi_compile keyword is always on.
   if (group.material_feature && group.values.size() == 1 && !group.values[0].empty())
     group.values.insert(group.values.begin(), "");
-  return group;
+  return Parsed(std::move(group));
 }
 
 std::optional<PassDeclarations> scan_declarations(const std::filesystem::path& entry, const IncludeRoots& roots,

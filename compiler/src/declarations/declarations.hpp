@@ -10,6 +10,7 @@
 
 #include "common/files.hpp"
 #include "kiln/model.hpp"
+#include "kiln/result.hpp"
 #include "common/include_resolver.hpp"
 
 namespace kiln {
@@ -52,10 +53,10 @@ inline constexpr int kMaxIncludeDepth = 64;
 std::optional<PassDeclarations> scan_declarations(const std::filesystem::path& entry, const IncludeRoots& roots,
                                                   const ReadLimits& limits, SourceSet& sources, DiagnosticSink& sink);
 
-// Parses one `#pragma` line body (text after "pragma"); nothing if it is not a keyword pragma.
-// Exposed for tests.
-std::optional<KeywordGroup> parse_keyword_pragma(std::string_view body, const SourceLocation& at, int body_column,
-                                                 DiagnosticSink& sink, bool& malformed);
+// Parses one `#pragma` line body (text after "pragma"): its keyword group, nothing when it is some other pragma, or
+// the error of a malformed keyword pragma (for the caller to report, or not: lint leaves it to kiln build).
+Result<std::optional<KeywordGroup>, Diagnostic> parse_keyword_pragma(std::string_view body, const SourceLocation& at,
+                                                                    int body_column);
 
 // is_identifier (a keyword must be a preprocessor identifier) is in kiln/model.hpp: defines use it too.
 

@@ -167,11 +167,11 @@ LintReport lint_files(const std::vector<std::filesystem::path>& files, const std
     for (size_t i = 0; i < lines.size(); ++i) {
       std::smatch m;
       if (!std::regex_match(lines[i], m, pragma_re)) continue;
-      DiagnosticSink ignored;  // a malformed pragma is kiln build's error, not a lint finding
-      bool malformed = false;
       const int column = static_cast<int>(m.length(1)) + 1;
-      if (auto group = parse_keyword_pragma(m.str(2), SourceLocation{name, static_cast<int>(i + 1), column}, column, ignored, malformed))
-        for (const std::string& value : group->values)
+      // A malformed pragma is kiln build's error, not a lint finding.
+      if (auto parsed = parse_keyword_pragma(m.str(2), SourceLocation{name, static_cast<int>(i + 1), column}, column);
+          parsed && *parsed)
+        for (const std::string& value : (*parsed)->values)
           if (!value.empty()) context.declared.push_back(value);
     }
   }

@@ -285,32 +285,33 @@ bool RemoteCache::answered(const HttpResult& result, const std::string& what) {
   return false;
 }
 
-RemoteCache::Found RemoteCache::get_record(HttpClient& client, const RemoteKey& key, uint32_t kind, std::string& payload) {
-  if (switched_off_) return Found::Failed;
+Result<std::optional<std::string>> RemoteCache::get_record(HttpClient& client, const RemoteKey& key, uint32_t kind) {
+  if (switched_off_) return failure("the remote cache is switched off");
   HttpResult result = client.get(url("ac", key), kMaxRecordBytes);
-  if (!answered(result, "download")) return Found::Failed;
+  if (!answered(result, "download")) return failure("the download failed: " + result.detail);
   if (result.status == 404) {
     success();
-    return Found::No;
+    return std::optional<std::string>();
   }
   if (result.status != 200) {
-    problem(DiagId::RemoteServerError, "the remote cache answered a download with HTTP " + std::to_string(result.status));
-    return Found::Failed;
+    const std::string message = "the remote cache answered a download with HTTP " + std::to_string(result.status);
+    problem(DiagId::RemoteServerError, message);
+    return failure(message);
   }
   success();
   Result<std::string_view> checked = check_record(result.body, key, kind);
   if (!checked) {
-    problem(DiagId::RemoteEntryRejected, "a remote cache entry failed verification: " + checked.error().message,
-            "at ac/" + key.hex());
-    return Found::Failed;
+    const std::string message = "a remote cache entry failed verification: " + checked.error().message;
+    problem(DiagId::RemoteEntryRejected, message, "at ac/" + key.hex());
+    return failure(message);
   }
-  payload.assign(*checked);
-  return Found::Yes;
+  return std::optional<std::string>(std::string(*checked));
 }
 
 std::optional<RemoteFetched> RemoteCache::fetch_one(HttpClient& client, const RemoteKey& key) {
-  std::string alias;
-  if (get_record(client, key, kAlias, alias) != Found::Yes) return std::nullopt;
+  Result<std::optional<std::string>> alias_record = get_record(client, key, kAlias);
+  if (!alias_record || !*alias_record) return std::nullopt;
+  const std::string& alias = **alias_record;
   RemoteFetched fetched;
   auto rejected = [&](const std::string& why, const std::string& where) -> std::optional<RemoteFetched> {
     problem(DiagId::RemoteEntryRejected, "a remote cache entry failed verification: " + why, "at " + where);
@@ -339,16 +340,14 @@ std::optional<RemoteFetched> RemoteCache::fetch_one(HttpClient& client, const Re
     return rejected("alias record does not decode", "ac/" + key.hex());
   }
 
-  std::string result;
-  switch (get_record(client, module, kResult, result)) {
-    case Found::Yes: break;
-    case Found::No: {  // evicted, or an upload cut short: a plain miss (an uploading build puts the entry back)
-      std::lock_guard lock(mutex_);
-      ++report_.incomplete;
-      return std::nullopt;
-    }
-    case Found::Failed: return std::nullopt;
+  Result<std::optional<std::string>> result_record = get_record(client, module, kResult);
+  if (!result_record) return std::nullopt;
+  if (!*result_record) {  // evicted, or an upload cut short: a plain miss (an uploading build puts the entry back)
+    std::lock_guard lock(mutex_);
+    ++report_.incomplete;
+    return std::nullopt;
   }
+  const std::string& result = **result_record;
   if (result.size() < 4 || get32(result, 0) > kMaxBlobsPerResult) return rejected("result record malformed", "ac/" + module.hex());
   const uint32_t count = get32(result, 0);
   constexpr size_t kBlobEntry = 4 + 32 + 8;
@@ -607,15 +606,15 @@ std::optional<std::string> RemoteCache::fetch_pack(const RemoteKey& key, const s
                                                    const std::string& pack_name) {
   if (switched_off_) return std::nullopt;
   std::unique_ptr<HttpClient> client = take_client();
-  std::string record;
-  const Found found = get_record(*client, key, kPack, record);
+  Result<std::optional<std::string>> pack_record = get_record(*client, key, kPack);
   auto rejected = [&](const std::string& why) -> std::optional<std::string> {
     problem(DiagId::RemoteEntryRejected, "a remote cache entry failed verification: " + why, "at ac/" + key.hex());
     return std::nullopt;
   };
   std::optional<std::string> manifest, archive;
   std::string archive_file;
-  if (found == Found::Yes) {
+  if (pack_record && *pack_record) {
+    const std::string& record = **pack_record;
     // Payload: archive file name (length, bytes), then manifest and archive each as SHA-256 and size.
     if (record.size() < 4 || record.size() != 4 + uint64_t{get32(record, 0)} + 2 * 40) return rejected("pack record malformed");
     archive_file = record.substr(4, get32(record, 0));

@@ -125,8 +125,9 @@ class RemoteCache {
   void problem(DiagId id, const std::string& message, const std::string& note = {});
   void success();
   std::optional<RemoteFetched> fetch_one(HttpClient& client, const RemoteKey& key);
-  enum class Found { Yes, No, Failed };
-  Found get_record(HttpClient& client, const RemoteKey& key, uint32_t kind, std::string& payload);
+  // A record's checked payload; nothing when the server has no such record (404); an error (counted and recorded as a
+  // problem already) when the request failed or the record failed its checks.
+  Result<std::optional<std::string>> get_record(HttpClient& client, const RemoteKey& key, uint32_t kind);
   bool upload_module(HttpClient& client, const ModuleUpload& module);
   bool put(HttpClient& client, const std::string& target, std::string_view body);
   bool make_collection(HttpClient& client, const std::string& collection, int levels);
