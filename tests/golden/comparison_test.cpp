@@ -192,6 +192,17 @@ TEST(Scene, TheAdversarialSceneHasABoxProjectedProbeAndTheFirstCascadeInView) {
     EXPECT_EQ(e.diagnostic().id, DiagId::RenderScene);
     EXPECT_NE(std::string(e.what()).find("'position' inside the box"), std::string::npos) << e.what();
   }
+  // A box too large to be a number is refused before the probe is read: the scene's JSON parse stops at 1e999.
+  const std::string outside = "\"box_max\": [3.5, 3.5, 0.25]";
+  text.replace(text.find(outside), outside.size(), "\"box_max\": [3.5, 3.5, 1e999]");
+  std::ofstream(bad) << text;
+  try {
+    load_scene(bad);
+    ADD_FAILURE() << "an infinite box was accepted";
+  } catch (const VerifyError& e) {
+    EXPECT_EQ(e.diagnostic().id, DiagId::RenderScene);
+    EXPECT_NE(std::string(e.what()).find("number overflow"), std::string::npos) << e.what();
+  }
   std::filesystem::remove(bad);
 }
 
