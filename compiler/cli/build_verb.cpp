@@ -78,6 +78,12 @@ class BuildVerb final : public Verb {
     verb->add_option("--worker-timeout", timeout_s_, "Seconds one compile job may take before it is an internal error (default: " +
                                                        seconds_text(kiln::defaults::kWorkerTimeout) + ")");
     verb->add_flag("-q,--quiet", quiet_, "Print only diagnostics");
+    verb->add_flag("-g", options_.debug_info,
+                   "Debug information in every SPIR-V module (source, lines, names, as kiln compile -g writes them); "
+                   "implies no optimization");
+    verb->add_flag("--coverage", options_.coverage,
+                   "Instrument every SPIR-V module for shader code coverage (docs/coverage.md): each block records into a "
+                   "storage buffer that it ran, and keeps its HLSL lines; implies debug information and no optimization");
     // Usage-driven stripping (docs/usage.md).
     verb->add_option("--usage", usage_logs_, "Keep only the variants these usage logs asked for (repeatable; docs/usage.md)");
     verb->add_option("--usage-tag", usage_tags_, "Only the usage logs tagged KEY=VALUE (repeatable: every tag)");
@@ -118,6 +124,7 @@ class BuildVerb final : public Verb {
     kiln::RemoteCacheOptions& remote = options_.remote;
     options_.output_dir = output_;
     options_.optimizer_recipe = *kiln::parse_optimizer_recipe(recipe_name_);
+    if (options_.debug_info) options_.optimize = false;  // as kiln compile -g: the source's code, not the optimizer's
     // The remote's URL, token and CA file may come from the environment (KILN_REMOTE_TOKEN is never printed).
     auto environment = [](const char* name) { const char* value = std::getenv(name); return value ? std::string(value) : std::string(); };
     if (remote.url.empty()) remote.url = environment("KILN_REMOTE");

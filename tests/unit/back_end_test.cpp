@@ -3,8 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <set>
 
+#include "coverage/instrument.hpp"
 #include "cross/targets.hpp"
+#include "kiln/coverage_map.hpp"
 #include "cross/widen_float16.hpp"
 #include "kiln/build.hpp"
 #include "frontend/frontend.hpp"
@@ -15,9 +18,9 @@ namespace kiln {
 namespace {
 
 // The front end's module (not legal yet).
-std::vector<uint32_t> front_end(const std::string& source, Stage stage, const std::string& entry) {
+std::vector<uint32_t> front_end(const std::string& source, Stage stage, const std::string& entry, bool debug_info = false) {
   std::unique_ptr<Frontend> frontend = make_glslang_frontend();
-  CompileResult compiled = frontend->compile({stage, entry, "test.hlsl", source, BindingOptions{}});
+  CompileResult compiled = frontend->compile({stage, entry, "test.hlsl", source, BindingOptions{}, debug_info});
   EXPECT_TRUE(compiled.ok) << source << (compiled.messages.empty() ? "" : compiled.messages.front().text);
   return compiled.spirv;
 }
@@ -75,6 +78,110 @@ TEST(Optimize, NamesTheStepThatFailed) {
   ASSERT_FALSE(invalid);
   EXPECT_EQ(invalid.error().step, CompileStep::Validate);
   EXPECT_FALSE(invalid.error().messages.empty());
+}
+
+// ---- coverage -------------------------------------------------------------------------------------------------
+
+// Line numbers matter below: the branch bodies are on lines 5 and 7, the code after the branch on line 9.
+const char* kBranchy = R"(cbuffer C : register(b0) { float4 tint; float cut; };
+float4 F(float4 position : SV_Position) : SV_Target {
+  float4 c = tint;
+  if (position.x > cut) {
+    c = c * 2.0;
+  } else {
+    c = c.yzwx;
+  }
+  return c + 0.5;
+}
+)";
+
+// A -g module as kiln build --coverage has it before instrumenting: legalized, not optimized.
+std::vector<uint32_t> debug_module(const char* source, Stage stage, const std::string& entry) {
+  SpirvResult legal = legalize_validate_optimize(front_end(source, stage, entry, /*debug_info=*/true), false);
+  EXPECT_TRUE(legal) << (legal ? "" : legal.error().messages.front());
+  return legal ? legal->spirv : std::vector<uint32_t>();
+}
+
+std::string_view bytes_of(const std::vector<uint32_t>& words) {
+  return {reinterpret_cast<const char*>(words.data()), words.size() * 4};
+}
+
+TEST(Coverage, EveryBlockWithLinesGetsAWordThatMapsBackToItsHlslLines) {
+  const std::vector<uint32_t> plain = debug_module(kBranchy, Stage::Fragment, "F");
+  Result<InstrumentedModule> instrumented = instrument_coverage(plain);
+  ASSERT_TRUE(instrumented) << instrumented.error().message;
+  EXPECT_TRUE(validate_spirv(instrumented->spirv));
+  Result<std::optional<CoverageMap>> map = read_coverage_map(bytes_of(instrumented->spirv));
+  ASSERT_TRUE(map) << map.error().message;
+  ASSERT_TRUE(*map);
+  ASSERT_EQ((*map)->probes.size(), instrumented->probes);
+  ASSERT_EQ((*map)->files, std::vector<std::string>{"test.hlsl"});
+  // The two branches and what follows them are blocks of their own: each line in one probe, the fragment
+  // stage's slot of distinct words.
+  auto probe_of = [&](uint32_t line) {
+    std::vector<size_t> found;
+    for (size_t p = 0; p < (*map)->probes.size(); ++p)
+      for (const auto& [file, l] : (*map)->probes[p].lines)
+        if (l == line) found.push_back(p);
+    return found;
+  };
+  ASSERT_EQ(probe_of(5).size(), 1u);
+  ASSERT_EQ(probe_of(7).size(), 1u);
+  ASSERT_EQ(probe_of(9).size(), 1u);
+  EXPECT_NE(probe_of(5), probe_of(7));
+  EXPECT_NE(probe_of(5), probe_of(9));
+  std::set<uint32_t> words;
+  for (const CoverageProbe& probe : (*map)->probes) {
+    EXPECT_EQ(probe.word % kCoverageStageSlots, 4u);  // spv::ExecutionModelFragment
+    words.insert(probe.word);
+  }
+  EXPECT_EQ(words.size(), (*map)->probes.size());
+
+  // The buffer is a storage buffer of the module's layout, bound by its name like any other resource.
+  Reflection reflection = reflect_spirv(instrumented->spirv);
+  auto buffer = std::find_if(reflection.resources.begin(), reflection.resources.end(),
+                             [](const Resource& r) { return r.name == kCoverageBufferName; });
+  ASSERT_NE(buffer, reflection.resources.end());
+  EXPECT_EQ(buffer->kind, ResourceKind::StorageBuffer);
+  EXPECT_EQ(buffer->set, kCoverageSet);
+  EXPECT_EQ(buffer->binding, kCoverageBinding);
+
+  // A module without the buffer has no map; a vertex stage writes its own slot.
+  EXPECT_FALSE(*read_coverage_map(bytes_of(plain)));
+  Result<InstrumentedModule> vertex = instrument_coverage(debug_module(
+      "float4 V(float4 p : POSITION) : SV_Position {\n  return p * 2.0;\n}\n", Stage::Vertex, "V"));
+  ASSERT_TRUE(vertex);
+  Result<std::optional<CoverageMap>> vertex_map = read_coverage_map(bytes_of(vertex->spirv));
+  ASSERT_TRUE(vertex_map && *vertex_map && !(*vertex_map)->probes.empty());
+  for (const CoverageProbe& probe : (*vertex_map)->probes) EXPECT_EQ(probe.word % kCoverageStageSlots, 0u);
+}
+
+TEST(Coverage, RefusesAModuleThatBindsTheBuffersPlaceAndReadsHostileMapsAsErrors) {
+  Result<InstrumentedModule> taken = instrument_coverage(debug_module(R"(
+[[vk::binding(63, 0)]] RWStructuredBuffer<uint> mine;
+float4 F() : SV_Target { mine[0] = 1; return 0; }
+)", Stage::Fragment, "F"));
+  ASSERT_FALSE(taken);
+  EXPECT_NE(taken.error().message.find("is taken by 'mine'"), std::string::npos) << taken.error().message;
+
+  Result<InstrumentedModule> instrumented = instrument_coverage(debug_module(kBranchy, Stage::Fragment, "F"));
+  ASSERT_TRUE(instrumented);
+  std::vector<uint32_t> words = instrumented->spirv;
+  EXPECT_FALSE(instrument_coverage(words)) << "instrumented twice";
+  EXPECT_FALSE(read_coverage_map(bytes_of(words).substr(0, words.size() * 4 - 2)));  // not whole words
+  std::vector<uint32_t> overlong = words;
+  overlong[5] |= 0xffffu << 16;  // the first instruction claims more words than the module has
+  EXPECT_FALSE(read_coverage_map(bytes_of(overlong)));
+  // A probe word past the buffer: every OpConstant the stores index with, made huge.
+  Result<std::optional<CoverageMap>> map = read_coverage_map(bytes_of(words));
+  ASSERT_TRUE(map && *map);
+  constexpr uint32_t kOpConstant = 43;
+  for (size_t i = 5; i < words.size(); i += words[i] >> 16)
+    if ((words[i] & 0xffff) == kOpConstant && (words[i] >> 16) == 4 && words[i + 3] == (*map)->probes.front().word)
+      words[i + 3] = kCoverageBufferWords;
+  Result<std::optional<CoverageMap>> past = read_coverage_map(bytes_of(words));
+  ASSERT_FALSE(past);
+  EXPECT_NE(past.error().message.find("past the buffer"), std::string::npos) << past.error().message;
 }
 
 // ---- reflect --------------------------------------------------------------------------------------------------

@@ -358,6 +358,13 @@ GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream
   const Api api = parse_api(options.api);
   if (!options.usage_log.empty()) pack.record_usage({options.usage_log, {{"scene", scene.name}, {"api", options.api}}});
   auto renderer = Backend::open(api, pack, scene, index.value("width", 0u), index.value("height", 0u));
+  std::unique_ptr<CoverageRecorder> coverage;
+  if (!options.coverage.empty()) {
+    coverage = std::make_unique<CoverageRecorder>(pack, options.pack_dir);
+    renderer->record_coverage(coverage.get());
+  } else if (!options.coverage_json.empty()) {
+    fail(DiagId::VerifyArgument, {}, "--coverage-json needs --coverage");
+  }
   out << "kiln test: pack " << pack.name() << ", scene " << scene.name << ", " << renderer->width() << "x"
       << renderer->height() << ", " << renderer->device() << "\n";
   std::unique_ptr<Backend> other;
@@ -386,6 +393,7 @@ GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream
     }
     if (!golden->is_string()) fail(DiagId::GoldenData, index_path, "the image of '" + name + "' is not a file name");
     Image rendered;
+    if (coverage) coverage->set_witness(scene.name + " #" + std::to_string(i) + " " + name);
     if (!render_or_report(*renderer, variant, "NOT RUN  #" + std::to_string(i) + " " + name + ": ", out, summary, rendered))
       continue;
     Image reference = read_kimg(options.golden_dir / golden->get<std::string>());
@@ -421,6 +429,11 @@ GoldenTestSummary run_golden_test(const GoldenTestOptions& options, std::ostream
     const PackResult<size_t> sets = pack.flush_usage();
     if (!sets) fail(DiagId::OutputUnwritable, options.usage_log, std::string(sets.message()));
     out << "kiln test: usage log " << options.usage_log.string() << ": " << *sets << " keyword sets\n";
+  }
+  if (coverage) {
+    coverage->write_lcov(options.coverage, scene.name);
+    if (!options.coverage_json.empty()) coverage->write_json(options.coverage_json, scene.name);
+    out << "kiln test: " << coverage->summary() << "; lcov tracefile " << options.coverage.string() << "\n";
   }
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   out << "kiln test: " << renderer->pipelines_created() << " " << (api == Api::Vulkan ? "pipelines" : "programs")

@@ -96,6 +96,9 @@ struct GoldenTestOptions {
   // When set: the run records its selections in this usage log (docs/usage.md) as a game would, tagged with the
   // scene and the API: each Forward variant it judges, selected by its keywords, and the ShadowCaster variants.
   std::filesystem::path usage_log;
+  // When set (a --coverage pack): the HLSL lines the run's draws executed, as an lcov tracefile here (test name: the
+  // scene), and as JSON with the first scene and variant that lit each line at `coverage_json` when that is set too.
+  std::filesystem::path coverage, coverage_json;
 };
 
 struct GoldenTestSummary {

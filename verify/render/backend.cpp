@@ -39,6 +39,7 @@ class ContextBackend final : public Backend {
   uint32_t height() const override { return renderer_.height(); }
   size_t pipelines_created() const override { return renderer_.pipelines_created(); }
   size_t pipelines_reused() const override { return renderer_.pipelines_reused(); }
+  void record_coverage(CoverageRecorder* recorder) override { renderer_.record_coverage(recorder); }
 
  private:
   std::unique_ptr<Context> context_;

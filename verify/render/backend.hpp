@@ -6,6 +6,7 @@
 #include <memory>
 #include <string>
 
+#include "coverage/coverage_recorder.hpp"
 #include "kiln/pack_reader.hpp"
 #include "scene/image.hpp"
 #include "scene/scene.hpp"
@@ -31,6 +32,8 @@ class Backend {
   // Pipelines (Vulkan) or programs (GL) compiled for images, and renders that reused one instead.
   virtual size_t pipelines_created() const = 0;
   virtual size_t pipelines_reused() const = 0;
+  // Each later draw's shader code coverage (a --coverage pack's) goes to `recorder` (nullptr: nowhere).
+  virtual void record_coverage(CoverageRecorder* recorder) = 0;
 };
 
 }  // namespace kiln::render

@@ -29,7 +29,7 @@ enum class GlApi { DesktopGl45, Gles32 };
   X(CheckFramebufferStatus) X(DrawBuffers) X(ReadBuffer) X(ReadPixels) X(PixelStorei)                      \
   X(GenVertexArrays) X(DeleteVertexArrays) X(BindVertexArray) X(VertexAttribPointer)                        \
   X(EnableVertexAttribArray) X(Viewport) X(Scissor) X(DepthFunc) X(DepthMask) X(FrontFace)                  \
-  X(ClearBufferfv) X(DrawElements)
+  X(ClearBufferfv) X(DrawElements) X(MapBufferRange) X(UnmapBuffer) X(MemoryBarrier)
 
 struct GlFunctions {
 #define KILN_GL_MEMBER(name) decltype(&::gl##name) name = nullptr;

@@ -114,6 +114,9 @@ struct GlSceneRenderer::State {
   GLuint linear_sampler = 0, compare_sampler = 0;
   std::vector<GLuint> per_material, per_object;
   GLuint lights = 0, tiles = 0, shadow_matrices = 0;
+  // A --coverage pack's coverage buffer (kiln/coverage_map.hpp), and who reads it after each draw.
+  GLuint coverage = 0;
+  CoverageRecorder* recorder = nullptr;
   struct Frame {
     const SceneData::Frame* data = nullptr;
     GLuint per_frame = 0;
@@ -209,6 +212,7 @@ struct GlSceneRenderer::State {
     if (name == "_AdditionalLights") return lights;
     if (name == "_TileLightIndices") return tiles;
     if (name == "_AdditionalShadowMatrices") return shadow_matrices;
+    if (name == kCoverageBufferName && coverage) return coverage;
     render_error("the program binds '" + name + "', which the renderer does not provide");
   }
 
@@ -264,6 +268,21 @@ struct GlSceneRenderer::State {
     return program;
   }
 
+  // After a draw with `variant`'s program: the words its stages set in the coverage buffer, to the recorder, which
+  // clears them. The GLSL is the instrumented SPIR-V's translation: the same words, so the SPIR-V's maps.
+  void credit_coverage(const SelectedVariant& variant, std::string_view role = {}) {
+    if (!recorder || !coverage) return;
+    gl.MemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    gl.BindBuffer(GL_SHADER_STORAGE_BUFFER, coverage);
+    void* words = gl.MapBufferRange(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr{kCoverageBufferWords} * 4, GL_MAP_READ_BIT | GL_MAP_WRITE_BIT);
+    if (!words) render_error(DiagId::DriverCallFailed, "the GL driver cannot map the coverage buffer");
+    std::vector<std::string_view> modules;
+    for (const StageView& stage : variant.stages) modules.push_back(stage.spirv);
+    recorder->credit(modules, static_cast<uint32_t*>(words), kCoverageBufferWords, role);
+    gl.UnmapBuffer(GL_SHADER_STORAGE_BUFFER);
+    context.check("reading the coverage buffer");
+  }
+
   // Draws the ShadowCaster pass's GL output into a depth atlas, one viewport per shadow view.
   void render_atlas(GLuint atlas, GLsizei size_x, GLsizei size_y, const std::vector<ShadowView>& views, bool punctual,
                     const Frame& frame) {
@@ -289,6 +308,7 @@ struct GlSceneRenderer::State {
         GLuint constants = buffer(data.caster_constants(view));
         draw_objects(program, variant, bindings, frame, "ShadowCaster", constants);
       }
+      credit_coverage(variant, "(shadow caster)");
       gl.Disable(GL_SCISSOR_TEST);
       gl.DeleteProgram(program);
     }
@@ -367,6 +387,12 @@ GlSceneRenderer::GlSceneRenderer(GlContext& context, const PackReader& pack, con
     const Bytes& bytes = s.data.buffer(name, 0, base);
     *slot = s.buffer(GL_SHADER_STORAGE_BUFFER, bytes.data(), bytes.size());
   }
+  for (const ManifestPass& pass : pack.manifest().passes)
+    for (const Resource& r : pass.layout.resources)
+      if (r.name == kCoverageBufferName && !s.coverage) {
+        const std::vector<uint32_t> zeros(kCoverageBufferWords, 0);
+        s.coverage = s.buffer(GL_SHADER_STORAGE_BUFFER, zeros.data(), zeros.size() * 4);
+      }
   s.additional_atlas = s.texture(GL_TEXTURE_2D, 1, GL_DEPTH_COMPONENT32F,
                                  GLsizei(std::max(1u, base.setup.additional_atlas_width)),
                                  GLsizei(std::max(1u, base.setup.additional_atlas_height)));
@@ -394,6 +420,7 @@ GlSceneRenderer::GlSceneRenderer(GlContext& context, const PackReader& pack, con
 GlSceneRenderer::~GlSceneRenderer() = default;
 
 size_t GlSceneRenderer::pipelines_created() const { return state_->programs_created; }
+void GlSceneRenderer::record_coverage(CoverageRecorder* recorder) { state_->recorder = recorder; }
 size_t GlSceneRenderer::pipelines_reused() const { return state_->programs_reused; }
 
 Image GlSceneRenderer::render(const std::vector<std::string>& keywords) {
@@ -430,6 +457,7 @@ Image GlSceneRenderer::render(const SelectedVariant& variant) {
   gl.ClearBufferfv(GL_DEPTH, 0, &one);
   gl.ClearBufferfv(GL_COLOR, 0, zero);
   s.draw_objects(cached.program, variant, cached.bindings, f);
+  s.credit_coverage(variant);
   // Bottom row first: row 0 is NDC y = -1 in both APIs, so this is the Vulkan image's row order.
   Image out{width_, height_, {}};
   out.rgba.resize(size_t(width_) * height_ * 4);

@@ -17,6 +17,7 @@
 
 #include "kiln/pack_reader.hpp"
 #include "render/gl_context.hpp"
+#include "coverage/coverage_recorder.hpp"
 #include "scene/image.hpp"
 #include "scene/scene.hpp"
 
@@ -39,6 +40,8 @@ class GlSceneRenderer {
   // Image programs compiled and linked, and renders that reused one (byte-identical GLSL of an earlier variant).
   size_t pipelines_created() const;
   size_t pipelines_reused() const;
+  // From now on, each draw's coverage (a --coverage pack's) goes to `recorder` (nullptr: nowhere).
+  void record_coverage(CoverageRecorder* recorder);
   uint32_t width() const { return width_; }
   uint32_t height() const { return height_; }
 

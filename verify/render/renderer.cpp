@@ -49,10 +49,13 @@ struct Target {
 };
 
 // One descriptor-set layout built from a pass's reflected layout (every resource, both stages).
+// A --coverage pack's passes also bind the coverage buffer (kiln/coverage_map.hpp): one per pass, zeroed, read
+// after each draw.
 struct PassLayout {
   const std::vector<Resource>* resources = nullptr;
   VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
   VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
+  HostBuffer coverage;
 };
 
 VkDescriptorType descriptor_type(ResourceKind kind) {
@@ -109,6 +112,7 @@ struct SceneRenderer::State {
   };
   static constexpr size_t kCachedPipelines = 8;
   std::list<CachedPipeline> pipelines;  // most recent first; destroyed before `objects` (declared after it)
+  CoverageRecorder* coverage = nullptr;
 
   State(VulkanContext& c, const PackReader& p, const Scene& scene) : context(c), pack(p), objects(c), data(p, scene) {}
 
@@ -260,6 +264,10 @@ PassLayout make_pass_layout(VulkanContext& context, VulkanObjects& objects, cons
   for (const Resource& r : *layout.resources) {
     if (r.set != 0) fail("resource " + r.name + " is in set " + std::to_string(r.set) + "; the renderer binds set 0 only");
     bindings.push_back({r.binding, descriptor_type(r.kind), r.count, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, nullptr});
+    if (r.name == kCoverageBufferName && r.kind == ResourceKind::StorageBuffer) {
+      layout.coverage = objects.host_buffer(VkDeviceSize{kCoverageBufferWords} * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+      std::memset(layout.coverage.mapped, 0, layout.coverage.size);
+    }
   }
   VkDescriptorSetLayoutCreateInfo set_info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
   set_info.bindingCount = static_cast<uint32_t>(bindings.size());
@@ -384,7 +392,7 @@ SceneRenderer::SceneRenderer(VulkanContext& context, const PackReader& pack, con
 
   // Descriptor pool: Forward sets for two frame layouts, shadow sets for every view, G-buffer sets.
   const uint32_t sets = static_cast<uint32_t>(scene_.objects.size()) * (2 + 16 + 2 + 2) + 8;
-  VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, sets * 4}, {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, sets * 3},
+  VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, sets * 4}, {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, sets * 4},
                                   {VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE, sets * 4}, {VK_DESCRIPTOR_TYPE_SAMPLER, sets * 2}};
   VkDescriptorPoolCreateInfo pool_info{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   pool_info.maxSets = sets;
@@ -398,6 +406,8 @@ SceneRenderer::SceneRenderer(VulkanContext& context, const PackReader& pack, con
 }
 
 SceneRenderer::~SceneRenderer() = default;
+
+void SceneRenderer::record_coverage(CoverageRecorder* recorder) { state_->coverage = recorder; }
 
 namespace {
 
@@ -416,7 +426,10 @@ void write_set(VkDevice device, VkDescriptorSet set, const PassLayout& layout,
     w.descriptorCount = 1;
     w.descriptorType = descriptor_type(r.kind);
     const std::string& name = r.name;
-    if (w.descriptorType == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER || w.descriptorType == VK_DESCRIPTOR_TYPE_STORAGE_BUFFER) {
+    if (layout.coverage.buffer && name == kCoverageBufferName) {
+      buffers.push_back(std::make_unique<VkDescriptorBufferInfo>(VkDescriptorBufferInfo{layout.coverage.buffer, 0, VK_WHOLE_SIZE}));
+      w.pBufferInfo = buffers.back().get();
+    } else if (w.descriptorType == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER || w.descriptorType == VK_DESCRIPTOR_TYPE_STORAGE_BUFFER) {
       buffers.push_back(std::make_unique<VkDescriptorBufferInfo>(buffer(name)));
       w.pBufferInfo = buffers.back().get();
     } else {
@@ -426,6 +439,23 @@ void write_set(VkDevice device, VkDescriptorSet set, const PassLayout& layout,
     writes.push_back(w);
   }
   vkUpdateDescriptorSets(device, static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
+}
+
+// After a draw with `variant`'s pipeline: the words its stages set in the pass's coverage buffer, to the recorder
+// (which clears them for the next draw). Nothing when no recorder listens or the pack is not instrumented.
+void credit_coverage(VulkanContext& context, CoverageRecorder* recorder, const PassLayout& layout,
+                     const SelectedVariant& variant, std::string_view role = {}) {
+  if (!recorder || !layout.coverage.buffer) return;
+  context.submit([](VkCommandBuffer cmd) {  // the shaders' writes, made visible to the host
+    VkMemoryBarrier barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+    barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
+                         VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &barrier, 0, nullptr, 0, nullptr);
+  });
+  std::vector<std::string_view> modules;
+  for (const StageView& stage : variant.stages) modules.push_back(stage.spirv);
+  recorder->credit(modules, static_cast<uint32_t*>(layout.coverage.mapped), layout.coverage.size / 4, role);
 }
 
 VkDescriptorSet allocate_set(VkDevice device, VkDescriptorPool pool, VkDescriptorSetLayout layout) {
@@ -563,6 +593,7 @@ const FrameSetup& SceneRenderer::frame(int cascades) {
       }
       vkCmdEndRenderPass(cmd);
     });
+    credit_coverage(s.context, s.coverage, s.shadow, variant, "(shadow caster)");
   };
   render_atlas(f.main_atlas, f.setup.main_views, false);
   if (!s.additional_rendered) {
@@ -673,6 +704,7 @@ Image SceneRenderer::render(const SelectedVariant& variant) {
         vkCmdEndRenderPass(cmd);
       },
       &last_draw_ms_);
+  credit_coverage(s.context, s.coverage, *layout, variant);
   return read_color(s.context, s.readback, s.color_target.colors[0].image, width_, height_);
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "coverage/coverage_recorder.hpp"
 #include "kiln/pack_reader.hpp"
 #include "scene/environment.hpp"
 #include "scene/frame_images.hpp"
@@ -40,6 +41,9 @@ class SceneRenderer {
   // Image pipelines compiled, and renders that reused one (byte-identical modules of an earlier variant).
   size_t pipelines_created() const { return pipelines_created_; }
   size_t pipelines_reused() const { return pipelines_reused_; }
+
+  // From now on, each draw's coverage (a --coverage pack's) goes to `recorder` (nullptr: nowhere).
+  void record_coverage(CoverageRecorder* recorder);
 
   GBuffer render_gbuffer(const PackReader& debug_pack);
   // The shadow maps a variant with `cascades` (1 or the scene's count) reads, and the additional-light atlas.

@@ -1,5 +1,7 @@
 #include "render/scene_data.hpp"
 
+#include "kiln/coverage_map.hpp"
+
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -78,7 +80,7 @@ const std::set<std::string>& provided_resources() {
   static const std::set<std::string> names = {
       "PerFrame", "PerMaterial", "PerObject", "_MainLightShadowMap", "sampler_ShadowCompare",
       "_AdditionalLightsShadowMap", "_EnvironmentMap", "sampler_LinearClamp", "_DFG", "_AdditionalLights",
-      "_TileLightIndices", "_AdditionalShadowMatrices", "ShadowCaster"};
+      "_TileLightIndices", "_AdditionalShadowMatrices", "ShadowCaster", std::string(kCoverageBufferName)};
   return names;
 }
 

@@ -70,6 +70,9 @@ Result<std::unique_ptr<VulkanContext>> VulkanContext::open_lavapipe() {
   enabled12.shaderFloat16 = supported12.shaderFloat16;
   VkPhysicalDeviceFeatures2 enabled{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
   enabled.pNext = &enabled12;
+  // A --coverage pack's stages write their coverage buffer (kiln/coverage_map.hpp).
+  enabled.features.vertexPipelineStoresAndAtomics = supported.features.vertexPipelineStoresAndAtomics;
+  enabled.features.fragmentStoresAndAtomics = supported.features.fragmentStoresAndAtomics;
   VkDeviceCreateInfo device_info{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
   device_info.pNext = &enabled;
   device_info.queueCreateInfoCount = 1;

@@ -71,7 +71,7 @@ int run_render(const std::string& pack_dir, const std::string& keywords, const s
 int run_test(const std::string& pack_dir, const std::string& scene_file, const std::string& golden_dir,
              const std::string& tolerances, const std::string& report_dir, const std::string& filter,
              const std::string& shard, const std::string& api, const std::string& against, unsigned cover,
-             const std::string& usage_log) {
+             const std::string& usage_log, const std::string& coverage, const std::string& coverage_json) {
   kiln::render::GoldenTestOptions options;
   options.pack_dir = pack_dir;
   options.scene = scene_file;
@@ -83,6 +83,8 @@ int run_test(const std::string& pack_dir, const std::string& scene_file, const s
   options.against = against;
   options.cover = cover;
   options.usage_log = usage_log;
+  options.coverage = coverage;
+  options.coverage_json = coverage_json;
   return kiln::render::reporting_errors([&] {
     if (!shard.empty() && (std::sscanf(shard.c_str(), "%u/%u", &options.shard_index, &options.shard_count) != 2 ||
                            options.shard_count == 0 || options.shard_index >= options.shard_count))
@@ -142,6 +144,11 @@ int run(int argc, char** argv) {
   test->add_option("--usage-log", usage_log,
                    "Record the run's selections in this usage log, as a game would (docs/usage.md): the variants judged, "
                    "selected by their keywords, and the shadow casters");
+  std::string coverage, coverage_json;
+  test->add_option("--coverage", coverage,
+                   "Write the HLSL lines the run executed as an lcov tracefile (a pack built with kiln build --coverage; "
+                   "genhtml renders it: docs/coverage.md)");
+  test->add_option("--coverage-json", coverage_json, "With --coverage: also each line's hits and the first scene and variant that lit it, as JSON");
   std::string against;
   test->add_option("--against", against, "Compare with this API's image of each variant instead of the reference image")
       ->check(CLI::IsMember({"vulkan", "gl", "gles"}));
@@ -158,7 +165,8 @@ int run(int argc, char** argv) {
   kiln::testing::inject_fault(*render ? "render" : "test");
 #endif
   if (*render) return run_render(pack_dir, variant_keywords, scene_file, png_out, exr_out, size_text, api);
-  return run_test(pack_dir, scene_file, golden_dir, tolerances, report_dir, filter, shard, api, against, cover, usage_log);
+  return run_test(pack_dir, scene_file, golden_dir, tolerances, report_dir, filter, shard, api, against, cover, usage_log,
+                  coverage, coverage_json);
 }
 
 }  // namespace

@@ -72,6 +72,9 @@ struct BuildOptions {
   // Debug information in the SPIR-V (kiln compile -g): OpSource with the preprocessed HLSL text, OpLine and names,
   // as glslangValidator -g writes them (RenderDoc shows the source). Best with `optimize` off.
   bool debug_info = false;
+  // Shader code coverage (kiln build --coverage, docs/coverage.md): every SPIR-V module instrumented; the build
+  // turns debug information on and optimization off.
+  bool coverage = false;
   OptimizerRecipe optimizer_recipe = OptimizerRecipe::Kiln;  // --optimize=kiln|O (with `optimize`)
   std::string frontend = "glslang";                 // HLSL front end, by name (frontend_names())
   std::vector<Target> targets;                      // empty: the pack definition's targets

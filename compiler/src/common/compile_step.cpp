@@ -16,6 +16,7 @@ constexpr auto kNames = std::to_array<std::pair<CompileStep, std::string_view>>(
     {CompileStep::Validate, "validate"},
     {CompileStep::Optimize, "optimize"},
     {CompileStep::ValidateOptimized, "validate-optimized"},
+    {CompileStep::Instrument, "instrument"},
     {CompileStep::Reflect, "reflect"},
 #define KILN_CROSS_TARGET(Enumerator, id, ...) {CompileStep::Cross##Enumerator, "cross-" #id},
 #include "kiln/targets.def"

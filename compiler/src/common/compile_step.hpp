@@ -20,6 +20,7 @@ enum class CompileStep {
   Validate,           // spirv-val on the legalized module
   Optimize,
   ValidateOptimized,  // spirv-val on the optimized module
+  Instrument,         // --coverage: the coverage probes (coverage/instrument.hpp), validated again
   Reflect,
   // Cross<Enumerator> for each SPIRV-Cross back end (kiln/targets.def), named "cross-<id>".
 #define KILN_CROSS_TARGET(Enumerator, ...) Cross##Enumerator,

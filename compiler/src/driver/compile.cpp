@@ -24,6 +24,7 @@ DiagId diagnostic_for(CompileStep step) {
     case CompileStep::Validate:
     case CompileStep::ValidateOptimized: return DiagId::SpirvInvalid;
     case CompileStep::Reflect: return DiagId::BlockTooLarge;
+    case CompileStep::Instrument: return DiagId::CoverageUnavailable;
 #define KILN_CROSS_TARGET(Enumerator, ...) case CompileStep::Cross##Enumerator:
 #include "kiln/targets.def"
       return DiagId::CrossCompileFailed;
@@ -147,6 +148,7 @@ class Scheduler {
     job.targets = settings_.targets_for(plan_.pack.passes[s.pass]);
     job.optimize = settings_.optimize;
     job.debug_info = settings_.debug_info;
+    job.coverage = settings_.coverage;
     job.optimizer_recipe = settings_.optimizer_recipe;
     job.bindings = plan_.pack.passes[s.pass].bindings_for(s.stage);
     jobs_.push_back(std::move(job));
@@ -266,6 +268,7 @@ class Scheduler {
         back.targets = job.targets;
         back.optimize = job.optimize;
         back.debug_info = job.debug_info;
+        back.coverage = job.coverage;
         back.optimizer_recipe = job.optimizer_recipe;
         back.bindings = job.bindings;
         jobs_.push_back(std::move(back));  // runs next, in whichever worker is free

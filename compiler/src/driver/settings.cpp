@@ -28,8 +28,9 @@ std::optional<BuildSettings> choose_settings(const BuildOptions& options, const 
     settings.targets.insert(settings.targets.begin(), Target::Spirv);
   std::sort(settings.targets.begin(), settings.targets.end());
   for (Target t : settings.targets) settings.target_names += std::string(target_name(t)) + ",";
-  settings.optimize = options.optimize;
-  settings.debug_info = options.debug_info;
+  settings.optimize = options.optimize && !options.coverage;  // the lines of the source, not of the optimizer's code
+  settings.debug_info = options.debug_info || options.coverage;
+  settings.coverage = options.coverage;
   settings.optimizer_recipe = options.optimizer_recipe;
   return settings;
 }

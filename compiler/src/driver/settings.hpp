@@ -43,6 +43,7 @@ struct BuildSettings {
   }
   bool optimize = true;
   bool debug_info = false;  // hashed only when on: the keys of every build without it are unchanged
+  bool coverage = false;    // likewise
   OptimizerRecipe optimizer_recipe = OptimizerRecipe::Kiln;
 
   // The start of every compile's cache key: what its output depends on besides its input (the pass gives the
@@ -61,6 +62,7 @@ struct BuildSettings {
         .add(pass.entry_points[static_cast<size_t>(stage)]).add("binding model 1").add("hlsl compat 2")
         .add(pass.bindings_for(stage).canonical());
     if (debug_info) hasher.add("debug info");
+    if (coverage) hasher.add("coverage 1");
     return hasher;
   }
 };
@@ -73,6 +75,7 @@ void add_build_inputs(KeyHasher& hasher, const BuildSettings& settings, const Pl
   hasher.add(settings.fingerprint).add(settings.optimize ? 1 : 0).add(optimizer_recipe_name(settings.optimizer_recipe))
       .add(settings.target_names).add(plan.pack.text);
   if (settings.debug_info) hasher.add("debug info");
+  if (settings.coverage) hasher.add("coverage 1");
   for (const SceneProfile& scene : plan.scenes) hasher.add(scene.text);
   for (const UsageLog& log : plan.usage) hasher.add("usage log").add(log.text);
   if (!plan.usage.empty()) hasher.add("usage margin").add(uint64_t{plan.usage_margin});

@@ -123,21 +123,32 @@ void Module::add_extension(std::string_view name) {
   instructions_.insert(instructions_.begin() + static_cast<long>(after + 1), make_with_string(spv::OpExtension, {}, name));
 }
 
-void Module::add_annotation(Instruction annotation) {
-  // The layout: ... entry points, execution modes, debug names, annotations, types and globals, functions.
+// The index of the last instruction of the module's sections up to the debug names (with_annotations: up to the
+// annotations). The layout: ... entry points, execution modes, debug strings and sources, names, processes (the
+// last debug instructions), annotations, types and globals, functions.
+size_t Module::end_of_header(bool with_annotations) const {
   size_t after = 0;
   for (size_t i = 0; i < instructions_.size(); ++i) {
     switch (static_cast<spv::Op>(instructions_[i].op())) {
       case spv::OpCapability: case spv::OpExtension: case spv::OpExtInstImport: case spv::OpMemoryModel:
       case spv::OpEntryPoint: case spv::OpExecutionMode: case spv::OpExecutionModeId: case spv::OpString:
       case spv::OpSource: case spv::OpSourceContinued: case spv::OpSourceExtension: case spv::OpName:
-      case spv::OpMemberName: case spv::OpModuleProcessed: after = i; continue;
+      case spv::OpMemberName: after = i; continue;
+      case spv::OpModuleProcessed: if (with_annotations) after = i; continue;
       default: break;
     }
-    if (!is_annotation(instructions_[i].op())) break;
+    if (!with_annotations || !is_annotation(instructions_[i].op())) break;
     after = i;
   }
-  instructions_.insert(instructions_.begin() + static_cast<long>(after + 1), std::move(annotation));
+  return after;
+}
+
+void Module::add_debug_name(Instruction name) {
+  instructions_.insert(instructions_.begin() + static_cast<long>(end_of_header(false) + 1), std::move(name));
+}
+
+void Module::add_annotation(Instruction annotation) {
+  instructions_.insert(instructions_.begin() + static_cast<long>(end_of_header(true) + 1), std::move(annotation));
 }
 
 void Module::add_declaration(Instruction declaration) {

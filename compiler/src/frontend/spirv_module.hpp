@@ -42,6 +42,8 @@ class Module {
   uint32_t new_id() { return header_[3]++; }
   void add_capability(uint32_t capability);
   void add_extension(std::string_view name);
+  // An OpName or OpMemberName, after the other debug instructions.
+  void add_debug_name(Instruction name);
   // After the last annotation (or before the first type when the module has none).
   void add_annotation(Instruction annotation);
   // A type or global, after the last declaration before the first function.
@@ -50,6 +52,7 @@ class Module {
   void forget(const std::vector<uint32_t>& ids);
 
  private:
+  size_t end_of_header(bool with_annotations) const;
   std::array<uint32_t, 5> header_{};
   std::vector<Instruction> instructions_;
 };

@@ -1,5 +1,6 @@
 #include "workers/compile_job.hpp"
 
+#include "coverage/instrument.hpp"
 #include "cross/targets.hpp"
 #include "frontend/hlsl_compat.hpp"
 #include "frontend/interface_semantics.hpp"
@@ -93,6 +94,14 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
     SpirvResult combined = combine_image_samplers(spirv.spirv);
     if (!combined) return failed(combined.error());
     spirv.spirv = std::move(combined->spirv);
+  }
+  if (job.coverage) {
+    // Before reflection: the coverage buffer is a resource of the pass like any other, bound by its name.
+    Result<InstrumentedModule> instrumented = instrument_coverage(spirv.spirv);
+    if (!instrumented) return failed({CompileStep::Instrument, {instrumented.error().message}});
+    if (Result<void, SpirvFailure> valid = validate_spirv(instrumented->spirv); !valid)
+      return failed({CompileStep::Instrument, valid.error().messages});
+    spirv.spirv = std::move(instrumented->spirv);
   }
   try {
     out.reflection = reflect_spirv(spirv.spirv);
@@ -229,6 +238,7 @@ std::vector<uint8_t> encode_job(const CompileJob& job) {
   j["targets"] = targets;
   if (!job.spirv.empty()) j["spirv"] = json::binary(spirv_to_bytes(job.spirv));
   if (job.debug_info) j["debug_info"] = true;
+  if (job.coverage) j["coverage"] = true;
   if (job.kind == JobKind::Preprocess) {
     j["defines"] = job.defines;
     json files = json::array();
@@ -254,6 +264,7 @@ CompileJob decode_job(const std::vector<uint8_t>& bytes) {
   job.source = j.at("source").get<std::string>();
   job.optimize = j.at("optimize").get<bool>();
   job.debug_info = j.contains("debug_info") && j.at("debug_info").get<bool>();
+  job.coverage = j.contains("coverage") && j.at("coverage").get<bool>();
   job.optimizer_recipe =
       parse_optimizer_recipe(j.at("optimizer_recipe").get<std::string>()).value_or(OptimizerRecipe::Kiln);
   job.bindings = bindings_from_json(j.at("bindings"));

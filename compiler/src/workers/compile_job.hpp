@@ -54,6 +54,7 @@ struct CompileJob {
   std::vector<Target> targets;
   bool optimize = true;
   bool debug_info = false;  // FrontEnd, Full: the front end writes debug information (BuildOptions::debug_info)
+  bool coverage = false;    // BackEnd, Full: coverage probes in the SPIR-V (coverage/instrument.hpp)
   OptimizerRecipe optimizer_recipe = OptimizerRecipe::Kiln;
   BindingOptions bindings;  // FrontEnd, Full: registers -> bindings; BackEnd, Full: combined image samplers
   // Preprocess: the pass's files, the entry first (shared by every job of the pass), and the keywords.
