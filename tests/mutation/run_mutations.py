@@ -12,10 +12,14 @@ The mutant is killed when it is killed with margin on every API it runs on; it s
 snippet is missing, that does not compile, or whose variants have no reference image is an error of the gate,
 never a kill.
 
-  run_mutations.py --kiln KILN --source SOURCE_DIR --work DIR --goldens GOLDEN_WORK/goldens
-                   [--shard I/N] [--only NAME] [--json FILE] [--mutations FILE]
+With --coverage (golden.coverage's coverage.json, docs/coverage.md), a mutation whose lines hold code that no pixel
+of its scene runs is NOT COVERED: it is not judged (a kill or a survival there would be luck) and fails the gate
+like a survivor. A mutation of lines without code of their own (a macro's definition) is judged as usual.
 
-Exit 0 when every mutation of the shard was killed; 1 when one survived or the gate itself failed.
+  run_mutations.py --kiln KILN --source SOURCE_DIR --work DIR --goldens GOLDEN_WORK/goldens
+                   [--shard I/N] [--only NAME] [--json FILE] [--mutations FILE] [--coverage FILE]
+
+Exit 0 when every mutation of the shard was killed; 1 when one survived, was not covered, or the gate itself failed.
 """
 import argparse
 import json
@@ -54,6 +58,25 @@ def apply(mutation, shaderlib):
                            f"update tests/mutation/mutations.json to the library:\n  {mutation['find']!r}")
     with open(path, "w", encoding="utf-8") as f:
         f.write(text.replace(mutation["find"], mutation["replace"]))
+
+
+def mutated_lines(mutation, source):
+    """The 1-based lines of the library file the snippet spans."""
+    with open(os.path.join(source, "shaderlib", mutation["file"]), encoding="utf-8") as f:
+        text = f.read()
+    at = text.find(mutation["find"])
+    first = text.count("\n", 0, at) + 1
+    return list(range(first, first + mutation["find"].count("\n") + 1))
+
+
+def coverage_of(mutation, source, coverage):
+    """'lit', 'dark' or 'no code': what the golden coverage of the mutant's scene says of its lines."""
+    scene = mutation.get("scene", "spheres")
+    hits = coverage["scenes"].get(scene, {}).get(mutation["file"], {})
+    counts = [hits[str(n)] for n in mutated_lines(mutation, source) if str(n) in hits]
+    if not counts:
+        return "no code"
+    return "lit" if any(counts) else "dark"
 
 
 def run_one(mutation, args, log):
@@ -111,6 +134,7 @@ def main():
     parser.add_argument("--only", default="")
     parser.add_argument("--json", default="")
     parser.add_argument("--mutations", default="", help="mutation list (default: tests/mutation/mutations.json)")
+    parser.add_argument("--coverage", default="", help="golden.coverage's coverage.json: mutants in dark code are not judged")
     args = parser.parse_args()
     index, count = (int(x) for x in args.shard.split("/"))
     with open(args.mutations or os.path.join(args.source, "tests/mutation/mutations.json")) as f:
@@ -121,10 +145,17 @@ def main():
         return 1
     chosen = [m for i, m in enumerate(mutations) if i % count == index and (not args.only or m["name"] == args.only)]
     os.makedirs(args.work, exist_ok=True)
-    outcomes, errors = [], []
+    coverage = json.load(open(args.coverage, encoding="utf-8")) if args.coverage else None
+    outcomes, errors, not_covered = [], [], []
     with open(os.path.join(args.work, "kiln-test.log"), "w") as log:
         for mutation in chosen:
             start = time.monotonic()
+            covered = coverage_of(mutation, args.source, coverage) if coverage else None
+            if covered == "dark":
+                not_covered.append(mutation["name"])
+                print(f"NOT COVERED {mutation['name']} [{mutation.get('scene', 'spheres')}]: no pixel of its scene runs "
+                      f"{mutation['file']}:{mutated_lines(mutation, args.source)[0]} (docs/coverage.md)")
+                continue
             try:
                 outcome = run_one(mutation, args, log)
             except RuntimeError as e:
@@ -132,6 +163,8 @@ def main():
                 print(f"ERROR    {mutation['name']}: {e}")
                 continue
             outcome["seconds"] = round(time.monotonic() - start, 1)
+            if covered:
+                outcome["coverage"] = covered
             outcomes.append(outcome)
             summary = "; ".join(
                 f"{api}: {r['failed']}/{r['variants']} variants failed, {r['margin']}x a limit"
@@ -141,11 +174,12 @@ def main():
             sys.stdout.flush()
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"mutations": outcomes, "errors": errors}, f, indent=1)
+            json.dump({"mutations": outcomes, "errors": errors, "not_covered": not_covered}, f, indent=1)
     killed = sum(1 for o in outcomes if o["killed"])
     survived = [o["name"] for o in outcomes if not o["killed"]]
     print(f"mutation gate: {killed} of {len(chosen)} mutants killed"
           + (f"; survived: {', '.join(survived)}" if survived else "")
+          + (f"; not covered: {', '.join(not_covered)}" if not_covered else "")
           + (f"; errors: {', '.join(errors)}" if errors else ""))
     return 0 if killed == len(chosen) and chosen else 1
 

@@ -40,9 +40,9 @@ std::vector<std::string> split_words(const std::string& text) {
   return words;
 }
 
-int run_render(const std::string& pack_dir, const std::string& keywords, const std::string& scene_file,
-               const std::string& png_out, const std::string& exr_out, const std::string& size_text,
-               const std::string& api) {
+int run_render(const std::string& pack_dir, const std::string& pass, const std::string& keywords,
+               const std::string& scene_file, const std::string& png_out, const std::string& exr_out,
+               const std::string& size_text, const std::string& api, const std::string& coverage_out) {
   return kiln::render::reporting_errors([&] {
     uint32_t width = 0, height = 0;
     if (!size_text.empty() && std::sscanf(size_text.c_str(), "%ux%u", &width, &height) != 2)
@@ -50,7 +50,13 @@ int run_render(const std::string& pack_dir, const std::string& keywords, const s
     kiln::PackReader pack = kiln::PackReader::open(pack_dir);
     kiln::render::Scene scene = kiln::render::load_scene(scene_file);
     auto renderer = kiln::render::Backend::open(kiln::render::parse_api(api), pack, scene, width, height);
-    kiln::SelectedVariant variant = pack.select("Forward", split_words(keywords));
+    kiln::SelectedVariant variant = pack.select(pass, split_words(keywords));
+    std::unique_ptr<kiln::render::CoverageRecorder> coverage;
+    if (!coverage_out.empty()) {
+      coverage = std::make_unique<kiln::render::CoverageRecorder>(pack, pack_dir);
+      coverage->set_witness(scene.name + " " + pass + " " + kiln::render::variant_name(variant.keywords));
+      renderer->record_coverage(coverage.get());
+    }
     auto start = std::chrono::steady_clock::now();
     kiln::render::Image image = renderer->render(variant);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -64,6 +70,10 @@ int run_render(const std::string& pack_dir, const std::string& keywords, const s
     std::cout << "kiln render: " << png_out << " (" << image.width << "x" << image.height << ", variant "
               << kiln::render::variant_name(variant.keywords) << ", " << renderer->device() << ", " << format_ms(ms)
               << " including shader compilation)\n";
+    if (coverage) {
+      coverage->write_lcov(coverage_out, scene.name);
+      std::cout << "kiln render: " << coverage->summary() << "; lcov tracefile " << coverage_out << "\n";
+    }
     return 0;
   });
 }
@@ -125,6 +135,11 @@ int run(int argc, char** argv) {
   render->add_option("--exr", exr_out, "Also write the float image (OpenEXR, 32-bit; a .kimg name writes kiln's raw float format)");
   render->add_option("--size", size_text, "Image size WxH (default: the scene's)");
   render->add_option("--api", api, api_help)->check(CLI::IsMember({"vulkan", "gl", "gles"}));
+  std::string pass = "Forward", render_coverage;
+  render->add_option("--pass", pass, "The pass that draws the image: Forward (the default), or one that reads only the frame, "
+                                     "material and object constants (DepthOnly, DepthNormals)");
+  render->add_option("--coverage", render_coverage, "Write the HLSL lines the render executed as an lcov tracefile (a pack built with "
+                                                    "kiln build --coverage: docs/coverage.md)");
 
   CLI::App* test = app.add_subcommand("test", "Render every Forward variant and compare it with its CPU-reference golden");
   test->add_option("pack_dir", pack_dir, "Directory holding a pack (or its manifest)")->required();
@@ -164,7 +179,7 @@ int run(int argc, char** argv) {
 #ifdef KILN_FAULT_INJECTION  // the tests' kiln-verify-fault only (tests/support/fault_injection.hpp)
   kiln::testing::inject_fault(*render ? "render" : "test");
 #endif
-  if (*render) return run_render(pack_dir, variant_keywords, scene_file, png_out, exr_out, size_text, api);
+  if (*render) return run_render(pack_dir, pass, variant_keywords, scene_file, png_out, exr_out, size_text, api, render_coverage);
   return run_test(pack_dir, scene_file, golden_dir, tolerances, report_dir, filter, shard, api, against, cover, usage_log,
                   coverage, coverage_json);
 }
