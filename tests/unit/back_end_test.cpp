@@ -146,6 +146,23 @@ TEST(Coverage, EveryBlockWithLinesGetsAWordThatMapsBackToItsHlslLines) {
   EXPECT_EQ(buffer->set, kCoverageSet);
   EXPECT_EQ(buffer->binding, kCoverageBinding);
 
+  // The fragment shader tests depth first (its probes count fragments that pass it, and hidden ones cost nothing),
+  // unless it decides the depth test itself (discard).
+  auto early_fragment_tests = [](const std::vector<uint32_t>& spirv) {
+    constexpr uint32_t kOpExecutionMode = 16, kEarlyFragmentTests = 9;
+    size_t n = 0;
+    for (size_t i = 5; i < spirv.size() && (spirv[i] >> 16) > 0; i += spirv[i] >> 16)
+      n += (spirv[i] & 0xffff) == kOpExecutionMode && spirv[i + 2] == kEarlyFragmentTests;
+    return n;
+  };
+  EXPECT_EQ(early_fragment_tests(plain), 0u);
+  EXPECT_EQ(early_fragment_tests(instrumented->spirv), 1u);
+  Result<InstrumentedModule> discarding = instrument_coverage(debug_module(
+      "float4 F(float4 p : SV_Position) : SV_Target {\n  if (p.x > 3.0)\n    discard;\n  return p;\n}\n", Stage::Fragment, "F"));
+  ASSERT_TRUE(discarding) << discarding.error().message;
+  EXPECT_TRUE(validate_spirv(discarding->spirv));
+  EXPECT_EQ(early_fragment_tests(discarding->spirv), 0u);
+
   // A module without the buffer has no map; a vertex stage writes its own slot.
   EXPECT_FALSE(*read_coverage_map(bytes_of(plain)));
   Result<InstrumentedModule> vertex = instrument_coverage(debug_module(

@@ -2,6 +2,7 @@
 
 #include <glslang/SPIRV/spirv.hpp>
 
+#include <algorithm>
 #include <map>
 #include <optional>
 
@@ -20,6 +21,23 @@ bool ends_block(uint32_t op) {
     case spv::OpReturnValue: case spv::OpUnreachable: case spv::OpTerminateInvocation: return true;
     default: return false;
   }
+}
+
+// Whether a fragment shader may test depth before it runs: nothing it does decides the depth test (no discard, no
+// depth, stencil or sample-mask output).
+bool tests_depth_late_for_its_own_reasons(const std::vector<Instruction>& code) {
+  for (const Instruction& in : code) {
+    switch (static_cast<spv::Op>(in.op())) {
+      case spv::OpKill: case spv::OpTerminateInvocation: case spv::OpDemoteToHelperInvocation: return true;
+      case spv::OpDecorate:
+        if (in.words.size() > 3 && in.words[2] == spv::DecorationBuiltIn &&
+            (in.words[3] == spv::BuiltInFragDepth || in.words[3] == spv::BuiltInSampleMask || in.words[3] == spv::BuiltInFragStencilRefEXT))
+          return true;
+        break;
+      default: break;
+    }
+  }
+  return false;
 }
 
 // What must stay at the top of a block, before the probe's store.
@@ -41,7 +59,7 @@ Result<InstrumentedModule> instrument_coverage(const std::vector<uint32_t>& word
   uint32_t uint_type = 0;
   for (size_t i = 0; i < code.size(); ++i) {
     const Instruction& in = code[i];
-    if (in.op() == spv::OpEntryPoint) {
+    if (in.op() == spv::OpEntryPoint && in.words.size() > 2) {
       if (entry_point != code.size()) return failure("the module has more than one entry point");
       entry_point = i;
     } else if (in.op() == spv::OpDecorate && in.words.size() > 3) {
@@ -103,6 +121,18 @@ Result<InstrumentedModule> instrument_coverage(const std::vector<uint32_t>& word
   module.add_debug_name(spirv_edit::make_with_string(spv::OpMemberName, {block, 0}, "hits"));
   module.add_debug_name(spirv_edit::make_with_string(spv::OpName, {buffer}, kCoverageBufferName));
   if (module.version() < 0x10300) module.add_extension("SPV_KHR_storage_buffer_storage_class");
+  // A fragment shader that writes memory runs for every fragment, hidden or not, unless it asks for the depth test
+  // first: with it, the probes count the fragments that pass the depth test (not those a nearer surface already
+  // hides), and the draw costs what the plain one does. The image is the same: nothing in such a shader decides
+  // the depth test.
+  const bool early_already = std::any_of(code.begin(), code.end(), [](const Instruction& in) {
+    return in.op() == spv::OpExecutionMode && in.words.size() > 2 && in.words[2] == spv::ExecutionModeEarlyFragmentTests;
+  });
+  if (slot == spv::ExecutionModelFragment && !early_already && !tests_depth_late_for_its_own_reasons(code)) {
+    auto entry = std::find_if(code.begin(), code.end(), [](const Instruction& in) { return in.op() == spv::OpEntryPoint; });
+    const uint32_t function = entry->words[2];
+    code.insert(entry + 1, make(spv::OpExecutionMode, {function, spv::ExecutionModeEarlyFragmentTests}));
+  }
   if (module.version() >= 0x10400)  // the interface lists every global the entry point uses
     for (Instruction& in : code)
       if (in.op() == spv::OpEntryPoint) {
