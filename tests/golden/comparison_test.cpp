@@ -162,7 +162,7 @@ TEST(Scene, TheAdversarialSceneHasABoxProjectedProbeAndTheFirstCascadeInView) {
     EXPECT_GT(scene.probe.box_max[a], scene.camera_position[a]);
   }
   // The ray through the bottom edge of the view, where it meets the ground (y = 0).
-  FrameSetup frame = setup_frame(scene, 4);
+  FrameSetup frame = setup_frame(scene, cascades_for({"_MAIN_LIGHT_SHADOWS_CASCADE"}, scene));
   const Vec3 f = frame.camera_forward;
   Vec3 right{-f[2], 0, f[0]};  // forward x up(0, 1, 0)
   const double r = std::sqrt(right[0] * right[0] + right[2] * right[2]);
