@@ -15,7 +15,19 @@ float ComputeFogDepth(float3 positionWS, float3 cameraPositionWS, float3 cameraF
 
 float ComputeFogFactor(float distance, float4 fogParams)
 {
-#if defined(FOG_LINEAR)
+#if defined(KILN_FOLDED_FOG_LINEAR)
+    // The mode is three bools, not macros (docs/keywords.md): one module for every mode, the same formulas.
+    if (FOG_LINEAR)
+        return saturate((fogParams.z - distance) / max(fogParams.z - fogParams.y, 1e-4));
+    if (FOG_EXP)
+        return saturate(exp2(-fogParams.x * distance * 1.44269504));
+    if (FOG_EXP2)
+    {
+        float x = fogParams.x * distance;
+        return saturate(exp2(-x * x * 1.44269504));
+    }
+    return 1.0;
+#elif defined(FOG_LINEAR)
     // end - start floored at 1e-4 so that equal planes give a hard step instead of 0/0.
     return saturate((fogParams.z - distance) / max(fogParams.z - fogParams.y, 1e-4));
 #elif defined(FOG_EXP)

@@ -83,7 +83,11 @@ ShadingData PrepareShading(SurfaceData surface, real2 dfg)
 #else
     s.specularAlbedo = SpecularDFG(dfg, s.f0);
 #endif
-#if defined(KILN_MULTISCATTER)
+#if defined(KILN_MULTISCATTER) && defined(KILN_FOLDED__MULTISCATTER)  // a bool (docs/keywords.md)
+    s.energyCompensation = (real3)1.0;
+    if (_MULTISCATTER)
+        s.energyCompensation = EnergyCompensation(dfg, s.f0);
+#elif defined(KILN_MULTISCATTER)
     s.energyCompensation = EnergyCompensation(dfg, s.f0);
 #else
     s.energyCompensation = (real3)1.0;

@@ -30,7 +30,11 @@ float SampleShadowPCF3x3(Texture2D shadowMap, SamplerComparisonState compare, fl
 
 float SampleShadow(Texture2D shadowMap, SamplerComparisonState compare, float3 shadowCoord, float texel)
 {
-#if defined(_SHADOWS_SOFT)
+#if defined(KILN_FOLDED__SHADOWS_SOFT)  // a bool, not a macro: one module for both (docs/keywords.md)
+    if (_SHADOWS_SOFT)
+        return SampleShadowPCF3x3(shadowMap, compare, shadowCoord, texel);
+    return SampleShadowTap(shadowMap, compare, shadowCoord);
+#elif defined(_SHADOWS_SOFT)
     return SampleShadowPCF3x3(shadowMap, compare, shadowCoord, texel);
 #else
     return SampleShadowTap(shadowMap, compare, shadowCoord);

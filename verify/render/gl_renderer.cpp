@@ -97,7 +97,17 @@ std::string source(const StageView* stage, bool gles, const SelectedVariant& var
     render_error("variant " + variant.pass + " #" + std::to_string(variant.index) + " has no " +
                  (gles ? "GLSL ES" : "GLSL 450") + " output (build the pack with the " + (gles ? "gles" : "glsl") +
                  " target)");
-  return std::string(text);
+  // A folded pack's specialization constants (kiln/folded_keywords.hpp): SPIRV-Cross's macros, after #version.
+  std::string constants;
+  const std::optional<Stage> which = parse_stage(stage->stage);
+  for (const KeywordValue& v : variant.values)
+    if (v.kind == KeywordKind::SpecializationConstant && which && (v.stages & stage_bit(*which)))
+      constants += "#define SPIRV_CROSS_CONSTANT_ID_" + std::to_string(v.slot) + (v.on ? " true\n" : " false\n");
+  if (constants.empty()) return std::string(text);
+  const size_t line_end = text.find('\n');
+  if (!text.starts_with("#version") || line_end == std::string_view::npos)
+    render_error("variant " + variant.pass + " #" + std::to_string(variant.index) + "'s GLSL does not start with #version");
+  return std::string(text.substr(0, line_end + 1)) + constants + std::string(text.substr(line_end + 1));
 }
 
 }  // namespace
@@ -117,6 +127,9 @@ struct GlSceneRenderer::State {
   // A --coverage pack's coverage buffer (kiln/coverage_map.hpp), and who reads it after each draw.
   GLuint coverage = 0;
   CoverageRecorder* recorder = nullptr;
+  // A folded pack's dynamic branches: the keyword block, rewritten with each variant's bools before its draw.
+  GLuint keywords = 0;
+  GLsizeiptr keywords_size = 0;
   struct Frame {
     const SceneData::Frame* data = nullptr;
     GLuint per_frame = 0;
@@ -133,6 +146,7 @@ struct GlSceneRenderer::State {
   struct CachedProgram {
     std::string pass;
     std::string_view vertex, fragment;  // GLSL (owned by the pack reader)
+    std::vector<KeywordValue> constants;  // the variant's specialization constants (#define'd into the sources)
     GLuint program = 0;
     GlBindings bindings;
   };
@@ -155,15 +169,18 @@ struct GlSceneRenderer::State {
     const StageView* vs = variant.stage("vertex");
     const StageView* fs = variant.stage("fragment");
     auto text = [&](const StageView* stage) { return stage ? (gles ? stage->gles : stage->glsl) : std::string_view(); };
+    std::vector<KeywordValue> constants;
+    for (const KeywordValue& v : variant.values)
+      if (v.kind == KeywordKind::SpecializationConstant) constants.push_back(v);
     auto found = std::find_if(programs.begin(), programs.end(), [&](const CachedProgram& p) {
-      return p.pass == variant.pass && p.vertex == text(vs) && p.fragment == text(fs);
+      return p.pass == variant.pass && p.vertex == text(vs) && p.fragment == text(fs) && p.constants == constants;
     });
     if (found != programs.end()) {
       programs.splice(programs.begin(), programs, found);
       ++programs_reused;
       return programs.front();
     }
-    CachedProgram entry{variant.pass, text(vs), text(fs), 0, {}};
+    CachedProgram entry{variant.pass, text(vs), text(fs), std::move(constants), 0, {}};
     entry.program = link(variant, entry.bindings);
     ++programs_created;
     programs.push_front(std::move(entry));
@@ -213,6 +230,7 @@ struct GlSceneRenderer::State {
     if (name == "_TileLightIndices") return tiles;
     if (name == "_AdditionalShadowMatrices") return shadow_matrices;
     if (name == kCoverageBufferName && coverage) return coverage;
+    if (name == kKeywordBlockName && keywords) return keywords;
     render_error("the program binds '" + name + "', which the renderer does not provide");
   }
 
@@ -389,7 +407,11 @@ GlSceneRenderer::GlSceneRenderer(GlContext& context, const PackReader& pack, con
   }
   for (const ManifestPass& pass : pack.manifest().passes)
     for (const Resource& r : pass.layout.resources)
-      if (r.name == kCoverageBufferName && !s.coverage) {
+      if (r.name == kKeywordBlockName && r.kind == ResourceKind::UniformBuffer && !s.keywords) {
+        s.keywords_size = GLsizeiptr(std::max<uint64_t>(r.size, 16));
+        const std::vector<uint8_t> zeros(size_t(s.keywords_size), 0);
+        s.keywords = s.buffer(GL_UNIFORM_BUFFER, zeros.data(), zeros.size());
+      } else if (r.name == kCoverageBufferName && !s.coverage) {
         const std::vector<uint32_t> zeros(kCoverageBufferWords, 0);
         s.coverage = s.buffer(GL_SHADER_STORAGE_BUFFER, zeros.data(), zeros.size() * 4);
       }
@@ -456,6 +478,13 @@ Image GlSceneRenderer::render(const SelectedVariant& variant) {
   const GLfloat zero[4] = {0, 0, 0, 0}, one = 1.0f;
   gl.ClearBufferfv(GL_DEPTH, 0, &one);
   gl.ClearBufferfv(GL_COLOR, 0, zero);
+  if (s.keywords) {  // the variant's dynamic branches
+    std::vector<uint8_t> block(size_t(s.keywords_size), 0);
+    for (const KeywordValue& v : variant.values)
+      if (v.kind == KeywordKind::DynamicBranch && v.slot + 4 <= block.size()) block[v.slot] = v.on ? 1 : 0;
+    gl.BindBuffer(GL_UNIFORM_BUFFER, s.keywords);
+    gl.BufferData(GL_UNIFORM_BUFFER, s.keywords_size, block.data(), GL_DYNAMIC_DRAW);
+  }
   s.draw_objects(cached.program, variant, cached.bindings, f);
   s.credit_coverage(variant);
   // Bottom row first: row 0 is NDC y = -1 in both APIs, so this is the Vulkan image's row order.

@@ -56,7 +56,44 @@ struct PassLayout {
   VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
   VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
   HostBuffer coverage;
+  // A folded pack's dynamic branches (kiln/folded_keywords.hpp): the block the variant's bools are written into
+  // before each draw.
+  HostBuffer keywords;
 };
+
+// A variant's specialization constants for one stage (VkBool32 each, kiln/folded_keywords.hpp).
+struct StageSpecialization {
+  std::vector<VkSpecializationMapEntry> entries;
+  std::vector<VkBool32> data;
+  VkSpecializationInfo info{};
+  StageSpecialization(const SelectedVariant& variant, Stage stage) {
+    for (const KeywordValue& v : variant.values)
+      if (v.kind == KeywordKind::SpecializationConstant && (v.stages & stage_bit(stage))) {
+        entries.push_back({v.slot, static_cast<uint32_t>(data.size() * sizeof(VkBool32)), sizeof(VkBool32)});
+        data.push_back(v.on ? VK_TRUE : VK_FALSE);
+      }
+    info = {static_cast<uint32_t>(entries.size()), entries.data(), data.size() * sizeof(VkBool32), data.data()};
+  }
+  const VkSpecializationInfo* get() const { return entries.empty() ? nullptr : &info; }
+};
+
+// A variant's specialization constants as a pipeline cache key: slot and value of each.
+std::vector<uint32_t> constants_of(const SelectedVariant& variant) {
+  std::vector<uint32_t> out;
+  for (const KeywordValue& v : variant.values)
+    if (v.kind == KeywordKind::SpecializationConstant) out.insert(out.end(), {v.slot, v.on ? 1u : 0u});
+  return out;
+}
+
+// Writes a variant's dynamic-branch bools into its pass's keyword block (nothing when the pass has none).
+void write_keyword_block(const PassLayout& layout, const SelectedVariant& variant) {
+  if (!layout.keywords.buffer) return;
+  for (const KeywordValue& v : variant.values)
+    if (v.kind == KeywordKind::DynamicBranch && v.slot + 4 <= layout.keywords.size) {
+      const uint32_t word = v.on ? 1 : 0;
+      std::memcpy(static_cast<uint8_t*>(layout.keywords.mapped) + v.slot, &word, 4);
+    }
+}
 
 VkDescriptorType descriptor_type(ResourceKind kind) {
   switch (kind) {
@@ -107,6 +144,7 @@ struct SceneRenderer::State {
     std::string pass;
     std::string_view vertex, fragment;  // SPIR-V bytes (owned by the pack reader)
     std::string vertex_entry, fragment_entry;
+    std::vector<uint32_t> constants;  // the variant's specialization constants: slot, value, ...
     std::unique_ptr<VulkanObjects> objects;
     VkPipeline pipeline = VK_NULL_HANDLE;
   };
@@ -268,6 +306,10 @@ PassLayout make_pass_layout(VulkanContext& context, VulkanObjects& objects, cons
       layout.coverage = objects.host_buffer(VkDeviceSize{kCoverageBufferWords} * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
       std::memset(layout.coverage.mapped, 0, layout.coverage.size);
     }
+    if (r.name == kKeywordBlockName && r.kind == ResourceKind::UniformBuffer) {
+      layout.keywords = objects.host_buffer(std::max<VkDeviceSize>(r.size, 16), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+      std::memset(layout.keywords.mapped, 0, layout.keywords.size);
+    }
   }
   VkDescriptorSetLayoutCreateInfo set_info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
   set_info.bindingCount = static_cast<uint32_t>(bindings.size());
@@ -298,6 +340,9 @@ VkPipeline make_pipeline(VulkanContext& context, VulkanObjects& objects, const S
   if (!vs || !fs || vs->spirv.empty() || fs->spirv.empty())
     fail("variant " + variant.pass + " #" + std::to_string(variant.index) + " has no SPIR-V (build the pack with the spirv target)");
   GraphicsPipelineDesc desc;
+  const StageSpecialization vertex_constants(variant, Stage::Vertex), fragment_constants(variant, Stage::Fragment);
+  desc.vertex_specialization = vertex_constants.get();
+  desc.fragment_specialization = fragment_constants.get();
   desc.vertex = objects.shader_module(vs->spirv.data(), vs->spirv.size());
   desc.vertex_entry = vs->entry_point.c_str();
   desc.fragment = objects.shader_module(fs->spirv.data(), fs->spirv.size());
@@ -428,6 +473,9 @@ void write_set(VkDevice device, VkDescriptorSet set, const PassLayout& layout,
     const std::string& name = r.name;
     if (layout.coverage.buffer && name == kCoverageBufferName) {
       buffers.push_back(std::make_unique<VkDescriptorBufferInfo>(VkDescriptorBufferInfo{layout.coverage.buffer, 0, VK_WHOLE_SIZE}));
+      w.pBufferInfo = buffers.back().get();
+    } else if (layout.keywords.buffer && name == kKeywordBlockName) {
+      buffers.push_back(std::make_unique<VkDescriptorBufferInfo>(VkDescriptorBufferInfo{layout.keywords.buffer, 0, VK_WHOLE_SIZE}));
       w.pBufferInfo = buffers.back().get();
     } else if (w.descriptorType == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER || w.descriptorType == VK_DESCRIPTOR_TYPE_STORAGE_BUFFER) {
       buffers.push_back(std::make_unique<VkDescriptorBufferInfo>(buffer(name)));
@@ -626,7 +674,7 @@ VkPipeline SceneRenderer::image_pipeline(const SelectedVariant& variant, VkPipel
   const StageView* fs = variant.stage("fragment");
   auto same = [&](const State::CachedPipeline& c) {
     return vs && fs && c.pass == variant.pass && c.vertex == vs->spirv && c.fragment == fs->spirv &&
-           c.vertex_entry == vs->entry_point && c.fragment_entry == fs->entry_point;
+           c.vertex_entry == vs->entry_point && c.fragment_entry == fs->entry_point && c.constants == constants_of(variant);
   };
   auto found = std::find_if(s.pipelines.begin(), s.pipelines.end(), same);
   if (found != s.pipelines.end()) {
@@ -643,6 +691,7 @@ VkPipeline SceneRenderer::image_pipeline(const SelectedVariant& variant, VkPipel
   entry.fragment = fs->spirv;
   entry.vertex_entry = vs->entry_point;
   entry.fragment_entry = fs->entry_point;
+  entry.constants = constants_of(variant);
   ++pipelines_created_;
   s.pipelines.push_front(std::move(entry));
   if (s.pipelines.size() > State::kCachedPipelines) s.pipelines.pop_back();
@@ -687,6 +736,7 @@ Image SceneRenderer::render(const SelectedVariant& variant) {
   auto t0 = std::chrono::steady_clock::now();
   VkPipeline pipeline = image_pipeline(variant, layout->pipeline_layout);
   last_pipeline_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  write_keyword_block(*layout, variant);  // read by this draw only: submit waits for it
   s.context.submit(
       [&](VkCommandBuffer cmd) {
         VkClearValue clears[2]{};

@@ -80,7 +80,8 @@ const std::set<std::string>& provided_resources() {
   static const std::set<std::string> names = {
       "PerFrame", "PerMaterial", "PerObject", "_MainLightShadowMap", "sampler_ShadowCompare",
       "_AdditionalLightsShadowMap", "_EnvironmentMap", "sampler_LinearClamp", "_DFG", "_AdditionalLights",
-      "_TileLightIndices", "_AdditionalShadowMatrices", "ShadowCaster", std::string(kCoverageBufferName)};
+      "_TileLightIndices", "_AdditionalShadowMatrices", "ShadowCaster", std::string(kCoverageBufferName),
+      std::string(kKeywordBlockName)};
   return names;
 }
 

@@ -271,6 +271,8 @@ VkPipeline create_graphics_pipeline(VkDevice device, const GraphicsPipelineDesc&
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
   stages[1].module = desc.fragment;
   stages[1].pName = desc.fragment_entry;
+  stages[0].pSpecializationInfo = desc.vertex_specialization;
+  stages[1].pSpecializationInfo = desc.fragment_specialization;
   VkPipelineVertexInputStateCreateInfo vertex_input{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
   vertex_input.vertexBindingDescriptionCount = static_cast<uint32_t>(desc.vertex_bindings.size());
   vertex_input.pVertexBindingDescriptions = desc.vertex_bindings.data();

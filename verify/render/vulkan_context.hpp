@@ -117,6 +117,9 @@ struct GraphicsPipelineDesc {
   const char* vertex_entry = "main";
   VkShaderModule fragment = VK_NULL_HANDLE;
   const char* fragment_entry = "main";
+  // Specialization constants of each stage (a folded pack's keywords); null: none.
+  const VkSpecializationInfo* vertex_specialization = nullptr;
+  const VkSpecializationInfo* fragment_specialization = nullptr;
   std::vector<VkVertexInputBindingDescription> vertex_bindings;
   std::vector<VkVertexInputAttributeDescription> vertex_attributes;
   uint32_t color_targets = 1;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "kiln/diagnostics.hpp"
+#include "kiln/folded_keywords.hpp"
 #include "kiln/manifest.hpp"
 #include "kiln/stage_target.hpp"
 
@@ -36,6 +37,9 @@ struct KeywordGroup {
 
   bool has_none() const;
   int index_of(std::string_view keyword) const;  // -1 if absent
+  // multi_compile and shader_feature build a module per value; dynamic_branch and specialization_constant fold
+  // the group into one module (kiln/folded_keywords.hpp). A pack's "keyword_kinds" rewrite `pragma`.
+  KeywordKind kind() const { return keyword_kind(pragma); }
 };
 
 // How HLSL registers become Vulkan descriptor bindings (docs/bindings.md). The DXC/slangc model:
@@ -127,6 +131,13 @@ struct PackDefinition {
   // scene_features: feature -> value -> keywords. Values are strings, "true"/"false", or integer ranges
   // "N", "A-B", "A-" for counts. Kept as JSON text: it is also recorded in the manifest.
   std::string scene_features_json;
+  // "keyword_kinds": keyword -> the kind its group is built as, whatever its pragma says (folding a library's
+  // multi_compile group into one module without editing the library). Every keyword of a group must agree.
+  struct KindOverride {
+    KeywordKind kind = KeywordKind::Variant;
+    SourceLocation defined_at;
+  };
+  std::map<std::string, KindOverride> keyword_kinds;
 };
 
 // The keyword values one scene can request; everything else is stripped. A profile states what the scene

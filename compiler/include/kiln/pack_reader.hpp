@@ -21,6 +21,7 @@
 #include <string_view>
 #include <vector>
 
+#include "kiln/folded_keywords.hpp"
 #include "kiln/manifest.hpp"
 #include "kiln/result.hpp"
 
@@ -70,6 +71,10 @@ struct SelectedVariant {
   std::vector<std::string> keywords;  // sorted, as stored
   size_t index = 0;                   // within the pass
   std::vector<StageView> stages;
+  // The pass's folded keywords (kiln/folded_keywords.hpp), each on or off for this variant: the specialization
+  // constants to give the pipeline and the dynamic-branch bools to write into `_KilnKeywords`. Empty when every
+  // keyword of the pass chooses a module.
+  std::vector<KeywordValue> values;
   const StageView* stage(std::string_view name) const;
 };
 

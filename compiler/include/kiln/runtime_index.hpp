@@ -24,6 +24,7 @@
 #include <string_view>
 #include <vector>
 
+#include "kiln/folded_keywords.hpp"
 #include "kiln/manifest.hpp"
 
 namespace kiln::runtime {
@@ -48,10 +49,19 @@ struct Variant {
   std::array<uint32_t, kStageCount> binaries{};   // kNone: the variant has no such stage
 };
 
+// A folded keyword of a pass (kiln/folded_keywords.hpp): not encoded, derived from the pass's groups on decode.
+struct Folded {
+  uint32_t keyword = 0;  // id
+  KeywordKind kind = KeywordKind::SpecializationConstant;
+  StageMask stages = kAllStageBits;
+  uint32_t slot = 0;  // constant id or byte offset
+};
+
 struct Pass {
   std::string_view name;
   std::array<std::string_view, kStageCount> entry_points{};
   uint32_t first_group = 0, group_count = 0;
+  uint32_t first_folded = 0, folded_count = 0;  // in Index::folded
   uint32_t first_variant = 0, variant_count = 0;
 };
 
@@ -69,6 +79,7 @@ struct Index {
   std::vector<Pass> passes;
   std::vector<Group> groups;
   std::vector<uint32_t> values;            // group values: keyword ids or kOffValue
+  std::vector<Folded> folded;
   std::vector<Variant> variants;
   std::vector<uint32_t> variant_keywords;  // keyword ids
   std::vector<Binary> binaries;

@@ -3,6 +3,9 @@
 //   #pragma multi_compile[_local][_vertex|_fragment] A B   every value is built
 //   #pragma shader_feature[_local][_vertex|_fragment] A B  built only when a material (or scene) uses it
 //   #pragma multi_compile_fog                              _ FOG_LINEAR FOG_EXP FOG_EXP2
+//   #pragma dynamic_branch[_local][_vertex|_fragment] A B  one module; each keyword a uniform bool (Unity's)
+//   #pragma specialization_constant[_local][_vertex|_fragment] A B  one module; each keyword a specialization constant
+// (the last two: kiln/folded_keywords.hpp)
 #pragma once
 
 #include <optional>
@@ -26,6 +29,8 @@ inline constexpr KeywordPragmaKind kKeywordPragmaKinds[] = {
     {"multi_compile_fog", false, false, kFogValues},
     {"multi_compile", false, true, {}},
     {"shader_feature", true, true, {}},
+    {kDynamicBranchPragma, false, true, {}},
+    {kSpecializationConstantPragma, false, true, {}},
 };
 inline constexpr std::string_view kLocalSuffix = "_local";
 struct StageSuffix {
@@ -80,5 +85,21 @@ static_assert(classify_keyword_pragma("shader_feature_local_fragment")->local);
 static_assert(classify_keyword_pragma("multi_compile_vertex")->stages == stage_bit(Stage::Vertex));
 static_assert(!classify_keyword_pragma("multi_compile_fog")->kind->takes_suffixes);
 static_assert(!classify_keyword_pragma("once"));
+static_assert(classify_keyword_pragma("specialization_constant_local_fragment")->local);
+static_assert(classify_keyword_pragma("dynamic_branch_vertex")->stages == stage_bit(Stage::Vertex));
+
+// The pragma that declares `group`'s values and suffixes as `kind` (a pack's "keyword_kinds"): multi_compile_fog
+// becomes dynamic_branch or specialization_constant with its stages kept by the group's mask.
+inline std::string pragma_of_kind(const KeywordGroup& group, KeywordKind kind) {
+  const std::optional<KeywordPragma> was = classify_keyword_pragma(group.pragma);
+  std::string out(kind == KeywordKind::DynamicBranch            ? kDynamicBranchPragma
+                  : kind == KeywordKind::SpecializationConstant ? kSpecializationConstantPragma
+                  : group.material_feature                      ? std::string_view("shader_feature")
+                                                                : std::string_view("multi_compile"));
+  if (was && was->local) out += kLocalSuffix;
+  for (const StageSuffix& s : kStageSuffixes)
+    if (was && was->stages == stage_bit(s.stage)) out += s.suffix;
+  return out;
+}
 
 }  // namespace kiln

@@ -103,7 +103,7 @@ std::vector<Define> read_defines(FieldReader& fields, const json& object, const 
 const DefinitionFields& definition_fields() {
   static const DefinitionFields fields{
       {"$schema", "name", "description", "shader", "include_dirs", "targets", "budget", "passes", "constraints",
-       "materials", "scene_features", "bindings", "defines"},
+       "materials", "scene_features", "bindings", "defines", "keyword_kinds"},
       {"name", "description", "source", "stages", "targets", "bindings", "defines"},
       {"keyword", "requires", "requires_any", "excludes", "reason"},
       {"name", "description", "keywords"},
@@ -363,6 +363,24 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
         material.defined_at = fields.at(material.name);
         for (const std::string& k : fields.strings(item, "keywords")) material.keywords.insert(k);
         pack.materials.push_back(std::move(material));
+      }
+    }
+  }
+  if (auto kinds = root->find("keyword_kinds"); kinds != root->end()) {
+    if (!kinds->is_object()) {
+      fields.fail("keyword_kinds", "\"keyword_kinds\" must be an object: keyword -> \"variant\", \"dynamic_branch\" or "
+                                   "\"specialization_constant\"");
+    } else {
+      for (auto& [keyword, value] : kinds->items()) {
+        const std::string kind = value.is_string() ? value.get<std::string>() : std::string();
+        PackDefinition::KindOverride entry{KeywordKind::Variant, fields.at(keyword)};
+        if (kind == kDynamicBranchPragma) entry.kind = KeywordKind::DynamicBranch;
+        else if (kind == kSpecializationConstantPragma) entry.kind = KeywordKind::SpecializationConstant;
+        else if (kind != "variant")
+          fields.fail(keyword, "the kind of keyword '" + keyword +
+                                   "' must be \"variant\", \"dynamic_branch\" or \"specialization_constant\"");
+        if (!is_identifier(keyword)) fields.fail(keyword, "'" + keyword + "' is not a valid keyword name");
+        pack.keyword_kinds[keyword] = entry;
       }
     }
   }

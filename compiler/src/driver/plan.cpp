@@ -88,6 +88,7 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, BuildContext& build
   }
   {
     StageTimer timer(build, "expand+strip");
+    if (!apply_keyword_kinds(plan->passes, plan->pack, sink)) return nullptr;
     if (!check_rule_keywords(plan->passes, plan->pack, plan->scenes, sink)) return nullptr;
     StripRules rules{&plan->pack.constraints, &plan->scenes, &plan->pack.materials};
     auto expansions = expand_and_strip(plan->passes, rules, plan->pack.budget, plan->pack, sink);
@@ -123,6 +124,16 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, BuildContext& build
     }
   }
   return plan;
+}
+
+std::vector<ManifestKeywordGroup> Plan::keyword_group_records(uint32_t pass) const {
+  StageMask pass_stages = 0;
+  for (Stage s : kAllStages)
+    if (!entry_point(pass, s).empty()) pass_stages |= stage_bit(s);
+  std::vector<ManifestKeywordGroup> records;
+  for (const KeywordGroup& group : passes[pass].groups)
+    records.push_back({group.pragma, group.values, static_cast<StageMask>(group.stages & pass_stages)});
+  return records;
 }
 
 }  // namespace kiln

@@ -34,6 +34,8 @@ struct Plan {
   const std::string& entry_point(uint32_t pass, Stage stage) const {
     return pack.passes[pass].entry_points[static_cast<size_t>(stage)];
   }
+  // A pass's keyword groups as the manifest records them: each group's stages narrowed to the pass's.
+  std::vector<ManifestKeywordGroup> keyword_group_records(uint32_t pass) const;
 };
 
 // Nothing when an input is wrong (reported).

@@ -21,6 +21,41 @@ std::vector<std::string> pass_defines(const PassDefinition& pass) {
   return out;
 }
 
+// What a module with folded keywords (kiln/folded_keywords.hpp) sees of them. Macros, after the variant's keywords:
+// each keyword is defined as itself, so that `defined(K)` holds and `K` names the bool, and KILN_FOLDED_<K> says
+// that it is one (a shader that must also build K as a variant keyword tests it: docs/keywords.md). Declarations,
+// before the preprocessed text (not preprocessed, so not expanded): a bool specialization constant per keyword of
+// the stage, and the block of the pass's dynamic branches, every member at its offset in every stage.
+struct FoldedStage {
+  std::vector<std::string> defines;
+  std::shared_ptr<const std::string> declarations;
+};
+
+FoldedStage folded_stage(const std::vector<FoldedKeyword>& folded, Stage stage) {
+  FoldedStage out;
+  std::string constants, block;
+  bool stage_has_branch = false;
+  for (const FoldedKeyword& k : folded) {
+    const bool here = k.stages & stage_bit(stage);
+    if (here) {
+      out.defines.push_back(k.keyword + "=" + k.keyword);
+      out.defines.push_back("KILN_FOLDED_" + k.keyword);
+    }
+    if (k.kind == KeywordKind::SpecializationConstant) {
+      if (here) constants += "[[vk::constant_id(" + std::to_string(k.slot) + ")]] const bool " + k.keyword + " = false;\n";
+    } else {
+      block += "    bool " + k.keyword + ";\n";
+      stage_has_branch = stage_has_branch || here;
+    }
+  }
+  if (stage_has_branch)
+    constants += "[[vk::binding(" + std::to_string(kKeywordBlockBinding) + ", " + std::to_string(kKeywordBlockSet) +
+                 ")]] cbuffer " + std::string(kKeywordBlockName) + "\n{\n" + block + "};\n";
+  // The source's own lines keep their numbers.
+  if (!constants.empty()) out.declarations = std::make_shared<const std::string>(constants + "#line 1\n");
+  return out;
+}
+
 StageSources enumerate(const Plan& plan) {
   StageSources out;
   std::map<std::tuple<uint32_t, Stage, std::vector<std::string>>, size_t> index;
@@ -28,15 +63,27 @@ StageSources enumerate(const Plan& plan) {
   for (uint32_t p = 0; p < plan.passes.size(); ++p) {
     const auto& variants = plan.expansions[p].variants;
     out.variant_source[p].resize(variants.size());
+    // Folded groups choose no module: the variant's keywords of the other groups, then the folded macros.
+    std::vector<KeywordGroup> module_groups = plan.passes[p].groups;
+    for (KeywordGroup& group : module_groups)
+      if (is_folded(group.kind())) group.stages = 0;
+    const std::vector<FoldedKeyword> folded = folded_keywords(plan.keyword_group_records(p));
+    std::array<FoldedStage, kStageCount> folded_stages;
+    for (Stage s : kAllStages) folded_stages[static_cast<size_t>(s)] = folded_stage(folded, s);
     for (size_t v = 0; v < variants.size(); ++v) {
       for (Stage s : kAllStages) {
         int& slot = out.variant_source[p][v][static_cast<size_t>(s)];
         slot = -1;
         if (plan.entry_point(p, s).empty()) continue;
         ++out.stage_instances;
-        auto defines = enabled_keywords(plan.passes[p].groups, variants[v], s);
+        const FoldedStage& folded_stage = folded_stages[static_cast<size_t>(s)];
+        auto defines = enabled_keywords(module_groups, variants[v], s);
+        defines.insert(defines.end(), folded_stage.defines.begin(), folded_stage.defines.end());
         auto [it, inserted] = index.emplace(std::make_tuple(p, s, defines), out.list.size());
-        if (inserted) out.list.push_back(StageSource{p, s, defines, v});
+        if (inserted) {
+          out.list.push_back(StageSource{p, s, defines, v});
+          out.list.back().folded = folded_stage.declarations;
+        }
         slot = static_cast<int>(it->second);
       }
     }
@@ -64,6 +111,7 @@ void use_memos(StageSources& sources, const Plan& plan, const BuildSettings& set
         .add(files_listed);
     for (const std::string& define : pass_defines(plan.pack.passes[s.pass])) memo.add(define);
     for (const std::string& define : s.defines) memo.add(define);
+    if (s.folded) memo.add(*s.folded);
     s.memo = memo.finish();
     std::optional<PreprocessMemo> known = cache.load_memo(s.memo, [&](const PreprocessMemo& candidate) {
       return !candidate.files.empty() && std::all_of(candidate.files.begin(), candidate.files.end(), [&](const auto& file) {
@@ -138,7 +186,7 @@ void Preprocessor::finished(StageSource& s, WorkerOutcome outcome) const {
     write_reproducer(s);
   } else if (outcome.kind == WorkerOutcome::Kind::Done) {
     s.ok = outcome.output.ok;
-    s.text = std::move(outcome.output.preprocessed);
+    s.text = s.folded ? *s.folded + outcome.output.preprocessed : std::move(outcome.output.preprocessed);
     s.messages = std::move(outcome.output.messages);
     s.files_read = std::move(outcome.output.files_read);
     if (s.ok) s.key = source_key(plan_, settings_, s);

@@ -27,8 +27,10 @@ namespace kiln {
 struct StageSource {
   uint32_t pass = 0;
   Stage stage = Stage::Vertex;
-  std::vector<std::string> defines;  // the keywords the stage sees
+  std::vector<std::string> defines;  // the keywords the stage sees, then its folded keywords' macros
   size_t first_variant = 0;          // for messages
+  // Declarations of the stage's folded keywords (kiln/folded_keywords.hpp), put before the preprocessed text.
+  std::shared_ptr<const std::string> folded;
   bool ok = false;
   bool preprocessed = false;  // text holds the preprocessed source (not only known through a memo)
   std::string text;

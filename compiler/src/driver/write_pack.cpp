@@ -11,11 +11,6 @@
 namespace kiln {
 namespace {
 
-// The stages a group applies to, of those the pass has (an unsuffixed keyword applies to every stage).
-ManifestKeywordGroup keyword_group_record(const KeywordGroup& group, StageMask pass_stages) {
-  return {group.pragma, group.values, static_cast<StageMask>(group.stages & pass_stages)};
-}
-
 
 // The binding options and defines a pass was built with, when not the defaults (docs/bindings.md): empty fields
 // are left out of the file, which keeps the manifests of packs that use neither as they were.
@@ -58,13 +53,9 @@ std::optional<WrittenVariantPack> write_variant_pack(BuildContext& build, const 
     ManifestPass& pass = manifest.passes.emplace_back();
     pass.name = def.name;
     if (!def.targets.empty()) pass.targets = settings.targets_for(def);
-    StageMask pass_stages = 0;
     for (Stage s : kAllStages)
-      if (!def.entry_points[static_cast<size_t>(s)].empty()) {
-        pass.entry_points[s] = def.entry_points[static_cast<size_t>(s)];
-        pass_stages |= stage_bit(s);
-      }
-    for (const KeywordGroup& g : plan.passes[p].groups) pass.keyword_groups.push_back(keyword_group_record(g, pass_stages));
+      if (!def.entry_points[static_cast<size_t>(s)].empty()) pass.entry_points[s] = def.entry_points[static_cast<size_t>(s)];
+    pass.keyword_groups = plan.keyword_group_records(p);
     pass.layout = layouts[p];
     const auto& expansion = plan.expansions[p];
     for (size_t v = 0; v < expansion.variants.size(); ++v) {

@@ -1,5 +1,7 @@
 #include "permutations/permutations.hpp"
 
+#include "common/keyword_pragmas.hpp"
+
 #include <algorithm>
 #include <functional>
 #include <limits>
@@ -192,6 +194,32 @@ bool satisfies_constraints(const PassKeywords& pass, const std::vector<Constrain
   return true;
 }
 
+bool apply_keyword_kinds(std::vector<PassKeywords>& passes, const PackDefinition& pack, DiagnosticSink& sink) {
+  bool ok = true;
+  for (PassKeywords& pass : passes)
+    for (KeywordGroup& group : pass.groups) {
+      const std::string* first = nullptr;
+      for (const std::string& value : group.values) {
+        auto it = pack.keyword_kinds.find(value);
+        if (it == pack.keyword_kinds.end()) continue;
+        if (first && pack.keyword_kinds.at(*first).kind != it->second.kind) {
+          ok = false;
+          sink.report(DiagId::PackDefinition, it->second.defined_at,
+                      "keyword_kinds gives '" + value + "' the kind " + std::string(keyword_kind_name(it->second.kind)) +
+                          " and '" + *first + "' of the same group the kind " +
+                          std::string(keyword_kind_name(pack.keyword_kinds.at(*first).kind)) +
+                          ": a group is one module or one per value, for all its keywords",
+                      {"the group: #pragma " + group.pragma + " at " + group.declared_at.path + ":" +
+                       std::to_string(group.declared_at.line)});
+          continue;
+        }
+        if (!first) first = &value;
+      }
+      if (first) group.pragma = pragma_of_kind(group, pack.keyword_kinds.at(*first).kind);
+    }
+  return ok;
+}
+
 bool check_rule_keywords(const std::vector<PassKeywords>& passes, const PackDefinition& pack,
                          const std::vector<SceneProfile>& scenes, DiagnosticSink& sink) {
   std::vector<std::string> declared;
@@ -218,6 +246,7 @@ bool check_rule_keywords(const std::vector<PassKeywords>& passes, const PackDefi
   }
   for (const SceneProfile& scene : scenes)
     for (const std::string& k : scene.keywords) check(k, scene.file, scene.text, DiagId::UnknownKeyword, "scene profile");
+  for (const auto& [k, kind] : pack.keyword_kinds) check(k, pack.file, pack.text, DiagId::UnknownKeyword, "keyword_kinds");
   for (const MaterialPreset& material : pack.materials) {
     for (const std::string& k : material.keywords) {
       check(k, pack.file, pack.text, DiagId::UnknownKeyword, "material");

@@ -47,6 +47,9 @@ struct StripRules {
 };
 
 // Reports unknown keywords in constraints and scenes (with the closest declared keyword).
+// A pack's "keyword_kinds" (kiln/folded_keywords.hpp): each named group's pragma becomes its new kind's spelling.
+// False (reported) when one group's keywords are given different kinds.
+bool apply_keyword_kinds(std::vector<PassKeywords>& passes, const PackDefinition& pack, DiagnosticSink& sink);
 bool check_rule_keywords(const std::vector<PassKeywords>& passes, const PackDefinition& pack,
                          const std::vector<SceneProfile>& scenes, DiagnosticSink& sink);
 

@@ -455,6 +455,28 @@ const char* kiln_variant_keyword(const kiln_pack* pack, kiln_pass pass, uint32_t
   return v && index < v->keyword_count ? pack->index->keywords[pack->index->variant_keywords[v->first_keyword + index]].data() : nullptr;
 }
 
+uint32_t kiln_pass_value_count(const kiln_pack* pack, kiln_pass pass) {
+  return pack && pass < pack->index->passes.size() ? pack->index->passes[pass].folded_count : 0;
+}
+
+kiln_result kiln_variant_value(const kiln_pack* pack, kiln_pass pass, uint32_t variant, uint32_t index,
+                               kiln_keyword_value* value, kiln_error* error) {
+  if (!value) return invalid(error, "kiln_variant_value: value is NULL");
+  const kiln::runtime::Variant* v = find_variant(pack, pass, variant);
+  if (!v) return invalid(error, "kiln_variant_value: no variant %u of pass %u", variant, pass);
+  const kiln::runtime::Pass& p = pack->index->passes[pass];
+  if (index >= p.folded_count) return invalid(error, "kiln_variant_value: pass %u has %u folded keywords, not %u", pass, p.folded_count, index + 1);
+  const kiln::runtime::Folded& folded = pack->index->folded[p.first_folded + index];
+  const uint32_t* first = pack->index->variant_keywords.data() + v->first_keyword;
+  uint32_t flags = 0;
+  for (kiln::Stage s : kiln::kAllStages)
+    if (folded.stages & kiln::stage_bit(s)) flags |= stage_flag(static_cast<kiln_stage>(s));
+  *value = kiln_keyword_value{pack->index->keywords[folded.keyword].data(),
+                              folded.kind == kiln::KeywordKind::DynamicBranch ? KILN_KEYWORD_DYNAMIC_BRANCH : KILN_KEYWORD_SPECIALIZATION_CONSTANT,
+                              flags, folded.slot, std::find(first, first + v->keyword_count, folded.keyword) != first + v->keyword_count ? 1u : 0u};
+  return ok(error);
+}
+
 kiln_result kiln_variant_code(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage,
                               kiln_target target, kiln_code* code, kiln_error* error) {
   if (!code) return invalid(error, "kiln_variant_code: code is NULL");
@@ -598,3 +620,6 @@ static_assert(KILN_RESOURCE_UNIFORM_BUFFER == static_cast<int>(kiln::ResourceKin
 static_assert(KILN_MSL_BUFFER == static_cast<int>(kiln::MslResourceKind::Buffer) &&
               KILN_MSL_TEXTURE == static_cast<int>(kiln::MslResourceKind::Texture) &&
               KILN_MSL_SAMPLER == static_cast<int>(kiln::MslResourceKind::Sampler));
+static_assert(KILN_KEYWORD_DYNAMIC_BRANCH == static_cast<int>(kiln::KeywordKind::DynamicBranch) &&
+              KILN_KEYWORD_SPECIALIZATION_CONSTANT == static_cast<int>(kiln::KeywordKind::SpecializationConstant));
+static_assert(KILN_KEYWORD_BLOCK_SET == kiln::kKeywordBlockSet && KILN_KEYWORD_BLOCK_BINDING == kiln::kKeywordBlockBinding);

@@ -5,6 +5,7 @@
 #include <tuple>
 #include <type_traits>
 
+#include "kiln/folded_keywords.hpp"
 #include "kiln/pack_format.hpp"
 
 namespace kiln {
@@ -470,16 +471,52 @@ void from_json(const json& j, ManifestKeywordGroup& v) {
   }
 }
 
+namespace {
+
+// A pass's folded keywords (kiln/folded_keywords.hpp), for people and tools that read the JSON: where each lives.
+// They follow from the keyword groups; a reader recomputes them and refuses a manifest whose record disagrees.
+json folded_keywords_record(const ManifestPass& pass) {
+  json out = json::array();
+  for (const FoldedKeyword& k : folded_keywords(pass.keyword_groups)) {
+    json stages = json::array();
+    for (Stage s : kAllStages)
+      if (k.stages & stage_bit(s)) stages.push_back(stage_name(s));
+    json entry = {{"keyword", k.keyword}, {"kind", keyword_kind_name(k.kind)}, {"stages", stages}, {"type", "bool"}, {"default", false}};
+    if (k.kind == KeywordKind::SpecializationConstant) {
+      entry["constant_id"] = k.slot;
+    } else {
+      entry["block"] = kKeywordBlockName;
+      entry["set"] = kKeywordBlockSet;
+      entry["binding"] = kKeywordBlockBinding;
+      entry["offset"] = k.slot;
+    }
+    out.push_back(std::move(entry));
+  }
+  return out;
+}
+
+}  // namespace
+
 void to_json(json& j, const Manifest& v) {
   write_fields(j, v);
   j["format"] = kManifestFormat;
   j["scene_features"] = json::parse(v.scene_features_json);
+  for (size_t p = 0; p < v.passes.size(); ++p)
+    if (json folded = folded_keywords_record(v.passes[p]); !folded.empty()) j["passes"][p]["folded_keywords"] = std::move(folded);
 }
 void from_json(const json& j, Manifest& v) {
   read_fields(j, v);
   const json& scene_features = member(j, "scene_features");
   if (!scene_features.is_object()) throw ManifestError("/scene_features", "is not an object");
   v.scene_features_json = scene_features.dump();
+  for (size_t p = 0; p < v.passes.size(); ++p) {
+    const json& pass = j.at("passes").at(p);
+    const json expected = folded_keywords_record(v.passes[p]);
+    const auto it = pass.find("folded_keywords");
+    if (it == pass.end() ? !expected.empty() : *it != expected)
+      throw ManifestError("/passes/" + std::to_string(p) + "/folded_keywords",
+                          "does not match the pass's keyword groups (kiln/folded_keywords.hpp)");
+  }
 }
 
 const ManifestPass* Manifest::pass(std::string_view pass_name) const {

@@ -327,6 +327,23 @@ Index Index::decode(std::string_view bytes, uint64_t blob_count) {
       }
       index.groups.push_back(group);
     }
+    pass.first_folded = static_cast<uint32_t>(index.folded.size());
+    if (std::any_of(index.groups.begin() + pass.first_group, index.groups.end(),
+                    [](const Group& g) { return is_folded(keyword_kind(g.pragma)); })) {
+      std::vector<ManifestKeywordGroup> records;
+      for (uint32_t g = pass.first_group; g < index.groups.size(); ++g) {
+        ManifestKeywordGroup& record = records.emplace_back();
+        record.pragma = std::string(index.groups[g].pragma);
+        record.stages = index.groups[g].stages;
+        for (uint32_t v = 0; v < index.groups[g].value_count; ++v) {
+          const uint32_t id = index.values[index.groups[g].first_value + v];
+          record.values.emplace_back(id == kOffValue ? std::string_view() : index.keywords[id]);
+        }
+      }
+      for (const FoldedKeyword& k : folded_keywords(records))
+        index.folded.push_back(Folded{index.keyword_id(k.keyword), k.kind, k.stages, k.slot});
+    }
+    pass.folded_count = static_cast<uint32_t>(index.folded.size() - pass.first_folded);
     pass.first_variant = static_cast<uint32_t>(index.variants.size());
     pass.variant_count = in.count(8);
     for (uint32_t v = 0; v < pass.variant_count; ++v) {
