@@ -50,6 +50,25 @@ TEST(Declarations, MultiCompileFogExpandsToUnitysFogModes) {
             (std::vector<std::string>{"", "FOG_LINEAR", "FOG_EXP", "FOG_EXP2"}));
 }
 
+TEST(Declarations, FoldedKindsTakeUnitysSuffixesAndALoneKeywordMayBeOff) {
+  DiagnosticSink sink;
+  bool malformed = false;
+  auto branch = parse(" dynamic_branch_local_fragment _ A B", sink, malformed);
+  ASSERT_TRUE(branch);
+  EXPECT_EQ(branch->kind(), KeywordKind::DynamicBranch);
+  EXPECT_TRUE(branch->local);
+  EXPECT_EQ(branch->stages, stage_bit(Stage::Fragment));
+  EXPECT_EQ(branch->values, (std::vector<std::string>{"", "A", "B"}));
+  auto constant = parse(" specialization_constant_vertex A", sink, malformed);
+  ASSERT_TRUE(constant);
+  EXPECT_EQ(constant->kind(), KeywordKind::SpecializationConstant);
+  EXPECT_EQ(constant->stages, stage_bit(Stage::Vertex));
+  EXPECT_EQ(constant->values, (std::vector<std::string>{"", "A"}));  // a bool that is always on is no choice
+  EXPECT_EQ(parse(" multi_compile _ A", sink, malformed)->kind(), KeywordKind::Variant);
+  EXPECT_FALSE(parse(" dynamic_branch_pixel _ A", sink, malformed));
+  EXPECT_TRUE(malformed);
+}
+
 TEST(Declarations, OtherPragmasAreNotKeywordDeclarations) {
   DiagnosticSink sink;
   bool malformed = false;

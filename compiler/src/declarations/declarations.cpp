@@ -290,8 +290,9 @@ Result<std::optional<KeywordGroup>, Diagnostic> parse_keyword_pragma(std::string
                   "'" + std::string(word) + "' appears twice in one keyword group");
     group.values.push_back(value);
   }
-  // Unity's rule: a lone shader_feature keyword may be off; a lone multi_compile keyword is always on.
-  if (group.material_feature && group.values.size() == 1 && !group.values[0].empty())
+  // Unity's rule: a lone shader_feature keyword may be off; a lone multi_compile keyword is always on. A lone folded
+  // keyword may be off too: a bool that is always true chooses nothing.
+  if ((group.material_feature || is_folded(group.kind())) && group.values.size() == 1 && !group.values[0].empty())
     group.values.insert(group.values.begin(), "");
   return Parsed(std::move(group));
 }

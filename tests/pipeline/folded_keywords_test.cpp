@@ -1,0 +1,181 @@
+// Folded keywords (kiln/folded_keywords.hpp, docs/keywords.md) through whole builds: a dynamic_branch or
+// specialization_constant group builds one module for all its values, every variant is still in the pack, and
+// both reader APIs give each variant the values to set, where the compiled code declares them.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <set>
+
+#include "kiln/build.hpp"
+#include "kiln/kiln_reader.h"
+#include "kiln/pack_reader.hpp"
+#include "test_support.hpp"
+
+namespace kiln {
+namespace {
+
+using nlohmann::json;
+
+std::string errors_of(const DiagnosticSink& sink) {
+  std::string text;
+  for (const Diagnostic& d : sink.diagnostics()) text += format_diagnostic(d);
+  return text;
+}
+
+// A and B fold; M chooses a module. The fragment shader tests A and B with `if` where they are folded, with #if
+// where they are not (docs/keywords.md), M with #if.
+const char* kShader =
+    "#pragma multi_compile_fragment _ M\n"
+    "#pragma KIND _ A B\n"
+    "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+    "float4 F() : SV_Target {\n"
+    "    float r = 0.0;\n"
+    "#if defined(KILN_FOLDED_A)\n"
+    "    if (A) r = 0.25;\n"
+    "    if (B) r = 0.5;\n"
+    "#elif defined(A)\n"
+    "    r = 0.25;\n"
+    "#elif defined(B)\n"
+    "    r = 0.5;\n"
+    "#endif\n"
+    "#if defined(M)\n"
+    "    r += 0.125;\n"
+    "#endif\n"
+    "    return float4(r, 0, 0, 1);\n"
+    "}\n";
+
+struct FoldedKeywords : ::testing::Test {
+  testing::TempDir dir;
+
+  bool build(const std::string& pragma, const std::string& pack_fields, DiagnosticSink& sink, const std::string& out = "out") {
+    std::string shader = kShader;
+    shader.replace(shader.find("KIND"), 4, pragma);
+    dir.write("S.hlsl", shader);
+    dir.write("p.pack.json", R"({"name": "p", )" + pack_fields +
+                                 R"("passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+    BuildOptions options;
+    options.pack_file = dir / "p.pack.json";
+    options.output_dir = dir / out;
+    options.cache_dir = dir / "cache";
+    options.jobs = 2;
+    options.worker_executable = KILN_WORKER_PATH;
+    return build_pack(options, sink).ok;
+  }
+  json manifest() { return json::parse(testing::read_file(dir / "out/p.manifest.json")); }
+};
+
+// The distinct fragment modules of the pack's variants.
+size_t fragment_modules(const PackReader& pack) {
+  std::set<std::string_view> modules;
+  for (size_t v = 0; v < pack.variant_count("P"); ++v) modules.insert(pack.variant("P", v).stage("fragment")->spirv);
+  return modules.size();
+}
+
+TEST_F(FoldedKeywords, ASpecializationConstantGroupIsOneModuleAndEachVariantSaysWhichConstantsToSet) {
+  DiagnosticSink sink;
+  ASSERT_TRUE(build("specialization_constant_fragment", "", sink)) << errors_of(sink);
+  PackReader pack = PackReader::open(dir / "out");
+  EXPECT_EQ(pack.variant_count("P"), 6u);  // {_, A, B} x {_, M}: every variant is still selectable
+  EXPECT_EQ(fragment_modules(pack), 2u);   // one per value of M only
+
+  const SelectedVariant v = pack.select("P", {"B", "M"});
+  ASSERT_EQ(v.values.size(), 2u);
+  EXPECT_EQ(v.values[0].keyword, "A");
+  EXPECT_EQ(v.values[0].kind, KeywordKind::SpecializationConstant);
+  EXPECT_EQ(v.values[0].slot, kKeywordConstantIdBase);
+  EXPECT_EQ(v.values[0].stages, stage_bit(Stage::Fragment));
+  EXPECT_FALSE(v.values[0].on);
+  EXPECT_EQ(v.values[1].keyword, "B");
+  EXPECT_EQ(v.values[1].slot, kKeywordConstantIdBase + 1);
+  EXPECT_TRUE(v.values[1].on);
+  // The code declares them where the values say: SPIRV-Cross's macro in GLSL, a function constant in MSL.
+  const StageView* fragment = v.stage("fragment");
+  EXPECT_NE(fragment->glsl.find("SPIRV_CROSS_CONSTANT_ID_1001"), std::string_view::npos) << fragment->glsl;
+  EXPECT_NE(fragment->msl.find("function_constant(1001)"), std::string_view::npos) << fragment->msl;
+  EXPECT_TRUE(pack.select("P", {}).values[0].on == false && pack.select("P", {"A"}).values[0].on);
+
+  // The manifest records where each lives, for people and tools.
+  const json folded = manifest()["passes"][0]["folded_keywords"];
+  ASSERT_EQ(folded.size(), 2u);
+  EXPECT_EQ(folded[1]["keyword"], "B");
+  EXPECT_EQ(folded[1]["constant_id"], kKeywordConstantIdBase + 1);
+  EXPECT_EQ(folded[1]["type"], "bool");
+
+  // The C API agrees with the C++ reader on every variant.
+  kiln_pack* c_pack = nullptr;
+  ASSERT_EQ(kiln_pack_open((dir / "out").c_str(), &c_pack, nullptr), KILN_OK);
+  ASSERT_EQ(kiln_pass_value_count(c_pack, 0), 2u);
+  for (uint32_t variant = 0; variant < kiln_variant_count(c_pack, 0); ++variant) {
+    const SelectedVariant cpp = pack.variant("P", variant);
+    for (uint32_t i = 0; i < 2; ++i) {
+      kiln_keyword_value value{};
+      ASSERT_EQ(kiln_variant_value(c_pack, 0, variant, i, &value, nullptr), KILN_OK);
+      EXPECT_EQ(value.keyword, cpp.values[i].keyword);
+      EXPECT_EQ(value.kind, KILN_KEYWORD_SPECIALIZATION_CONSTANT);
+      EXPECT_EQ(value.slot, cpp.values[i].slot);
+      EXPECT_EQ(value.stage_flags, uint32_t{KILN_STAGE_FLAG_FRAGMENT});
+      EXPECT_EQ(value.on != 0, cpp.values[i].on);
+    }
+  }
+  kiln_keyword_value past{};
+  EXPECT_EQ(kiln_variant_value(c_pack, 0, 0, 2, &past, nullptr), KILN_ERROR_INVALID_ARGUMENT);
+  kiln_pack_close(c_pack);
+}
+
+TEST_F(FoldedKeywords, ADynamicBranchGroupIsOneModuleReadingItsBoolsFromTheKeywordBlock) {
+  DiagnosticSink sink;
+  ASSERT_TRUE(build("dynamic_branch", "", sink)) << errors_of(sink);
+  PackReader pack = PackReader::open(dir / "out");
+  EXPECT_EQ(fragment_modules(pack), 2u);
+  const SelectedVariant v = pack.select("P", {"A"});
+  ASSERT_EQ(v.values.size(), 2u);
+  EXPECT_EQ(v.values[0].kind, KeywordKind::DynamicBranch);
+  EXPECT_EQ(v.values[0].slot, 0u);
+  EXPECT_TRUE(v.values[0].on);
+  EXPECT_EQ(v.values[1].slot, 4u);
+  EXPECT_FALSE(v.values[1].on);
+  // The reflected block has each bool at the offset the values give.
+  const Resource* block = nullptr;
+  for (const Resource& r : v.stage("fragment")->reflection->resources)
+    if (r.name == kKeywordBlockName) block = &r;
+  ASSERT_NE(block, nullptr);
+  EXPECT_EQ(block->set, kKeywordBlockSet);
+  EXPECT_EQ(block->binding, kKeywordBlockBinding);
+  ASSERT_EQ(block->members.size(), 2u);
+  EXPECT_EQ(block->members[0].name, "A");
+  EXPECT_EQ(block->members[0].offset, 0u);
+  EXPECT_EQ(block->members[1].name, "B");
+  EXPECT_EQ(block->members[1].offset, 4u);
+}
+
+TEST_F(FoldedKeywords, APacksKeywordKindsFoldAMultiCompileGroupWithoutEditingTheShader) {
+  DiagnosticSink sink;
+  ASSERT_TRUE(build("multi_compile_fragment", R"("keyword_kinds": {"A": "specialization_constant"}, )", sink)) << errors_of(sink);
+  PackReader pack = PackReader::open(dir / "out");
+  EXPECT_EQ(fragment_modules(pack), 2u);
+  EXPECT_EQ(manifest()["passes"][0]["keyword_groups"][1]["pragma"], "specialization_constant_fragment");
+  EXPECT_EQ(pack.select("P", {"B"}).values.size(), 2u);
+
+  // Without it, the same shader builds a module per value (and never reads the bools).
+  DiagnosticSink plain_sink;
+  ASSERT_TRUE(build("multi_compile_fragment", "", plain_sink, "plain")) << errors_of(plain_sink);
+  EXPECT_EQ(fragment_modules(PackReader::open(dir / "plain")), 6u);
+}
+
+TEST_F(FoldedKeywords, OneGroupGivenTwoKindsOrAnUndeclaredKeywordIsAnError) {
+  DiagnosticSink mixed;
+  EXPECT_FALSE(build("multi_compile", R"("keyword_kinds": {"A": "dynamic_branch", "B": "specialization_constant"}, )", mixed));
+  EXPECT_NE(errors_of(mixed).find("a group is one module or one per value"), std::string::npos) << errors_of(mixed);
+  DiagnosticSink unknown;
+  EXPECT_FALSE(build("multi_compile", R"("keyword_kinds": {"C": "dynamic_branch"}, )", unknown));
+  EXPECT_NE(errors_of(unknown).find("unknown keyword 'C' in keyword_kinds"), std::string::npos) << errors_of(unknown);
+  DiagnosticSink bad_kind;
+  EXPECT_FALSE(build("multi_compile", R"("keyword_kinds": {"A": "uniform"}, )", bad_kind));
+  EXPECT_NE(errors_of(bad_kind).find("must be \"variant\", \"dynamic_branch\" or \"specialization_constant\""),
+            std::string::npos)
+      << errors_of(bad_kind);
+}
+
+}  // namespace
+}  // namespace kiln
