@@ -126,6 +126,9 @@ def main():
     parser.add_argument("--no-serial", action="store_true", help="leave out the serial loop (the longest row)")
     parser.add_argument("--only", help="comma-separated words: run the configurations whose names contain one of them")
     parser.add_argument("--floor-tool", help="kiln-compile-steps: adds the library floor on N cores (see above)")
+    parser.add_argument("--also-pack", action="append", default=[],
+                        help="another pack definition for kiln to build cold beside the first (the anchors still build "
+                             "the first pack's variants): a specialized pack against the naive chain of every variant")
     parser.add_argument("--out", default=os.path.join(ROOT, "bench/results/anchors.json"))
     args = parser.parse_args()
     kiln = os.path.abspath(args.kiln)
@@ -190,6 +193,12 @@ def main():
 
         configs = {f"kiln cold -j{n}": kiln_cold, f"naive chain, xargs -P{n}": xargs_chain,
                    f"naive chain, build.ninja, ninja -j{n}": ninja_chain}
+        for other in args.also_pack:
+            def kiln_cold_other(other=other):
+                out = fresh("kiln-other")
+                return measure([kiln, "build", other, "-o", os.path.join(out, "pack"), "--cache", os.path.join(out, "cache"),
+                                "-j", str(n), "-q"])
+            configs[f"kiln cold -j{n}, {os.path.basename(other)}"] = kiln_cold_other
         have_glslc = shutil.which("glslc") is not None
         if have_glslc:
             configs[f"glslc -O chain, xargs -P{n}"] = xargs_glslc

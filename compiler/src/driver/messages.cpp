@@ -18,8 +18,16 @@ bool is_directive(const std::string& line_text) {
 }  // namespace
 
 std::string variant_description(const Plan& plan, uint32_t pass, Stage stage, const std::vector<std::string>& keywords) {
+  // A stage source's defines end with its folded keywords' macros (K=K, KILN_FOLDED_K): named once, as folded.
+  std::vector<std::string> chosen, folded;
+  for (const std::string& k : keywords) {
+    const size_t equals = k.find('=');
+    if (k.starts_with("KILN_FOLDED_")) continue;
+    if (equals != std::string::npos && k.compare(equals + 1, std::string::npos, k, 0, equals) == 0) folded.push_back(k.substr(0, equals));
+    else chosen.push_back(k);
+  }
   return "pass '" + plan.pack.passes[pass].name + "' " + std::string(stage_name(stage)) + " stage, keywords [" +
-         join_keywords(keywords) + "]";
+         join_keywords(chosen) + "]" + (folded.empty() ? "" : ", folded [" + join_keywords(folded) + "]");
 }
 
 // "';' : Expected" quotes the token glslang wanted, not the one it found: the caret would land on some other
