@@ -2,6 +2,7 @@
 // from_json refuses what kiln does not write with the place of the mistake.
 #include <gtest/gtest.h>
 
+#include "kiln/folded_keywords.hpp"
 #include "kiln/manifest_json.hpp"
 #include "kiln/runtime_index.hpp"
 
@@ -214,6 +215,32 @@ TEST(Manifest, RefusesWhatKilnDoesNotWriteAndSaysWhere) {
     EXPECT_EQ(error_reading(bad), c.error) << c.pointer;
   }
   EXPECT_EQ(error_reading(json::array()), "top level: is not an object");
+}
+
+// Folded keywords' ids and offsets are derived from the groups by every reader (kiln/folded_keywords.hpp); the
+// JSON's record of them is for people, and a manifest whose record disagrees is refused, as is one that drops it.
+TEST(Manifest, TheFoldedKeywordsRecordMustBeTheOneTheGroupsGive) {
+  Manifest m = sample_manifest();
+  m.passes[0].keyword_groups.push_back({"specialization_constant_fragment", {"", "S", "T"}, stage_bit(Stage::Fragment)});
+  m.passes[0].keyword_groups.push_back({"dynamic_branch", {"", "D"}, kAllStageBits});
+  const json good = m;
+  const json& folded = good["passes"][0]["folded_keywords"];
+  ASSERT_EQ(folded.size(), 3u);
+  EXPECT_EQ(folded[1]["keyword"], "T");
+  EXPECT_EQ(folded[1]["constant_id"], kKeywordConstantIdBase + 1);
+  EXPECT_EQ(folded[2]["block"], kKeywordBlockName);
+  EXPECT_EQ(folded[2]["offset"], 0);
+  EXPECT_EQ(good.get<Manifest>().passes, m.passes);
+  EXPECT_EQ(runtime::Index::decode(runtime::encode(m), m.archive.blobs).folded.size(), 3u);
+  for (const char* pointer : {"/passes/0/folded_keywords/1/constant_id", "/passes/0/folded_keywords/2/offset"}) {
+    json bad = good;
+    bad[json::json_pointer(pointer)] = 7;
+    EXPECT_EQ(error_reading(bad), "/passes/0/folded_keywords: does not match the pass's keyword groups (kiln/folded_keywords.hpp)");
+  }
+  json dropped = good;
+  dropped["passes"][0].erase("folded_keywords");
+  EXPECT_NE(error_reading(dropped), "(read)");
+  EXPECT_EQ(json(sample_manifest())["passes"][0].count("folded_keywords"), 0u);  // nothing folded: nothing written
 }
 
 TEST(Manifest, ChecksIndicesBetweenRecords) {
