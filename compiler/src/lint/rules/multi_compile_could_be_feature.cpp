@@ -11,7 +11,7 @@ void check_multi_compile_could_be_feature(const LintContext& context, LintReport
   if (plan.scenes.empty()) return;
   for (const auto& [pass, groups] : plan.pass_groups) {
     for (const KeywordGroup& group : groups) {
-      if (group.material_feature) continue;
+      if (group.material_feature || is_folded(group.kind())) continue;  // a folded group multiplies no modules
       bool varied = false;
       for (const auto& [scene, keywords] : plan.scenes)
         for (const std::string& value : group.values)
