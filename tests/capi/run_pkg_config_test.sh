@@ -15,7 +15,7 @@ cmake --install "$build" --prefix "$work/prefix" > /dev/null
 echo "== kiln-reader.pc and the headers are installed"
 pc=$(find "$work/prefix" -name kiln-reader.pc)
 [ -n "$pc" ] || fail "no kiln-reader.pc under the prefix"
-for header in kiln_reader.h pack_reader.hpp manifest.hpp pack_format.hpp stage_target.hpp; do
+for header in kiln_reader.h pack_reader.hpp manifest.hpp pack_format.hpp stage_target.hpp folded_keywords.hpp coverage_map.hpp; do
   [ -f "$work/prefix/include/kiln/$header" ] || fail "include/kiln/$header not installed"
 done
 [ ! -e "$work/prefix/include/kiln/manifest_json.hpp" ] || fail "manifest_json.hpp (nlohmann-json) is installed"

@@ -55,6 +55,7 @@ expect_files() {  # package, files
 expect_files libkiln-reader0 ./usr/lib/libkiln_reader.so.0 ./usr/lib/libkiln_reader.so.0.1.0
 expect_files libkiln-reader-dev ./usr/lib/libkiln_reader.so ./usr/lib/libkiln_reader.a ./usr/lib/pkgconfig/kiln-reader.pc \
   ./usr/include/kiln/pack_reader.hpp ./usr/include/kiln/manifest.hpp ./usr/include/kiln/kiln_reader.h \
+  ./usr/include/kiln/folded_keywords.hpp ./usr/include/kiln/coverage_map.hpp \
   ./usr/lib/cmake/kiln/kilnConfig.cmake ./usr/lib/cmake/kiln/kilnConfigVersion.cmake ./usr/lib/cmake/kiln/kilnReaderTargets.cmake
 expect_files kiln ./usr/bin/kiln ./usr/bin/kiln-worker \
   ./usr/lib/cmake/kiln/kilnCompilerTargets.cmake ./usr/lib/cmake/kiln/KilnShaderPack.cmake \

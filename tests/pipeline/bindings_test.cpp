@@ -15,11 +15,7 @@ namespace {
 
 using nlohmann::json;
 
-std::string errors_of(const DiagnosticSink& sink) {
-  std::string text;
-  for (const Diagnostic& d : sink.diagnostics()) text += format_diagnostic(d);
-  return text;
-}
+using testing::errors_of;
 
 // "name kind set.binding" per resource of a pass's merged layout, in (set, binding) order.
 std::string layout_of(const std::filesystem::path& manifest, size_t pass = 0) {

@@ -51,11 +51,7 @@ std::string layout_of(const std::filesystem::path& manifest) {
   return out;
 }
 
-std::string errors_of(const DiagnosticSink& sink) {
-  std::string text;
-  for (const Diagnostic& d : sink.diagnostics()) text += format_diagnostic(d);
-  return text;
-}
+using testing::errors_of;
 
 // Builds the shader into a one-pass pack with `bindings` (a JSON object, or empty).
 bool build(const testing::TempDir& dir, const CorpusShader& shader, const std::string& bindings, const std::string& out,

@@ -17,11 +17,7 @@ namespace {
 
 using nlohmann::json;
 
-std::string errors_of(const DiagnosticSink& sink) {
-  std::string text;
-  for (const Diagnostic& d : sink.diagnostics()) text += format_diagnostic(d);
-  return text;
-}
+using testing::errors_of;
 
 // A and B fold; M chooses a module. The fragment shader tests A and B with `if` where they are folded, with #if
 // where they are not (docs/keywords.md), M with #if.

@@ -33,11 +33,7 @@ BuildReport build(const std::filesystem::path& pack, const std::filesystem::path
   return build_pack(options, sink);
 }
 
-std::string errors_of(const DiagnosticSink& sink) {
-  std::string text;
-  for (const Diagnostic& d : sink.diagnostics()) text += format_diagnostic(d);
-  return text;
-}
+using testing::errors_of;
 
 struct SmallLibrary : ::testing::Test {
   testing::TempDir dir;

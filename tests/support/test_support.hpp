@@ -11,6 +11,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "kiln/diagnostics.hpp"
+
 #include <cerrno>
 #include <cstdio>
 #include <chrono>
@@ -24,6 +26,13 @@
 extern char** environ;
 
 namespace kiln::testing {
+
+// Every diagnostic of a sink as kiln prints it: the message of a failed build's assertion.
+inline std::string errors_of(const DiagnosticSink& sink) {
+  std::string text;
+  for (const Diagnostic& d : sink.diagnostics()) text += format_diagnostic(d);
+  return text;
+}
 
 inline std::string read_file(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);

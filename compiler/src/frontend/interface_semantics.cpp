@@ -11,11 +11,10 @@ namespace {
 
 using spirv_edit::Instruction;
 
-constexpr uint32_t kDecorationUserSemantic = 5635;  // SPV_GOOGLE_hlsl_functionality1
 constexpr std::string_view kExtension = "SPV_GOOGLE_hlsl_functionality1";
 
 bool is_semantic(const Instruction& in) {
-  return in.op() == spv::OpDecorateString && in.words.size() > 3 && in.words[2] == kDecorationUserSemantic;
+  return in.op() == spv::OpDecorateString && in.words.size() > 3 && in.words[2] == static_cast<uint32_t>(spv::DecorationUserSemantic);
 }
 
 }  // namespace
@@ -31,7 +30,7 @@ Result<void> attach_interface_semantics(std::vector<uint32_t>& spirv, const Inte
     if (in.words[3] != spv::StorageClassInput && in.words[3] != spv::StorageClassOutput) continue;
     const auto found = semantics.find(module.name_of(in.words[2]));
     if (found != semantics.end())
-      decorations.push_back(spirv_edit::make_with_string(spv::OpDecorateString, {in.words[2], kDecorationUserSemantic}, found->second));
+      decorations.push_back(spirv_edit::make_with_string(spv::OpDecorateString, {in.words[2], static_cast<uint32_t>(spv::DecorationUserSemantic)}, found->second));
   }
   if (decorations.empty()) return {};
   module.add_extension(kExtension);
