@@ -1,6 +1,6 @@
 // libFuzzer harness: every other decoder of bytes from outside, one target per first byte of the input.
 //   0: a compile record (the cache's and the remote's payloads, a worker's answer): decode_output, and the bounded
-//      CBOR decoder under it;
+//      CBOR decoder under it; then the same bytes as a shard's bundle from the remote (decode_shard_bundle);
 //   1: a pack definition, 2: a scene profile (the JSON parsers, from a file as kiln reads them; the scene is also
 //      resolved against the pack's features and materials);
 //   3: command-line option values, one per line: -D values, then a --fvk-*-shift pair and a --fvk-bind-globals pair
@@ -22,6 +22,7 @@
 
 #include "common/compile_result.hpp"
 #include "definition/definition.hpp"
+#include "driver/shard_bundle.hpp"
 
 namespace {
 
@@ -59,6 +60,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         if (output.messages.size() > input.size()) std::abort();  // more messages than bytes: not bounded
       } catch (const std::exception&) {
         // a malformed record: what the cache and the remote turn into a miss
+      }
+      {
+        // decode_shard_bundle reports, never throws; what it accepts is bounded by its bytes.
+        const kiln::Result<kiln::ShardBundle> bundle = kiln::decode_shard_bundle(input, 1);
+        if (bundle && (bundle->sources.size() > input.size() || bundle->outputs.size() > input.size())) std::abort();
       }
       break;
     case 1: {

@@ -82,8 +82,10 @@ struct BuildOptions {
   BindingOptions bindings;       // command line: overrides every pass's "bindings" field by field
   std::vector<Define> defines;   // command line (-D): added to every pass's, replacing a define of the same name
   RemoteCacheOptions remote;
-  // --shard I/N: compile only the misses whose key falls in share I of N (a stable hash of the key, not the order of
-  // the variant list), keep them in the caches and write no pack: a build without a shard, the merge, writes it.
+  // --shard I/N: preprocess and compile only share I of N of the stage sources (dealt out before preprocessing, the
+  // same on every machine), keep them in the caches, and upload them with one bundle of the whole share. The shard
+  // that finds every other shard's bundle on the server assembles and writes the pack; otherwise a build without a
+  // shard, the merge, writes it from the bundles.
   unsigned shard_index = 0;
   unsigned shard_count = 1;
   std::function<void(size_t done, size_t total, size_t cache_hits)> progress;
@@ -161,6 +163,8 @@ struct RemoteReport {
   size_t uploads = 0;          // records written (results and aliases)
   size_t blobs_uploaded = 0;
   size_t repaired = 0;         // module entries put again whole: this build found them missing or damaged
+  size_t shard_bundles = 0;    // shards' bundles used (a merge, or the shard that finished last)
+  size_t shard_sources = 0;    // stage sources whose result came from a shard's bundle
   uint64_t bytes_down = 0;
   uint64_t bytes_up = 0;
   size_t errors = 0;           // failed requests and entries that failed verification
@@ -184,7 +188,8 @@ struct BuildReport {
   size_t cache_rejected = 0;
   unsigned workers_started = 0;
   RemoteReport remote;
-  size_t shard_skipped = 0;         // misses left to the other shards (--shard)
+  size_t shard_skipped = 0;         // stage sources left to the other shards (--shard)
+  bool shard_assembled = false;     // a shard that finished last wrote the pack
   std::filesystem::path manifest;
   std::vector<std::filesystem::path> dependencies;  // every input file read
   std::optional<PlanListing> plan;                  // stages 0-3's result, with BuildOptions::keep_plan

@@ -29,6 +29,7 @@ struct Shard {
   unsigned index = 0;
   unsigned count = 1;
 };
+inline constexpr unsigned kMaxShardCount = 100000;
 Result<Shard> parse_shard_option(const std::string& text, const std::function<const char*(const char*)>& environment);
 
 }  // namespace kiln

@@ -65,4 +65,19 @@ std::string unpack_blob(const PackedBlob& blob) {
 
 std::vector<uint32_t> unpack_spirv(const PackedBlob& blob) { return spirv_from_bytes(unpack_blob(blob)); }
 
+bool blob_verifies(const PackedBlob& blob, BlobScratch& scratch) {
+  if (blob.stored.size() > blob.raw_size) return false;
+  std::string_view bytes = blob.stored;
+  if (blob.compressed()) {
+    if (scratch.capacity < blob.raw_size) {
+      scratch.bytes = std::make_unique_for_overwrite<char[]>(blob.raw_size);
+      scratch.capacity = blob.raw_size;
+    }
+    const size_t got = ZSTD_decompress(scratch.bytes.get(), blob.raw_size, blob.stored.data(), blob.stored.size());
+    if (ZSTD_isError(got) || got != blob.raw_size) return false;
+    bytes = std::string_view(scratch.bytes.get(), blob.raw_size);
+  }
+  return bytes.size() == blob.raw_size && hash64(bytes) == blob.checksum && hash128(bytes) == blob.key;
+}
+
 }  // namespace kiln

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -35,5 +36,13 @@ std::vector<uint32_t> spirv_from_bytes(std::string_view bytes);
 // the recorded checksum.
 std::string unpack_blob(const PackedBlob& blob);
 std::vector<uint32_t> unpack_spirv(const PackedBlob& blob);  // also throws when the size is not 4n
+
+// Whether the blob unpacks to its size, its checksum and its key (XXH3-128), without keeping the bytes: they go to
+// `scratch`, which one thread reuses for every blob it checks (no allocation per blob).
+struct BlobScratch {
+  std::unique_ptr<char[]> bytes;
+  size_t capacity = 0;
+};
+bool blob_verifies(const PackedBlob& blob, BlobScratch& scratch);
 
 }  // namespace kiln

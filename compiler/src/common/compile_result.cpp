@@ -39,8 +39,11 @@ std::vector<uint8_t> encode_output(const JobOutput& output) {
 }
 
 JobOutput decode_output(const std::vector<uint8_t>& bytes) {
-  json j = decode_cbor_bounded(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()),
-                               {bytes.size(), kMaxJsonDepth});
+  return decode_output(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+}
+
+JobOutput decode_output(std::string_view bytes) {
+  json j = decode_cbor_bounded(bytes, {bytes.size(), kMaxJsonDepth});
   JobOutput out;
   out.ok = j.at("ok").get<bool>();
   const auto step = parse_step(j.at("failed_step").get<std::string>());

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -40,5 +41,6 @@ struct JobOutput {
 
 std::vector<uint8_t> encode_output(const JobOutput& output);
 JobOutput decode_output(const std::vector<uint8_t>& bytes);  // throws on malformed input
+JobOutput decode_output(std::string_view bytes);
 
 }  // namespace kiln

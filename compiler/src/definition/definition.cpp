@@ -579,8 +579,6 @@ bool resolve_scene_profile(SceneProfile& scene, const std::string& scene_feature
 // conversion could wrap), and a count is at most kMaxShardCount.
 namespace {
 
-constexpr long kMaxShardCount = 100000;
-
 std::optional<long> shard_number(std::string_view text) {
   if (text.empty() || text.size() > 9 || text.find_first_not_of("0123456789") != std::string_view::npos) return std::nullopt;
   return std::stol(std::string(text));
@@ -629,7 +627,7 @@ Result<Shard> parse_shard_option(const std::string& text, const std::function<co
     auto i = shard_number(std::string_view(text).substr(0, slash)), n = shard_number(std::string_view(text).substr(slash + 1));
     if (i && n) index = *i, count = *n;
   }
-  if (count > kMaxShardCount)
+  if (count > long{kMaxShardCount})
     return failure("--shard: " + std::to_string(count) + " shards is more than kiln splits a build into (" +
            std::to_string(kMaxShardCount) + ")" + (read.empty() ? "" : ", read from " + read));
   if (count < 1 || index < 0 || index >= count) {

@@ -26,12 +26,24 @@ std::string build_summary_text(const BuildReport& r, const BuildOptions& options
   std::ostringstream out;
   const std::string shard =
       options.shard_count > 1 ? std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count) : "";
+  if (!shard.empty() && (r.up_to_date || r.remote.pack_fetched)) {  // the pack of these inputs is there: no share to do
+    out << "kiln: shard " << shard << ": " << (r.up_to_date ? "up to date: " : "fetched from the remote cache: ")
+        << r.manifest.string() << "\n";
+    return out.str();
+  }
   if (!shard.empty()) {
     out << "kiln: shard " << shard << " of " << r.manifest.string() << ": compiled " << r.compiled << ", "
-        << r.shard_skipped << " left to the other shards (no pack written: a build without --shard writes it)\n";
+        << r.shard_skipped << " stage sources left to the other shards"
+        << (r.shard_assembled ? "; every other shard had finished: wrote the pack from " +
+                                    std::to_string(r.remote.shard_bundles) + " shard bundles\n"
+                              : " (no pack written: the merge, or the shard that finishes last, writes it)\n");
     if (r.remote.configured)
       out << "  remote cache: hits " << r.remote.hits << ", uploads " << r.remote.uploads << " (" << r.remote.blobs_uploaded
           << " blobs), " << r.remote.bytes_up << " bytes up, errors " << r.remote.errors << "\n";
+    out << "  time:";
+    for (size_t i = 0; i < r.timings.size(); ++i)
+      out << (i ? ", " : " ") << r.timings[i].stage << " " << format_ms(r.timings[i].milliseconds);
+    out << "\n";
     return out.str();
   }
   const Funnel& f = r.funnel;
@@ -56,6 +68,9 @@ std::string build_summary_text(const BuildReport& r, const BuildOptions& options
   else if (built && r.remote.configured)
     out << "  remote cache: hits " << r.remote.hits << ", misses " << r.remote.misses
         << (r.remote.incomplete ? " (" + std::to_string(r.remote.incomplete) + " entries found in part)" : std::string())
+        << (r.remote.shard_bundles ? ", from " + std::to_string(r.remote.shard_bundles) + " shard bundles " +
+                                         std::to_string(r.remote.shard_sources) + " stage sources"
+                                   : std::string())
         << ", uploads " << r.remote.uploads
         << " (" << r.remote.blobs_uploaded << " blobs"
         << (r.remote.repaired ? ", " + std::to_string(r.remote.repaired) + " damaged entries repaired" : std::string()) << "), "
@@ -112,12 +127,14 @@ std::string build_summary_json(const BuildReport& r, const DiagnosticSink& sink,
                        {"pack_fetched", r.remote.pack_fetched}, {"hits", r.remote.hits}, {"misses", r.remote.misses},
                        {"incomplete", r.remote.incomplete},
                        {"uploads", r.remote.uploads}, {"blobs_uploaded", r.remote.blobs_uploaded}, {"repaired", r.remote.repaired},
-                       {"bytes_down", r.remote.bytes_down}, {"bytes_up", r.remote.bytes_up}, {"errors", r.remote.errors}}},
+                       {"bytes_down", r.remote.bytes_down}, {"bytes_up", r.remote.bytes_up}, {"errors", r.remote.errors},
+                       {"shard_bundles", r.remote.shard_bundles}, {"shard_sources", r.remote.shard_sources}}},
            {"timings", timings},
            {"worker_timeline", workers},
            {"strip_report", strip}};
   if (options.shard_count > 1)
-    out["shard"] = {{"index", options.shard_index}, {"count", options.shard_count}, {"left_to_other_shards", r.shard_skipped}};
+    out["shard"] = {{"index", options.shard_index}, {"count", options.shard_count}, {"left_to_other_shards", r.shard_skipped},
+                    {"assembled", r.shard_assembled}};
   return out.dump(2) + "\n";
 }
 

@@ -47,7 +47,17 @@ class Scheduler {
 
   CompileResults run() {
     const auto compile_from = StageClock::now();
-    for (size_t i = 0; i < sources_.list.size(); ++i) enter(i);
+    // A shard takes its share of the stage sources before anything is preprocessed: the others are not its work.
+    if (shard_.count > 1) {
+      const std::vector<uint32_t> shares = source_shares(sources_, shard_.count);
+      for (size_t i = 0; i < sources_.list.size(); ++i)
+        if (shares[i] != shard_.index) {
+          sources_.list[i].elsewhere = true;
+          ++counts_.shard_skipped;
+        }
+    }
+    for (size_t i = 0; i < sources_.list.size(); ++i)
+      if (!sources_.list[i].elsewhere) enter(i);
     progress();
     stream();
     build_.record_stage("preprocess", sources_.enumerated_from, last_preprocessed_.value_or(compile_from));
@@ -64,7 +74,7 @@ class Scheduler {
   }
 
  private:
-  // What became of one distinct source key: found whole (in the store), left to another shard, or compiled.
+  // What became of one distinct source key: found whole (in the store) or compiled.
   struct KeyResult {
     size_t source = 0;                         // the stage source whose text its front end compiles
     bool started = false;                      // its front end is queued, or it waits for the store's answer
@@ -96,7 +106,7 @@ class Scheduler {
     KeyResult& result = results_by_key_.emplace_back();
     result.source = source;
     if (std::optional<StoredResult> found = services_.store.find(key)) {
-      result.output = std::make_shared<const JobOutput>(std::move(found->output));
+      result.output = std::move(found->output);
       result.module = found->module;
       ++counts_.cache_hits;
       ++done_;
@@ -123,7 +133,7 @@ class Scheduler {
         continue;
       }
       KeyResult& result = results_by_key_[answer.ticket];
-      result.output = std::make_shared<const JobOutput>(std::move(answer.found->output));
+      result.output = std::move(answer.found->output);
       result.module = answer.found->module;
       ++done_;
     }
@@ -133,10 +143,6 @@ class Scheduler {
   void queue_front_end(size_t index) {
     KeyResult& result = results_by_key_[index];
     const StageSource& s = sources_.list[result.source];
-    if (shard_.count > 1 && s.key->low % shard_.count != shard_.index) {
-      ++counts_.shard_skipped;  // another shard's: settles with no output
-      return;
-    }
     if (!first_front_end_) first_front_end_ = StageClock::now();
     CompileJob job;
     job.id = index;

@@ -47,7 +47,7 @@ struct CompileCounts {
   size_t back_end_hits = 0;       // front-end modules whose back end the store had
   size_t full_legalizations = 0;  // back ends run whose module needed SPIRV-Tools' full legalization recipe
   size_t cache_hits = 0;          // stage sources the store had whole (nothing run)
-  size_t shard_skipped = 0;       // misses left to the other shards (--shard)
+  size_t shard_skipped = 0;       // stage sources left to the other shards (--shard), not preprocessed here
 };
 
 // What a compile made: the binaries (distinct stage sources, in source order, each with its output when it has
@@ -73,7 +73,8 @@ struct CompileServices {
 // module's), or reports why it has none: preprocessing and compile errors are grouped into `messages`, worker
 // deaths are internal compiler errors with a reproducer in `build.reproducers`. Every key is asked of the store
 // first (driver/result_store: what it finds at once settles the key; what it answers later settles it then, while
-// the other compiles go on); with --shard I/N, only the misses whose source key falls in share I are compiled. Times the stages "preprocess" (from enumerate_stage_sources to the last source preprocessed),
+// the other compiles go on); with --shard I/N, only the stage sources of share I (source_shares) are preprocessed,
+// looked up and compiled: the others are marked `elsewhere` and have no binary. Times the stages "preprocess" (from enumerate_stage_sources to the last source preprocessed),
 // "dedupe" and "compile" (from the first front end queued): the first and the last overlap.
 CompileResults compile_stage_sources(BuildContext& build, const Plan& plan, const BuildSettings& settings, Shard shard,
                                      StageSources& sources, CompileServices services, const SourceLocator& locator,

@@ -10,6 +10,7 @@
 //       --emit, depfile    driver/emit, driver/outputs
 #include <algorithm>
 #include <optional>
+#include <set>
 #include <thread>
 
 #include "cache/cache.hpp"
@@ -23,6 +24,7 @@
 #include "driver/remote.hpp"
 #include "driver/result_store.hpp"
 #include "driver/settings.hpp"
+#include "driver/shards.hpp"
 #include "driver/stage_sources.hpp"
 #include "driver/build_context.hpp"
 #include "driver/write_pack.hpp"
@@ -129,6 +131,65 @@ void report_remote(RemoteCache& remote, DiagnosticSink& sink, BuildReport& repor
   report.remote = remote.report();
 }
 
+// The shard that finished last assembles the pack as the merge would: a build of the same inputs without --shard, in
+// this process, that finds every shard's bundle. What this shard already said (its share's warnings) is not repeated.
+BuildReport assemble_as_last_shard(const BuildOptions& options, DiagnosticSink& sink) {
+  BuildOptions merge = options;
+  merge.shard_index = 0;
+  merge.shard_count = 1;
+  std::set<std::string> said;
+  for (const Diagnostic& d : sink.diagnostics()) said.insert(format_diagnostic(d));
+  DiagnosticSink assembling;
+  assembling.set_listener([&](const Diagnostic& d) {
+    if (!said.count(format_diagnostic(d))) sink.report(d);
+  });
+  return build_pack(merge, assembling);
+}
+
+// A shard's remote counts with those of the assembly it did.
+void add_remote(RemoteReport& into, const RemoteReport& more) {
+  into.hits += more.hits;
+  into.misses += more.misses;
+  into.incomplete += more.incomplete;
+  into.uploads += more.uploads;
+  into.blobs_uploaded += more.blobs_uploaded;
+  into.bytes_down += more.bytes_down;
+  into.bytes_up += more.bytes_up;
+  into.errors += more.errors;
+  into.shard_bundles += more.shard_bundles;
+  into.shard_sources += more.shard_sources;
+}
+
+// A shard's end (--shard I/N): its share goes up first as one bundle, so that the shard that finishes last can
+// assemble the pack (the merge's work, done now: a later merge fetches the finished pack); then its per-source
+// entries, for the builds of other checkouts.
+void finish_shard(const BuildOptions& options, BuildContext& build, const Plan& plan, const StageSources& sources,
+                  const CompileResults& compiled, RemoteCache* remote, const std::optional<RemoteKey>& pack_key,
+                  ResultStore& store, bool user_errors, BuildReport& report) {
+  DiagnosticSink& sink = build.sink;
+  const Shard shard{options.shard_index, options.shard_count};
+  bool last = false;
+  if (!sink.has_errors() && remote && pack_key && remote->usable()) {
+    StageTimer timer(build, "shard bundle");
+    last = upload_shard_bundle(*remote, *pack_key, plan, shard, sources, compiled) &&
+           other_shards_finished(*remote, *pack_key, plan, shard);
+  }
+  std::optional<BuildReport> assembled;
+  if (last) {
+    StageTimer timer(build, "assemble");
+    assembled = assemble_as_last_shard(options, sink);
+  }
+  store.upload(build, compiled, user_errors);
+  if (remote) report_remote(*remote, sink, report);
+  if (assembled) {
+    report.shard_assembled = assembled->ok;
+    report.manifest = assembled->manifest;
+    report.funnel.unique_binaries = assembled->funnel.unique_binaries;
+    add_remote(report.remote, assembled->remote);
+  }
+  report.ok = !sink.has_errors();
+}
+
 // The end of a build, whichever stage it ended at: the stage times, and whether a compiler worker died.
 BuildReport finished(BuildContext& build, BuildReport& report) {
   build.record_stage("total", build.started, StageClock::now());
@@ -224,27 +285,35 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   const WorkerLimits limits{options.worker_timeout, options.worker_memory_limit_mb, options.frontend};
   OnDemandWorkers workers(options.worker_executable, parallelism(options.jobs), limits);
   Preprocessor preprocessor(*plan, *settings, workers, build, limits);
+  std::map<Hash128, ShardResult> shard_results;  // a merge's: what the shards' bundles hold
   std::unique_ptr<ResultStore> store = make_result_store(*plan, *settings,
       StoreTiers{cache ? &*cache : nullptr, memo_cache != nullptr, remote.get(), options.remote.required,
-                 options.remote.upload, parallelism(options.jobs)});
+                 options.remote.upload, parallelism(options.jobs), &shard_results});
   const SourceLocator locator(*plan);
   MessageGroups messages;
 
   StageSources sources = enumerate_stage_sources(*plan, *settings, memo_cache);  // stage 4
   report.preprocess_memo_hits = sources.memo_hits;
+  if (remote && remote->usable() && pack_key && options.shard_count <= 1) {  // a merge: one bundle per shard
+    StageTimer timer(build, "shard bundles");
+    shard_results = use_shard_bundles(*remote, *pack_key, *plan, sources, parallelism(options.jobs));
+  }
   CompileResults compiled =  // stages 4-6, streamed: preprocess, dedupe (in source order), compile
       compile_stage_sources(build, *plan, *settings, Shard{options.shard_index, options.shard_count}, sources,
                             CompileServices{workers, *store, preprocessor}, locator, messages);
   record_compile(compiled, workers, build, report);
   report.funnel = funnel_of(*plan, sources, compiled);
-  report.cache_rejected = store->keep(build, compiled, sources, messages.has_errors());
+  const bool user_errors = messages.has_errors();
+  report.cache_rejected = store->keep(build, compiled, sources, user_errors);
+  if (options.shard_count > 1) {
+    messages.report(sink);
+    finish_shard(options, build, *plan, sources, compiled, remote.get(), pack_key, *store, user_errors, report);
+    return finished(build, report);
+  }
+  store->upload(build, compiled, user_errors);
   if (remote) report_remote(*remote, sink, report);
   messages.report(sink);
   bool ok = !sink.has_errors();
-  if (ok && options.shard_count > 1) {  // a shard's share is in the caches (and uploaded); the merge writes the pack
-    report.ok = true;
-    return finished(build, report);
-  }
   if (ok) {
     auto layouts = check_pass_layouts(build, *plan, locator, sources, compiled.binaries);  // stage 7
     std::optional<WrittenVariantPack> written;

@@ -18,11 +18,20 @@ class TieredStore final : public ResultStore {
   }
 
   std::optional<StoredResult> find(const Hash128& source_key) override {
+    if (tiers_.shards) {
+      if (auto it = tiers_.shards->find(source_key); it != tiers_.shards->end()) {
+        const ShardResult& shard = it->second;
+        if (shard.front_messages.empty()) return StoredResult{shard.output, shard.module};  // shared, not copied
+        JobOutput output = *shard.output;
+        output.messages.insert(output.messages.begin(), shard.front_messages.begin(), shard.front_messages.end());
+        return StoredResult{std::make_shared<const JobOutput>(std::move(output)), shard.module};
+      }
+    }
     if (!tiers_.cache) return std::nullopt;
     StoredResult found;
     auto cached = tiers_.cache->load(source_key, &found.module);
     if (!cached) return std::nullopt;
-    found.output = std::move(*cached);
+    found.output = std::make_shared<const JobOutput>(std::move(*cached));
     return found;
   }
 
@@ -69,7 +78,7 @@ class TieredStore final : public ResultStore {
       }
       hit.module_output.messages.insert(hit.module_output.messages.begin(), hit.front_messages.begin(),
                                         hit.front_messages.end());
-      answers.push_back({ticket, StoredResult{std::move(hit.module_output), hit.module}});
+      answers.push_back({ticket, StoredResult{std::make_shared<const JobOutput>(std::move(hit.module_output)), hit.module}});
     }
     return answers;
   }
@@ -92,10 +101,12 @@ class TieredStore final : public ResultStore {
   }
 
   size_t keep(BuildContext& build, const CompileResults& results, const StageSources& sources, bool user_errors) override {
-    const size_t rejected = tiers_.cache ? keep_locally(build, results, sources, user_errors) : 0;
-    if (tiers_.remote && tiers_.upload && !user_errors) upload(build, results);
+    return tiers_.cache ? keep_locally(build, results, sources, user_errors) : 0;
+  }
+
+  void upload(BuildContext& build, const CompileResults& results, bool user_errors) override {
+    if (tiers_.remote && tiers_.upload && !user_errors) upload_entries(build, results);
     if (tiers_.remote) tiers_.remote->report_problems(build.sink);
-    return rejected;
   }
 
  private:
@@ -139,7 +150,7 @@ class TieredStore final : public ResultStore {
 
   // What this build's front ends produced: each module's result (blobs first), then the alias of each source the
   // remote was asked for.
-  void upload(BuildContext& build, const CompileResults& results) {
+  void upload_entries(BuildContext& build, const CompileResults& results) {
     StageTimer timer(build, "remote upload");
     const std::vector<Binary>& binaries = results.binaries;
     std::vector<RemoteCache::ModuleUpload> uploads;

@@ -12,6 +12,7 @@
 #include "driver/build_context.hpp"
 #include "driver/plan.hpp"
 #include "driver/settings.hpp"
+#include "driver/shards.hpp"
 #include "driver/stage_sources.hpp"
 #include "remote/remote_cache.hpp"
 
@@ -22,7 +23,7 @@ struct CompileResults;
 // A stage source's result as a tier keeps it: the module's output with the front end's messages first, and the
 // module's key (for the funnel's distinct modules and for the aliases this build keeps).
 struct StoredResult {
-  JobOutput output;
+  std::shared_ptr<const JobOutput> output;  // never null
   std::optional<Hash128> module;
 };
 
@@ -59,6 +60,9 @@ class ResultStore {
   // entries the build found damaged in its tiers (corrupt, truncated, foreign: compiled again and rewritten).
   virtual size_t keep(BuildContext& build, const CompileResults& results, const StageSources& sources,
                       bool user_errors) = 0;
+  // Then the remote's share of that (--remote-upload): what this build's front ends produced, unless the input had
+  // errors. Separate, so that a shard can upload its bundle, and assemble the pack, before these entries.
+  virtual void upload(BuildContext& build, const CompileResults& results, bool user_errors) = 0;
 };
 
 // The store of a build: the local cache (when there is one) and, under it, the remote (when there is one).
@@ -69,6 +73,9 @@ struct StoreTiers {
   bool remote_required = false;  // --remote-required
   bool upload = false;           // --remote-upload
   unsigned threads = 1;          // to encode the local cache's entries
+  // The merge's: results from the shards' bundles by source key (driver/shards), found before the local cache. They
+  // are not copied into the local cache: the pack they make is stamped, and the remote has their per-source entries.
+  const std::map<Hash128, ShardResult>* shards = nullptr;
 };
 
 std::unique_ptr<ResultStore> make_result_store(const Plan& plan, const BuildSettings& settings, StoreTiers tiers);

@@ -285,6 +285,26 @@ void report_preprocess_failure(const StageSource& s, size_t order, const Plan& p
                      order);
 }
 
+std::vector<uint32_t> source_shares(const StageSources& sources, unsigned count) {
+  std::vector<size_t> order(sources.list.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return std::tie(sources.list[a].pass, sources.list[a].stage) < std::tie(sources.list[b].pass, sources.list[b].stage);
+  });
+  std::vector<uint32_t> shares(order.size(), 0);
+  for (size_t position = 0; position < order.size(); ++position)
+    shares[order[position]] = static_cast<uint32_t>(position % std::max(1u, count));
+  return shares;
+}
+
+uint64_t source_identity(const StageSource& s) {
+  Hasher identity;
+  identity.add(std::to_string(s.pass)).add(stage_name(s.stage));
+  for (const std::string& define : s.defines) identity.add(define);
+  identity.add(s.folded ? *s.folded : std::string());
+  return identity.finish().low;
+}
+
 std::vector<Binary> dedupe_stage_sources(BuildContext& build, StageSources& sources, const Plan& plan,
                                          const SourceLocator& locator, MessageGroups& messages) {
   StageTimer timer(build, "dedupe");
@@ -292,6 +312,7 @@ std::vector<Binary> dedupe_stage_sources(BuildContext& build, StageSources& sour
   std::map<Hash128, size_t> by_key;
   for (size_t i = 0; i < sources.list.size(); ++i) {
     StageSource& s = sources.list[i];
+    if (s.elsewhere) continue;
     if (!s.ok) {
       report_preprocess_failure(s, i, plan, locator, messages, build.sink);
       continue;

@@ -33,6 +33,7 @@ struct StageSource {
   std::shared_ptr<const std::string> folded;
   bool ok = false;
   bool preprocessed = false;  // text holds the preprocessed source (not only known through a memo)
+  bool elsewhere = false;     // another shard's (--shard): not preprocessed, not compiled here, no binary
   std::string text;
   std::vector<FrontendMessage> messages;
   int binary = -1;
@@ -111,6 +112,15 @@ StageSources prepare_stage_sources(BuildContext& build, const Plan& plan, const 
 // compiler error.
 void report_preprocess_failure(const StageSource& source, size_t order, const Plan& plan, const SourceLocator& locator,
                                MessageGroups& messages, DiagnosticSink& sink);
+
+// Which share of `count` each stage source falls in (--shard I/N), from what is known before preprocessing: the
+// sources in order of pass, then stage, then enumeration, dealt out in turn, so that each share holds a near-equal
+// number of each pass's vertex and fragment sources, and every machine with the same plan deals the same shares.
+std::vector<uint32_t> source_shares(const StageSources& sources, unsigned count);
+
+// A stage source by what names it before preprocessing (pass, stage, defines, folded declarations), for checking that
+// another machine's record of a source is about the same source.
+uint64_t source_identity(const StageSource& source);
 
 // Deduplicates the preprocessed sources by key into binaries; reports those that did not preprocess.
 std::vector<Binary> dedupe_stage_sources(BuildContext& build, StageSources& sources, const Plan& plan,

@@ -88,6 +88,12 @@ HttpClient::HttpClient(HttpSettings settings) : settings_(std::move(settings)) {
       self->over_limit_ = true;
       return 0;  // stops the transfer
     }
+    // The body's announced length, within the limit, is allocated once (a bundle of megabytes is not regrown).
+    curl_off_t announced = -1;
+    if (self->download_->empty() &&
+        curl_easy_getinfo(handle(self->curl_), CURLINFO_CONTENT_LENGTH_DOWNLOAD_T, &announced) == CURLE_OK &&
+        announced > 0 && static_cast<uint64_t>(announced) <= self->download_limit_)
+      self->download_->reserve(static_cast<size_t>(announced));
     self->download_->append(data, bytes);
     return bytes;
   });

@@ -15,6 +15,7 @@
 #include "common/bytes.hpp"
 #include "common/files.hpp"
 #include "common/parallel.hpp"
+#include "kiln/command_line.hpp"
 #include "kiln/pack_format.hpp"
 #include "kiln/pack_reader.hpp"
 #include "pack/pack_writer.hpp"
@@ -27,7 +28,7 @@ namespace {
 constexpr char kRecordMagic[8] = {'K', 'I', 'L', 'N', 'R', 'M', 'T', 'C'};
 constexpr uint32_t kRemoteFormat = 1;
 constexpr size_t kRecordHeaderSize = 8 + 4 + 4 + 32 + 8 + 32;
-enum RecordKind : uint32_t { kResult = 1, kAlias = 2, kPack = 3 };
+enum RecordKind : uint32_t { kResult = 1, kAlias = 2, kPack = 3, kShard = 4, kShardCount = 5 };
 // A module's record holds its reflection and messages: kiln's largest is a few KiB; this bounds what a hostile
 // server can make kiln download and decode.
 constexpr uint64_t kMaxRecordBytes = uint64_t{16} << 20;
@@ -359,6 +360,7 @@ std::optional<RemoteFetched> RemoteCache::fetch_one(HttpClient& client, const Re
   }
   JobOutput& output = fetched.module_output;
   if (!output.ok || output.blobs.size() != count) return rejected("result record malformed", "ac/" + module.hex());
+  BlobScratch scratch;
   for (uint32_t i = 0; i < count; ++i) {
     const size_t at = 4 + i * kBlobEntry;
     const auto target = static_cast<Target>(get32(result, at));
@@ -372,12 +374,8 @@ std::optional<RemoteFetched> RemoteCache::fetch_one(HttpClient& client, const Re
     PackedBlob& packed = blob->second;
     packed.stored = std::move(*body);
     // The record's sizes and checksums are the server's word too: the blob must unpack to them.
-    try {
-      std::string raw = unpack_blob(packed);
-      if (hash128(raw) != packed.key) return rejected("a blob does not unpack to the record's hash", "cas/" + digest.hex());
-    } catch (const std::exception&) {
-      return rejected("a blob does not unpack to the record's size and checksum", "cas/" + digest.hex());
-    }
+    if (!blob_verifies(packed, scratch))
+      return rejected("a blob does not unpack to the record's size, checksum and hash", "cas/" + digest.hex());
   }
   mark.fetched = true;
   return fetched;
@@ -674,6 +672,88 @@ void RemoteCache::upload_pack(const RemoteKey& key, const std::filesystem::path&
     report_.blobs_uploaded += 2;
   }
   give_back(std::move(client));
+}
+
+bool RemoteCache::upload_shard(const RemoteKey& key, std::string_view bundle) {
+  if (switched_off_ || !options_.upload) return false;
+  std::unique_ptr<HttpClient> client = take_client();
+  const RemoteKey digest = sha256(bundle);
+  std::string payload;
+  put_key(payload, digest);
+  put64(payload, bundle.size());
+  const bool done = put(*client, url("cas", digest), bundle) && put(*client, url("ac", key), make_record(kShard, key, payload));
+  give_back(std::move(client));
+  if (done) {
+    std::lock_guard lock(mutex_);
+    ++report_.uploads;
+    ++report_.blobs_uploaded;
+  }
+  return done;
+}
+
+bool RemoteCache::upload_shard_count(const RemoteKey& key, uint32_t count) {
+  if (switched_off_ || !options_.upload) return false;
+  std::unique_ptr<HttpClient> client = take_client();
+  std::string payload;
+  put32(payload, count);
+  const bool done = put(*client, url("ac", key), make_record(kShardCount, key, payload));
+  give_back(std::move(client));
+  if (done) {
+    std::lock_guard lock(mutex_);
+    ++report_.uploads;
+  }
+  return done;
+}
+
+std::optional<uint32_t> RemoteCache::fetch_shard_count(const RemoteKey& key) {
+  std::unique_ptr<HttpClient> client = take_client();
+  Result<std::optional<std::string>> record = get_record(*client, key, kShardCount);
+  give_back(std::move(client));
+  if (!record || !*record) return std::nullopt;
+  if ((*record)->size() != 4 || get32(**record, 0) < 2 || get32(**record, 0) > kMaxShardCount) {
+    problem(DiagId::RemoteEntryRejected, "a remote cache entry failed verification: shard count record malformed", "at ac/" + key.hex());
+    return std::nullopt;
+  }
+  return get32(**record, 0);
+}
+
+std::vector<bool> RemoteCache::have_records(const std::vector<RemoteKey>& keys) {
+  std::vector<char> there(keys.size(), 0);
+  parallel_for(keys.size(), std::max(1u, options_.parallel_transfers), [&](size_t k) {
+    if (switched_off_) return;
+    std::unique_ptr<HttpClient> client = take_client();
+    HttpResult result = client->head(url("ac", keys[k]));
+    there[k] = answered(result, "request") && result.status == 200;
+    give_back(std::move(client));
+  });
+  return std::vector<bool>(there.begin(), there.end());
+}
+
+std::vector<std::optional<std::string>> RemoteCache::fetch_shards(const std::vector<RemoteKey>& keys) {
+  std::vector<std::optional<std::string>> bundles(keys.size());
+  parallel_for(keys.size(), std::max(1u, options_.parallel_transfers), [&](size_t k) {
+    if (switched_off_) return;
+    std::unique_ptr<HttpClient> client = take_client();
+    Result<std::optional<std::string>> record = get_record(*client, keys[k], kShard);
+    if (record && *record) {
+      if ((*record)->size() != 40 || get64(**record, 32) > kMaxArchiveBytes)
+        problem(DiagId::RemoteEntryRejected, "a remote cache entry failed verification: shard record malformed", "at ac/" + keys[k].hex());
+      else
+        bundles[k] = get_blob(*client, get_key(**record, 0), get64(**record, 32));
+    }
+    give_back(std::move(client));
+  });
+  return bundles;
+}
+
+void RemoteCache::entry_rejected(const std::string& why, const std::string& where) {
+  problem(DiagId::RemoteEntryRejected, "a remote cache entry failed verification: " + why, "at " + where);
+}
+
+void RemoteCache::count_shard_bundles(size_t bundles, size_t sources) {
+  std::lock_guard lock(mutex_);
+  report_.shard_bundles += bundles;
+  report_.shard_sources += sources;
 }
 
 void RemoteCache::report_problems(DiagnosticSink& sink) {

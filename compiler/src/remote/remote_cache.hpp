@@ -107,6 +107,25 @@ class RemoteCache {
   void upload_pack(const RemoteKey& key, const std::filesystem::path& directory, const std::string& pack_name,
                    const std::string& archive_file);
 
+  // Sharded builds (--shard I/N): a shard's bundle of results (driver/shard_bundle.hpp) as a CAS blob, then its
+  // record (the bundle's SHA-256 and size) under the shard's key, so a reader never finds a record whose bundle is
+  // missing; and the record of how many shards the build of these inputs was split into. False when not uploaded.
+  bool upload_shard(const RemoteKey& key, std::string_view bundle);
+  bool upload_shard_count(const RemoteKey& key, uint32_t count);
+  // The shard count a sharded build of these inputs recorded, when there is one.
+  std::optional<uint32_t> fetch_shard_count(const RemoteKey& key);
+  // Whether each record is on the server (HEAD requests, in parallel): has every other shard finished?
+  std::vector<bool> have_records(const std::vector<RemoteKey>& keys);
+  // Each shard's bundle, its record checked and its bytes matching the record's size and SHA-256 (in parallel);
+  // nothing for a shard whose record or bundle is missing or damaged (the merge looks its sources up one by one).
+  std::vector<std::optional<std::string>> fetch_shards(const std::vector<RemoteKey>& keys);
+
+  // An entry whose bytes arrived whole but whose content the caller found wrong (a shard bundle): K1705, as for the
+  // remote's own checks. `where` names the object.
+  void entry_rejected(const std::string& why, const std::string& where);
+  // A merge's count: the shards' bundles it used, and the stage sources they gave.
+  void count_shard_bundles(size_t bundles, size_t sources);
+
   // Reports each kind of failure seen since the last call (once per build), errors when `required`.
   void report_problems(DiagnosticSink& sink);
   RemoteReport report() const;

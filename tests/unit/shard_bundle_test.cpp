@@ -1,0 +1,105 @@
+// A shard's bundle (driver/shard_bundle.hpp) comes from a server other machines write: it decodes to what was
+// encoded, and anything else (cut short anywhere, a byte changed anywhere, a blob that does not unpack to its hash)
+// is an error, never a crash or a bundle that names what it does not hold.
+#include <gtest/gtest.h>
+
+#include "common/blob.hpp"
+#include "driver/shard_bundle.hpp"
+
+namespace kiln {
+namespace {
+
+ShardBundle sample() {
+  ShardBundle bundle;
+  bundle.index = 1;
+  bundle.count = 3;
+  bundle.source_count = 7;
+  for (const char* text : {"first module's SPIR-V, as bytes", "second module's"}) {
+    JobOutput output;
+    output.ok = true;
+    output.blobs[Target::Spirv] = pack_blob(std::string(text) + std::string(300, 'x'));
+    output.messages = {{Severity::Warning, "S.hlsl", 3, "a back-end warning"}};
+    bundle.outputs.push_back(output);
+  }
+  for (uint32_t source : {1u, 4u}) {
+    ShardBundle::Source& s = bundle.sources.emplace_back();
+    s.source = source;
+    s.identity = 100 + source;
+    s.key = Hash128{source, 2};
+    s.module = Hash128{source, 3};
+    s.output = source == 1 ? 0 : 1;
+    if (source == 4) s.messages = {{Severity::Warning, "S.hlsl", 9, "a front-end warning", 4}};
+  }
+  return bundle;
+}
+
+TEST(ShardBundle, DecodesToWhatWasEncoded) {
+  const ShardBundle bundle = sample();
+  Result<ShardBundle> decoded = decode_shard_bundle(encode_shard_bundle(bundle), 2);
+  ASSERT_TRUE(decoded) << decoded.error().message;
+  EXPECT_EQ(decoded->index, 1u);
+  EXPECT_EQ(decoded->count, 3u);
+  EXPECT_EQ(decoded->source_count, 7u);
+  ASSERT_EQ(decoded->outputs.size(), 2u);
+  EXPECT_EQ(decoded->outputs[1].blobs.at(Target::Spirv), bundle.outputs[1].blobs.at(Target::Spirv));
+  EXPECT_EQ(decoded->outputs[0].messages.at(0).text, "a back-end warning");
+  ASSERT_EQ(decoded->sources.size(), 2u);
+  EXPECT_EQ(decoded->sources[1].source, 4u);
+  EXPECT_EQ(decoded->sources[1].identity, 104u);
+  EXPECT_EQ(decoded->sources[1].key, (Hash128{4, 2}));
+  EXPECT_EQ(decoded->sources[1].module, (Hash128{4, 3}));
+  EXPECT_EQ(decoded->sources[1].output, 1u);
+  ASSERT_EQ(decoded->sources[1].messages.size(), 1u);
+  EXPECT_EQ(decoded->sources[1].messages[0].column, 4);
+}
+
+TEST(ShardBundle, EveryCutIsAnError) {
+  const std::string bytes = encode_shard_bundle(sample());
+  for (size_t size = 0; size < bytes.size(); ++size)
+    EXPECT_FALSE(decode_shard_bundle(std::string_view(bytes).substr(0, size), 1)) << "cut at " << size;
+  EXPECT_FALSE(decode_shard_bundle(bytes + "x", 1)) << "a byte after the end";
+}
+
+// Every byte changed in turn: an error, or a bundle whose every index is in bounds (a changed key or identity is
+// not the decoder's to see: the merge checks identities against its plan, and keys are the shard's word, as a
+// remote record's are).
+TEST(ShardBundle, EveryChangedByteIsAnErrorOrStaysInBounds) {
+  const std::string bytes = encode_shard_bundle(sample());
+  size_t refused = 0;
+  for (size_t at = 0; at < bytes.size(); ++at) {
+    std::string changed = bytes;
+    changed[at] = static_cast<char>(changed[at] ^ 0x41);
+    Result<ShardBundle> decoded = decode_shard_bundle(changed, 1);
+    if (!decoded) {
+      ++refused;
+      continue;
+    }
+    EXPECT_LT(decoded->index, decoded->count) << at;
+    for (const ShardBundle::Source& s : decoded->sources) {
+      EXPECT_LT(s.source, decoded->source_count) << at;
+      EXPECT_LT(s.output, decoded->outputs.size()) << at;
+    }
+    for (const JobOutput& output : decoded->outputs)
+      for (const auto& [target, blob] : output.blobs) EXPECT_EQ(hash128(unpack_blob(blob)), blob.key) << at;
+  }
+  EXPECT_GT(refused, bytes.size() / 2);
+}
+
+TEST(ShardBundle, ABlobThatDoesNotUnpackToItsHashIsRefused) {
+  ShardBundle bundle = sample();
+  bundle.outputs[1].blobs.at(Target::Spirv).key.low ^= 1;
+  Result<ShardBundle> decoded = decode_shard_bundle(encode_shard_bundle(bundle), 2);
+  ASSERT_FALSE(decoded);
+  EXPECT_EQ(decoded.error().message, "a shard bundle's blob does not unpack to its size, checksum and hash");
+}
+
+TEST(ShardBundle, CountsTheBytesCannotHoldAreRefusedBeforeAnythingIsReserved) {
+  std::string bytes = encode_shard_bundle(sample());
+  for (int i = 0; i < 4; ++i) bytes[32 + i] = '\xff';  // the source count: 4 billion sources in a few hundred bytes
+  Result<ShardBundle> decoded = decode_shard_bundle(bytes, 1);
+  ASSERT_FALSE(decoded);
+  EXPECT_EQ(decoded.error().message, "shard bundle cut short");
+}
+
+}  // namespace
+}  // namespace kiln
