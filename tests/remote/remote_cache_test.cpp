@@ -505,11 +505,11 @@ TEST_F(Faults, ServerDownIsOneWarningAndTheRemoteIsSwitchedOff) {
                   DiagId::RemoteUnreachable);
 }
 
-// The server goes away after the pack-level lookup and the first stage source's: connections are refused from then
-// on. (Which lookups were asked before the remote was switched off depends on the preprocessing's order: only the
+// The server goes away after the pack-level lookup, the shard count's and the first stage source's: connections are
+// refused from then on. (Which lookups were asked before the remote was switched off depends on the preprocessing's order: only the
 // outcome is asserted.)
 TEST_F(Faults, ConnectionRefusedMidBuildIsOneWarning) {
-  testing::FaultServer server(testing::FaultServer::Mode::GoesAway, 2);
+  testing::FaultServer server(testing::FaultServer::Mode::GoesAway, 3);
   const auto wanted = reference();
   DiagnosticSink sink;
   BuildReport report = build(serial(server.url(), true), sink);
