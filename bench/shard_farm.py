@@ -127,6 +127,7 @@ def main():
                     rows["one"].append({"wall_s": wall, "load": load()})
                     print(f"round {rep} one machine: {wall:.2f} s", flush=True)
                     continue
+                n = config
                 shutil.rmtree(data)
                 os.makedirs(data)
                 shards = []
@@ -159,7 +160,9 @@ def main():
                     upload = stage_ms(s, "remote upload") / 1000
                     records.append({"wall_s": wall, "assemble_s": assemble, "upload_s": upload,
                                     "ready_s": wall - assemble - upload, "compiled": s["compiled"],
-                                    "preprocess_s": stage_ms(s, "preprocess") / 1000, "plan_s": stage_ms(s, "plan") / 1000,
+                                    "preprocess_s": stage_ms(s, "preprocess") / 1000,
+                                    "plan_s": sum(stage_ms(s, st) for st in ("load", "declarations", "expand+strip")) / 1000,
+                                    "back_ends": s["back_ends"], "front_ends": s["compiled"],
                                     "bundle_s": stage_ms(s, "shard bundle") / 1000,
                                     "bytes_up": s["remote"]["bytes_up"], "assembled": s["shard"]["assembled"]})
                 for out in assembled_by:
@@ -182,11 +185,15 @@ def main():
                 else:
                     done = farm_end - farm_start + (0 if assembled_by else merge_wall)
                     total = done
+                # What the shards did beyond their share: back ends run by two shards for one module (a module two
+                # shares' sources make), and planning, which every shard does.
                 row = {"shards": records, "assembled": len(assembled_by), "slowest_shard_s": ready[slowest],
+                       "front_ends": sum(r["front_ends"] for r in records), "back_ends": sum(r["back_ends"] for r in records),
                        "assembly_s": assembly, "merge_job_s": merge_wall, "merge_requests_bundles": m["remote"]["shard_bundles"],
                        "merge_bytes_down": m["remote"]["bytes_down"], "total_s": total, "done_s": done, "load": load()}
                 rows[n].append(row)
-                print(f"round {rep} {n} shards: slowest {ready[slowest]:.2f} s (fastest {min(ready):.2f} s), assembly "
+                print(f"round {rep} {n} shards: front ends {row['front_ends']}, back ends {row['back_ends']}; "
+                      f"slowest {ready[slowest]:.2f} s (fastest {min(ready):.2f} s), assembly "
                       f"{assembly:.2f} s, pack written {total:.2f} s, every job done {done:.2f} s; merge job alone "
                       f"{merge_wall:.2f} s", flush=True)
                 shutil.rmtree(out_root)

@@ -105,7 +105,8 @@ class BuildVerb final : public Verb {
     verb->add_option("--remote-timeout", remote_timeout_s_,
                       "Seconds one remote request may take (default: " + seconds_text(kiln::defaults::kRemoteTimeout) + ")")
         ->check(CLI::PositiveNumber);
-    verb->add_option("--shard", shard_text_, "I/N: compile only share I of N of the compile jobs, upload them, write no pack "
+    verb->add_option("--shard", shard_text_, "I/N: build only share I of N of the stage sources and upload it as one "
+                                             "bundle; the shard that finds every other shard's bundle writes the pack "
                                              "(needs --remote); auto: from Slurm's, GitLab's or a Kubernetes Indexed Job's "
                                              "environment");
     verb->add_option("--remote-transfers", remote.parallel_transfers,

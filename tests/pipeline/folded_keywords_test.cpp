@@ -159,6 +159,61 @@ TEST_F(FoldedKeywords, APacksKeywordKindsFoldAMultiCompileGroupWithoutEditingThe
   EXPECT_EQ(fragment_modules(PackReader::open(dir / "plain")), 6u);
 }
 
+// A shader_feature group folded by the pack keeps every value, whatever the materials use: its one module serves
+// them all, and the manifest records it under its folded pragma, which tools (check-scene, diff-packs) read back as a
+// group that materials do not strip. As a variant group, the same materials strip it.
+TEST_F(FoldedKeywords, AFoldedShaderFeatureGroupIsNotStrippedByMaterials) {
+  const std::string materials = R"("materials": [{"name": "plain"}], )";
+  DiagnosticSink sink;
+  ASSERT_TRUE(build("shader_feature_fragment", R"("keyword_kinds": {"A": "dynamic_branch"}, )" + materials, sink))
+      << errors_of(sink);
+  PackReader pack = PackReader::open(dir / "out");
+  EXPECT_EQ(pack.variant_count("P"), 6u);
+  EXPECT_EQ(pack.select("P", {"B", "M"}).values.size(), 2u);
+  EXPECT_EQ(manifest()["passes"][0]["keyword_groups"][1]["pragma"], "dynamic_branch_fragment");
+  DiagnosticSink plain_sink;
+  ASSERT_TRUE(build("shader_feature_fragment", materials, plain_sink, "plain")) << errors_of(plain_sink);
+  EXPECT_EQ(PackReader::open(dir / "plain").variant_count("P"), 2u);
+}
+
+// A shader's own specialization constant at an id kiln gives a folded keyword: the error is at the shader's number
+// and names the keyword (glslang's own message has no location).
+TEST_F(FoldedKeywords, AShadersConstantIdThatCollidesWithAFoldedKeywordsIsAnErrorAtItsNumber) {
+  std::string shader = kShader;
+  shader.replace(shader.find("KIND"), 4, "specialization_constant_fragment");
+  shader.insert(shader.find("float4 F()"), "[[vk::constant_id(1001)]] const int Quality = 1;\n");
+  dir.write("S.hlsl", shader);
+  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  BuildOptions options;
+  options.pack_file = dir / "p.pack.json";
+  options.output_dir = dir / "out";
+  options.jobs = 2;
+  options.worker_executable = KILN_WORKER_PATH;
+  DiagnosticSink sink;
+  EXPECT_FALSE(build_pack(options, sink).ok);
+  const std::string errors = errors_of(sink);
+  EXPECT_NE(errors.find("S.hlsl:4:19: error[K1401]: specialization constant id 1001 is the one kiln gives folded keyword 'B'"),
+            std::string::npos)
+      << errors;
+}
+
+// -D of a folded keyword (kiln compile's way to choose a variant) is no macro: the folded module is built, and the
+// keyword's own macro does not clash with it ("Macro redefined" before).
+TEST_F(FoldedKeywords, ADefineThatNamesAFoldedKeywordOnlySelects) {
+  dir.write("S.hlsl", std::string(kShader).replace(std::string(kShader).find("KIND"), 4, "specialization_constant"));
+  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  BuildOptions options;
+  options.pack_file = dir / "p.pack.json";
+  options.output_dir = dir / "out";
+  options.jobs = 2;
+  options.worker_executable = KILN_WORKER_PATH;
+  options.defines = {Define{"A", "1"}, Define{"M", "1"}};
+  DiagnosticSink sink;
+  ASSERT_TRUE(build_pack(options, sink).ok) << errors_of(sink);
+  PackReader pack = PackReader::open(dir / "out");
+  EXPECT_EQ(fragment_modules(pack), 1u);  // M, a variant keyword, is defined in every variant by -D, as before
+}
+
 TEST_F(FoldedKeywords, OneGroupGivenTwoKindsOrAnUndeclaredKeywordIsAnError) {
   DiagnosticSink mixed;
   EXPECT_FALSE(build("multi_compile", R"("keyword_kinds": {"A": "dynamic_branch", "B": "specialization_constant"}, )", mixed));

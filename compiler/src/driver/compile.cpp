@@ -2,12 +2,14 @@
 #include "driver/compile.hpp"
 
 #include <algorithm>
+#include <map>
 #include <set>
 
 #include "common/files.hpp"
 #include "common/parallel.hpp"
 #include "driver/build_context.hpp"
 #include "frontend/unsupported_hlsl.hpp"
+#include "kiln/folded_keywords.hpp"
 
 namespace kiln {
 namespace {
@@ -368,6 +370,7 @@ class Scheduler {
     if (first != outcome.output.messages.end() && id == DiagId::BlockTooLarge) {
       messages_.collect(id, locator_.declaration(s.pass, quoted_name(first->text), entry_name), first->text, variant, order);
     } else if (first != outcome.output.messages.end()) {
+      if (id == DiagId::HlslError && constant_id_collision(*first, s, variant, order)) return;
       SourceLocation at = locator_.located(*first, entry_name);
       if (id == DiagId::HlslError) {
         if (auto unsupported = recognise_unsupported_hlsl(first->text, locator_.line(at.path, at.line))) {
@@ -384,6 +387,27 @@ class Scheduler {
     } else {
       messages_.collect(id, SourceLocation{entry_name, 0, 0}, step + " failed", variant, order);
     }
+  }
+
+  // glslang says a specialization constant id is used twice without saying where: when the shader's own
+  // `vk::constant_id` takes an id kiln gives a folded keyword of this stage (kiln/folded_keywords.hpp), the error is
+  // at the shader's number, naming the keyword.
+  bool constant_id_collision(const FrontendMessage& message, const StageSource& s, const std::string& variant, size_t order) {
+    if (message.text.find("specialization-constant id already used") == std::string::npos) return false;
+    std::map<uint32_t, std::string> keyword_of;
+    for (const FoldedKeyword& k : folded_keywords(plan_.keyword_group_records(s.pass)))
+      if (k.kind == KeywordKind::SpecializationConstant && (k.stages & stage_bit(s.stage))) keyword_of.emplace(k.slot, k.keyword);
+    std::set<uint32_t> ids;
+    for (const auto& [id, keyword] : keyword_of) ids.insert(id);
+    const auto found = locator_.constant_id(s.pass, ids);
+    if (!found) return false;
+    messages_.collect(DiagId::HlslError, found->first,
+                      "specialization constant id " + std::to_string(found->second) +
+                          " is the one kiln gives folded keyword '" + keyword_of.at(found->second) + "'",
+                      variant, order,
+                      {"kiln numbers a pass's specialization_constant keywords from " +
+                       std::to_string(kKeywordConstantIdBase) + " (docs/keywords.md): give the shader's own constants ids below it"});
+    return true;
   }
 
   // A reproducer next to the outputs: the exact preprocessed source the worker was given, and for a back-end

@@ -83,6 +83,34 @@ SourceLocation SourceLocator::located(const FrontendMessage& m, const std::strin
   return at;
 }
 
+std::optional<std::pair<SourceLocation, uint32_t>> SourceLocator::constant_id(uint32_t pass,
+                                                                             const std::set<uint32_t>& ids) const {
+  static const std::string kAttribute = "constant_id";
+  for (const std::filesystem::path& path : plan_.declarations[pass].files) {
+    const SourceFile* file = plan_.sources.find(path);
+    if (!file) continue;
+    const std::vector<std::string> lines = code_lines(file->text);
+    for (size_t l = 0; l < lines.size(); ++l) {
+      const std::string& line = lines[l];
+      for (size_t at = line.find(kAttribute); at != std::string::npos; at = line.find(kAttribute, at + 1)) {
+        size_t p = at + kAttribute.size();
+        while (p < line.size() && (line[p] == ' ' || line[p] == '\t')) ++p;
+        if (p == line.size() || line[p] != '(') continue;
+        ++p;
+        while (p < line.size() && (line[p] == ' ' || line[p] == '\t')) ++p;
+        const size_t digits = p;
+        uint64_t id = 0;
+        while (p < line.size() && std::isdigit(static_cast<unsigned char>(line[p])) && id < (uint64_t{1} << 32))
+          id = id * 10 + static_cast<uint64_t>(line[p++] - '0');
+        if (p == digits || !ids.count(static_cast<uint32_t>(id))) continue;
+        return std::make_pair(SourceLocation{display_path(path), static_cast<int>(l + 1), static_cast<int>(digits + 1)},
+                              static_cast<uint32_t>(id));
+      }
+    }
+  }
+  return std::nullopt;
+}
+
 SourceLocation SourceLocator::declaration(uint32_t pass, const std::string& name, const std::string& entry_name,
                                          const std::filesystem::path& first) const {
   if (name.empty()) return SourceLocation{entry_name, 0, 0};

@@ -5,6 +5,8 @@
 #include <cstddef>
 #include <filesystem>
 #include <map>
+#include <optional>
+#include <set>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -29,6 +31,10 @@ class SourceLocator {
   // `first`: a file searched before the pass's others (a stage's own entry file, for a stage's variable).
   SourceLocation declaration(uint32_t pass, const std::string& name, const std::string& entry_name,
                              const std::filesystem::path& first = {}) const;
+
+  // Where a pass's sources first give `vk::constant_id(N)`, outside comments, with N one of `ids`: the location (at
+  // the number) and N.
+  std::optional<std::pair<SourceLocation, uint32_t>> constant_id(uint32_t pass, const std::set<uint32_t>& ids) const;
 
   // The text of a line of a file of the snapshot; empty when unknown.
   std::string line(const std::string& display_name, int line) const;

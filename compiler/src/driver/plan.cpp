@@ -89,6 +89,15 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, BuildContext& build
   {
     StageTimer timer(build, "expand+strip");
     if (!apply_keyword_kinds(plan->passes, plan->pack, sink)) return nullptr;
+    // A -D that names a folded keyword selects a variant (kiln compile writes that variant's code); it is no macro: the
+    // module reads the keyword at run time, and the keyword's own macro (`K=K`) would clash with it.
+    for (size_t p = 0; p < plan->passes.size(); ++p)
+      for (const KeywordGroup& group : plan->passes[p].groups)
+        if (is_folded(group.kind()))
+          std::erase_if(plan->pack.passes[p].defines, [&](const Define& d) {
+            return std::find(group.values.begin(), group.values.end(), d.name) != group.values.end() &&
+                   std::any_of(options.defines.begin(), options.defines.end(), [&](const Define& c) { return c.name == d.name; });
+          });
     if (!check_rule_keywords(plan->passes, plan->pack, plan->scenes, sink)) return nullptr;
     StripRules rules{&plan->pack.constraints, &plan->scenes, &plan->pack.materials};
     auto expansions = expand_and_strip(plan->passes, rules, plan->pack.budget, plan->pack, sink);

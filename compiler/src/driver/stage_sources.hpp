@@ -114,8 +114,9 @@ void report_preprocess_failure(const StageSource& source, size_t order, const Pl
                                MessageGroups& messages, DiagnosticSink& sink);
 
 // Which share of `count` each stage source falls in (--shard I/N), from what is known before preprocessing: the
-// sources in order of pass, then stage, then enumeration, dealt out in turn, so that each share holds a near-equal
-// number of each pass's vertex and fragment sources, and every machine with the same plan deals the same shares.
+// sources in order of pass, then stage, then identity hash (source_identity), dealt out in turn, so that each share
+// holds a near-equal number of each pass's vertex and fragment sources with no pattern in their keywords, and every
+// machine with the same plan deals the same shares.
 std::vector<uint32_t> source_shares(const StageSources& sources, unsigned count);
 
 // A stage source by what names it before preprocessing (pass, stage, defines, folded declarations), for checking that

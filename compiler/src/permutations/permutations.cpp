@@ -215,7 +215,14 @@ bool apply_keyword_kinds(std::vector<PassKeywords>& passes, const PackDefinition
         }
         if (!first) first = &value;
       }
-      if (first) group.pragma = pragma_of_kind(group, pack.keyword_kinds.at(*first).kind);
+      if (first) {
+        const KeywordKind kind = pack.keyword_kinds.at(*first).kind;
+        group.pragma = pragma_of_kind(group, kind);
+        // A folded shader_feature group is one module whatever materials use: every value stays (its bool or constant
+        // is set at run time), as the pragma the manifest records for it says, and as check-scene and diff-packs
+        // read it back. Stripping by materials would only remove variants that cost nothing.
+        if (is_folded(kind)) group.material_feature = false;
+      }
     }
   return ok;
 }
