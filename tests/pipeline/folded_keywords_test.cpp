@@ -44,9 +44,13 @@ const char* kShader =
 struct FoldedKeywords : ::testing::Test {
   testing::TempDir dir;
 
+  std::vector<Define> defines;  // -D
+  std::string before_fragment;  // a line of the test's own before the fragment entry point
+
   bool build(const std::string& pragma, const std::string& pack_fields, DiagnosticSink& sink, const std::string& out = "out") {
     std::string shader = kShader;
     shader.replace(shader.find("KIND"), 4, pragma);
+    shader.insert(shader.find("float4 F()"), before_fragment);
     dir.write("S.hlsl", shader);
     dir.write("p.pack.json", R"({"name": "p", )" + pack_fields +
                                  R"("passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
@@ -56,6 +60,7 @@ struct FoldedKeywords : ::testing::Test {
     options.cache_dir = dir / "cache";
     options.jobs = 2;
     options.worker_executable = KILN_WORKER_PATH;
+    options.defines = defines;
     return build_pack(options, sink).ok;
   }
   json manifest() { return json::parse(testing::read_file(dir / "out/p.manifest.json")); }
@@ -179,18 +184,9 @@ TEST_F(FoldedKeywords, AFoldedShaderFeatureGroupIsNotStrippedByMaterials) {
 // A shader's own specialization constant at an id kiln gives a folded keyword: the error is at the shader's number
 // and names the keyword (glslang's own message has no location).
 TEST_F(FoldedKeywords, AShadersConstantIdThatCollidesWithAFoldedKeywordsIsAnErrorAtItsNumber) {
-  std::string shader = kShader;
-  shader.replace(shader.find("KIND"), 4, "specialization_constant_fragment");
-  shader.insert(shader.find("float4 F()"), "[[vk::constant_id(1001)]] const int Quality = 1;\n");
-  dir.write("S.hlsl", shader);
-  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
-  BuildOptions options;
-  options.pack_file = dir / "p.pack.json";
-  options.output_dir = dir / "out";
-  options.jobs = 2;
-  options.worker_executable = KILN_WORKER_PATH;
+  before_fragment = "[[vk::constant_id(1001)]] const int Quality = 1;\n";
   DiagnosticSink sink;
-  EXPECT_FALSE(build_pack(options, sink).ok);
+  EXPECT_FALSE(build("specialization_constant_fragment", "", sink));
   const std::string errors = errors_of(sink);
   EXPECT_NE(errors.find("S.hlsl:4:19: error[K1401]: specialization constant id 1001 is the one kiln gives folded keyword 'B'"),
             std::string::npos)
@@ -200,16 +196,9 @@ TEST_F(FoldedKeywords, AShadersConstantIdThatCollidesWithAFoldedKeywordsIsAnErro
 // -D of a folded keyword (kiln compile's way to choose a variant) is no macro: the folded module is built, and the
 // keyword's own macro does not clash with it ("Macro redefined" before).
 TEST_F(FoldedKeywords, ADefineThatNamesAFoldedKeywordOnlySelects) {
-  dir.write("S.hlsl", std::string(kShader).replace(std::string(kShader).find("KIND"), 4, "specialization_constant"));
-  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
-  BuildOptions options;
-  options.pack_file = dir / "p.pack.json";
-  options.output_dir = dir / "out";
-  options.jobs = 2;
-  options.worker_executable = KILN_WORKER_PATH;
-  options.defines = {Define{"A", "1"}, Define{"M", "1"}};
+  defines = {Define{"A", "1"}, Define{"M", "1"}};
   DiagnosticSink sink;
-  ASSERT_TRUE(build_pack(options, sink).ok) << errors_of(sink);
+  ASSERT_TRUE(build("specialization_constant", "", sink)) << errors_of(sink);
   PackReader pack = PackReader::open(dir / "out");
   EXPECT_EQ(fragment_modules(pack), 1u);  // M, a variant keyword, is defined in every variant by -D, as before
 }
