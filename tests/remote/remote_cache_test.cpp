@@ -421,8 +421,9 @@ TEST_F(Remote, TheShardThatFinishesLastAssemblesThePackFromOneBundlePerShard) {
   EXPECT_TRUE(pack_bytes(last_output) == wanted);
 }
 
-// The merge job without the finished pack (two shards finished together and neither saw the other): one bundle per
-// shard and nothing else, no per-source lookup, nothing preprocessed or compiled, the pack of one machine.
+// The merge job without the finished pack (the last shard's upload of it failed, or the server showed it a stale
+// view): one bundle per shard and nothing else, no per-source lookup, nothing preprocessed or compiled, the pack of
+// one machine.
 TEST_F(Remote, TheMergeFetchesOneBundlePerShardAndLooksUpNothingElse) {
   const auto wanted = reference();
   testing::WebDav server;
@@ -1326,7 +1327,7 @@ TEST_F(RemoteSlurm, AJobArrayOfShardsAndAnAfterokMergeWriteThePackOfOneMachine) 
     compiled += std::stoul(log.substr(prefix.size()));
   }
   // The shards share the checkout's output directory: the shard that finished last wrote the pack there, and the merge
-  // finds it up to date; when two finished together and neither saw the other's bundle, the merge assembles it.
+  // finds it up to date (or, had that shard's assembly failed, assembles it from the bundles).
   const std::string merged = testing::read_file(root / "merge.log");
   EXPECT_TRUE(merged.rfind("kiln: up to date: out/p.manifest.json", 0) == 0 ||
               merged.find("  compiled 0 (back ends 0,") != std::string::npos)
