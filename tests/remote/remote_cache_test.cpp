@@ -446,6 +446,34 @@ TEST_F(Remote, TheMergeFetchesOneBundlePerShardAndLooksUpNothingElse) {
   EXPECT_TRUE(pack_bytes(last_output) == wanted);
 }
 
+// More shards than stage sources: the shares past the sixth are empty, their shards compile nothing and upload an
+// empty bundle, and the pack is still one machine's.
+TEST_F(Remote, ShardsWithEmptySharesStillTakePart) {
+  const auto wanted = reference();
+  testing::WebDav server;
+  shard_count = 8;
+  size_t compiled = 0, assembled = 0;
+  for (shard_index = 0; shard_index < shard_count; ++shard_index) {
+    DiagnosticSink sink;
+    BuildReport report = build(serial(server.url(), true), sink);
+    ASSERT_TRUE(report.ok) << text_of(sink);
+    EXPECT_EQ(report.compiled, shard_index < 6 ? 1u : 0u);
+    compiled += report.compiled;
+    assembled += report.shard_assembled;
+  }
+  EXPECT_EQ(compiled, 6u);
+  EXPECT_EQ(assembled, 1u);
+  EXPECT_TRUE(pack_bytes(last_output) == wanted);
+  forget_pack(server);
+  shard_count = 1;
+  DiagnosticSink sink;
+  BuildReport merge = build(serial(server.url()), sink);
+  ASSERT_TRUE(merge.ok) << text_of(sink);
+  EXPECT_EQ(merge.remote.shard_bundles, 8u);
+  EXPECT_EQ(merge.compiled, 0u);
+  EXPECT_TRUE(pack_bytes(last_output) == wanted);
+}
+
 // A shard that never ran: the merge takes the other bundles and compiles the missing share (its per-source entries
 // are not there either); the pack is the same.
 TEST_F(Remote, AMissingShardLeavesItsShareToTheMerge) {
