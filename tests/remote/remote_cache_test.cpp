@@ -75,6 +75,16 @@ struct Remote : ::testing::Test {
   }
   std::filesystem::path last_output;
   unsigned shard_index = 0, shard_count = 1;
+
+  // The merge of a sharded build (no --shard) reading `url`: it must succeed and say nothing.
+  BuildReport quiet_merge(const std::string& url) {
+    shard_count = 1;
+    DiagnosticSink sink;
+    BuildReport merge = build(serial(url), sink);
+    EXPECT_TRUE(merge.ok) << text_of(sink);
+    EXPECT_EQ(text_of(sink), "");
+    return merge;
+  }
   std::function<void(size_t settled)> on_settled;  // the build's progress: stage sources settled so far
 
   std::pair<std::string, std::string> reference() {
@@ -433,11 +443,7 @@ TEST_F(Remote, TheMergeFetchesOneBundlePerShardAndLooksUpNothingElse) {
     ASSERT_TRUE(build(serial(server.url(), true), sink).ok) << text_of(sink);
   }
   forget_pack(server);
-  shard_count = 1;
-  DiagnosticSink sink;
-  BuildReport merge = build(serial(server.url()), sink);
-  ASSERT_TRUE(merge.ok) << text_of(sink);
-  EXPECT_EQ(text_of(sink), "");
+  const BuildReport merge = quiet_merge(server.url());
   EXPECT_EQ(merge.remote.shard_bundles, 3u);
   EXPECT_EQ(merge.remote.shard_sources, 6u);
   EXPECT_EQ(merge.remote.hits + merge.remote.misses, 0u);
@@ -465,11 +471,8 @@ TEST_F(Remote, ShardsWithEmptySharesStillTakePart) {
   EXPECT_EQ(assembled, 1u);
   EXPECT_TRUE(pack_bytes(last_output) == wanted);
   forget_pack(server);
-  shard_count = 1;
-  DiagnosticSink sink;
-  BuildReport merge = build(serial(server.url()), sink);
-  ASSERT_TRUE(merge.ok) << text_of(sink);
-  EXPECT_EQ(merge.remote.shard_bundles, 8u);
+  const BuildReport merge = quiet_merge(server.url());
+  EXPECT_EQ(merge.remote.shard_bundles, 6u);  // the two empty shares' bundles are not fetched
   EXPECT_EQ(merge.compiled, 0u);
   EXPECT_TRUE(pack_bytes(last_output) == wanted);
 }
@@ -486,11 +489,7 @@ TEST_F(Remote, AMissingShardLeavesItsShareToTheMerge) {
     ASSERT_TRUE(report.ok) << text_of(sink);
     EXPECT_FALSE(report.shard_assembled);
   }
-  shard_count = 1;
-  DiagnosticSink sink;
-  BuildReport merge = build(serial(server.url()), sink);
-  ASSERT_TRUE(merge.ok) << text_of(sink);
-  EXPECT_EQ(text_of(sink), "");
+  const BuildReport merge = quiet_merge(server.url());
   EXPECT_EQ(merge.remote.shard_bundles, 2u);
   EXPECT_EQ(merge.remote.shard_sources, 4u);
   EXPECT_EQ(merge.remote.misses, 2u);
@@ -895,6 +894,31 @@ TEST_F(TamperedShards, AResealedBundleWithABlobThatDoesNotUnpackToItsHash) {
   EXPECT_EQ(merge.remote.shard_bundles, 2u);  // the third fetched whole, then refused
   EXPECT_EQ(merge.remote.shard_sources, 4u);
   EXPECT_EQ(merge.compiled, 0u);
+  EXPECT_TRUE(pack_bytes(last_output) == wanted);
+}
+
+// Records that name bundles of 3 GiB each: their sum is over what one pack's archive may be, so nothing is downloaded
+// and every share comes from the per-source entries.
+TEST_F(TamperedShards, RecordsWhoseBundlesTogetherAreOverAnArchivesLimit) {
+  for (unsigned index : {0u, 1u}) {
+    const ShardEntry entry = shard_entry(index);
+    std::string record = testing::read_file(entry.record);
+    const uint64_t size = uint64_t{3} << 30;
+    for (int i = 0; i < 8; ++i) record[120 + i] = static_cast<char>(size >> (8 * i));
+    const RemoteKey resealed = sha256(std::string_view(record).substr(88));
+    record.replace(56, 32, reinterpret_cast<const char*>(resealed.bytes.data()), 32);
+    overwrite(entry.record, record);
+  }
+  DiagnosticSink sink;
+  BuildReport merge = build(serial(server.url()), sink);
+  ASSERT_TRUE(merge.ok) << text_of(sink);
+  EXPECT_NE(text_of(sink).find("warning[K1705]: a remote cache entry failed verification: the shards' bundles would be"),
+            std::string::npos)
+      << text_of(sink);
+  EXPECT_EQ(merge.remote.shard_bundles, 0u);
+  EXPECT_EQ(merge.remote.hits, 6u);
+  EXPECT_EQ(merge.compiled, 0u);
+  EXPECT_LT(merge.remote.bytes_down, uint64_t{1} << 20);
   EXPECT_TRUE(pack_bytes(last_output) == wanted);
 }
 

@@ -69,12 +69,15 @@ std::map<Hash128, ShardResult> use_shard_bundles(RemoteCache& remote, const Remo
   std::map<Hash128, ShardResult> results;
   const std::optional<uint32_t> count = remote.fetch_shard_count(remote_shard_count_key(remote, pack_key, plan));
   if (!count) return results;
+  // Shares past the number of stage sources are empty: their bundles hold nothing to fetch (and a forged count of
+  // 100,000 costs no more requests than the plan has sources).
+  const uint32_t holding = static_cast<uint32_t>(std::min<size_t>(*count, sources.list.size()));
   std::vector<RemoteKey> keys;
-  for (uint32_t i = 0; i < *count; ++i) keys.push_back(remote_shard_key(remote, pack_key, plan, Shard{i, *count}));
+  for (uint32_t i = 0; i < holding; ++i) keys.push_back(remote_shard_key(remote, pack_key, plan, Shard{i, *count}));
   std::vector<std::optional<std::string>> bundles = remote.fetch_shards(keys);
   const std::vector<uint32_t> shares = source_shares(sources, *count);
   size_t used = 0, used_bundles = 0;
-  for (uint32_t i = 0; i < *count; ++i) {
+  for (uint32_t i = 0; i < holding; ++i) {
     if (!bundles[i]) continue;
     Result<ShardBundle> decoded = decode_shard_bundle(*bundles[i], threads);
     std::string().swap(*bundles[i]);

@@ -730,8 +730,11 @@ std::vector<bool> RemoteCache::have_records(const std::vector<RemoteKey>& keys) 
 }
 
 std::vector<std::optional<std::string>> RemoteCache::fetch_shards(const std::vector<RemoteKey>& keys) {
-  std::vector<std::optional<std::string>> bundles(keys.size());
-  parallel_for(keys.size(), std::max(1u, options_.parallel_transfers), [&](size_t k) {
+  // The records first: the sizes they give are the server's word, and the bundles are held together, so their sum
+  // is bounded (by what one pack's archive may be) before anything is downloaded.
+  std::vector<std::optional<std::pair<RemoteKey, uint64_t>>> named(keys.size());
+  const unsigned threads = std::max(1u, options_.parallel_transfers);
+  parallel_for(keys.size(), threads, [&](size_t k) {
     if (switched_off_) return;
     std::unique_ptr<HttpClient> client = take_client();
     Result<std::optional<std::string>> record = get_record(*client, keys[k], kShard);
@@ -739,8 +742,24 @@ std::vector<std::optional<std::string>> RemoteCache::fetch_shards(const std::vec
       if ((*record)->size() != 40 || get64(**record, 32) > kMaxArchiveBytes)
         problem(DiagId::RemoteEntryRejected, "a remote cache entry failed verification: shard record malformed", "at ac/" + keys[k].hex());
       else
-        bundles[k] = get_blob(*client, get_key(**record, 0), get64(**record, 32));
+        named[k] = std::make_pair(get_key(**record, 0), get64(**record, 32));
     }
+    give_back(std::move(client));
+  });
+  uint64_t total = 0;
+  for (const auto& bundle : named) total += bundle ? bundle->second : 0;
+  std::vector<std::optional<std::string>> bundles(keys.size());
+  if (total > kMaxArchiveBytes) {
+    problem(DiagId::RemoteEntryRejected,
+            "a remote cache entry failed verification: the shards' bundles would be " + std::to_string(total) +
+                " bytes, more than a pack's archive may be (" + std::to_string(kMaxArchiveBytes) + ")",
+            "at the shard records of this build's inputs");
+    return bundles;
+  }
+  parallel_for(keys.size(), threads, [&](size_t k) {
+    if (switched_off_ || !named[k]) return;
+    std::unique_ptr<HttpClient> client = take_client();
+    bundles[k] = get_blob(*client, named[k]->first, named[k]->second);
     give_back(std::move(client));
   });
   return bundles;
