@@ -31,12 +31,21 @@ def main():
             failures.append(f"{a['name']}: {len(set(va) - set(vb))} variants missing, {len(set(vb) - set(va))} extra")
         modules = lambda m: len({json.dumps(v["binaries"], sort_keys=True) for v in m["variants"]})
         print(f"{a['name']}: {len(va)} variants; distinct stage pairs {modules(a)} -> {modules(b)}")
-        next_id, next_offset = 1000, 0
+        next_id, next_offset, group_id, place = 1000, 0, None, 0
         for entry in b.get("folded_keywords", []):
-            if kinds.get(entry["keyword"]) != entry["kind"]:
+            if entry["keyword"] != "_" and kinds.get(entry["keyword"]) != entry["kind"]:
                 failures.append(f"{a['name']}: {entry['keyword']} is folded as {entry['kind']}, the pack asks "
                                 f"{kinds.get(entry['keyword'])}")
-            if entry["kind"] == "specialization_constant":
+            if entry["kind"] == "specialization_constant_int":
+                # One id per group; its values in order, the off value "_" counted.
+                if entry["value"] == 0:
+                    group_id, place = next_id, 0
+                    next_id += 1
+                if entry["constant_id"] != group_id or entry["value"] != place or entry["type"] != "int":
+                    failures.append(f"{entry['keyword']}: constant {entry['constant_id']} value {entry['value']}, "
+                                    f"expected {group_id} value {place}")
+                place += 1
+            elif entry["kind"] == "specialization_constant":
                 if entry["constant_id"] != next_id:
                     failures.append(f"{entry['keyword']}: constant id {entry['constant_id']}, expected {next_id}")
                 next_id += 1

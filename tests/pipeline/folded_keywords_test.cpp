@@ -27,6 +27,9 @@ const char* kShader =
     "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
     "float4 F() : SV_Target {\n"
     "    float r = 0.0;\n"
+    "#if defined(PLACE)\n"
+    "    r += Place();\n"
+    "#endif\n"
     "#if defined(KILN_FOLDED_A)\n"
     "    if (A) r = 0.25;\n"
     "    if (B) r = 0.5;\n"
@@ -46,10 +49,11 @@ struct FoldedKeywords : ::testing::Test {
 
   std::vector<Define> defines;  // -D
   std::string before_fragment;  // a line of the test's own before the fragment entry point
+  std::string values = "_ A B";  // the folded group's
 
   bool build(const std::string& pragma, const std::string& pack_fields, DiagnosticSink& sink, const std::string& out = "out") {
     std::string shader = kShader;
-    shader.replace(shader.find("KIND"), 4, pragma);
+    shader.replace(shader.find("KIND _ A B"), 10, pragma + " " + values);
     shader.insert(shader.find("float4 F()"), before_fragment);
     dir.write("S.hlsl", shader);
     dir.write("p.pack.json", R"({"name": "p", )" + pack_fields +
@@ -122,6 +126,95 @@ TEST_F(FoldedKeywords, ASpecializationConstantGroupIsOneModuleAndEachVariantSays
   kiln_keyword_value past{};
   EXPECT_EQ(kiln_variant_value(c_pack, 0, 0, 2, &past, nullptr), KILN_ERROR_INVALID_ARGUMENT);
   kiln_pack_close(c_pack);
+}
+
+// An int group: one constant for the whole group, its value the place of the chosen value (the off value counted);
+// each keyword is the test of that place, and KILN_GROUP_OF_<K> names the int for a switch.
+TEST_F(FoldedKeywords, AnIntegerSpecializationConstantGroupIsOneConstantWhosePlaceChoosesTheValue) {
+  before_fragment =
+      "#define PLACE\n"
+      "float Place() {\n"
+      "#if defined(KILN_GROUP_OF_B)\n"
+      "    switch (KILN_GROUP_OF_B) { case 2: return 2.0; case 1: return 1.0; default: return 0.0; }\n"
+      "#else\n"
+      "    return -1.0;\n"
+      "#endif\n"
+      "}\n";
+  DiagnosticSink sink;
+  ASSERT_TRUE(build("specialization_constant_int_fragment", "", sink)) << errors_of(sink);
+  PackReader pack = PackReader::open(dir / "out");
+  EXPECT_EQ(pack.variant_count("P"), 6u);
+  EXPECT_EQ(fragment_modules(pack), 2u);
+
+  const SelectedVariant v = pack.select("P", {"B", "M"});
+  ASSERT_EQ(v.values.size(), 3u);  // _, A, B: every value of the group, one constant
+  for (uint32_t place = 0; place < 3; ++place) {
+    EXPECT_EQ(v.values[place].kind, KeywordKind::SpecializationInteger);
+    EXPECT_EQ(v.values[place].slot, kKeywordConstantIdBase);
+    EXPECT_EQ(v.values[place].value, place);
+    EXPECT_EQ(v.values[place].on, place == 2);
+    EXPECT_EQ(v.values[place].sets(), place == 2);
+  }
+  EXPECT_EQ(v.values[0].keyword, "");
+  EXPECT_EQ(v.values[2].keyword, "B");
+  EXPECT_EQ(v.values[2].data(), 2u);
+  const SelectedVariant off = pack.select("P", {"M"});
+  EXPECT_TRUE(off.values[0].on && !off.values[1].on && !off.values[2].on);
+  EXPECT_EQ(off.values[0].data(), 0u);
+
+  // One int constant in the code, read by the keywords' tests and by the switch.
+  const StageView* fragment = v.stage("fragment");
+  EXPECT_NE(fragment->glsl.find("const int _KilnGroup1000 = SPIRV_CROSS_CONSTANT_ID_1000;"), std::string_view::npos) << fragment->glsl;
+  EXPECT_EQ(fragment->glsl.find("SPIRV_CROSS_CONSTANT_ID_1001"), std::string_view::npos) << fragment->glsl;
+  EXPECT_NE(fragment->glsl.find("switch (_KilnGroup1000)"), std::string_view::npos) << fragment->glsl;
+  EXPECT_NE(fragment->msl.find("function_constant(1000)"), std::string_view::npos) << fragment->msl;
+
+  const json folded = manifest()["passes"][0]["folded_keywords"];
+  ASSERT_EQ(folded.size(), 3u);
+  EXPECT_EQ(folded[0]["keyword"], "_");
+  EXPECT_EQ(folded[2]["keyword"], "B");
+  EXPECT_EQ(folded[2]["kind"], "specialization_constant_int");
+  EXPECT_EQ(folded[2]["type"], "int");
+  EXPECT_EQ(folded[2]["constant_id"], kKeywordConstantIdBase);
+  EXPECT_EQ(folded[2]["value"], 2);
+  EXPECT_EQ(folded[2]["default"], 0);
+
+  kiln_pack* c_pack = nullptr;
+  ASSERT_EQ(kiln_pack_open((dir / "out").c_str(), &c_pack, nullptr), KILN_OK);
+  ASSERT_EQ(kiln_pass_value_count(c_pack, 0), 3u);
+  for (uint32_t variant = 0; variant < kiln_variant_count(c_pack, 0); ++variant) {
+    const SelectedVariant cpp = pack.variant("P", variant);
+    int on = 0;
+    for (uint32_t i = 0; i < 3; ++i) {
+      kiln_keyword_value value{};
+      ASSERT_EQ(kiln_variant_value(c_pack, 0, variant, i, &value, nullptr), KILN_OK);
+      EXPECT_EQ(value.keyword, cpp.values[i].keyword);
+      EXPECT_EQ(value.kind, KILN_KEYWORD_SPECIALIZATION_INTEGER);
+      EXPECT_EQ(value.slot, kKeywordConstantIdBase);
+      EXPECT_EQ(value.on != 0, cpp.values[i].on);
+      if (value.on) {
+        EXPECT_EQ(value.value, i);
+      }
+      on += value.on != 0;
+    }
+    EXPECT_EQ(on, 1) << "variant " << variant;
+  }
+  kiln_pack_close(c_pack);
+}
+
+// The group's default is its off value's place, wherever the shader puts it; a group without one defaults to 0.
+TEST_F(FoldedKeywords, AnIntegerGroupDefaultsToItsOffValue) {
+  values = "A _ B";
+  DiagnosticSink sink;
+  ASSERT_TRUE(build("specialization_constant_int", "", sink)) << errors_of(sink);
+  const SelectedVariant v = PackReader::open(dir / "out").select("P", {});
+  ASSERT_EQ(v.values.size(), 3u);
+  EXPECT_EQ(v.values[1].keyword, "");
+  EXPECT_TRUE(v.values[1].on);
+  EXPECT_EQ(v.values[1].data(), 1u);
+  EXPECT_NE(v.stage("fragment")->glsl.find("#define SPIRV_CROSS_CONSTANT_ID_1000 1\n"), std::string_view::npos)
+      << v.stage("fragment")->glsl;
+  EXPECT_EQ(manifest()["passes"][0]["folded_keywords"][0]["default"], 1);
 }
 
 TEST_F(FoldedKeywords, ADynamicBranchGroupIsOneModuleReadingItsBoolsFromTheKeywordBlock) {
@@ -212,7 +305,8 @@ TEST_F(FoldedKeywords, OneGroupGivenTwoKindsOrAnUndeclaredKeywordIsAnError) {
   EXPECT_NE(errors_of(unknown).find("unknown keyword 'C' in keyword_kinds"), std::string::npos) << errors_of(unknown);
   DiagnosticSink bad_kind;
   EXPECT_FALSE(build("multi_compile", R"("keyword_kinds": {"A": "uniform"}, )", bad_kind));
-  EXPECT_NE(errors_of(bad_kind).find("must be \"variant\", \"dynamic_branch\" or \"specialization_constant\""),
+  EXPECT_NE(errors_of(bad_kind).find("must be \"variant\", \"dynamic_branch\", \"specialization_constant\" or "
+                                    "\"specialization_constant_int\""),
             std::string::npos)
       << errors_of(bad_kind);
 }

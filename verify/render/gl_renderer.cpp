@@ -101,8 +101,9 @@ std::string source(const StageView* stage, bool gles, const SelectedVariant& var
   std::string constants;
   const std::optional<Stage> which = parse_stage(stage->stage);
   for (const KeywordValue& v : variant.values)
-    if (v.kind == KeywordKind::SpecializationConstant && which && (v.stages & stage_bit(*which)))
-      constants += "#define SPIRV_CROSS_CONSTANT_ID_" + std::to_string(v.slot) + (v.on ? " true\n" : " false\n");
+    if (is_constant(v.kind) && v.sets() && which && (v.stages & stage_bit(*which)))
+      constants += "#define SPIRV_CROSS_CONSTANT_ID_" + std::to_string(v.slot) + " " +
+                   (v.kind == KeywordKind::SpecializationInteger ? std::to_string(v.data()) : v.on ? "true" : "false") + "\n";
   if (constants.empty()) return std::string(text);
   const size_t line_end = text.find('\n');
   if (!text.starts_with("#version") || line_end == std::string_view::npos)
@@ -171,7 +172,7 @@ struct GlSceneRenderer::State {
     auto text = [&](const StageView* stage) { return stage ? (gles ? stage->gles : stage->glsl) : std::string_view(); };
     std::vector<KeywordValue> constants;
     for (const KeywordValue& v : variant.values)
-      if (v.kind == KeywordKind::SpecializationConstant) constants.push_back(v);
+      if (is_constant(v.kind)) constants.push_back(v);
     auto found = std::find_if(programs.begin(), programs.end(), [&](const CachedProgram& p) {
       return p.pass == variant.pass && p.vertex == text(vs) && p.fragment == text(fs) && p.constants == constants;
     });
@@ -481,7 +482,7 @@ Image GlSceneRenderer::render(const SelectedVariant& variant) {
   if (s.keywords) {  // the variant's dynamic branches
     std::vector<uint8_t> block(size_t(s.keywords_size), 0);
     for (const KeywordValue& v : variant.values)
-      if (v.kind == KeywordKind::DynamicBranch && v.slot + 4 <= block.size()) block[v.slot] = v.on ? 1 : 0;
+      if (v.kind == KeywordKind::DynamicBranch && v.slot + 4 <= block.size()) block[v.slot] = static_cast<uint8_t>(v.data());
     gl.BindBuffer(GL_UNIFORM_BUFFER, s.keywords);
     gl.BufferData(GL_UNIFORM_BUFFER, s.keywords_size, block.data(), GL_DYNAMIC_DRAW);
   }

@@ -61,18 +61,18 @@ struct PassLayout {
   HostBuffer keywords;
 };
 
-// A variant's specialization constants for one stage (VkBool32 each, kiln/folded_keywords.hpp).
+// A variant's specialization constants for one stage (kiln/folded_keywords.hpp): 4 bytes each, a VkBool32 or an int.
 struct StageSpecialization {
   std::vector<VkSpecializationMapEntry> entries;
-  std::vector<VkBool32> data;
+  std::vector<uint32_t> data;
   VkSpecializationInfo info{};
   StageSpecialization(const SelectedVariant& variant, Stage stage) {
     for (const KeywordValue& v : variant.values)
-      if (v.kind == KeywordKind::SpecializationConstant && (v.stages & stage_bit(stage))) {
-        entries.push_back({v.slot, static_cast<uint32_t>(data.size() * sizeof(VkBool32)), sizeof(VkBool32)});
-        data.push_back(v.on ? VK_TRUE : VK_FALSE);
+      if (is_constant(v.kind) && v.sets() && (v.stages & stage_bit(stage))) {
+        entries.push_back({v.slot, static_cast<uint32_t>(data.size() * sizeof(uint32_t)), sizeof(uint32_t)});
+        data.push_back(v.data());
       }
-    info = {static_cast<uint32_t>(entries.size()), entries.data(), data.size() * sizeof(VkBool32), data.data()};
+    info = {static_cast<uint32_t>(entries.size()), entries.data(), data.size() * sizeof(uint32_t), data.data()};
   }
   const VkSpecializationInfo* get() const { return entries.empty() ? nullptr : &info; }
 };
@@ -81,7 +81,7 @@ struct StageSpecialization {
 std::vector<uint32_t> constants_of(const SelectedVariant& variant) {
   std::vector<uint32_t> out;
   for (const KeywordValue& v : variant.values)
-    if (v.kind == KeywordKind::SpecializationConstant) out.insert(out.end(), {v.slot, v.on ? 1u : 0u});
+    if (is_constant(v.kind) && v.sets()) out.insert(out.end(), {v.slot, v.data()});
   return out;
 }
 
@@ -90,7 +90,7 @@ void write_keyword_block(const PassLayout& layout, const SelectedVariant& varian
   if (!layout.keywords.buffer) return;
   for (const KeywordValue& v : variant.values)
     if (v.kind == KeywordKind::DynamicBranch && v.slot + 4 <= layout.keywords.size) {
-      const uint32_t word = v.on ? 1 : 0;
+      const uint32_t word = v.data();
       std::memcpy(static_cast<uint8_t*>(layout.keywords.mapped) + v.slot, &word, 4);
     }
 }

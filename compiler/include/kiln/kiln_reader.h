@@ -171,27 +171,34 @@ typedef struct kiln_code {
 /* A compressed blob is decompressed on first use: that may fail with CHECKSUM, FORMAT or OUT_OF_MEMORY. */
 kiln_result kiln_variant_code(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage,
                               kiln_target target, kiln_code* code, kiln_error* error);
-/* Folded keywords (dynamic_branch and specialization_constant groups, docs/keywords.md): variants that differ only in
- * them share their code, and the game sets the difference. A pass has kiln_pass_value_count() of them, the same for
- * every variant; kiln_variant_value() says where value `index` goes and whether it is on for `variant`:
+/* Folded keywords (dynamic_branch, specialization_constant and specialization_constant_int groups,
+ * docs/keywords.md): variants that differ only in them share their code, and the game sets the difference. A pass
+ * has kiln_pass_value_count() of them, the same for every variant; kiln_variant_value() says where value `index`
+ * goes, whether it is on for `variant`, and the number to set there:
  *   KILN_KEYWORD_SPECIALIZATION_CONSTANT: a VkBool32 specialization constant `slot` (VkSpecializationMapEntry
- *     constantID) of the stages in stage_flags; GLSL/GLSL ES: `#define SPIRV_CROSS_CONSTANT_ID_<slot> 1|0` after the
- *     #version line; MSL: function constant `slot`.
- *   KILN_KEYWORD_DYNAMIC_BRANCH: a 4-byte 0 or 1 at byte offset `slot` of the uniform block KILN_KEYWORD_BLOCK
- *     (set KILN_KEYWORD_BLOCK_SET, binding KILN_KEYWORD_BLOCK_BINDING; its reflection lists it), before the draw. */
+ *     constantID) of the stages in stage_flags, `value` 1 or 0; GLSL/GLSL ES: `#define SPIRV_CROSS_CONSTANT_ID_<slot>
+ *     true|false` after the #version line; MSL: function constant `slot`.
+ *   KILN_KEYWORD_SPECIALIZATION_INTEGER: an int32 specialization constant `slot`, shared by every value of its group,
+ *     the off value too (keyword ""). Exactly one of them is on: set `slot` to its `value` and skip the others
+ *     (GLSL/GLSL ES: `#define SPIRV_CROSS_CONSTANT_ID_<slot> <value>`).
+ *   KILN_KEYWORD_DYNAMIC_BRANCH: a 4-byte `value`, 0 or 1, at byte offset `slot` of the uniform block
+ *     KILN_KEYWORD_BLOCK (set KILN_KEYWORD_BLOCK_SET, binding KILN_KEYWORD_BLOCK_BINDING; its reflection lists it),
+ *     before the draw. */
 typedef enum kiln_keyword_kind {
   KILN_KEYWORD_DYNAMIC_BRANCH = 1,
-  KILN_KEYWORD_SPECIALIZATION_CONSTANT = 2
+  KILN_KEYWORD_SPECIALIZATION_CONSTANT = 2,
+  KILN_KEYWORD_SPECIALIZATION_INTEGER = 3
 } kiln_keyword_kind;
 #define KILN_KEYWORD_BLOCK "_KilnKeywords"
 #define KILN_KEYWORD_BLOCK_SET 0
 #define KILN_KEYWORD_BLOCK_BINDING 62
 typedef struct kiln_keyword_value {
-  const char* keyword;
+  const char* keyword;  /* "" for the off value of an int group */
   kiln_keyword_kind kind;
   uint32_t stage_flags; /* KILN_STAGE_FLAG_*: the stages whose code declares it */
   uint32_t slot;        /* the constant id, or the byte offset in the block */
   uint32_t on;          /* 1 or 0 */
+  uint32_t value;       /* what to set at `slot` (an int group's: only from the value that is on) */
 } kiln_keyword_value;
 uint32_t kiln_pass_value_count(const kiln_pack* pack, kiln_pass pass); /* 0 for a pass without folded keywords */
 kiln_result kiln_variant_value(const kiln_pack* pack, kiln_pass pass, uint32_t variant, uint32_t index,

@@ -51,10 +51,11 @@ struct Variant {
 
 // A folded keyword of a pass (kiln/folded_keywords.hpp): not encoded, derived from the pass's groups on decode.
 struct Folded {
-  uint32_t keyword = 0;  // id
+  uint32_t keyword = 0;  // id (kOffValue: the off value of a specialization_constant_int group)
   KeywordKind kind = KeywordKind::SpecializationConstant;
   StageMask stages = kAllStageBits;
   uint32_t slot = 0;  // constant id or byte offset
+  uint32_t value = 1, fallback = 0;
 };
 
 struct Pass {
@@ -89,6 +90,10 @@ struct Index {
   static Index decode(std::string_view bytes, uint64_t blob_count);
   // The id of a keyword, or kNone.
   uint32_t keyword_id(std::string_view name) const;
+  // Whether each folded keyword of `pass` (its folded_count, in order) is on for `variant`: its keyword is one of the
+  // variant's; the off value of an int group is on when none of its group's keywords is. O((K + F) log K) for K
+  // keywords of the variant and F folded keywords, whatever a damaged index holds.
+  std::vector<bool> folded_on(const Pass& pass, const Variant& variant) const;
 };
 
 // The index of `manifest` (its archive record aside, which it cannot know: the index is inside the archive).

@@ -5,6 +5,7 @@
 //   #pragma multi_compile_fog                              _ FOG_LINEAR FOG_EXP FOG_EXP2
 //   #pragma dynamic_branch[_local][_vertex|_fragment] A B  one module; each keyword a uniform bool (Unity's)
 //   #pragma specialization_constant[_local][_vertex|_fragment] A B  one module; each keyword a specialization constant
+//   #pragma specialization_constant_int[_local][_vertex|_fragment] A B  one module; one int constant for the group
 // (the last two: kiln/folded_keywords.hpp)
 #pragma once
 
@@ -24,12 +25,14 @@ struct KeywordPragmaKind {
 };
 
 inline constexpr std::string_view kFogValues[] = {"", "FOG_LINEAR", "FOG_EXP", "FOG_EXP2"};
-// Exact names (implied values) first: multi_compile_fog is not multi_compile with a suffix.
+// Exact names (implied values) first: multi_compile_fog is not multi_compile with a suffix; nor is
+// specialization_constant_int specialization_constant with one.
 inline constexpr KeywordPragmaKind kKeywordPragmaKinds[] = {
     {"multi_compile_fog", false, false, kFogValues},
     {"multi_compile", false, true, {}},
     {"shader_feature", true, true, {}},
     {kDynamicBranchPragma, false, true, {}},
+    {kSpecializationIntegerPragma, false, true, {}},
     {kSpecializationConstantPragma, false, true, {}},
 };
 inline constexpr std::string_view kLocalSuffix = "_local";
@@ -87,15 +90,16 @@ static_assert(!classify_keyword_pragma("multi_compile_fog")->kind->takes_suffixe
 static_assert(!classify_keyword_pragma("once"));
 static_assert(classify_keyword_pragma("specialization_constant_local_fragment")->local);
 static_assert(classify_keyword_pragma("dynamic_branch_vertex")->stages == stage_bit(Stage::Vertex));
+static_assert(classify_keyword_pragma("specialization_constant_int_local")->kind->name == kSpecializationIntegerPragma);
+static_assert(classify_keyword_pragma("specialization_constant_fragment")->kind->name == kSpecializationConstantPragma);
 
 // The pragma that declares `group`'s values and suffixes as `kind` (a pack's "keyword_kinds"): multi_compile_fog
-// becomes dynamic_branch or specialization_constant with its stages kept by the group's mask.
+// becomes a folded kind's pragma with its stages kept by the group's mask.
 inline std::string pragma_of_kind(const KeywordGroup& group, KeywordKind kind) {
   const std::optional<KeywordPragma> was = classify_keyword_pragma(group.pragma);
-  std::string out(kind == KeywordKind::DynamicBranch            ? kDynamicBranchPragma
-                  : kind == KeywordKind::SpecializationConstant ? kSpecializationConstantPragma
-                  : group.material_feature                      ? std::string_view("shader_feature")
-                                                                : std::string_view("multi_compile"));
+  std::string out(is_folded(kind)             ? keyword_kind_name(kind)
+                  : group.material_feature ? std::string_view("shader_feature")
+                                           : std::string_view("multi_compile"));
   if (was && was->local) out += kLocalSuffix;
   for (const StageSuffix& s : kStageSuffixes)
     if (was && was->stages == stage_bit(s.stage)) out += s.suffix;

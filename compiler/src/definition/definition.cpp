@@ -368,17 +368,19 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
   }
   if (auto kinds = root->find("keyword_kinds"); kinds != root->end()) {
     if (!kinds->is_object()) {
-      fields.fail("keyword_kinds", "\"keyword_kinds\" must be an object: keyword -> \"variant\", \"dynamic_branch\" or "
-                                   "\"specialization_constant\"");
+      fields.fail("keyword_kinds", "\"keyword_kinds\" must be an object: keyword -> \"variant\", \"dynamic_branch\", "
+                                   "\"specialization_constant\" or \"specialization_constant_int\"");
     } else {
       for (auto& [keyword, value] : kinds->items()) {
         const std::string kind = value.is_string() ? value.get<std::string>() : std::string();
         PackDefinition::KindOverride entry{KeywordKind::Variant, fields.at(keyword)};
         if (kind == kDynamicBranchPragma) entry.kind = KeywordKind::DynamicBranch;
         else if (kind == kSpecializationConstantPragma) entry.kind = KeywordKind::SpecializationConstant;
+        else if (kind == kSpecializationIntegerPragma) entry.kind = KeywordKind::SpecializationInteger;
         else if (kind != "variant")
           fields.fail(keyword, "the kind of keyword '" + keyword +
-                                   "' must be \"variant\", \"dynamic_branch\" or \"specialization_constant\"");
+                                   "' must be \"variant\", \"dynamic_branch\", \"specialization_constant\" or "
+                                   "\"specialization_constant_int\"");
         if (!is_identifier(keyword)) fields.fail(keyword, "'" + keyword + "' is not a valid keyword name");
         pack.keyword_kinds[keyword] = entry;
       }

@@ -396,7 +396,7 @@ class Scheduler {
     if (message.text.find("specialization-constant id already used") == std::string::npos) return false;
     std::map<uint32_t, std::string> keyword_of;
     for (const FoldedKeyword& k : folded_keywords(plan_.keyword_group_records(s.pass)))
-      if (k.kind == KeywordKind::SpecializationConstant && (k.stages & stage_bit(s.stage))) keyword_of.emplace(k.slot, k.keyword);
+      if (is_constant(k.kind) && (k.stages & stage_bit(s.stage)) && !k.keyword.empty()) keyword_of.emplace(k.slot, k.keyword);
     std::set<uint32_t> ids;
     for (const auto& [id, keyword] : keyword_of) ids.insert(id);
     const auto found = locator_.constant_id(s.pass, ids);
@@ -405,7 +405,7 @@ class Scheduler {
                       "specialization constant id " + std::to_string(found->second) +
                           " is the one kiln gives folded keyword '" + keyword_of.at(found->second) + "'",
                       variant, order,
-                      {"kiln numbers a pass's specialization_constant keywords from " +
+                      {"kiln numbers a pass's specialization_constant keywords (and specialization_constant_int groups) from " +
                        std::to_string(kKeywordConstantIdBase) + " (docs/keywords.md): give the shader's own constants ids below it"});
     return true;
   }

@@ -18,13 +18,12 @@ bool is_directive(const std::string& line_text) {
 }  // namespace
 
 std::string variant_description(const Plan& plan, uint32_t pass, Stage stage, const std::vector<std::string>& keywords) {
-  // A stage source's defines end with its folded keywords' macros (K=K, KILN_FOLDED_K): named once, as folded.
+  // A stage source's defines end with its folded keywords' macros (K=..., KILN_GROUP_OF_K=..., KILN_FOLDED_K):
+  // named once, as folded.
   std::vector<std::string> chosen, folded;
   for (const std::string& k : keywords) {
-    const size_t equals = k.find('=');
-    if (k.starts_with("KILN_FOLDED_")) continue;
-    if (equals != std::string::npos && k.compare(equals + 1, std::string::npos, k, 0, equals) == 0) folded.push_back(k.substr(0, equals));
-    else chosen.push_back(k);
+    if (k.starts_with("KILN_FOLDED_")) folded.push_back(k.substr(std::string_view("KILN_FOLDED_").size()));
+    else if (k.find('=') == std::string::npos) chosen.push_back(k);
   }
   return "pass '" + plan.pack.passes[pass].name + "' " + std::string(stage_name(stage)) + " stage, keywords [" +
          join_keywords(chosen) + "]" + (folded.empty() ? "" : ", folded [" + join_keywords(folded) + "]");

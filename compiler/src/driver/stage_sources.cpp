@@ -1,6 +1,7 @@
 #include "driver/stage_sources.hpp"
 
 #include <algorithm>
+#include <set>
 #include <tuple>
 
 #include "common/files.hpp"
@@ -22,10 +23,11 @@ std::vector<std::string> pass_defines(const PassDefinition& pass) {
 }
 
 // What a module with folded keywords (kiln/folded_keywords.hpp) sees of them. Macros, after the variant's keywords:
-// each keyword is defined as itself, so that `defined(K)` holds and `K` names the bool, and KILN_FOLDED_<K> says
-// that it is one (a shader that must also build K as a variant keyword tests it: docs/keywords.md). Declarations,
-// before the preprocessed text (not preprocessed, so not expanded): a bool specialization constant per keyword of
-// the stage, and the block of the pass's dynamic branches, every member at its offset in every stage.
+// each keyword is defined as itself, so that `defined(K)` holds and `K` names the bool (in an int group, the test
+// `(_KilnGroup<id> == place)`, and KILN_GROUP_OF_<K> names the int), and KILN_FOLDED_<K> says that it is one (a
+// shader that must also build K as a variant keyword tests it: docs/keywords.md). Declarations, before the
+// preprocessed text (not preprocessed, so not expanded): a specialization constant per keyword (or int group) of the
+// stage, and the block of the pass's dynamic branches, every member at its offset in every stage.
 struct FoldedStage {
   std::vector<std::string> defines;
   std::shared_ptr<const std::string> declarations;
@@ -35,8 +37,21 @@ FoldedStage folded_stage(const std::vector<FoldedKeyword>& folded, Stage stage) 
   FoldedStage out;
   std::string constants, block;
   bool stage_has_branch = false;
+  std::set<uint32_t> int_groups;
   for (const FoldedKeyword& k : folded) {
     const bool here = k.stages & stage_bit(stage);
+    if (k.kind == KeywordKind::SpecializationInteger) {
+      if (!here) continue;
+      const std::string name = "_KilnGroup" + std::to_string(k.slot);
+      if (int_groups.insert(k.slot).second)
+        constants += "[[vk::constant_id(" + std::to_string(k.slot) + ")]] const int " + name + " = " +
+                     std::to_string(k.fallback) + ";\n";
+      if (k.keyword.empty()) continue;
+      out.defines.push_back(k.keyword + "=(" + name + " == " + std::to_string(k.value) + ")");
+      out.defines.push_back("KILN_GROUP_OF_" + k.keyword + "=" + name);
+      out.defines.push_back("KILN_FOLDED_" + k.keyword);
+      continue;
+    }
     if (here) {
       out.defines.push_back(k.keyword + "=" + k.keyword);
       out.defines.push_back("KILN_FOLDED_" + k.keyword);
@@ -132,11 +147,12 @@ std::string variant_description(const Plan& plan, const StageSource& s) {
   return variant_description(plan, s.pass, s.stage, s.defines);
 }
 
+// A folded keyword's macros (K=...) are named by their KILN_FOLDED_K alone: a file name has no '=', space or '('.
 std::string keywords_slug(const std::vector<std::string>& keywords) {
-  if (keywords.empty()) return "_";
   std::string out;
-  for (const std::string& k : keywords) out += (out.empty() ? "" : "+") + k;
-  return out;
+  for (const std::string& k : keywords)
+    if (k.find('=') == std::string::npos) out += (out.empty() ? "" : "+") + k;
+  return out.empty() ? "_" : out;
 }
 
 Preprocessor::Preprocessor(const Plan& plan, const BuildSettings& settings, JobRunner& runner, const BuildContext& build,

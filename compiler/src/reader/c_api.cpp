@@ -467,13 +467,13 @@ kiln_result kiln_variant_value(const kiln_pack* pack, kiln_pass pass, uint32_t v
   const kiln::runtime::Pass& p = pack->index->passes[pass];
   if (index >= p.folded_count) return invalid(error, "kiln_variant_value: pass %u has %u folded keywords, not %u", pass, p.folded_count, index + 1);
   const kiln::runtime::Folded& folded = pack->index->folded[p.first_folded + index];
-  const uint32_t* first = pack->index->variant_keywords.data() + v->first_keyword;
+  const bool on = pack->index->folded_on(p, *v)[index];
   uint32_t flags = 0;
   for (kiln::Stage s : kiln::kAllStages)
     if (folded.stages & kiln::stage_bit(s)) flags |= stage_flag(static_cast<kiln_stage>(s));
-  *value = kiln_keyword_value{pack->index->keywords[folded.keyword].data(),
-                              folded.kind == kiln::KeywordKind::DynamicBranch ? KILN_KEYWORD_DYNAMIC_BRANCH : KILN_KEYWORD_SPECIALIZATION_CONSTANT,
-                              flags, folded.slot, std::find(first, first + v->keyword_count, folded.keyword) != first + v->keyword_count ? 1u : 0u};
+  *value = kiln_keyword_value{folded.keyword == kiln::runtime::kOffValue ? "" : pack->index->keywords[folded.keyword].data(),
+                              static_cast<kiln_keyword_kind>(folded.kind), flags, folded.slot, on ? 1u : 0u,
+                              on ? folded.value : folded.fallback};
   return ok(error);
 }
 
@@ -621,5 +621,6 @@ static_assert(KILN_MSL_BUFFER == static_cast<int>(kiln::MslResourceKind::Buffer)
               KILN_MSL_TEXTURE == static_cast<int>(kiln::MslResourceKind::Texture) &&
               KILN_MSL_SAMPLER == static_cast<int>(kiln::MslResourceKind::Sampler));
 static_assert(KILN_KEYWORD_DYNAMIC_BRANCH == static_cast<int>(kiln::KeywordKind::DynamicBranch) &&
-              KILN_KEYWORD_SPECIALIZATION_CONSTANT == static_cast<int>(kiln::KeywordKind::SpecializationConstant));
+              KILN_KEYWORD_SPECIALIZATION_CONSTANT == static_cast<int>(kiln::KeywordKind::SpecializationConstant) &&
+              KILN_KEYWORD_SPECIALIZATION_INTEGER == static_cast<int>(kiln::KeywordKind::SpecializationInteger));
 static_assert(KILN_KEYWORD_BLOCK_SET == kiln::kKeywordBlockSet && KILN_KEYWORD_BLOCK_BINDING == kiln::kKeywordBlockBinding);

@@ -2,6 +2,8 @@
 // the compiler that declares the constants and the readers that set them agree by construction.
 #include "kiln/folded_keywords.hpp"
 
+#include <algorithm>
+
 namespace kiln {
 
 std::string_view keyword_kind_name(KeywordKind kind) {
@@ -9,6 +11,7 @@ std::string_view keyword_kind_name(KeywordKind kind) {
     case KeywordKind::Variant: return "variant";
     case KeywordKind::DynamicBranch: return kDynamicBranchPragma;
     case KeywordKind::SpecializationConstant: return kSpecializationConstantPragma;
+    case KeywordKind::SpecializationInteger: return kSpecializationIntegerPragma;
   }
   return "variant";
 }
@@ -19,6 +22,14 @@ std::vector<FoldedKeyword> folded_keywords(const std::vector<ManifestKeywordGrou
   for (const ManifestKeywordGroup& group : groups) {
     const KeywordKind kind = keyword_kind(group.pragma);
     if (!is_folded(kind)) continue;
+    if (kind == KeywordKind::SpecializationInteger) {
+      const auto off = std::find(group.values.begin(), group.values.end(), std::string());
+      const uint32_t fallback = off == group.values.end() ? 0 : static_cast<uint32_t>(off - group.values.begin());
+      for (uint32_t place = 0; place < group.values.size(); ++place)
+        out.push_back(FoldedKeyword{group.values[place], kind, group.stages, next_constant, place, fallback});
+      ++next_constant;
+      continue;
+    }
     for (const std::string& value : group.values) {
       if (value.empty()) continue;
       uint32_t& next = kind == KeywordKind::SpecializationConstant ? next_constant : next_offset;

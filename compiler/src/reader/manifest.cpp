@@ -482,7 +482,13 @@ json folded_keywords_record(const ManifestPass& pass) {
     for (Stage s : kAllStages)
       if (k.stages & stage_bit(s)) stages.push_back(stage_name(s));
     json entry = {{"keyword", k.keyword}, {"kind", keyword_kind_name(k.kind)}, {"stages", stages}, {"type", "bool"}, {"default", false}};
-    if (k.kind == KeywordKind::SpecializationConstant) {
+    if (k.kind == KeywordKind::SpecializationInteger) {
+      entry["keyword"] = k.keyword.empty() ? "_" : k.keyword;
+      entry["type"] = "int";
+      entry["default"] = k.fallback;
+      entry["constant_id"] = k.slot;
+      entry["value"] = k.value;
+    } else if (k.kind == KeywordKind::SpecializationConstant) {
       entry["constant_id"] = k.slot;
     } else {
       entry["block"] = kKeywordBlockName;

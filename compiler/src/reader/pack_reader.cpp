@@ -718,15 +718,17 @@ SelectedVariant PackReader::variant_of(uint32_t pass_id, uint32_t index) const {
     view.reflection = &reflection(binary.reflection);
     selected.stages.push_back(view);
   }
-  const std::span<const uint32_t> keyword_ids(ix.variant_keywords.data() + v.first_keyword, v.keyword_count);
+  const std::vector<bool> on = ix.folded_on(pass, v);
   for (uint32_t f = 0; f < pass.folded_count; ++f) {
     const runtime::Folded& folded = ix.folded[pass.first_folded + f];
     KeywordValue value;
-    value.keyword = std::string(ix.keywords[folded.keyword]);
+    if (folded.keyword != runtime::kOffValue) value.keyword = std::string(ix.keywords[folded.keyword]);
     value.kind = folded.kind;
     value.stages = folded.stages;
     value.slot = folded.slot;
-    value.on = std::find(keyword_ids.begin(), keyword_ids.end(), folded.keyword) != keyword_ids.end();
+    value.value = folded.value;
+    value.fallback = folded.fallback;
+    value.on = on[f];
     selected.values.push_back(std::move(value));
   }
   return selected;

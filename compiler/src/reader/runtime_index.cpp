@@ -4,6 +4,7 @@
 #include <cstring>
 #include <map>
 #include <optional>
+#include <set>
 
 namespace kiln::runtime {
 namespace {
@@ -341,7 +342,8 @@ Index Index::decode(std::string_view bytes, uint64_t blob_count) {
         }
       }
       for (const FoldedKeyword& k : folded_keywords(records))
-        index.folded.push_back(Folded{index.keyword_id(k.keyword), k.kind, k.stages, k.slot});
+        index.folded.push_back(Folded{k.keyword.empty() ? kOffValue : index.keyword_id(k.keyword), k.kind, k.stages,
+                                      k.slot, k.value, k.fallback});
     }
     pass.folded_count = static_cast<uint32_t>(index.folded.size() - pass.first_folded);
     pass.first_variant = static_cast<uint32_t>(index.variants.size());
@@ -402,6 +404,24 @@ Index Index::decode(std::string_view bytes, uint64_t blob_count) {
               std::to_string(reflections) + " reflections)");
   if (!in.done()) in.fail("has bytes after its end");
   return index;
+}
+
+std::vector<bool> Index::folded_on(const Pass& pass, const Variant& variant) const {
+  std::vector<uint32_t> chosen(variant_keywords.begin() + variant.first_keyword,
+                               variant_keywords.begin() + variant.first_keyword + variant.keyword_count);
+  std::sort(chosen.begin(), chosen.end());
+  std::vector<bool> on(pass.folded_count);
+  std::set<uint32_t> int_slots_on;  // the constant ids of the int groups one of whose keywords is chosen
+  for (uint32_t f = 0; f < pass.folded_count; ++f) {
+    const Folded& value = folded[pass.first_folded + f];
+    on[f] = value.keyword != kOffValue && std::binary_search(chosen.begin(), chosen.end(), value.keyword);
+    if (on[f] && value.kind == KeywordKind::SpecializationInteger) int_slots_on.insert(value.slot);
+  }
+  for (uint32_t f = 0; f < pass.folded_count; ++f) {
+    const Folded& value = folded[pass.first_folded + f];
+    if (value.keyword == kOffValue) on[f] = !int_slots_on.contains(value.slot);
+  }
+  return on;
 }
 
 uint32_t Index::keyword_id(std::string_view name) const {

@@ -19,9 +19,12 @@ void check_undeclared_keyword(const LintContext& context, LintReport& report) {
   const std::vector<std::string>& declared = context.declared;
   std::set<std::string> defined(declared.begin(), declared.end());
   defined.insert(context.defined.begin(), context.defined.end());  // the build's own defines (pack, pass, -D)
-  // KILN_FOLDED_<K>: what kiln defines where a declared keyword K is folded (kiln/folded_keywords.hpp), which a
-  // shader built both ways tests (docs/keywords.md).
-  for (const std::string& keyword : declared) defined.insert("KILN_FOLDED_" + keyword);
+  // KILN_FOLDED_<K> and KILN_GROUP_OF_<K>: what kiln defines where a declared keyword K is folded
+  // (kiln/folded_keywords.hpp), which a shader built both ways tests (docs/keywords.md).
+  for (const std::string& keyword : declared) {
+    defined.insert("KILN_FOLDED_" + keyword);
+    defined.insert("KILN_GROUP_OF_" + keyword);
+  }
   for (const auto& [path, text] : context.sources)
     for (const std::string& line : code_lines(text)) {
       std::smatch m;
