@@ -40,6 +40,7 @@ class PlanArguments {
  private:
   std::vector<std::string> scenes_;
   std::vector<std::string> define_texts_;
+  std::vector<std::string> kind_texts_;
   std::map<char, std::vector<std::pair<std::string, std::string>>> shift_texts_;
   std::pair<std::string, std::string> globals_text_;
   bool auto_bind_ = false, no_auto_bind_ = false, combined_ = false, separate_ = false;
@@ -62,6 +63,7 @@ std::unique_ptr<Verb> make_check_usage_verb();
 std::unique_ptr<Verb> make_merge_usage_verb();
 std::unique_ptr<Verb> make_diff_packs_verb();
 std::unique_ptr<Verb> make_compile_verb();
+std::unique_ptr<Verb> make_fold_cost_verb();
 
 // Rendering and golden tests are kiln-verify's verbs (it links Vulkan, EGL, PNG and OpenEXR; kiln does not):
 // listed in --help, handed to kiln-verify before parsing.
@@ -73,7 +75,10 @@ inline constexpr VerifyVerb kVerifyVerbs[] = {
     {"render", "Render a scene with one Forward variant of a pack (lavapipe or llvmpipe GL; runs kiln-verify)"},
     {"test", "Render every Forward variant and compare it with its CPU-reference golden (runs kiln-verify)"},
 };
-// Runs kiln-verify ($KILN_VERIFY, next to kiln, then ../libexec/kiln, then the build tree) with kiln's arguments.
+// kiln-verify: $KILN_VERIFY, next to kiln, then ../libexec/kiln, then the build tree; nothing when none is there.
+std::optional<std::filesystem::path> find_verify();
+std::string no_verify_message(const std::string& verb);
+// Runs kiln-verify with kiln's arguments (in place of kiln).
 int run_verify(int argc, char** argv);
 
 // A scratch directory `<prefix>XXXXXX` under $TMPDIR, else /tmp, else /var/tmp (as gcc falls back); empty when

@@ -37,6 +37,9 @@ void PlanArguments::add_to(CLI::App* verb, bool scenes) {
   if (scenes)
     verb->add_option("--scene", scenes_, "Scene profile (JSON); keep only variants some scene can request")->check(CLI::ExistingFile);
   verb->add_option("-D,--define", define_texts_, "Preprocessor define NAME or NAME=VALUE (repeatable; wins over the pack's)");
+  verb->add_option("--keyword-kind", kind_texts_,
+                   "KEYWORD[,KEYWORD...]=KIND: build the group of these keywords as KIND (variant, dynamic_branch, "
+                   "specialization_constant, specialization_constant_int), over the pack's keyword_kinds (repeatable)");
   for (char c : std::string("btsu"))
     verb->add_option(std::string("--fvk-") + c + "-shift", shift_texts_[c],
                      std::string("N SPACE: shift the bindings of ") + c + " registers in SPACE (a number or 'all') by N (repeatable)");
@@ -54,6 +57,8 @@ bool PlanArguments::apply(BuildOptions& options) const {
   bool ok = true;
   if (auto defines = parse_command_line_defines(define_texts_, sink)) options.defines = *defines;
   else ok = false;
+  if (auto kinds = parse_command_line_keyword_kinds(kind_texts_, sink)) options.keyword_kinds = *kinds;
+  else ok = false;
   for (const auto& [letter, list] : shift_texts_)
     for (const auto& [shift, space] : list)
       ok = parse_command_line_shift(*parse_register_class(std::string(1, letter)), shift, space, options.bindings, sink) && ok;
@@ -64,7 +69,7 @@ bool PlanArguments::apply(BuildOptions& options) const {
   return ok;
 }
 
-int run_verify(int argc, char** argv) {
+std::optional<std::filesystem::path> find_verify() {
   std::vector<std::filesystem::path> candidates;
   if (const char* env = std::getenv("KILN_VERIFY"); env && *env) candidates.emplace_back(env);
   std::error_code ec;
@@ -75,18 +80,28 @@ int run_verify(int argc, char** argv) {
 #ifdef KILN_BUILD_VERIFY_PATH
   candidates.emplace_back(KILN_BUILD_VERIFY_PATH);
 #endif
-  for (const std::filesystem::path& candidate : candidates) {
-    if (::access(candidate.c_str(), X_OK) != 0) continue;
-    std::vector<char*> args(argv, argv + argc);
-    std::string program = candidate.string();
-    args[0] = program.data();
-    args.push_back(nullptr);
-    ::execv(program.c_str(), args.data());
-    std::cerr << "kiln: error: cannot run " << program << ": " << std::strerror(errno) << "\n";
+  for (const std::filesystem::path& candidate : candidates)
+    if (::access(candidate.c_str(), X_OK) == 0) return candidate;
+  return std::nullopt;
+}
+
+std::string no_verify_message(const std::string& verb) {
+  return "'kiln " + verb + "' runs kiln-verify, which this installation does not have (configure kiln with "
+         "-DKILN_BUILD_VERIFY=ON, or set KILN_VERIFY to its path)";
+}
+
+int run_verify(int argc, char** argv) {
+  const std::optional<std::filesystem::path> verify = find_verify();
+  if (!verify) {
+    std::cerr << "kiln: error: " << no_verify_message(argv[1]) << "\n";
     return 1;
   }
-  std::cerr << "kiln: error: 'kiln " << argv[1] << "' runs kiln-verify, which this installation does not have "
-            << "(configure kiln with -DKILN_BUILD_VERIFY=ON, or set KILN_VERIFY to its path)\n";
+  std::vector<char*> args(argv, argv + argc);
+  std::string program = verify->string();
+  args[0] = program.data();
+  args.push_back(nullptr);
+  ::execv(program.c_str(), args.data());
+  std::cerr << "kiln: error: cannot run " << program << ": " << std::strerror(errno) << "\n";
   return 1;
 }
 

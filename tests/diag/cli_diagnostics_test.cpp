@@ -847,7 +847,7 @@ TEST_F(Cli, EveryVerbHasHelp) {
   for (std::string line; std::getline(lines, line);)
     if (line.starts_with("  ") && line[2] != ' ') verbs.push_back(line.substr(2, line.find(' ', 2) - 2));
   EXPECT_EQ(verbs, (std::vector<std::string>{"build", "list", "inspect", "lint", "check-scene", "check-usage",
-                                             "merge-usage", "diff-packs", "compile", "render", "test"}));
+                                             "merge-usage", "diff-packs", "compile", "fold-cost", "render", "test"}));
   for (const std::string& verb : verbs) {
     auto r = testing::run_kiln({verb, "--help"}, dir.path());
     EXPECT_EQ(r.exit_code, 0) << verb;
@@ -1016,6 +1016,66 @@ TEST_F(Cli, ADefineThatIsNotAnIdentifierIsAClearError) {
   EXPECT_EQ(list.exit_code, 1);
   EXPECT_EQ(list.err, "<command line>: error[K1014]: -D 'A-B': 'A-B' is not a preprocessor identifier: letters, digits "
                       "and '_', not starting with a digit (expected -D NAME or -D NAME=VALUE)\n");
+}
+
+TEST_F(Cli, AKeywordKindThatIsNotKeywordsEqualsAKindIsAClearError) {
+  dir.write("S.hlsl", std::string("#pragma multi_compile_fragment _ A\n") + kEntries);
+  const std::string expected =
+      "<command line>: error[K1014]: --keyword-kind '%': expected KEYWORD[,KEYWORD...]=KIND, the kind variant, "
+      "dynamic_branch, specialization_constant or specialization_constant_int\n";
+  for (const std::string text : {"A", "A=uniform", "=dynamic_branch", "A,=dynamic_branch", "A-B=dynamic_branch"})
+    expect_build_error(std::regex_replace(expected, std::regex("%"), text), {"--keyword-kind", text});
+  auto list = testing::run_kiln({"list", "p.pack.json", "--keyword-kind", "A=dynamic_branch"}, dir.path());
+  EXPECT_EQ(list.exit_code, 0) << list.err;
+}
+
+// kiln fold-cost's plan from the command line: the table for people, the JSON for tools, nothing compiled.
+TEST_F(Cli, FoldCostPlansEachGroupFoldedAloneWithoutCompiling) {
+  dir.write("S.hlsl", std::string("#pragma multi_compile_fragment _ A B\n#pragma multi_compile_fragment _ C\n") + kEntries);
+  auto r = testing::run_kiln({"fold-cost", "p.pack.json", "--json", "-"}, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("kiln fold-cost: pack 'p': 6 variants, 7 stage sources (planned: nothing preprocessed or compiled)\n"
+                       "  A B [P]: folded alone, 3 (-57.1%) stage sources; no source tests KILN_FOLDED_ of it"),
+            std::string::npos)
+      << r.err;
+  const nlohmann::json plan = nlohmann::json::parse(r.out);
+  EXPECT_EQ(plan["stage_sources"], 7);
+  ASSERT_EQ(plan["candidates"].size(), 2u);
+  EXPECT_EQ(plan["candidates"][1]["keywords"], nlohmann::json::array({"C"}));
+  EXPECT_EQ(plan["candidates"][1]["stage_sources"], 4);
+  EXPECT_EQ(plan["all_folded_stage_sources"], 2);
+  EXPECT_FALSE(std::filesystem::exists(dir / ".kiln-cache"));
+  auto unknown = testing::run_kiln({"fold-cost", "p.pack.json", "--fold", "D"}, dir.path());
+  EXPECT_EQ(unknown.exit_code, 1);
+  EXPECT_EQ(unknown.err, "<command line>: error[K1014]: --fold 'D': no pass declares keyword 'D'\n");
+}
+
+// The run-time half on the bundled library (docs/keywords.md "Choosing a kind"): the same Forward variants drawn from
+// the pack built as variants and each folded kind, with a recommendation per keyword. Multiscatter's code is written
+// for folding, and its folded images are the variant's; _LINEAR_OUTPUT's is not, so it is not drawn folded.
+TEST_F(Cli, FoldCostDrawsTheFoldedPacksOnLavapipeAndRecommendsAKindPerKeyword) {
+  const std::filesystem::path root = KILN_SOURCE_DIR;
+  auto r = testing::run_kiln({"fold-cost", (root / "variants/lit.pack.json").string(), "--scene",
+                              (root / "variants/scenes/outdoor_day.json").string(), "--fold", "_MULTISCATTER", "--fold",
+                              "_LINEAR_OUTPUT", "--render-scene", (root / "variants/scenes/render/spheres.json").string(),
+                              "--frames", "3", "--rounds", "1", "-j", "2", "--json", "-"},
+                             dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("_LINEAR_OUTPUT is not drawn folded: no source tests KILN_FOLDED_ of it"), std::string::npos) << r.err;
+  const nlohmann::json result = nlohmann::json::parse(r.out);
+  const nlohmann::json& rows = result["frames"]["rows"];
+  ASSERT_EQ(rows.size(), 2u) << rows.dump(1);
+  EXPECT_EQ(rows[0]["name"], "all folded keywords off");
+  EXPECT_EQ(rows[1]["name"], "_MULTISCATTER on");
+  EXPECT_EQ(rows[1]["keywords"], nlohmann::json::array({"_MULTISCATTER"}));
+  for (const nlohmann::json& row : rows) {
+    for (const char* kind : {"dynamic_branch", "specialization_constant", "specialization_constant_int"}) {
+      EXPECT_GT(row["draw_ms_median"][kind].get<double>(), 0) << kind;
+      EXPECT_LE(row["largest_relative_difference"][kind].get<double>(), 1e-2) << kind << ": folding changed the image";
+    }
+    EXPECT_FALSE(row["recommendation"].get<std::string>().empty());
+  }
+  EXPECT_NE(r.err.find("_MULTISCATTER on: variant "), std::string::npos) << r.err;
 }
 
 // Numbers outside the double range aborted build, lint and list (an uncaught nlohmann out_of_range, exit 134),
@@ -1205,6 +1265,7 @@ TEST_F(Cli, AnExceptionThatEscapesAnyVerbIsABugInKilnWithExitTwo) {
       {"merge-usage", {"run.json", "-o", "merged.json"}},
       {"diff-packs", {"out", "out"}},
       {"compile", {"S.hlsl", "-S", "fragment", "-E", "F", "-o", "f.spv"}},
+      {"fold-cost", {"p.pack.json"}},
       {"render", {"out", "--scene", "p.pack.json", "-o", "x.png"}},
       {"test", {"out", "--scene", "p.pack.json", "--golden", "golden", "--tolerances", "p.pack.json"}},
   };

@@ -5,9 +5,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include <map>
 #include <set>
 
 #include "kiln/build.hpp"
+#include "kiln/fold_cost.hpp"
 #include "kiln/kiln_reader.h"
 #include "kiln/pack_reader.hpp"
 #include "test_support.hpp"
@@ -50,14 +52,9 @@ struct FoldedKeywords : ::testing::Test {
   std::vector<Define> defines;  // -D
   std::string before_fragment;  // a line of the test's own before the fragment entry point
   std::string values = "_ A B";  // the folded group's
+  std::map<std::string, KeywordKind> kinds;  // --keyword-kind
 
-  bool build(const std::string& pragma, const std::string& pack_fields, DiagnosticSink& sink, const std::string& out = "out") {
-    std::string shader = kShader;
-    shader.replace(shader.find("KIND _ A B"), 10, pragma + " " + values);
-    shader.insert(shader.find("float4 F()"), before_fragment);
-    dir.write("S.hlsl", shader);
-    dir.write("p.pack.json", R"({"name": "p", )" + pack_fields +
-                                 R"("passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  BuildOptions options(const std::string& out = "out") {
     BuildOptions options;
     options.pack_file = dir / "p.pack.json";
     options.output_dir = dir / out;
@@ -65,7 +62,20 @@ struct FoldedKeywords : ::testing::Test {
     options.jobs = 2;
     options.worker_executable = KILN_WORKER_PATH;
     options.defines = defines;
-    return build_pack(options, sink).ok;
+    options.keyword_kinds = kinds;
+    return options;
+  }
+  void write(const std::string& pragma, const std::string& pack_fields) {
+    std::string shader = kShader;
+    shader.replace(shader.find("KIND _ A B"), 10, pragma + " " + values);
+    shader.insert(shader.find("float4 F()"), before_fragment);
+    dir.write("S.hlsl", shader);
+    dir.write("p.pack.json", R"({"name": "p", )" + pack_fields +
+                                 R"("passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  }
+  bool build(const std::string& pragma, const std::string& pack_fields, DiagnosticSink& sink, const std::string& out = "out") {
+    write(pragma, pack_fields);
+    return build_pack(options(out), sink).ok;
   }
   json manifest() { return json::parse(testing::read_file(dir / "out/p.manifest.json")); }
 };
@@ -294,6 +304,69 @@ TEST_F(FoldedKeywords, ADefineThatNamesAFoldedKeywordOnlySelects) {
   ASSERT_TRUE(build("specialization_constant", "", sink)) << errors_of(sink);
   PackReader pack = PackReader::open(dir / "out");
   EXPECT_EQ(fragment_modules(pack), 1u);  // M, a variant keyword, is defined in every variant by -D, as before
+}
+
+// --keyword-kind: the pack's keyword_kinds from the command line. It is part of the inputs: the same pack built
+// without it into the same directory is not up to date.
+TEST_F(FoldedKeywords, AKeywordKindOnTheCommandLineFoldsAGroupAndIsPartOfTheInputs) {
+  kinds = {{"B", KeywordKind::SpecializationInteger}};
+  DiagnosticSink sink;
+  ASSERT_TRUE(build("multi_compile_fragment", "", sink)) << errors_of(sink);
+  PackReader folded = PackReader::open(dir / "out");
+  EXPECT_EQ(fragment_modules(folded), 2u);
+  EXPECT_EQ(folded.select("P", {"A"}).values.size(), 3u);
+  EXPECT_EQ(manifest()["passes"][0]["keyword_groups"][1]["pragma"], "specialization_constant_int_fragment");
+
+  kinds.clear();
+  DiagnosticSink again;
+  const BuildReport plain = build_pack(options(), again);
+  ASSERT_TRUE(plain.ok) << errors_of(again);
+  EXPECT_FALSE(plain.up_to_date);
+  EXPECT_EQ(fragment_modules(PackReader::open(dir / "out")), 6u);
+
+  kinds = {{"NOT_DECLARED", KeywordKind::DynamicBranch}};
+  DiagnosticSink unknown;
+  EXPECT_FALSE(build_pack(options(), unknown).ok);
+  EXPECT_NE(errors_of(unknown).find("<command line>: error[K1"), std::string::npos) << errors_of(unknown);
+  EXPECT_NE(errors_of(unknown).find("unknown keyword 'NOT_DECLARED' in --keyword-kind"), std::string::npos) << errors_of(unknown);
+}
+
+// kiln fold-cost's plan (kiln/fold_cost.hpp): each group folded alone, from the plan only. A and B are seen by both
+// stages (3 vertex, 3 x 2 fragment stage sources); M by the fragment stage only.
+TEST_F(FoldedKeywords, FoldCostPlansEachGroupFoldedAloneAndSaysWhichSourcesAreWrittenForIt) {
+  write("multi_compile", "");
+  DiagnosticSink sink;
+  std::optional<FoldPlan> plan = plan_folds(options(), {}, sink);
+  ASSERT_TRUE(plan) << errors_of(sink);
+  EXPECT_EQ(plan->variants, 6u);
+  EXPECT_EQ(plan->stage_sources, 9u);
+  ASSERT_EQ(plan->candidates.size(), 2u);
+  EXPECT_EQ(plan->candidates[0].keywords, std::vector<std::string>{"M"});
+  EXPECT_EQ(plan->candidates[0].stage_sources, 6u);  // 3 vertex + 3 fragment
+  EXPECT_FALSE(plan->candidates[0].written_for_folding);
+  EXPECT_EQ(plan->candidates[1].keywords, (std::vector<std::string>{"A", "B"}));
+  EXPECT_EQ(plan->candidates[1].passes, std::vector<std::string>{"P"});
+  EXPECT_EQ(plan->candidates[1].stage_sources, 3u);  // 1 vertex + 2 fragment
+  EXPECT_TRUE(plan->candidates[1].written_for_folding);  // the shader tests KILN_FOLDED_A
+  EXPECT_EQ(plan->all_folded, 2u);
+
+  // One keyword names its group; a cold build of it folded has the modules the plan counted (vertex and fragment).
+  std::optional<FoldPlan> named = plan_folds(options(), {{"B"}}, sink);
+  ASSERT_TRUE(named) << errors_of(sink);
+  ASSERT_EQ(named->candidates.size(), 1u);
+  std::optional<ColdBuild> cold =
+      cold_build(folded_options(options(), named->candidates, KeywordKind::SpecializationConstant), dir / "cold", sink);
+  ASSERT_TRUE(cold) << errors_of(sink);
+  EXPECT_EQ(cold->modules, 3u);
+  EXPECT_GT(cold->pack_bytes, 0u);
+  EXPECT_FALSE(std::filesystem::exists(dir / "cold" / ".kiln-cache"));
+
+  DiagnosticSink bad;
+  EXPECT_FALSE(plan_folds(options(), {{"C"}}, bad));
+  EXPECT_NE(errors_of(bad).find("--fold 'C': no pass declares keyword 'C'"), std::string::npos) << errors_of(bad);
+  DiagnosticSink split;
+  EXPECT_FALSE(plan_folds(options(), {{"A", "M"}}, split));
+  EXPECT_NE(errors_of(split).find("--fold 'A,M': 'M' is not of the group of 'A'"), std::string::npos) << errors_of(split);
 }
 
 TEST_F(FoldedKeywords, OneGroupGivenTwoKindsOrAnUndeclaredKeywordIsAnError) {

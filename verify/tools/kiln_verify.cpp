@@ -23,6 +23,7 @@
 #include "render/backend.hpp"
 #include "scene/image.hpp"
 #include "scene/verify_error.hpp"
+#include "tools/draw_cost.hpp"
 
 namespace {
 
@@ -168,6 +169,12 @@ int run(int argc, char** argv) {
   test->add_option("--against", against, "Compare with this API's image of each variant instead of the reference image")
       ->check(CLI::IsMember({"vulkan", "gl", "gles"}));
 
+  // kiln fold-cost's run-time half (draw_cost.cpp): not a verb of kiln's own, so not in its --help.
+  CLI::App* draw_cost = app.add_subcommand("draw-cost", "Time the same variants drawn from differently folded packs (kiln fold-cost)");
+  std::string draw_config, draw_out;
+  draw_cost->add_option("config", draw_config, "Configuration (JSON: scene, frames, rounds, packs, rows)")->required();
+  draw_cost->add_option("out", draw_out, "Result (JSON)")->required();
+
   app.failure_message([](const CLI::App*, const CLI::Error& error) {
     return std::string("kiln: error: ") + error.what() + "\nRun with --help for more information.\n";
   });
@@ -179,6 +186,7 @@ int run(int argc, char** argv) {
 #ifdef KILN_FAULT_INJECTION  // the tests' kiln-verify-fault only (tests/support/fault_injection.hpp)
   kiln::testing::inject_fault(*render ? "render" : "test");
 #endif
+  if (*draw_cost) return kiln::render::run_draw_cost(draw_config, draw_out);
   if (*render) return run_render(pack_dir, pass, variant_keywords, scene_file, png_out, exr_out, size_text, api, render_coverage);
   return run_test(pack_dir, scene_file, golden_dir, tolerances, report_dir, filter, shard, api, against, cover, usage_log,
                   coverage, coverage_json);

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <optional>
 #include <set>
 #include <string>
@@ -81,6 +82,8 @@ struct BuildOptions {
   uint64_t max_file_bytes = defaults::kMaxFileBytes;
   BindingOptions bindings;       // command line: overrides every pass's "bindings" field by field
   std::vector<Define> defines;   // command line (-D): added to every pass's, replacing a define of the same name
+  // command line (--keyword-kind): keyword -> the kind its group is built as, over the pack's "keyword_kinds"
+  std::map<std::string, KeywordKind> keyword_kinds;
   RemoteCacheOptions remote;
   // --shard I/N: preprocess and compile only share I of N of the stage sources (dealt out before preprocessing, the
   // same on every machine), keep them in the caches, and upload them with one bundle of the whole share. The shard
@@ -121,6 +124,7 @@ struct PlanListing {
   std::vector<std::pair<std::string, std::string>> sources;
   std::vector<std::pair<std::string, std::set<std::string>>> scenes;
   std::vector<SourceLocation> pass_locations;  // where each pass (as in pass_groups) is defined in the pack file
+  size_t stage_sources = 0;  // distinct stage sources (pass, stage, keywords it sees): what a cold build preprocesses
 };
 
 // Per pass: what each constraint removes on its own (with its reason), then materials and scenes.

@@ -3,11 +3,13 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "kiln/diagnostics.hpp"
+#include "kiln/folded_keywords.hpp"
 #include "kiln/model.hpp"
 #include "kiln/result.hpp"
 
@@ -16,6 +18,9 @@ namespace kiln {
 // The command line's spellings (docs/bindings.md): "NAME[=VALUE]" for -D; "N SPACE" (SPACE a number or
 // "all") for -fvk-<class>-shift; "N M" for -fvk-bind-globals. Errors are K1014, at "<command line>".
 std::optional<std::vector<Define>> parse_command_line_defines(const std::vector<std::string>& texts, DiagnosticSink& sink);
+// --keyword-kind "KEYWORD[,KEYWORD...]=KIND" (a pack's "keyword_kinds", docs/keywords.md): keyword -> kind.
+std::optional<std::map<std::string, KeywordKind>> parse_command_line_keyword_kinds(const std::vector<std::string>& texts,
+                                                                                 DiagnosticSink& sink);
 bool parse_command_line_shift(RegisterClass register_class, const std::string& shift, const std::string& space,
                               BindingOptions& options, DiagnosticSink& sink);
 bool parse_command_line_globals(const std::string& binding, const std::string& set, BindingOptions& options,

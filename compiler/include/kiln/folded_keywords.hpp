@@ -22,6 +22,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -53,6 +54,7 @@ constexpr bool is_constant(KeywordKind kind) {
   return kind == KeywordKind::SpecializationConstant || kind == KeywordKind::SpecializationInteger;
 }
 std::string_view keyword_kind_name(KeywordKind kind);  // "variant", or the pragma above
+std::optional<KeywordKind> parse_keyword_kind(std::string_view name);  // the names keyword_kind_name gives
 
 // One keyword of a folded group, where it lives in the modules of its pass. A specialization_constant_int group
 // lists every value, the off value too (keyword ""), each with the same slot and its own `value`.

@@ -372,12 +372,9 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
                                    "\"specialization_constant\" or \"specialization_constant_int\"");
     } else {
       for (auto& [keyword, value] : kinds->items()) {
-        const std::string kind = value.is_string() ? value.get<std::string>() : std::string();
-        PackDefinition::KindOverride entry{KeywordKind::Variant, fields.at(keyword)};
-        if (kind == kDynamicBranchPragma) entry.kind = KeywordKind::DynamicBranch;
-        else if (kind == kSpecializationConstantPragma) entry.kind = KeywordKind::SpecializationConstant;
-        else if (kind == kSpecializationIntegerPragma) entry.kind = KeywordKind::SpecializationInteger;
-        else if (kind != "variant")
+        const std::optional<KeywordKind> kind = parse_keyword_kind(value.is_string() ? value.get<std::string>() : "");
+        PackDefinition::KindOverride entry{kind.value_or(KeywordKind::Variant), fields.at(keyword)};
+        if (!kind)
           fields.fail(keyword, "the kind of keyword '" + keyword +
                                    "' must be \"variant\", \"dynamic_branch\", \"specialization_constant\" or "
                                    "\"specialization_constant_int\"");
@@ -406,6 +403,34 @@ std::optional<uint32_t> command_line_number(const std::string& text) {
 }
 
 }  // namespace
+
+std::optional<std::map<std::string, KeywordKind>> parse_command_line_keyword_kinds(const std::vector<std::string>& texts,
+                                                                                 DiagnosticSink& sink) {
+  std::map<std::string, KeywordKind> kinds;
+  bool ok = true;
+  for (const std::string& text : texts) {
+    const size_t equals = text.rfind('=');
+    const std::optional<KeywordKind> kind =
+        equals == std::string::npos ? std::nullopt : parse_keyword_kind(std::string_view(text).substr(equals + 1));
+    std::vector<std::string> keywords;
+    for (size_t at = 0; equals != std::string::npos && at <= equals;) {
+      const size_t end = std::min(text.find(',', at), equals);
+      keywords.push_back(text.substr(at, end - at));
+      at = end + 1;
+    }
+    const bool named = !keywords.empty() && std::all_of(keywords.begin(), keywords.end(), is_identifier);
+    if (!kind || !named) {
+      ok = false;
+      sink.report(DiagId::InvalidCommandLineOption, kCommandLine,
+                  "--keyword-kind '" + text + "': expected KEYWORD[,KEYWORD...]=KIND, the kind variant, dynamic_branch, "
+                  "specialization_constant or specialization_constant_int");
+      continue;
+    }
+    for (const std::string& keyword : keywords) kinds[keyword] = *kind;  // the last one given wins
+  }
+  if (!ok) return std::nullopt;
+  return kinds;
+}
 
 std::optional<std::vector<Define>> parse_command_line_defines(const std::vector<std::string>& texts, DiagnosticSink& sink) {
   std::vector<Define> defines;

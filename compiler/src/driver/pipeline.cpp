@@ -211,6 +211,7 @@ PlanListing make_listing(const Plan* plan) {
   PlanListing listing;
   listing.pack = plan->pack.name;
   listing.funnel = plan->funnel;
+  listing.stage_sources = count_stage_sources(*plan);
   for (size_t p = 0; p < plan->passes.size(); ++p)
     listing.pass_groups.emplace_back(plan->pack.passes[p].name, plan->passes[p].groups);
   for (const auto& [path, file] : plan->sources.files) listing.sources.emplace_back(display_path(path), file.text);

@@ -10,6 +10,7 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, BuildContext& build
   plan->usage_margin = options.usage_margin;
   plan->command_line_bindings = options.bindings;
   plan->command_line_defines = options.defines;
+  plan->command_line_kinds = options.keyword_kinds;
   ReadLimits limits{options.max_file_bytes};
   {
     StageTimer timer(build, "load");
@@ -42,6 +43,7 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, BuildContext& build
       }
     if (!ok) return nullptr;
     apply_command_line(plan->pack, options.bindings, options.defines);
+    for (const auto& [keyword, kind] : options.keyword_kinds) plan->pack.keyword_kinds[keyword] = {kind, SourceLocation{"<command line>", 0, 0}};
     for (SceneProfile& scene : plan->scenes)
       ok = resolve_scene_profile(scene, plan->pack.scene_features_json, plan->pack.materials, sink) && ok;
     if (!ok) return nullptr;

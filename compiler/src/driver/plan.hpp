@@ -29,6 +29,7 @@ struct Plan {
   // The command line's bindings and defines (applied to every pass already; the inputs hash covers them too).
   BindingOptions command_line_bindings;
   std::vector<Define> command_line_defines;
+  std::map<std::string, KeywordKind> command_line_kinds;
   Funnel funnel;
 
   const std::string& entry_point(uint32_t pass, Stage stage) const {

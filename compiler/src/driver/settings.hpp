@@ -83,6 +83,7 @@ void add_build_inputs(KeyHasher& hasher, const BuildSettings& settings, const Pl
   // without them keeps the inputs hash, and so the manifest, it always had).
   if (!plan.command_line_bindings.canonical().empty()) hasher.add("bindings").add(plan.command_line_bindings.canonical());
   for (const Define& define : plan.command_line_defines) hasher.add("define").add(define.name).add(define.value);
+  for (const auto& [keyword, kind] : plan.command_line_kinds) hasher.add("keyword kind").add(keyword).add(keyword_kind_name(kind));
   // Each file by its path from the pack's directory, in that order: the same sources checked out elsewhere (another
   // CI runner's work tree, a developer's home) have the same inputs, so the same manifest and pack-level key.
   const std::filesystem::path base = std::filesystem::weakly_canonical(plan.pack.file).parent_path();

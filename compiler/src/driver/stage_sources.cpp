@@ -260,6 +260,8 @@ void Preprocessor::run(StageSources& sources, const std::vector<size_t>& which) 
   });
 }
 
+size_t count_stage_sources(const Plan& plan) { return enumerate(plan).list.size(); }
+
 StageSources enumerate_stage_sources(const Plan& plan, const BuildSettings& settings, Cache* memo_cache) {
   const auto started = std::chrono::steady_clock::now();
   StageSources sources = enumerate(plan);

@@ -97,6 +97,10 @@ class Preprocessor {
   std::vector<std::array<std::shared_ptr<const std::vector<IncludableFile>>, kStageCount>> pass_files_;
 };
 
+// How many distinct stage sources the plan's variants have (what a cold build preprocesses; folded groups counted
+// as one module): enumerate_stage_sources without the memos.
+size_t count_stage_sources(const Plan& plan);
+
 // Enumerates the stage sources of every variant and takes what the cache's memos know (a source with a key
 // and no text). `cache`: nothing, or the cache whose memos to use (not with --emit preprocessed: its text is
 // wanted).

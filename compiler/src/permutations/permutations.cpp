@@ -238,12 +238,12 @@ bool check_rule_keywords(const std::vector<PassKeywords>& passes, const PackDefi
   declared.erase(std::unique(declared.begin(), declared.end()), declared.end());
   bool ok = true;
   auto check = [&](const std::string& keyword, const std::filesystem::path& file, const std::string& text, DiagId id,
-                   const char* where) {
+                   const char* where, const SourceLocation* at = nullptr) {
     if (std::binary_search(declared.begin(), declared.end(), keyword)) return;
     ok = false;
     std::vector<std::string> notes;
     if (auto suggestion = closest_match(keyword, declared)) notes.push_back("did you mean '" + *suggestion + "'?");
-    sink.report(id, locate_json_string(file.string(), text, keyword),
+    sink.report(id, at ? *at : locate_json_string(file.string(), text, keyword),
                 std::string("unknown keyword '") + keyword + "' in " + where + ": no pass declares it", notes);
   };
   for (const Constraint& c : pack.constraints) {
@@ -253,13 +253,19 @@ bool check_rule_keywords(const std::vector<PassKeywords>& passes, const PackDefi
   }
   for (const SceneProfile& scene : scenes)
     for (const std::string& k : scene.keywords) check(k, scene.file, scene.text, DiagId::UnknownKeyword, "scene profile");
-  for (const auto& [k, kind] : pack.keyword_kinds) check(k, pack.file, pack.text, DiagId::UnknownKeyword, "keyword_kinds");
+  for (const auto& [k, kind] : pack.keyword_kinds) {
+    const bool command_line = kind.defined_at.line == 0;  // --keyword-kind
+    check(k, pack.file, pack.text, DiagId::UnknownKeyword, command_line ? "--keyword-kind" : "keyword_kinds",
+          command_line ? &kind.defined_at : nullptr);
+  }
   for (const MaterialPreset& material : pack.materials) {
     for (const std::string& k : material.keywords) {
       check(k, pack.file, pack.text, DiagId::UnknownKeyword, "material");
       for (const PassKeywords& pass : passes)
         for (const KeywordGroup& group : pass.groups)
-          if (!group.material_feature && group.index_of(k) >= 0) {
+          // A folded group's keywords (kiln/folded_keywords.hpp) are set at run time: a material may name them, as
+          // the shader_feature keywords they often were, and strips nothing by them.
+          if (!group.material_feature && !is_folded(group.kind()) && group.index_of(k) >= 0) {
             ok = false;
             sink.report(DiagId::PackDefinition, locate_json_string(pack.file.string(), pack.text, k),
                         "material '" + material.name + "' names '" + k + "', which is declared by #pragma " +

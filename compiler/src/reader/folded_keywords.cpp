@@ -16,6 +16,13 @@ std::string_view keyword_kind_name(KeywordKind kind) {
   return "variant";
 }
 
+std::optional<KeywordKind> parse_keyword_kind(std::string_view name) {
+  for (KeywordKind kind : {KeywordKind::Variant, KeywordKind::DynamicBranch, KeywordKind::SpecializationConstant,
+                           KeywordKind::SpecializationInteger})
+    if (name == keyword_kind_name(kind)) return kind;
+  return std::nullopt;
+}
+
 std::vector<FoldedKeyword> folded_keywords(const std::vector<ManifestKeywordGroup>& groups) {
   std::vector<FoldedKeyword> out;
   uint32_t next_constant = kKeywordConstantIdBase, next_offset = 0;
