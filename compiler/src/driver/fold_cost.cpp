@@ -118,9 +118,12 @@ std::optional<ColdBuild> cold_build(BuildOptions options, const std::filesystem:
   if (!report.ok) return std::nullopt;
   // The manifest kiln just wrote: its binaries and archive.
   auto text = read_binary_file(report.manifest);
-  if (!text) return std::nullopt;
-  const nlohmann::json manifest = nlohmann::json::parse(*text, nullptr, false);
-  if (manifest.is_discarded() || !manifest.contains("binaries") || !manifest.contains("archive")) return std::nullopt;
+  const nlohmann::json manifest = text ? nlohmann::json::parse(*text, nullptr, false) : nlohmann::json();
+  if (!manifest.is_object() || !manifest.contains("binaries") || !manifest.contains("archive")) {
+    sink.report(DiagId::FileUnreadable, SourceLocation{report.manifest.string(), 0, 0},
+                "the manifest the build wrote cannot be read back");
+    return std::nullopt;
+  }
   out.modules = manifest["binaries"].size();
   out.pack_bytes = std::filesystem::file_size(output_dir / manifest["archive"].value("file", std::string()), ec);
   return out;

@@ -467,14 +467,16 @@ kiln_result kiln_variant_value(const kiln_pack* pack, kiln_pass pass, uint32_t v
   const kiln::runtime::Pass& p = pack->index->passes[pass];
   if (index >= p.folded_count) return invalid(error, "kiln_variant_value: pass %u has %u folded keywords, not %u", pass, p.folded_count, index + 1);
   const kiln::runtime::Folded& folded = pack->index->folded[p.first_folded + index];
-  const bool on = pack->index->folded_on(p, *v)[index];
-  uint32_t flags = 0;
-  for (kiln::Stage s : kiln::kAllStages)
-    if (folded.stages & kiln::stage_bit(s)) flags |= stage_flag(static_cast<kiln_stage>(s));
-  *value = kiln_keyword_value{folded.keyword == kiln::runtime::kOffValue ? "" : pack->index->keywords[folded.keyword].data(),
-                              static_cast<kiln_keyword_kind>(folded.kind), flags, folded.slot, on ? 1u : 0u,
-                              on ? folded.value : folded.fallback};
-  return ok(error);
+  return guarded(error, [&] {  // folded_on allocates: OUT_OF_MEMORY, never an exception through C
+    const bool on = pack->index->folded_on(p, *v)[index];
+    uint32_t flags = 0;
+    for (kiln::Stage s : kiln::kAllStages)
+      if (folded.stages & kiln::stage_bit(s)) flags |= stage_flag(static_cast<kiln_stage>(s));
+    *value = kiln_keyword_value{folded.keyword == kiln::runtime::kOffValue ? "" : pack->index->keywords[folded.keyword].data(),
+                                static_cast<kiln_keyword_kind>(folded.kind), flags, folded.slot, on ? 1u : 0u,
+                                on ? folded.value : folded.fallback};
+    return ok(error);
+  });
 }
 
 kiln_result kiln_variant_code(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage,
