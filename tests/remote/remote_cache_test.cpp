@@ -883,8 +883,9 @@ TEST_F(TamperedShards, AResealedBundleCutShort) {
 
 TEST_F(TamperedShards, AResealedBundleWithABlobThatDoesNotUnpackToItsHash) {
   std::string bytes = testing::read_file(shard_entry(2).bundle);
-  // A byte inside the first output's first blob: well past the header (36 bytes) and the output's CBOR keys.
-  bytes[36 + 8 + 40] ^= 0x01;
+  // The first byte of the first output's first blob: after the header (36 bytes), the blob count, and the blob's
+  // target, size, checksum, key and length (48 bytes).
+  bytes[36 + 4 + 44] ^= 0x01;
   forge(2, bytes, "");
   DiagnosticSink sink;
   BuildReport merge = build(serial(server.url()), sink);
@@ -931,15 +932,21 @@ TEST_F(TamperedShards, TheBundleOfAnotherShare) {
 // identity is checked against this plan's.
 TEST_F(TamperedShards, ABundleWhoseSourcesAreNotThisPlansSources) {
   std::string bytes = testing::read_file(shard_entry(1).bundle);
-  // The first source's identity: after the header and the outputs (each a length and its bytes), 4 bytes in.
+  // The first source's identity: after the header and the outputs (docs/remote-cache.md, format 2), 4 bytes in.
+  auto number = [&](size_t at, int size) {
+    uint64_t value = 0;
+    for (int i = 0; i < size; ++i) value |= uint64_t{static_cast<unsigned char>(bytes.at(at + i))} << (8 * i);
+    return value;
+  };
   size_t at = 36;
-  const uint32_t outputs = static_cast<unsigned char>(bytes[28]);
-  for (uint32_t o = 0; o < outputs; ++o) {
-    uint64_t size = 0;
-    for (int i = 0; i < 8; ++i) size |= uint64_t{static_cast<unsigned char>(bytes[at + i])} << (8 * i);
-    at += 8 + size;
+  for (uint64_t o = 0, outputs = number(28, 4); o < outputs; ++o) {
+    const uint64_t blobs = number(at, 4);
+    at += 4;
+    for (uint64_t b = 0; b < blobs; ++b) at += 4 + 8 + 8 + 16 + 8 + number(at + 36, 8);  // target .. key, length, bytes
+    at += 4;                                                                        // flags
+    for (int field = 0; field < 3; ++field) at += 8 + number(at, 8);                // SPIR-V, reflection, messages
   }
-  bytes[at + 4] ^= 0x01;
+  bytes.at(at + 4) ^= 0x01;
   expect_merged(forge(1, bytes, "a shard bundle's sources are not its share of this plan"));
 }
 

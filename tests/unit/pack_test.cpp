@@ -16,6 +16,8 @@
 #include "kiln/pack_format.hpp"
 #include "kiln/pack_reader.hpp"
 #include "kiln/manifest_json.hpp"
+#include "common/files.hpp"
+#include "kiln/runtime_index.hpp"
 #include "pack/pack_writer.hpp"
 #include "test_support.hpp"
 
@@ -535,6 +537,34 @@ TEST(HostilePack, AManifestNumberTooLargeForADoubleIsAPackError) {
     EXPECT_EQ(std::string(e.what()), "not a kiln manifest: invalid JSON: number overflow parsing '3e999'");
     EXPECT_EQ(e.file().rfind(manifest.string() + ":", 0), 0u) << e.file();  // at its line and column
   }
+}
+
+// The archive is written and uploaded as parts (the blobs are not copied into one buffer): the file holds exactly the
+// bytes finish() joins, its checksums are over those bytes, and the parts write_pack hands back are the same bytes.
+TEST(Pack, AnArchiveWrittenFromPartsIsTheBytesItsChecksumsSay) {
+  testing::TempDir dir;
+  ArchiveBuilder archive;
+  std::vector<PackedBlob> borrowed;
+  for (int i = 0; i < 1500; ++i) borrowed.push_back(pack_blob(std::string(static_cast<size_t>(i % 13 + 1), 'a' + i % 26) + std::to_string(i)));
+  for (const PackedBlob& blob : borrowed) archive.add_borrowed(blob);
+  archive.add(kCompressedMsl);  // owned: a zstd frame
+  Manifest manifest;
+  manifest.format_version = kPackFormatVersion;
+  manifest.name = "parts";
+  PackFiles files;
+  Result<std::string> written = write_pack(dir.path(), "parts", archive, manifest, &files);
+  ASSERT_TRUE(written) << written.error().message;
+  const std::string on_disk = *read_binary_file(dir / *written);
+  std::string joined;
+  for (std::string_view part : files.archive.parts) joined += part;
+  EXPECT_EQ(joined, on_disk);
+  EXPECT_EQ(files.archive.size, on_disk.size());
+  EXPECT_EQ(hash64(files.archive.parts), hash64(on_disk));
+  EXPECT_EQ(*written, "parts." + hex64(hash64(on_disk)) + ".kpack");
+  EXPECT_EQ(get64(on_disk, 16), hash64(std::string_view(on_disk).substr(kPackHeaderSize)));
+  EXPECT_EQ(files.manifest, *read_binary_file(dir / "parts.manifest.json"));
+  EXPECT_EQ(archive.finish(runtime::encode(manifest)).size(), on_disk.size());
+  EXPECT_NO_THROW(PackReader::open(dir / "parts.manifest.json", PackReader::Check::Full));
 }
 
 TEST(Pack, ArchiveIsDeterministic) {

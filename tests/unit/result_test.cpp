@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "common/files.hpp"
+#include "common/hash.hpp"
 #include "common/include_resolver.hpp"
 #include "kiln/pack_reader.hpp"
 #include "kiln/result.hpp"
@@ -64,6 +65,21 @@ TEST(Result, WritingAFileSaysWhichFileAndWhy) {
   ASSERT_FALSE(failed);
   EXPECT_NE(failed.error().message.find("missing"), std::string::npos) << failed.error().message;
   EXPECT_NE(failed.error().message.find("No such file or directory"), std::string::npos) << failed.error().message;
+}
+
+// An archive is written as thousands of parts, more than one writev takes (IOV_MAX), some of them empty.
+TEST(Result, AFileWrittenFromManyPartsHoldsThemJoined) {
+  testing::TempDir dir;
+  std::vector<std::string> texts;
+  for (int i = 0; i < 3000; ++i) texts.push_back(i % 7 == 0 ? "" : std::string(static_cast<size_t>(i % 50), static_cast<char>('a' + i % 26)));
+  std::vector<std::string_view> parts(texts.begin(), texts.end());
+  std::string joined;
+  for (std::string_view part : parts) joined += part;
+  ASSERT_TRUE(write_file_atomic(dir.path() / "parts.bin", parts));
+  EXPECT_EQ(*read_binary_file(dir.path() / "parts.bin"), joined);
+  EXPECT_EQ(hash64(parts), hash64(joined));
+  ASSERT_TRUE(write_file_atomic(dir.path() / "none.bin", std::vector<std::string_view>{}));
+  EXPECT_EQ(*read_binary_file(dir.path() / "none.bin"), "");
 }
 
 TEST(Result, AnIncludeOutsideTheRootsIsTheDiagnosticToReport) {

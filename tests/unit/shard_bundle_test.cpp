@@ -19,6 +19,15 @@ ShardBundle sample() {
     output.ok = true;
     output.blobs[Target::Spirv] = pack_blob(std::string(text) + std::string(300, 'x'));
     output.messages = {{Severity::Warning, "S.hlsl", 3, "a back-end warning"}};
+    if (bundle.outputs.empty()) {  // the first with a reflection, GLSL bindings and the full legalization
+      output.blobs[Target::Glsl] = pack_blob("#version 450\n" + std::string(500, ' '));
+      Resource buffer{"Frame", ResourceKind::UniformBuffer, 0, 2, 1, 64, {{"view", 0, 64, "float4x4", std::nullopt}}};
+      output.reflection.resources.push_back(buffer);
+      output.reflection.inputs.push_back({"in_position", 0, "float3", "POSITION"});
+      output.reflection.glsl = GlBindings{{}, {{"Frame", ResourceKind::UniformBuffer, 2}}};
+      output.full_legalization = true;
+      output.spirv = {0x07230203u, 0x00010000u};
+    }
     bundle.outputs.push_back(output);
   }
   for (uint32_t source : {1u, 4u}) {
@@ -41,8 +50,19 @@ TEST(ShardBundle, DecodesToWhatWasEncoded) {
   EXPECT_EQ(decoded->count, 3u);
   EXPECT_EQ(decoded->source_count, 7u);
   ASSERT_EQ(decoded->outputs.size(), 2u);
-  EXPECT_EQ(decoded->outputs[1].blobs.at(Target::Spirv), bundle.outputs[1].blobs.at(Target::Spirv));
-  EXPECT_EQ(decoded->outputs[0].messages.at(0).text, "a back-end warning");
+  for (size_t o = 0; o < 2; ++o) {
+    const JobOutput &got = decoded->outputs[o], &sent = bundle.outputs[o];
+    EXPECT_TRUE(got.ok);
+    EXPECT_EQ(got.blobs, sent.blobs) << o;
+    EXPECT_EQ(got.reflection, sent.reflection) << o;
+    EXPECT_EQ(got.full_legalization, sent.full_legalization) << o;
+    EXPECT_EQ(got.spirv, sent.spirv) << o;
+    ASSERT_EQ(got.messages.size(), 1u) << o;
+    EXPECT_EQ(got.messages[0].text, "a back-end warning");
+    EXPECT_EQ(got.messages[0].line, 3);
+  }
+  EXPECT_EQ(decoded->outputs[0].blobs.size(), 2u);
+  EXPECT_EQ(decoded->outputs[0].reflection.glsl->blocks.at(0).binding, 2u);
   ASSERT_EQ(decoded->sources.size(), 2u);
   EXPECT_EQ(decoded->sources[1].source, 4u);
   EXPECT_EQ(decoded->sources[1].identity, 104u);

@@ -1,5 +1,7 @@
 #include "common/blob.hpp"
 
+#include <memory>
+#include <new>
 #include <stdexcept>
 
 #include <zstd.h>
@@ -18,8 +20,11 @@ PackedBlob pack_blob(std::string_view bytes) {
   blob.raw_size = bytes.size();
   blob.checksum = hash64(bytes);
   blob.key = hash128(bytes);
+  // One context per thread: ZSTD_compress makes and frees one per call. The frame is the same.
+  thread_local const std::unique_ptr<ZSTD_CCtx, size_t (*)(ZSTD_CCtx*)> context(ZSTD_createCCtx(), ZSTD_freeCCtx);
+  if (!context) throw std::bad_alloc();
   std::string frame(ZSTD_compressBound(bytes.size()), '\0');
-  size_t size = ZSTD_compress(frame.data(), frame.size(), bytes.data(), bytes.size(), kZstdLevel);
+  size_t size = ZSTD_compressCCtx(context.get(), frame.data(), frame.size(), bytes.data(), bytes.size(), kZstdLevel);
   if (!ZSTD_isError(size) && size < bytes.size()) {
     frame.resize(size);
     blob.stored = std::move(frame);
@@ -65,6 +70,12 @@ std::string unpack_blob(const PackedBlob& blob) {
 
 std::vector<uint32_t> unpack_spirv(const PackedBlob& blob) { return spirv_from_bytes(unpack_blob(blob)); }
 
+BlobScratch::BlobScratch() : context(ZSTD_createDCtx()) {
+  if (!context) throw std::bad_alloc();
+}
+
+BlobScratch::~BlobScratch() { ZSTD_freeDCtx(context); }
+
 bool blob_verifies(const PackedBlob& blob, BlobScratch& scratch) {
   if (blob.stored.size() > blob.raw_size) return false;
   std::string_view bytes = blob.stored;
@@ -73,7 +84,8 @@ bool blob_verifies(const PackedBlob& blob, BlobScratch& scratch) {
       scratch.bytes = std::make_unique_for_overwrite<char[]>(blob.raw_size);
       scratch.capacity = blob.raw_size;
     }
-    const size_t got = ZSTD_decompress(scratch.bytes.get(), blob.raw_size, blob.stored.data(), blob.stored.size());
+    const size_t got =
+        ZSTD_decompressDCtx(scratch.context, scratch.bytes.get(), blob.raw_size, blob.stored.data(), blob.stored.size());
     if (ZSTD_isError(got) || got != blob.raw_size) return false;
     bytes = std::string_view(scratch.bytes.get(), blob.raw_size);
   }

@@ -12,6 +12,8 @@
 
 #include "common/hash.hpp"
 
+struct ZSTD_DCtx_s;  // zstd.h's ZSTD_DCtx
+
 namespace kiln {
 
 struct PackedBlob {
@@ -38,10 +40,16 @@ std::string unpack_blob(const PackedBlob& blob);
 std::vector<uint32_t> unpack_spirv(const PackedBlob& blob);  // also throws when the size is not 4n
 
 // Whether the blob unpacks to its size, its checksum and its key (XXH3-128), without keeping the bytes: they go to
-// `scratch`, which one thread reuses for every blob it checks (no allocation per blob).
+// `scratch`, which one thread reuses for every blob it checks (no allocation per blob, and one zstd context: making
+// one per blob cost as much as the decompression of the default pack's small blobs).
 struct BlobScratch {
+  BlobScratch();
+  ~BlobScratch();
+  BlobScratch(const BlobScratch&) = delete;
+  BlobScratch& operator=(const BlobScratch&) = delete;
   std::unique_ptr<char[]> bytes;
   size_t capacity = 0;
+  ::ZSTD_DCtx_s* context;
 };
 bool blob_verifies(const PackedBlob& blob, BlobScratch& scratch);
 

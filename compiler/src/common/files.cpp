@@ -3,10 +3,12 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
+#include <sys/uio.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
+#include <climits>
 #include <cstring>
 #include <fstream>
 #include <random>
@@ -164,18 +166,32 @@ Result<void> write_file_atomic(const std::filesystem::path& path, const std::vec
   temp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
   int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) return failure("cannot create '" + temp.string() + "': " + std::strerror(errno));
-  for (std::string_view bytes : parts) {
-    size_t written = 0;
-    while (written < bytes.size()) {
-      ssize_t put = ::write(fd, bytes.data() + written, bytes.size() - written);
-      if (put < 0 && errno == EINTR) continue;
-      if (put <= 0) {
-        std::string error = "cannot write '" + temp.string() + "': " + std::strerror(errno);
-        ::close(fd);
-        ::unlink(temp.c_str());
-        return failure(std::move(error));
+  // Up to IOV_MAX parts a call (an archive is thousands of blobs); a short write resumes inside its part.
+  size_t part = 0, offset = 0;  // the first byte not yet written
+  while (part < parts.size()) {
+    std::vector<iovec> batch;
+    for (size_t p = part; p < parts.size() && batch.size() < IOV_MAX; ++p) {
+      const size_t skip = p == part ? offset : 0;
+      if (parts[p].size() > skip) batch.push_back({const_cast<char*>(parts[p].data() + skip), parts[p].size() - skip});
+    }
+    if (batch.empty()) break;
+    ssize_t put = ::writev(fd, batch.data(), static_cast<int>(batch.size()));
+    if (put < 0 && errno == EINTR) continue;
+    if (put <= 0) {
+      std::string error = "cannot write '" + temp.string() + "': " + std::strerror(errno);
+      ::close(fd);
+      ::unlink(temp.c_str());
+      return failure(std::move(error));
+    }
+    for (auto left = static_cast<size_t>(put); part < parts.size();) {
+      const size_t rest = parts[part].size() - offset;
+      if (left < rest) {
+        offset += left;
+        break;
       }
-      written += static_cast<size_t>(put);
+      left -= rest;
+      ++part;
+      offset = 0;
     }
   }
   if (::close(fd) != 0) {

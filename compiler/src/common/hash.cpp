@@ -3,6 +3,7 @@
 #include <xxhash.h>
 
 #include <cstdio>
+#include <new>
 
 namespace kiln {
 
@@ -19,6 +20,16 @@ Hash128 hash128(std::string_view bytes) {
 }
 
 uint64_t hash64(std::string_view bytes) { return XXH3_64bits(bytes.data(), bytes.size()); }
+
+uint64_t hash64(const std::vector<std::string_view>& parts) {
+  XXH3_state_t* state = XXH3_createState();
+  if (!state) throw std::bad_alloc();
+  XXH3_64bits_reset(state);
+  for (std::string_view part : parts) XXH3_64bits_update(state, part.data(), part.size());
+  const uint64_t h = XXH3_64bits_digest(state);
+  XXH3_freeState(state);
+  return h;
+}
 
 std::string hex64(uint64_t value) {
   char text[17];

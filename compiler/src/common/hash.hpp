@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace kiln {
 
@@ -17,6 +18,7 @@ struct Hash128 {
 
 Hash128 hash128(std::string_view bytes);
 uint64_t hash64(std::string_view bytes);
+uint64_t hash64(const std::vector<std::string_view>& parts);  // the same as hash64 of the parts joined
 std::string hex64(uint64_t value);
 
 // Streams many fields into one 128-bit hash; each field is length-prefixed so ("ab","c") != ("a","bc").

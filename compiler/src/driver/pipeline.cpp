@@ -324,7 +324,8 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
     ok = written.has_value();
     if (ok) report.funnel.unique_binaries = written->unique_binaries;
     if (ok && remote && pack_key && options.remote.upload)  // after the pack's own entries: a reader finds them first
-      remote->upload_pack(*pack_key, options.output_dir, plan->pack.name, written->archive_file);
+      remote->upload_pack(*pack_key, written->archive_file, written->files.archive.parts, written->files.manifest);
+    written.reset();
   }
   emit_dumps(build, *plan, sources, compiled.binaries, options.emit, options.output_dir);  // failed builds too
   if (ok && options.depfile) write_depfile(*options.depfile, report.manifest, report.dependencies, sink);

@@ -32,6 +32,8 @@ struct ShardBundle {
 };
 
 std::string encode_shard_bundle(const ShardBundle& bundle);
+// The same, with the outputs given apart (bundle.outputs is not read): a shard's own, not copied.
+std::string encode_shard_bundle(const ShardBundle& bundle, const std::vector<const JobOutput*>& outputs);
 
 // The bundle, when every field is in bounds and every output decodes, is a good result and has blobs that unpack to
 // the size and checksum they give and hash to their key (the checks a remote entry gets, on `threads` threads);

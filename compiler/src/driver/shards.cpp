@@ -36,14 +36,15 @@ bool upload_shard_bundle(RemoteCache& remote, const RemoteKey& pack_key, const P
   bundle.count = shard.count;
   bundle.source_count = sources.list.size();
   std::map<const JobOutput*, uint32_t> output_index;  // binaries of one module share its output
+  std::vector<const JobOutput*> outputs;
   for (size_t i = 0; i < sources.list.size(); ++i) {
     const StageSource& s = sources.list[i];
     if (s.elsewhere) continue;
     if (s.binary < 0 || !compiled.binaries[static_cast<size_t>(s.binary)].output) return false;  // not a good share
     const size_t b = static_cast<size_t>(s.binary);
     const JobOutput* output = compiled.binaries[b].output.get();
-    auto [it, inserted] = output_index.emplace(output, static_cast<uint32_t>(bundle.outputs.size()));
-    if (inserted) bundle.outputs.push_back(*output);
+    auto [it, inserted] = output_index.emplace(output, static_cast<uint32_t>(outputs.size()));
+    if (inserted) outputs.push_back(output);
     ShardBundle::Source& entry = bundle.sources.emplace_back();
     entry.source = static_cast<uint32_t>(i);
     entry.identity = source_identity(s);
@@ -52,7 +53,7 @@ bool upload_shard_bundle(RemoteCache& remote, const RemoteKey& pack_key, const P
     entry.output = it->second;
     if (compiled.front_end_ran[b]) entry.messages = compiled.front_messages[b];
   }
-  return remote.upload_shard(remote_shard_key(remote, pack_key, plan, shard), encode_shard_bundle(bundle)) &&
+  return remote.upload_shard(remote_shard_key(remote, pack_key, plan, shard), encode_shard_bundle(bundle, outputs)) &&
          remote.upload_shard_count(remote_shard_count_key(remote, pack_key, plan), shard.count);
 }
 

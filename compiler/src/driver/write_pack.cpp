@@ -5,6 +5,7 @@
 #include "driver/outputs.hpp"
 #include "driver/build_context.hpp"
 #include "kiln/pack_format.hpp"
+#include "kiln/runtime_index.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "pack/pack_writer.hpp"
 
@@ -81,10 +82,10 @@ std::optional<WrittenVariantPack> write_variant_pack(BuildContext& build, const 
             ManifestBinary& record = manifest.binaries.emplace_back();
             record.stage = binaries[b].stage;
             record.entry = binaries[b].entry_point;
-            for (const auto& [target, blob] : out.blobs) record.blobs[target] = archive.add(blob);
+            for (const auto& [target, blob] : out.blobs) record.blobs[target] = archive.add_borrowed(blob);
             const auto reflection_index = static_cast<uint32_t>(manifest.reflections.size());
             auto [reflection, new_reflection] =
-                reflection_by_hash.emplace(hash128(nlohmann::json(out.reflection).dump()), reflection_index);
+                reflection_by_hash.emplace(hash128(runtime::encode_reflection(out.reflection)), reflection_index);
             if (new_reflection) manifest.reflections.push_back(out.reflection);
             record.reflection = reflection->second;
           }
@@ -109,7 +110,8 @@ std::optional<WrittenVariantPack> write_variant_pack(BuildContext& build, const 
   manifest.constraints.assign(plan.pack.constraints.begin(), plan.pack.constraints.end());
   manifest.materials.assign(plan.pack.materials.begin(), plan.pack.materials.end());
   if (!plan.pack.scene_features_json.empty()) manifest.scene_features_json = plan.pack.scene_features_json;
-  Result<std::string> archive_file = write_pack(output_dir, plan.pack.name, archive, std::move(manifest));
+  PackFiles files;
+  Result<std::string> archive_file = write_pack(output_dir, plan.pack.name, archive, std::move(manifest), &files);
   if (!archive_file) {
     sink.report(DiagId::OutputUnwritable, SourceLocation{output_dir.string(), 0, 0}, archive_file.error().message);
     return std::nullopt;
@@ -120,7 +122,7 @@ std::optional<WrittenVariantPack> write_variant_pack(BuildContext& build, const 
     sink.report(DiagId::OutputUnwritable, SourceLocation{output_dir.string(), 0, 0}, stamped.error().message);
     return std::nullopt;
   }
-  return WrittenVariantPack{*archive_file, f.unique_binaries};
+  return WrittenVariantPack{*archive_file, f.unique_binaries, std::move(files)};
 }
 
 }  // namespace kiln

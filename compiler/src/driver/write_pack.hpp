@@ -10,6 +10,7 @@
 #include "driver/settings.hpp"
 #include "driver/stage_sources.hpp"
 #include "kiln/manifest_json.hpp"
+#include "pack/pack_writer.hpp"
 
 namespace kiln {
 
@@ -18,6 +19,7 @@ namespace kiln {
 struct WrittenVariantPack {
   std::string archive_file;
   uint64_t unique_binaries = 0;  // distinct optimized SPIR-V: what the pack stores (the funnel's last count)
+  PackFiles files;               // the archive's and the manifest's bytes, for the remote cache
 };
 // `funnel` is the build's so far; the manifest records it with the pack's unique binaries.
 [[nodiscard]] std::optional<WrittenVariantPack> write_variant_pack(BuildContext& build, const Plan& plan,

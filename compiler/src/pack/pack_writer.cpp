@@ -34,43 +34,61 @@ void set64(std::string& out, size_t at, uint64_t v) {
 
 uint32_t ArchiveBuilder::add(PackedBlob blob) {
   if (auto it = by_hash_.find(blob.key); it != by_hash_.end()) return it->second;
-  uint32_t id = static_cast<uint32_t>(blobs_.size());
-  by_hash_.emplace(blob.key, id);
-  blobs_.push_back(std::move(blob));
-  return id;
+  return add_borrowed(owned_.emplace_back(std::move(blob)));
+}
+
+uint32_t ArchiveBuilder::add_borrowed(const PackedBlob& blob) {
+  auto [it, fresh] = by_hash_.emplace(blob.key, static_cast<uint32_t>(blobs_.size()));
+  if (fresh) blobs_.push_back(&blob);
+  return it->second;
 }
 
 uint32_t ArchiveBuilder::add(std::string_view bytes) { return add(pack_blob(bytes)); }
 
-std::string ArchiveBuilder::finish(std::string_view index) const {
-  std::string out(kPackMagic, 8);
-  put32(out, kPackFormatVersion);
-  put32(out, static_cast<uint32_t>(blobs_.size()));
-  put64(out, 0);  // checksum, filled below
-  put64(out, 0);  // total size, filled below
+ArchiveBuilder::Parts ArchiveBuilder::finish_parts(std::string_view index) const {
+  static constexpr char kPadding[8] = {};
+  Parts out;
+  out.head = std::make_unique<std::string>();
+  std::string& head = *out.head;
+  head.assign(kPackMagic, 8);
+  put32(head, kPackFormatVersion);
+  put32(head, static_cast<uint32_t>(blobs_.size()));
+  put64(head, 0);  // checksum, filled below
+  put64(head, 0);  // total size, filled below
   const uint64_t index_offset = kPackHeaderSize + kPackBlobEntrySize * blobs_.size();
-  put64(out, index_offset);
-  put64(out, index.size());
-  put64(out, 0);  // the head's checksum, filled below
-  put64(out, 0);
+  put64(head, index_offset);
+  put64(head, index.size());
+  put64(head, 0);  // the head's checksum, filled below
+  put64(head, 0);
   uint64_t offset = index_offset + index.size();
-  for (const PackedBlob& blob : blobs_) {
-    offset = (offset + 7) & ~uint64_t{7};
-    put64(out, offset);
-    put64(out, blob.stored.size());
-    put64(out, blob.raw_size);
-    put64(out, blob.checksum);
-    offset += blob.stored.size();
+  out.parts.reserve(2 * blobs_.size() + 1);
+  out.parts.emplace_back();  // the head, once it is whole
+  for (const PackedBlob* blob : blobs_) {
+    const uint64_t aligned = (offset + 7) & ~uint64_t{7};
+    if (aligned > offset) out.parts.emplace_back(kPadding, aligned - offset);
+    out.parts.emplace_back(blob->stored);
+    put64(head, aligned);
+    put64(head, blob->stored.size());
+    put64(head, blob->raw_size);
+    put64(head, blob->checksum);
+    offset = aligned + blob->stored.size();
   }
-  out.reserve(offset);
-  out += index;
-  set64(out, 48, hash64(std::string_view(out).substr(kPackHeaderSize)));
-  for (const PackedBlob& blob : blobs_) {
-    out.append(((out.size() + 7) & ~size_t{7}) - out.size(), '\0');
-    out += blob.stored;
-  }
-  set64(out, 24, out.size());
-  set64(out, 16, hash64(std::string_view(out).substr(kPackHeaderSize)));
+  head += index;
+  out.size = offset;
+  set64(head, 24, out.size);
+  set64(head, 48, hash64(std::string_view(head).substr(kPackHeaderSize)));
+  // The checksum of everything after the header: the rest of the head, then the blobs.
+  out.parts.front() = std::string_view(head).substr(kPackHeaderSize);
+  set64(head, 16, hash64(out.parts));
+  out.parts.front() = head;
+  return out;
+}
+
+std::string ArchiveBuilder::finish(std::string_view index) const {
+  const Parts parts = finish_parts(index);
+  std::string out;
+  out.reserve(parts.size);
+  for (std::string_view part : parts.parts) out += part;
   return out;
 }
 
@@ -79,20 +97,20 @@ std::filesystem::path manifest_path(const std::filesystem::path& directory, cons
 }
 
 Result<std::string> write_pack(const std::filesystem::path& directory, const std::string& name, const ArchiveBuilder& archive,
-                       Manifest manifest) {
-  for (const PackedBlob& blob : archive.blobs())
-    if (blob.raw_size > kMaxBlobBytes) {
-      return failure("an output of " + std::to_string(blob.raw_size) + " bytes is over the pack format's limit of " +
+                               Manifest manifest, PackFiles* files) {
+  for (const PackedBlob* blob : archive.blobs())
+    if (blob->raw_size > kMaxBlobBytes) {
+      return failure("an output of " + std::to_string(blob->raw_size) + " bytes is over the pack format's limit of " +
                      std::to_string(kMaxBlobBytes) + " bytes per blob");
     }
-  std::string bytes = archive.finish(runtime::encode(manifest));
-  if (bytes.size() > kMaxArchiveBytes) {
-    return failure("the archive would be " + std::to_string(bytes.size()) + " bytes, over the pack format's limit of " +
+  ArchiveBuilder::Parts bytes = archive.finish_parts(runtime::encode(manifest));
+  if (bytes.size > kMaxArchiveBytes) {
+    return failure("the archive would be " + std::to_string(bytes.size) + " bytes, over the pack format's limit of " +
                    std::to_string(kMaxArchiveBytes) + " bytes");
   }
-  const std::string archive_hash = hex64(hash64(bytes));
+  const std::string archive_hash = hex64(hash64(bytes.parts));
   const std::string archive_file = archive_file_name(name, archive_hash);
-  manifest.archive = {archive_file, bytes.size(), archive_hash, archive.size()};
+  manifest.archive = {archive_file, bytes.size, archive_hash, archive.size()};
   nlohmann::json file = manifest;
   file["manifest_xxh3_64"] = std::string(kManifestChecksumDigits, '0');
   // Indented one level per nesting would make the manifest ~3x larger; one line per binary is still diffable.
@@ -108,12 +126,13 @@ Result<std::string> write_pack(const std::filesystem::path& directory, const std
 
   // The previous manifest names another archive (or this one, when the content is the same: then the rename
   // replaces it with the same bytes), so until the manifest's rename below the previous pack is whole.
-  if (Result<void> written = write_file_atomic(directory / archive_file, bytes); !written) return failure(written.error());
+  if (Result<void> written = write_file_atomic(directory / archive_file, bytes.parts); !written) return failure(written.error());
   inject_fault("kill-after-archive");
   // On failure the new archive is left for the next build to remove: with the same content, it is the previous pack's.
   if (Result<void> written = write_file_atomic(manifest_path(directory, name), text); !written) return failure(written.error());
   inject_fault("kill-after-manifest");
   remove_orphaned_archives(directory, name, archive_file);
+  if (files) *files = {std::move(bytes), std::move(text)};
   return archive_file;
 }
 

@@ -100,9 +100,18 @@ HttpClient::HttpClient(HttpSettings settings) : settings_(std::move(settings)) {
   curl_easy_setopt(c, CURLOPT_WRITEDATA, this);
   curl_easy_setopt(c, CURLOPT_READFUNCTION, +[](char* buffer, size_t size, size_t count, void* self_pointer) -> size_t {
     auto* self = static_cast<HttpClient*>(self_pointer);
-    const size_t bytes = std::min(size * count, self->upload_.size());
-    std::memcpy(buffer, self->upload_.data(), bytes);
-    self->upload_.remove_prefix(bytes);
+    size_t bytes = 0;
+    while (self->upload_ && self->upload_part_ < self->upload_->size() && bytes < size * count) {
+      const std::string_view part = (*self->upload_)[self->upload_part_];
+      const size_t n = std::min(size * count - bytes, part.size() - self->upload_offset_);
+      std::memcpy(buffer + bytes, part.data() + self->upload_offset_, n);
+      bytes += n;
+      self->upload_offset_ += n;
+      if (self->upload_offset_ == part.size()) {
+        ++self->upload_part_;
+        self->upload_offset_ = 0;
+      }
+    }
     return bytes;
   });
   curl_easy_setopt(c, CURLOPT_READDATA, this);
@@ -121,7 +130,8 @@ void HttpClient::reset_request() {
   download_ = nullptr;
   download_limit_ = 0;
   over_limit_ = false;
-  upload_ = {};
+  upload_ = nullptr;
+  upload_part_ = upload_offset_ = 0;
 }
 
 void HttpClient::perform(HttpResult& result) {
@@ -188,16 +198,22 @@ HttpResult HttpClient::head(const std::string& url) {
 }
 
 HttpResult HttpClient::put(const std::string& url, std::string_view body) {
+  return put(url, std::vector<std::string_view>{body});
+}
+
+HttpResult HttpClient::put(const std::string& url, const std::vector<std::string_view>& body) {
+  uint64_t size = 0;
+  for (std::string_view part : body) size += part.size();
   return with_retries([&] {
     reset_request();
     CURL* c = handle(curl_);
     curl_easy_setopt(c, CURLOPT_URL, url.c_str());
     curl_easy_setopt(c, CURLOPT_UPLOAD, 1L);  // PUT
-    curl_easy_setopt(c, CURLOPT_INFILESIZE_LARGE, static_cast<curl_off_t>(body.size()));  // Content-Length, not chunked
-    upload_ = body;
+    curl_easy_setopt(c, CURLOPT_INFILESIZE_LARGE, static_cast<curl_off_t>(size));  // Content-Length, not chunked
+    upload_ = &body;
     HttpResult result;
     perform(result);
-    if (result.failure == HttpResult::Failure::None) result.bytes = body.size();
+    if (result.failure == HttpResult::Failure::None) result.bytes = size;
     return result;
   });
 }

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "kiln/defaults.hpp"
 
@@ -46,6 +47,7 @@ class HttpClient {
   HttpResult get(const std::string& url, uint64_t max_bytes);
   HttpResult head(const std::string& url);
   HttpResult put(const std::string& url, std::string_view body);
+  HttpResult put(const std::string& url, const std::vector<std::string_view>& body);  // the parts, joined
   HttpResult mkcol(const std::string& url);  // WebDAV: make a collection (201; 405 when it exists)
 
  private:
@@ -59,7 +61,8 @@ class HttpClient {
   HttpSettings settings_;
   void* curl_ = nullptr;          // CURL*
   void* headers_ = nullptr;       // curl_slist*: the request headers every request sends
-  std::string_view upload_;       // PUT: what is left to send
+  const std::vector<std::string_view>* upload_ = nullptr;  // PUT: the body's parts
+  size_t upload_part_ = 0, upload_offset_ = 0;              // the first byte not yet sent
   std::string* download_ = nullptr;
   uint64_t download_limit_ = 0;
   bool over_limit_ = false;

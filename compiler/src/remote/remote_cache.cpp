@@ -95,6 +95,17 @@ RemoteKey sha256(std::string_view bytes) {
   return key;
 }
 
+RemoteKey sha256(const std::vector<std::string_view>& parts) {
+  RemoteKey key;
+  unsigned int size = 0;
+  const std::unique_ptr<EVP_MD_CTX, void (*)(EVP_MD_CTX*)> context(EVP_MD_CTX_new(), EVP_MD_CTX_free);
+  bool ok = context && EVP_DigestInit_ex(context.get(), EVP_sha256(), nullptr);
+  for (std::string_view part : parts) ok = ok && EVP_DigestUpdate(context.get(), part.data(), part.size());
+  if (!ok || !EVP_DigestFinal_ex(context.get(), key.bytes.data(), &size) || size != 32)
+    throw std::runtime_error("OpenSSL's SHA-256 failed");
+  return key;
+}
+
 RemoteKeyHasher::RemoteKeyHasher() : context_(EVP_MD_CTX_new()) {
   if (!context_ || !EVP_DigestInit_ex(static_cast<EVP_MD_CTX*>(context_), EVP_sha256(), nullptr))
     throw std::runtime_error("OpenSSL's SHA-256 failed");
@@ -482,6 +493,10 @@ bool RemoteCache::make_collection(HttpClient& client, const std::string& collect
 }
 
 bool RemoteCache::put(HttpClient& client, const std::string& target, std::string_view body) {
+  return put(client, target, std::vector<std::string_view>{body});
+}
+
+bool RemoteCache::put(HttpClient& client, const std::string& target, const std::vector<std::string_view>& body) {
   if (switched_off_) return false;
   HttpResult result = client.put(target, body);
   if (!answered(result, "upload")) return false;
@@ -495,7 +510,7 @@ bool RemoteCache::put(HttpClient& client, const std::string& target, std::string
   }
   success();
   std::lock_guard lock(mutex_);
-  report_.bytes_up += body.size();
+  for (std::string_view part : body) report_.bytes_up += part.size();
   return true;
 }
 
@@ -650,22 +665,21 @@ std::optional<std::string> RemoteCache::fetch_pack(const RemoteKey& key, const s
   return archive_file;
 }
 
-void RemoteCache::upload_pack(const RemoteKey& key, const std::filesystem::path& directory, const std::string& pack_name,
-                              const std::string& archive_file) {
+void RemoteCache::upload_pack(const RemoteKey& key, const std::string& archive_file,
+                              const std::vector<std::string_view>& archive, std::string_view manifest) {
   if (switched_off_ || !options_.upload) return;
-  auto manifest = read_binary_file(manifest_path(directory, pack_name));
-  auto archive = read_binary_file(directory / archive_file);
-  if (!manifest || !archive) return;
   std::unique_ptr<HttpClient> client = take_client();
-  const RemoteKey manifest_digest = sha256(*manifest), archive_digest = sha256(*archive);
+  const RemoteKey manifest_digest = sha256(manifest), archive_digest = sha256(archive);
   std::string payload;
   put32(payload, static_cast<uint32_t>(archive_file.size()));
   payload += archive_file;
   put_key(payload, manifest_digest);
-  put64(payload, manifest->size());
+  put64(payload, manifest.size());
   put_key(payload, archive_digest);
-  put64(payload, archive->size());
-  if (put(*client, url("cas", archive_digest), *archive) && put(*client, url("cas", manifest_digest), *manifest) &&
+  uint64_t archive_size = 0;
+  for (std::string_view part : archive) archive_size += part.size();
+  put64(payload, archive_size);
+  if (put(*client, url("cas", archive_digest), archive) && put(*client, url("cas", manifest_digest), manifest) &&
       put(*client, url("ac", key), make_record(kPack, key, payload))) {
     std::lock_guard lock(mutex_);
     ++report_.uploads;

@@ -44,6 +44,7 @@ struct RemoteKey {
 
 // SHA-256 of the bytes.
 RemoteKey sha256(std::string_view bytes);
+RemoteKey sha256(const std::vector<std::string_view>& parts);  // of the parts joined
 
 // Streams fields into a SHA-256 key the way Hasher streams them into a local key (each field length-prefixed),
 // so a remote key covers exactly what the local key it shadows covers.
@@ -104,8 +105,9 @@ class RemoteCache {
   // it whole from a scratch directory beside it; returns the archive's file name.
   std::optional<std::string> fetch_pack(const RemoteKey& key, const std::filesystem::path& directory,
                                         const std::string& pack_name);
-  void upload_pack(const RemoteKey& key, const std::filesystem::path& directory, const std::string& pack_name,
-                   const std::string& archive_file);
+  // upload_pack takes the two files' bytes as the build wrote them.
+  void upload_pack(const RemoteKey& key, const std::string& archive_file, const std::vector<std::string_view>& archive,
+                   std::string_view manifest);
 
   // Sharded builds (--shard I/N): a shard's bundle of results (driver/shard_bundle.hpp) as a CAS blob, then its
   // record (the bundle's SHA-256 and size) under the shard's key, so a reader never finds a record whose bundle is
@@ -149,6 +151,7 @@ class RemoteCache {
   Result<std::optional<std::string>> get_record(HttpClient& client, const RemoteKey& key, uint32_t kind);
   bool upload_module(HttpClient& client, const ModuleUpload& module);
   bool put(HttpClient& client, const std::string& target, std::string_view body);
+  bool put(HttpClient& client, const std::string& target, const std::vector<std::string_view>& body);  // the parts joined
   bool make_collection(HttpClient& client, const std::string& collection, int levels);
   std::optional<std::string> get_blob(HttpClient& client, const RemoteKey& digest, uint64_t size);
 
