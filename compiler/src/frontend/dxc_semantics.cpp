@@ -36,7 +36,14 @@ std::vector<std::string> unbounded_resource_arrays(std::string_view text) {
       R"(|SamplerState|SamplerComparisonState|ConstantBuffer|AppendStructuredBuffer|ConsumeStructuredBuffer)"
       R"(|SubpassInput(?:MS)?)[ \t]{0,64}(?:<[^;{}()]{0,256}>)?\s{1,64}([A-Za-z_]\w{0,255})[ \t]{0,64}\[[ \t]{0,64}\])");
   std::vector<std::string> names;
-  if (text.find("[") == std::string_view::npos) return names;
+  // Every match holds `[`, at most 64 blanks, `]`. Most sources have none, and std::regex over a whole preprocessed
+  // library was 2% of a compile job.
+  bool empty_brackets = false;
+  for (size_t at = text.find('['); at != std::string_view::npos && !empty_brackets; at = text.find('[', at + 1)) {
+    const size_t close = text.find_first_not_of(" \t", at + 1);
+    empty_brackets = close != std::string_view::npos && close - at - 1 <= 64 && text[close] == ']';
+  }
+  if (!empty_brackets) return names;
   const std::string source(text);
   for (const std::smatch& match : file_scope_matches(source, declaration)) names.push_back(match[1]);
   return names;
