@@ -14,9 +14,10 @@ Two ways to run the shards:
       only uploads; the server holds what a parallel farm's would. After that, each shard uploads its per-source
       entries (for other checkouts' builds): "every job done" adds them (the slowest of the shards' own, or the
       assembler's after the assembly).
-  --mode parallel (a machine with N x cores cores): the N shards at once, pinned to disjoint cores; total = from the
-      start to the last shard's exit (the last one assembles; when two finish together and neither assembles, the
-      merge job's time is added).
+  --mode parallel (a machine with N x cores cores): the N shards at once, pinned to disjoint cores, from the first
+      shard's start: pack written = when the shard that assembles has written the pack (when two finish together
+      and neither assembles, the slowest shard's bundle + the merge job); every job done = the last shard's exit
+      (+ the merge job when none assembled).
 
 In both modes the merge job is also timed on its own: the pack-level entry is removed from the server, and a build
 without --shard (a fresh process on --cores cores, no local cache) assembles the pack from the N bundles. Every pack
@@ -34,6 +35,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -136,30 +138,42 @@ def main():
                     for i in range(n):
                         out = os.path.join(out_root, f"shard{i}")
                         wall = run_timed(build_cmd(args, out, 0, remote + ["--shard", f"{i}/{n}"]))
-                        shards.append((out, wall))
+                        shards.append((out, wall, 0.0))
                     farm_start, farm_end = None, None
                 else:
-                    procs = []
+                    # Each shard's exit is timed by its own thread, so a shard that ends before one started earlier
+                    # is not charged the other's time.
+                    procs, ends = [], {}
                     farm_start = time.perf_counter()
                     for i in range(n):
                         out = os.path.join(out_root, f"shard{i}")
                         cmd = build_cmd(args, out, i * args.cores, remote + ["--shard", f"{i}/{n}"])
-                        procs.append((out, subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE),
-                                      time.perf_counter()))
-                    for out, p, started in procs:
-                        _, err = p.communicate()
+                        err = tempfile.TemporaryFile()
+                        procs.append((out, subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=err),
+                                      time.perf_counter(), err))
+
+                    def wait(i, p):
+                        p.wait()
+                        ends[i] = time.perf_counter()
+                    waiters = [threading.Thread(target=wait, args=(i, p)) for i, (_, p, _, _) in enumerate(procs)]
+                    for t in waiters:
+                        t.start()
+                    for t in waiters:
+                        t.join()
+                    for i, (out, p, started, err) in enumerate(procs):
                         if p.returncode != 0:
-                            sys.exit(f"shard failed: {err.decode()[-3000:]}")
-                        shards.append((out, time.perf_counter() - started))
-                    farm_end = time.perf_counter()
+                            err.seek(0)
+                            sys.exit(f"shard failed: {err.read().decode()[-3000:]}")
+                        shards.append((out, ends[i] - started, started - farm_start))
+                    farm_end = max(ends.values())
                 records = []
-                assembled_by = [out for out, _ in shards if summary(out)["shard"]["assembled"]]
-                for out, wall in shards:
+                assembled_by = [out for out, _, _ in shards if summary(out)["shard"]["assembled"]]
+                for out, wall, offset in shards:
                     s = summary(out)
                     assemble = stage_ms(s, "assemble") / 1000
                     upload = stage_ms(s, "remote upload") / 1000
                     records.append({"wall_s": wall, "assemble_s": assemble, "upload_s": upload,
-                                    "ready_s": wall - assemble - upload, "compiled": s["compiled"],
+                                    "ready_s": wall - assemble - upload, "offset_s": offset, "compiled": s["compiled"],
                                     "preprocess_s": stage_ms(s, "preprocess") / 1000,
                                     "plan_s": sum(stage_ms(s, st) for st in ("load", "declarations", "expand+strip")) / 1000,
                                     "back_ends": s["back_ends"], "front_ends": s["compiled"],
@@ -183,8 +197,13 @@ def main():
                     total = ready[slowest] + assembly
                     done = max(max(r["ready_s"] + r["upload_s"] for r in records), total + records[slowest]["upload_s"])
                 else:
+                    # From the first shard's start: the pack is written when the assembling shard has assembled
+                    # (its start, its share and bundle, then the assembly); every job is done at the last exit.
+                    # When two shards finish together and neither finds the other's bundle, the merge job follows.
                     done = farm_end - farm_start + (0 if assembled_by else merge_wall)
-                    total = done
+                    writers = [r for r in records if r["assembled"]]
+                    total = (min(r["offset_s"] + r["ready_s"] + r["assemble_s"] for r in writers) if writers
+                             else max(r["offset_s"] + r["ready_s"] for r in records) + merge_wall)
                 # What the shards did beyond their share: back ends run by two shards for one module (a module two
                 # shares' sources make), and planning, which every shard does.
                 row = {"shards": records, "assembled": len(assembled_by), "slowest_shard_s": ready[slowest],
