@@ -12,14 +12,21 @@ Two checks, both against .ci/install-deps alone:
     either in the audit or comes from a `required` package. A new test that runs a new program fails here, on the
     development machine, until the program has its row and its package.
 
-usage: install_deps_test.py <kiln source dir>"""
+With --decoys (unit.ci.InstallDepsAuditIgnoresWordsThatNameExecutables) the same checks run with a directory first
+on PATH that holds an executable for every word of the scanned files that names no program here: a desktop has
+`open` (xdg-utils) and /usr/local/bin may hold anything, and the scan must find the programs the scripts run, not
+words that happen to name an executable on some machine.
+
+usage: install_deps_test.py [--decoys] <kiln source dir>"""
 import os
 import re
 import shutil
 import subprocess
 import sys
+import tempfile
 
-source = sys.argv[1]
+decoys = sys.argv[1] == "--decoys"
+source = sys.argv[-1]
 failures = []
 install_deps = open(os.path.join(source, ".ci/install-deps"), encoding="utf-8").read()
 
@@ -118,16 +125,89 @@ SHELL_KEYWORDS = {"if", "then", "else", "elif", "fi", "for", "while", "until", "
                   "function", "time", "exec", "command", "!", "{", "}", "[[", "]]", "local", "export", "return"}
 
 
-def shell_commands(text):
-    names = set()
-    for line in text.splitlines():
-        line = re.sub(r"(^|\s)#.*", "", line)
-        for segment in re.split(r"\|\||&&|[|;({`]|\$\(", line):
-            words = segment.split()
-            while words and (words[0] in SHELL_KEYWORDS or re.match(r"^\w+=", words[0])):
-                words.pop(0)
-            if words and re.match(r"^[A-Za-z][\w.+-]*$", words[0]):
-                names.add(words[0])
+def first_words(code, names):
+    """The first word of each command of shell `code` (quotes already blanked): after a separator (a newline, `;`,
+    `&&`, `||`, `|`, a backquote, `$(`, a subshell's `(`), past keywords, assignments and `case` patterns."""
+    code = re.sub(r"\$\(\((?:[^()]|\([^()]*\))*\)\)", "0", code)  # $(( arithmetic )): numbers and variables
+    for segment in re.split(r"\|\||&&|[|;\n`]|\$\(|(?:^|(?<=[\s;&|]))\(", code):
+        words = segment.split()
+        if words and words[0] in ("for", "select", "case", "local", "declare", "readonly", "export"):
+            continue  # `for api in gl gles`, `case $want in`, `local package=$1 depends`: names and words, no command
+        while words and (words[0] in SHELL_KEYWORDS or re.match(r"^\w+=", words[0]) or words[0].endswith(")")):
+            words.pop(0)
+        if words and re.match(r"^[A-Za-z][\w.+-]*$", words[0]):
+            names.add(words[0])
+
+
+def blank_quotes(text, names):
+    """`text` with what its quotes hold blanked: a quoted word is an argument, not a command. What runs inside them
+    is scanned in its own language: `$(...)` in double quotes as shell, `bash -c '...'` as shell, `python3 -c '...'`
+    as Python."""
+    out, i = [], 0
+    while i < len(text):
+        c = text[i]
+        if c == "\\":
+            out.append(text[i:i + 2])
+            i += 2
+        elif c == "'":
+            end = text.find("'", i + 1)
+            end = len(text) if end < 0 else end
+            before = "".join(out[-1:])[-40:] if out else ""
+            before = "".join(out)[-40:]
+            if re.search(r"\b(ba)?sh\s+-c\s*$", before):
+                shell_commands(text[i + 1:end], names)
+            elif re.search(r"\bpython3?\s+-c\s*$", before):
+                names |= python_commands(text[i + 1:end])
+            out.append("''")
+            i = end + 1
+        elif c == '"':
+            j, inner = i + 1, []
+            while j < len(text) and text[j] != '"':
+                if text[j] == "\\":
+                    j += 2
+                    continue
+                if text.startswith("$(", j):  # a command substitution: its text is a command line of its own
+                    depth, k = 1, j + 2
+                    while k < len(text) and depth:
+                        depth += {"(": 1, ")": -1}.get(text[k], 0)
+                        k += 1
+                    inner.append("\n" + text[j + 2:k - 1] + "\n")
+                    j = k
+                    continue
+                j += 1
+            out.append('""' + "".join(inner))
+            i = j + 1
+        else:
+            out.append(c)
+            i += 1
+    return "".join(out)
+
+
+def shell_commands(text, names=None):
+    """The programs a shell script runs. A here-document is the input of the command before it: scanned as Python
+    when that is python3, as shell when it is bash or sh, and otherwise not at all (text for cat, a file's body)."""
+    names = set() if names is None else names
+    lines, code, i = text.replace("\\\n", " ").split("\n"), [], 0
+    while i < len(lines):
+        line = re.sub(r"(^|\s)#.*", "", lines[i])
+        code.append(line)
+        i += 1
+        heredoc = re.search(r"(?<!<)<<-?\s*(['\"]?)(\w+)\1", line)
+        if not heredoc:
+            continue
+        body = []
+        while i < len(lines) and lines[i].strip() != heredoc.group(2):
+            body.append(lines[i])
+            i += 1
+        i += 1
+        reader = line[:heredoc.start()]
+        if re.search(r"\bpython3?\b", reader):
+            names |= python_commands("\n".join(body))
+        elif re.search(r"\b(ba)?sh\b", reader):
+            shell_commands("\n".join(body), names)
+    first_words(blank_quotes("\n".join(code), names), names)
+    # The script's own functions (`fail() {`, `function render {`) run, but they are not programs.
+    names -= set(re.findall(r"(?m)^\s*(?:function\s+)?([A-Za-z_][\w-]*)\s*(?:\(\s*\)|(?<=\w)\s+(?=\{))", text))
     return names
 
 
@@ -136,7 +216,9 @@ def python_commands(text):
 
 
 def cmake_commands(text):
-    names = set(re.findall(r"\bCOMMAND\s+([A-Za-z/][\w./+-]*)", text))
+    # A COMMAND that names one of the project's executables (`COMMAND kiln_capi_test`) runs what the build made, and
+    # one that names an imported target (`Python3::Interpreter`) runs what find_package found.
+    names = set(re.findall(r"\bCOMMAND\s+([A-Za-z/][\w./+-]*)(?![\w./+-]*::)", text)) - project_executables
     names |= set(re.findall(r"find_program\(\s*\w+\s+(?:NAMES\s+)?([A-Za-z][\w.+-]*)", text))
     return names
 
@@ -154,6 +236,30 @@ if not tracked:  # a source tree without git (an unpacked archive): walk it inst
 # Run by hand, outside the README's suite (label chroot, which the presets leave out): it needs debootstrap and
 # says so itself, and the programs inside its chroot come from the README's own install step.
 OUTSIDE_THE_SUITE = {"tests/package/fresh_debian_test.sh"}
+if decoys:
+    decoy_dir = tempfile.mkdtemp(prefix="kiln-decoys-")
+    words = set()
+    for relative in tracked:
+        try:
+            words |= set(re.findall(r"[A-Za-z][\w.+-]{0,31}", open(os.path.join(source, relative), encoding="utf-8",
+                                                                    errors="replace").read()))
+        except OSError:
+            pass
+    for word in words - set(audit):
+        if shutil.which(word) is None:
+            with open(os.path.join(decoy_dir, word), "w") as decoy:
+                decoy.write("#!/bin/sh\nexit 0\n")
+            os.chmod(os.path.join(decoy_dir, word), 0o755)
+    os.environ["PATH"] = decoy_dir + os.pathsep + os.environ.get("PATH", "")
+    print("%d decoy executables first on PATH" % len(os.listdir(decoy_dir)))
+
+# The project's own executables, wherever a CMake file adds them (directly, or through kiln_add_test_suite).
+project_executables = set()
+for relative in tracked:
+    if relative.endswith((".cmake", "CMakeLists.txt")):
+        cmake_text = open(os.path.join(source, relative), encoding="utf-8", errors="replace").read()
+        project_executables |= set(re.findall(r"\badd_executable\(\s*([\w.+-]+)", cmake_text))
+        project_executables |= {"kiln_tests_" + kind for kind in re.findall(r"\bkiln_add_test_suite\(\s*(\w+)", cmake_text)}
 found = {}
 for relative in tracked:
     if "/corpus/" in relative or "/fuzz/corpus" in relative or relative in OUTSIDE_THE_SUITE:
@@ -198,4 +304,6 @@ for failure in failures:
     print("FAIL:", failure)
 print("%d audited programs, %d programs named by the suite's files, %d packages installed: %d failure(s)"
       % (len(audit), len(found), len(packages), len(failures)))
+if decoys:
+    shutil.rmtree(decoy_dir, ignore_errors=True)
 sys.exit(1 if failures else 0)
