@@ -27,13 +27,15 @@
  *
  * Ownership and lifetime: kiln_pack_open allocates the pack; kiln_pack_close frees it. Every pointer the API
  * returns (names, entry points, code bytes, reflection handles and the strings in reflection records) is owned
- * by the pack and stays valid, unchanged, until kiln_pack_close. The caller owns kiln_error and the arrays it
- * passes; the API keeps no pointer to them.
+ * by the pack and stays valid, unchanged, until kiln_pack_close (after a pack switch by kiln_pack_poll_update:
+ * until the next kiln_pack_poll_update call, see there). The caller owns kiln_error and the arrays it passes; the
+ * API keeps no pointer to them.
  *
  * Threads: an open pack is read-only. Any number of threads may call any function on one pack at once (a
  * compressed blob is decompressed once, under a lock, on first use), except kiln_pack_close, which must come
- * after all of them. Errors go to the kiln_error the caller passes to each call, so there is no shared "last
- * error" to race on. Every `kiln_error* error` parameter may be NULL (the code is still returned).
+ * after all of them, and kiln_pack_poll_update, which must not overlap any other call on the pack either. Errors go
+ * to the kiln_error the caller passes to each call, so there is no shared "last error" to race on. Every
+ * `kiln_error* error` parameter may be NULL (the code is still returned).
  */
 #ifndef KILN_READER_H
 #define KILN_READER_H
@@ -129,6 +131,59 @@ kiln_result kiln_pack_record_usage(kiln_pack* pack, const char* path, const char
                                    kiln_error* error);
 /* Writes the usage log now (IO when it cannot be written; OK and nothing written when not recording). */
 kiln_result kiln_pack_flush_usage(const kiln_pack* pack, kiln_error* error);
+
+/* ---- Live updates (docs/reader.md, "Live updates") --------------------------------------------------------- */
+
+/* What kiln_pack_poll_update found: whether the pack now serves a newer build of itself, and which variants that
+ * changed, matched by pass name and keyword set. "Changed" is binary identity: per stage the entry point, each
+ * target's code checksum and the reflection, and the folded keywords' values. A variant equal in all of them at the
+ * same index is not listed: its pipeline carries over. */
+typedef enum kiln_variant_change_kind {
+  KILN_VARIANT_ADDED = 1,   /* a keyword set the previous pack lacked (kiln_select used to fail with STRIPPED) */
+  KILN_VARIANT_CHANGED = 2, /* the same keyword set with other code: recreate its pipeline */
+  KILN_VARIANT_REMOVED = 3, /* a keyword set the new pack lacks (kiln_select now fails with STRIPPED) */
+  KILN_VARIANT_MOVED = 4    /* the same code at another variant index: keep the pipeline, re-key it if keyed by index */
+} kiln_variant_change_kind;
+#define KILN_NO_INDEX UINT32_MAX /* no such pass or variant on that side of the switch */
+typedef struct kiln_variant_change {
+  kiln_variant_change_kind kind;
+  const char* pass;                 /* the pass's name */
+  kiln_pass old_pass, new_pass;     /* the pass's id before and after the switch; KILN_NO_INDEX where it has none */
+  uint32_t old_variant;             /* the variant index before the switch; KILN_NO_INDEX when ADDED */
+  uint32_t new_variant;             /* the variant index after the switch; KILN_NO_INDEX when REMOVED */
+  const char* const* keywords;      /* its keywords, sorted; NULL when keyword_count is 0 */
+  uint32_t keyword_count;
+} kiln_variant_change;
+typedef struct kiln_pack_update {
+  int switched;        /* 1: the pack serves the newer build from now on; 0: nothing new, the rest is empty */
+  int ids_changed;     /* 1: passes or keywords were added, removed or reordered: look kiln_pass and kiln_keyword
+                          ids up again (kiln_pass_find, kiln_keyword_find) */
+  uint64_t version;    /* the version served after this call: 1 as opened, one more per switch */
+  const char* archive; /* the archive served after this call, "<name>.<xxh3>.kpack" */
+  const kiln_variant_change* changes; /* by pass (the new pack's order, then passes it dropped), then keywords */
+  size_t change_count;
+} kiln_pack_update;
+
+/* Looks at the manifest the pack was opened from: when a build has replaced it (kiln renames the new archive, then
+ * the new manifest, into place), opens the new pack with kiln_pack_open's checks and switches the pack to it. Nothing
+ * new costs one stat() of the manifest. A damaged or incomplete new pack is refused with its error (IO, FORMAT,
+ * VERSION, CHECKSUM, OUT_OF_MEMORY; reported once: later calls say nothing new until its files change again) and the
+ * previous pack keeps serving; *update then says nothing new.
+ *
+ * Memory: *update and everything it points to belong to the pack, valid until the next kiln_pack_poll_update or
+ * kiln_pack_close. After a switch, the pack's ids (when ids_changed), variant indices, names, code bytes and
+ * reflection handles are the new pack's; those handed out before the switch stay valid until the next
+ * kiln_pack_poll_update call. So poll once per frame where no other call on the pack is running and the last frame
+ * is done with what the pack handed out, then recreate what `changes` lists.
+ *
+ * Threads: not at the same time as any other call on the same pack (ids and indices from one call feed the next, so
+ * a switch has to happen between a game's calls, not inside a sequence of them). Usage recording carries over: the
+ * log counts each keyword set's selections from every version served. */
+kiln_result kiln_pack_poll_update(kiln_pack* pack, kiln_pack_update* update, kiln_error* error);
+/* A file descriptor (inotify, non-blocking) that becomes readable when a file in the pack's directory is replaced:
+ * put it in the game's poll set and call kiln_pack_poll_update when it is (which drains it). Owned by the pack,
+ * closed by kiln_pack_close; the same one on every call. IO when inotify is not available. */
+kiln_result kiln_pack_update_fd(kiln_pack* pack, int* fd, kiln_error* error);
 
 /* ---- Passes and keywords: look names up once --------------------------------------------------------------- */
 

@@ -12,6 +12,7 @@
 //     combines that way, and the nearest variants that do exist.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -82,6 +83,35 @@ namespace runtime {
 struct Index;
 }
 
+// One variant that a pack switch (PackReader::poll_update) touched, matched across the two packs by pass name and
+// keyword set. "Same code" is binary identity: per stage the entry point, each target's blob checksum (XXH3-64 of
+// its bytes) and the reflection record, and the folded keywords' values; a variant equal in all of them is not
+// listed unless its index in the pass moved.
+struct VariantChange {
+  enum class Kind {
+    Added,    // a keyword set the previous pack lacked (select() used to fail with Stripped for it)
+    Changed,  // the same keyword set with other code: recreate its pipeline
+    Removed,  // a keyword set the new pack lacks (select() now fails with Stripped): drop its pipeline
+    Moved,    // the same code at another index of its pass: keep the pipeline, re-key it if you key by index
+  };
+  static constexpr size_t kNoIndex = SIZE_MAX;
+  Kind kind = Kind::Changed;
+  std::string pass;
+  std::vector<std::string> keywords;  // sorted, as stored
+  size_t old_index = kNoIndex;        // SelectedVariant::index in the previous pack; kNoIndex when Added
+  size_t new_index = kNoIndex;        // SelectedVariant::index in the new pack; kNoIndex when Removed
+};
+
+// What PackReader::poll_update() found.
+struct PackUpdate {
+  bool switched = false;   // the reader now serves a newer pack; false: nothing new (or the same archive again)
+  uint64_t version = 1;    // the pack version served after this poll: 1 as opened, one more per switch
+  std::string archive;     // the archive served after this poll, "<name>.<xxh3>.kpack"
+  bool ids_changed = false;  // passes or keywords were added, removed or reordered: the C API's kiln_pass and
+                             // kiln_keyword ids of the previous pack do not carry over
+  std::vector<VariantChange> changes;  // by pass (the new pack's order, then the passes it dropped), then keywords
+};
+
 // What a PackReader::try_ call gives code built without exceptions (-fno-exceptions, as many games are): kiln's
 // Result (kiln/result.hpp) of the value or the PackError that would have been thrown, with the error's code,
 // message and file at hand. Test it before using the value.
@@ -98,6 +128,8 @@ class PackResult : public Result<T, PackError> {
 };
 
 class PackReader {
+  struct Live;  // the reader: the version served now, retired versions, usage recording, poll_update's state
+
  public:
   // What open() checks before it returns.
   enum class Check {
@@ -131,7 +163,8 @@ class PackReader {
 
   SelectedVariant select(std::string_view pass, const std::vector<std::string>& keywords, bool strict = false) const;
   SelectedVariant variant(std::string_view pass, size_t index) const;
-  // A blob's bytes, checked (and decompressed) on first use; they live as long as the reader.
+  // A blob's bytes, checked (and decompressed) on first use; they live as long as the reader, or after a pack switch
+  // until the next poll_update() call (see there).
   std::string_view blob(uint32_t id) const;
   // A reflection record, decoded on first use.
   const Reflection& reflection(uint32_t id) const;
@@ -156,6 +189,48 @@ class PackReader {
   // (their indices in the index) as served, when recording.
   void note_selected(uint32_t pass, uint32_t variant) const noexcept;
 
+  // Live updates (docs/reader.md, "Live updates"). Looks at the manifest this reader opened: when a build has
+  // replaced it (kiln renames the new archive, then the new manifest, into place), opens the new pack with the checks
+  // open() makes, switches every later call to it at once and says which variants changed, so that a renderer
+  // recreates only their pipelines. Nothing new costs one stat() of the manifest. A damaged or incomplete new pack
+  // is refused with its PackError (reported once: later polls say nothing new until its files change again), and
+  // the previous pack keeps serving. Thread-safe, also against select() and the other calls running at the same
+  // time: each call sees one pack, whole, and select() stays lock-free (it pins the pack it uses with one atomic
+  // increment on the calling thread's own cache line).
+  //
+  // Ownership across a switch: SelectedVariant's strings and indices are the caller's. The views into the pack
+  // (StageView code bytes and reflection; what blob(), reflection(), manifest() and index() return) belong to the
+  // pack version they came from, which a switch retires: it stays mapped until the next poll_update() call after the
+  // switch, and while any select() still running in it or any Pin (below) taken before the switch lives. So poll once
+  // per frame, where the last frame's use of those views is done (or have the threads that use them hold a Pin);
+  // recreate what `changes` lists from the new pack (select() again, or variant() with new_index), and fetch again
+  // any view you keep (a reflection pointer) before the next poll. Indices given to variant() are always the
+  // current pack's. Usage recording (record_usage) carries over: the log counts each keyword set's selections from
+  // every pack version served.
+  PackResult<PackUpdate> poll_update() noexcept;
+  // For threads that use views while another thread may poll: while a Pin lives, no pack version that the calls of
+  // any thread may see is freed, so the views of every select() made after the Pin was taken stay valid until it goes.
+  // Take one per frame or job (it costs what select() pays to pin: one atomic increment on the thread's own cache
+  // line); poll_update() never waits for it, it frees the versions it replaced after the last such Pin is gone. A
+  // Pin held for hours keeps every version replaced meanwhile in memory.
+  class Pin {
+   public:
+    Pin(Pin&& other) noexcept;
+    Pin& operator=(Pin&&) = delete;
+    ~Pin();
+
+   private:
+    friend class PackReader;
+    explicit Pin(Live* live) noexcept;
+    Live* live_ = nullptr;
+    uint32_t stripe_ = 0, parity_ = 0;
+  };
+  [[nodiscard]] Pin pin() const noexcept;
+  // A file descriptor (inotify, non-blocking) that becomes readable when a file in the pack's directory is
+  // replaced: put it in the game's poll set and call poll_update() when it is; poll_update() drains it. Owned by the
+  // reader (closed with it); the same one on every call. Code::Io when inotify is not available.
+  PackResult<int> update_fd() noexcept;
+
   // The calls above that can fail, for code built without exceptions: each returns its PackError instead of
   // throwing it (running out of memory included: Code::OutOfMemory). A reader from try_open() serves every call.
   static PackResult<PackReader> try_open(const std::filesystem::path& path, Check check = Check::OnUse) noexcept;
@@ -168,14 +243,18 @@ class PackReader {
   PackResult<const Reflection*> try_reflection(uint32_t id) const noexcept;
 
  private:
-  struct State;
+  struct State;  // one pack version: its files, index and caches
   PackReader();
   static PackReader open_checked(const std::filesystem::path& path, Check check);  // open() less its std::bad_alloc guard
-  uint32_t find_pass(std::string_view name) const;
-  SelectedVariant variant_of(uint32_t pass, uint32_t index) const;
+  static std::unique_ptr<State> load(const std::filesystem::path& manifest_file, Check check, std::string* archive_path = nullptr);
+  uint32_t find_pass(const State& state, std::string_view name) const;
+  SelectedVariant variant_of(State& state, uint32_t pass, uint32_t index) const;
+  SelectedVariant select_in(State& state, std::string_view pass, const std::vector<std::string>& keywords, bool strict) const;
+  static std::string_view blob_of(State& state, uint32_t id);
+  static const Reflection& reflection_of(State& state, uint32_t id);
 
   std::string name_;
-  std::unique_ptr<State> state_;
+  std::unique_ptr<Live> live_;
 };
 
 }  // namespace kiln

@@ -70,6 +70,7 @@ struct kiln_pack {
   const kiln::runtime::Index* index = nullptr;  // the reader's
   std::vector<PassIndex> passes;                 // in the manifest's order
   std::unique_ptr<kiln_reflection[]> binaries;   // per binary
+  std::shared_ptr<struct PackUpdates> updates;   // kiln_pack_poll_update's (below), made by its first call
 };
 
 namespace {
@@ -280,6 +281,26 @@ const kiln::Reflection& of(const kiln_reflection* r) { return *r->reflection.loa
 
 const kiln::GlBindings* gl_of(const kiln_reflection* r, int es) { return r ? of(r).gl(es != 0) : nullptr; }
 
+// The tables of the pack version the reader serves now (kiln_pack_open, and kiln_pack_poll_update after a switch):
+// built in place, after the reader has its final address, as they point into its index.
+void index_tables(kiln_pack& pack) {
+  const kiln::runtime::Index& index = pack.reader.index();
+  pack.index = &index;
+  pack.binaries = std::make_unique<kiln_reflection[]>(index.binaries.size());
+  for (size_t b = 0; b < index.binaries.size(); ++b) {
+    kiln_reflection& r = pack.binaries[b];
+    r.id = index.binaries[b].reflection;
+    r.stage = static_cast<kiln_stage>(index.binaries[b].stage);
+    r.stage_flags = stage_flag(r.stage);
+  }
+  pack.passes.clear();
+  pack.passes.resize(index.passes.size());
+  for (size_t p = 0; p < index.passes.size(); ++p) {
+    pack.passes[p].pass = &index.passes[p];
+    index_pass(index, pack.passes[p]);
+  }
+}
+
 }  // namespace
 
 extern "C" {
@@ -309,21 +330,7 @@ kiln_result kiln_pack_open(const char* path, kiln_pack** pack, kiln_error* error
   return guarded(error, [&] {
     auto* opened = new kiln_pack{kiln::PackReader::open(path), nullptr, {}, {}};
     std::unique_ptr<kiln_pack> owner(opened);
-    // Built in place, after the reader has its final address: the tables point into its index.
-    const kiln::runtime::Index& index = opened->reader.index();
-    opened->index = &index;
-    opened->binaries = std::make_unique<kiln_reflection[]>(index.binaries.size());
-    for (size_t b = 0; b < index.binaries.size(); ++b) {
-      kiln_reflection& r = opened->binaries[b];
-      r.id = index.binaries[b].reflection;
-      r.stage = static_cast<kiln_stage>(index.binaries[b].stage);
-      r.stage_flags = stage_flag(r.stage);
-    }
-    opened->passes.resize(index.passes.size());
-    for (size_t p = 0; p < index.passes.size(); ++p) {
-      opened->passes[p].pass = &index.passes[p];
-      index_pass(index, opened->passes[p]);
-    }
+    index_tables(*opened);
     *pack = owner.release();
     return ok(error);
   });
@@ -603,7 +610,94 @@ int kiln_reflection_msl_resource(const kiln_reflection* r, uint32_t index, kiln_
   return 1;
 }
 
+// ---- Live updates: kiln_pack_poll_update and kiln_pack_update_fd (kiln_reader.h) ----------------------------------
+
 }  // extern "C"
+
+// What kiln_pack_poll_update keeps: the tables of the version it switched away from (the pointers handed out before
+// the switch point into them, and into the version the C++ reader keeps as long) until its next call, and the last
+// update's records, which the kiln_pack_update it filled points into.
+struct PackUpdates {
+  const kiln::runtime::Index* previous_index = nullptr;
+  std::vector<PassIndex> previous_passes;
+  std::unique_ptr<kiln_reflection[]> previous_binaries;
+  kiln::PackUpdate update;
+  std::vector<kiln_variant_change> changes;
+  std::vector<std::vector<const char*>> keywords;  // per change
+};
+
+extern "C" {
+
+kiln_result kiln_pack_poll_update(kiln_pack* pack, kiln_pack_update* update, kiln_error* error) {
+  if (update) *update = kiln_pack_update{};
+  if (!pack || !update) return invalid(error, "kiln_pack_poll_update: a NULL argument");
+  return guarded(error, [&] {
+    if (!pack->updates) pack->updates = std::make_shared<PackUpdates>();
+    PackUpdates& u = *pack->updates;
+    // What this call's previous switch kept is done with: the caller polls again.
+    u.previous_index = nullptr;
+    u.previous_passes.clear();
+    u.previous_binaries.reset();
+    u.changes.clear();
+    u.keywords.clear();
+    u.update = {};
+    auto polled = pack->reader.poll_update();
+    if (!polled) return fail(error, code_of(polled.code()), polled.message().c_str(), polled.file().c_str());
+    u.update = std::move(*polled);
+    if (u.update.switched) {
+      u.previous_index = pack->index;
+      u.previous_passes = std::move(pack->passes);
+      u.previous_binaries = std::move(pack->binaries);
+      index_tables(*pack);
+      auto pass_id = [](const std::vector<PassIndex>& passes, const std::string& name) {
+        for (size_t p = 0; p < passes.size(); ++p)
+          if (passes[p].pass->name == name) return static_cast<uint32_t>(p);
+        return static_cast<uint32_t>(KILN_NO_INDEX);
+      };
+      auto index_of = [](size_t index) {
+        return index == kiln::VariantChange::kNoIndex ? static_cast<uint32_t>(KILN_NO_INDEX) : static_cast<uint32_t>(index);
+      };
+      u.keywords.reserve(u.update.changes.size());
+      for (const kiln::VariantChange& change : u.update.changes) {
+        std::vector<const char*>& names = u.keywords.emplace_back();
+        for (const std::string& keyword : change.keywords) names.push_back(keyword.c_str());
+        kiln_variant_change c{};
+        c.kind = static_cast<kiln_variant_change_kind>(static_cast<int>(change.kind) + 1);
+        c.pass = change.pass.c_str();
+        c.old_pass = pass_id(u.previous_passes, change.pass);
+        c.new_pass = pass_id(pack->passes, change.pass);
+        c.old_variant = index_of(change.old_index);
+        c.new_variant = index_of(change.new_index);
+        c.keywords = names.empty() ? nullptr : names.data();
+        c.keyword_count = static_cast<uint32_t>(names.size());
+        u.changes.push_back(c);
+      }
+    }
+    update->switched = u.update.switched ? 1 : 0;
+    update->ids_changed = u.update.ids_changed ? 1 : 0;
+    update->version = u.update.version;
+    update->archive = u.update.archive.c_str();
+    update->changes = u.changes.empty() ? nullptr : u.changes.data();
+    update->change_count = u.changes.size();
+    return ok(error);
+  });
+}
+
+kiln_result kiln_pack_update_fd(kiln_pack* pack, int* fd, kiln_error* error) {
+  if (!pack || !fd) return invalid(error, "kiln_pack_update_fd: a NULL argument");
+  auto got = pack->reader.update_fd();
+  if (!got) return fail(error, code_of(got.code()), got.message().c_str(), got.file().c_str());
+  *fd = *got;
+  return ok(error);
+}
+
+}  // extern "C"
+
+// kiln_variant_change_kind is VariantChange::Kind plus one, value for value: the cast above relies on it.
+static_assert(KILN_VARIANT_ADDED == static_cast<int>(kiln::VariantChange::Kind::Added) + 1 &&
+              KILN_VARIANT_CHANGED == static_cast<int>(kiln::VariantChange::Kind::Changed) + 1 &&
+              KILN_VARIANT_REMOVED == static_cast<int>(kiln::VariantChange::Kind::Removed) + 1 &&
+              KILN_VARIANT_MOVED == static_cast<int>(kiln::VariantChange::Kind::Moved) + 1);
 
 // The C enumerations are the C++ ones, value for value: the casts above rely on it.
 static_assert(KILN_STAGE_VERTEX == static_cast<int>(kiln::Stage::Vertex) && KILN_STAGE_FRAGMENT == static_cast<int>(kiln::Stage::Fragment) &&

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <sys/mman.h>
+#include <sys/inotify.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <xxhash.h>
@@ -34,6 +35,23 @@ namespace kiln {
 namespace {
 
 using nlohmann::json;
+
+// Which file a path names, as far as poll_update() needs to know: a build replaces a pack's files by rename, so a
+// replaced file is another inode (the reader keeps the one it read mapped, so its number is not reused meanwhile).
+struct FileIdentity {
+  bool exists = false;
+  uint64_t device = 0, inode = 0, size = 0;
+  int64_t modified_seconds = 0, modified_nanoseconds = 0;
+  static FileIdentity of(const struct stat& info) {
+    return {true, static_cast<uint64_t>(info.st_dev), static_cast<uint64_t>(info.st_ino), static_cast<uint64_t>(info.st_size),
+            static_cast<int64_t>(info.st_mtim.tv_sec), static_cast<int64_t>(info.st_mtim.tv_nsec)};
+  }
+  static FileIdentity at(const std::string& path) {
+    struct stat info {};
+    return ::stat(path.c_str(), &info) == 0 ? of(info) : FileIdentity{};
+  }
+  bool operator==(const FileIdentity&) const = default;
+};
 
 // A pack file, mapped read-only: a regular file only (a FIFO would block, a device never end), checked before it
 // is opened and again on the opened descriptor (opened without blocking, so a file swapped for a FIFO in between
@@ -68,6 +86,7 @@ class MappedFile {
     } closer{fd};
     if (::fstat(fd, &info) != 0) throw system_error("cannot read the file");
     check_type(info);
+    identity_ = FileIdentity::of(info);
     const uint64_t size = static_cast<uint64_t>(info.st_size);
     if (expected && size != *expected)
       throw PackError(PackError::Code::Checksum,
@@ -101,20 +120,25 @@ class MappedFile {
     data_ = static_cast<const char*>(at);
     size_ = size;
   }
-  MappedFile(MappedFile&& other) noexcept : data_(std::exchange(other.data_, nullptr)), size_(std::exchange(other.size_, 0)) {}
+  MappedFile(MappedFile&& other) noexcept
+      : data_(std::exchange(other.data_, nullptr)), size_(std::exchange(other.size_, 0)), identity_(other.identity_) {}
   MappedFile& operator=(MappedFile&& other) noexcept {
     std::swap(data_, other.data_);
     std::swap(size_, other.size_);
+    std::swap(identity_, other.identity_);
     return *this;
   }
   ~MappedFile() {
     if (data_) ::munmap(const_cast<char*>(data_), size_);
   }
   std::string_view bytes() const { return {data_, size_}; }
+  // The file that was opened (not whatever the path names now).
+  const FileIdentity& identity() const { return identity_; }
 
  private:
   const char* data_ = nullptr;
   size_t size_ = 0;
+  FileIdentity identity_;
 };
 
 uint64_t get64(std::string_view bytes, size_t at) {
@@ -327,57 +351,109 @@ std::string decompress_checked(const Blob& b, std::string_view stored, const std
   return raw;
 }
 
-}  // namespace
+// This thread's stripe of a striped counter: threads take them in turn, the 17th shares the first's.
+constexpr uint32_t kStripes = 16;
+uint32_t thread_stripe() noexcept {
+  static std::atomic<uint32_t> next{0};
+  thread_local const uint32_t mine = next.fetch_add(1, std::memory_order_relaxed) % kStripes;
+  return mine;
+}
 
-// What record_usage() counts: per pass and variant, the selections served (the hot path: one relaxed increment),
-// and the keyword sets the pack lacks, with the nearest variant (under the mutex; rare).
+// The selections one pack version served, per pass and variant (the hot path: one relaxed increment). Striped: each
+// thread adds to its own stripe (kStripes of them, each starting on its own cache line), so threads that select the
+// same variant at once do not pass one cache line between their cores; the log adds the stripes. 8 bytes per variant
+// and stripe: 128 per variant.
+struct PassCounts {
+  uint32_t stride = 0;                             // counters per stripe: the variant count rounded up to 8
+  std::unique_ptr<std::atomic<uint64_t>[]> storage;
+  std::atomic<uint64_t>* counts = nullptr;         // stripe s, variant v: counts[s * stride + v]; 64-byte aligned
+  explicit PassCounts(uint32_t variants) : stride((variants + 7) / 8 * 8) {
+    const size_t n = size_t(stride) * kStripes + 8;
+    storage = std::make_unique<std::atomic<uint64_t>[]>(n);
+    for (size_t i = 0; i < n; ++i) storage[i].store(0, std::memory_order_relaxed);
+    const auto address = reinterpret_cast<uintptr_t>(storage.get());
+    counts = storage.get() + ((64 - address % 64) % 64) / sizeof(std::atomic<uint64_t>);
+  }
+  uint64_t total(uint32_t variant) const {
+    uint64_t sum = 0;
+    for (uint32_t s = 0; s < kStripes; ++s) sum += counts[size_t(s) * stride + variant].load(std::memory_order_relaxed);
+    return sum;
+  }
+};
+using ServedCounts = std::vector<PassCounts>;  // per pass of the version
+
+// What record_usage() keeps over the reader's life, across pack switches: keyed by pass name and keyword set, so a
+// selection counts the same whichever pack version served it. The served counts of versions no longer kept are
+// folded into `carried`; the keyword sets the pack lacks (Stripped) are kept with their nearest variant (rare).
 struct UsageRecorder {
   struct Missing {
     uint64_t count = 0;
     std::vector<std::string> nearest;
   };
-  // The served counts, striped: each thread adds to its own stripe (kStripes of them, each starting on its own cache
-  // line), so threads that select the same variant at once do not pass one cache line between their cores; the log
-  // adds the stripes. 8 bytes per variant and stripe: 128 per variant.
-  static constexpr uint32_t kStripes = 16;
-  struct PassCounts {
-    uint32_t stride = 0;                             // counters per stripe: the variant count rounded up to 8
-    std::unique_ptr<std::atomic<uint64_t>[]> storage;
-    std::atomic<uint64_t>* counts = nullptr;         // stripe s, variant v: counts[s * stride + v]; 64-byte aligned
-    explicit PassCounts(uint32_t variants) : stride((variants + 7) / 8 * 8) {
-      const size_t n = size_t(stride) * kStripes + 8;
-      storage = std::make_unique<std::atomic<uint64_t>[]>(n);
-      for (size_t i = 0; i < n; ++i) storage[i].store(0, std::memory_order_relaxed);
-      const auto address = reinterpret_cast<uintptr_t>(storage.get());
-      counts = storage.get() + ((64 - address % 64) % 64) / sizeof(std::atomic<uint64_t>);
-    }
-    uint64_t total(uint32_t variant) const {
-      uint64_t sum = 0;
-      for (uint32_t s = 0; s < kStripes; ++s) sum += counts[size_t(s) * stride + variant].load(std::memory_order_relaxed);
-      return sum;
-    }
-  };
-  // This thread's stripe: threads take them in turn, the 17th shares the first's.
-  static uint32_t stripe() noexcept {
-    static std::atomic<uint32_t> next{0};
-    thread_local const uint32_t mine = next.fetch_add(1, std::memory_order_relaxed) % kStripes;
-    return mine;
-  }
-  std::vector<PassCounts> served;  // per pass
+  using Key = std::pair<std::string, std::vector<std::string>>;  // pass, keywords
   mutable std::mutex mutex;
-  PackReader::UsageOptions options;                              // under the mutex
-  std::map<std::pair<uint32_t, std::vector<std::string>>, Missing> missing;  // (pass, keywords) -> ...
+  PackReader::UsageOptions options;  // under the mutex
+  std::map<Key, Missing> missing;
+  std::map<Key, uint64_t> carried;
   uint64_t missing_dropped = 0;
 };
 
-struct PackReader::State {
-  ~State() {
-    if (usage) static_cast<void>(flush_usage_log());  // errors are the caller's to see through flush_usage()
+// Readers of the pack version served now (select() and every other call) pin it; poll_update() frees a version it
+// replaced only once no call that may have seen it is still running. Epoch-based: a call counts itself, on its
+// thread's stripe, under the parity of the epoch it saw (one atomic increment on a cache line of its own, no lock);
+// the poller advances the epoch only when no call of the epoch before is still counted, so a version replaced in
+// epoch E is unseen by every running call once the epoch reaches E + 2.
+class ReaderEpochs {
+ public:
+  uint32_t enter(uint32_t stripe) noexcept {
+    for (;;) {
+      const uint64_t epoch = epoch_.load(std::memory_order_seq_cst);
+      stripes_[stripe].active[epoch & 1].fetch_add(1, std::memory_order_seq_cst);
+      if (epoch_.load(std::memory_order_seq_cst) == epoch) return static_cast<uint32_t>(epoch & 1);
+      stripes_[stripe].active[epoch & 1].fetch_sub(1, std::memory_order_release);  // the epoch moved: count again
+    }
   }
-  PackResult<size_t> flush_usage_log() const noexcept;
-  std::string pack_name;
-  std::unique_ptr<UsageRecorder> usage;           // made by the first record_usage()
-  std::atomic<UsageRecorder*> recording{nullptr};  // `usage` once recording
+  void leave(uint32_t stripe, uint32_t parity) noexcept { stripes_[stripe].active[parity].fetch_sub(1, std::memory_order_release); }
+  uint64_t epoch() const noexcept { return epoch_.load(std::memory_order_seq_cst); }
+  // One poller at a time.
+  bool try_advance() noexcept {
+    const uint64_t epoch = epoch_.load(std::memory_order_seq_cst);
+    for (const Stripe& stripe : stripes_)
+      if (stripe.active[(epoch + 1) & 1].load(std::memory_order_seq_cst) != 0) return false;
+    epoch_.store(epoch + 1, std::memory_order_seq_cst);
+    return true;
+  }
+
+ private:
+  struct alignas(64) Stripe {
+    std::atomic<uint64_t> active[2] = {0, 0};
+  };
+  std::atomic<uint64_t> epoch_{0};
+  Stripe stripes_[kStripes];
+};
+
+// The version a call uses, pinned for the call's length.
+template <class State>
+class Pinned {
+ public:
+  Pinned(ReaderEpochs& epochs, const std::atomic<State*>& current) noexcept
+      : epochs_(epochs), stripe_(thread_stripe()), parity_(epochs.enter(stripe_)), state_(current.load(std::memory_order_seq_cst)) {}
+  ~Pinned() { epochs_.leave(stripe_, parity_); }
+  Pinned(const Pinned&) = delete;
+  Pinned& operator=(const Pinned&) = delete;
+  State& operator*() const noexcept { return *state_; }
+
+ private:
+  ReaderEpochs& epochs_;
+  uint32_t stripe_, parity_;
+  State* state_;
+};
+
+}  // namespace
+
+// One pack version.
+struct PackReader::State {
+  std::string name;
   std::filesystem::path manifest_file;
   std::string archive_file;  // its path, for errors found when a blob is first used
   MappedFile manifest_text, archive;
@@ -394,9 +470,47 @@ struct PackReader::State {
   std::vector<std::unique_ptr<Reflection>> decoded;  // owns what `reflections` points at (under the mutex)
   std::once_flag manifest_once;
   std::optional<Manifest> manifest;
+  // Usage recording: made (under Live::mutex) when recording starts or the version is switched to while recording.
+  std::unique_ptr<ServedCounts> counts;
+  std::atomic<ServedCounts*> served{nullptr};
+  std::vector<uint64_t> identities;  // per variant of the index, binary identity; made by poll_update (under its mutex)
 };
 
-PackReader::PackReader() : state_(std::make_unique<State>()) {}
+struct PackReader::Live {
+  ~Live() {
+    if (usage) static_cast<void>(flush_usage_log());  // errors are the caller's to see through flush_usage()
+    if (inotify >= 0) ::close(inotify);
+  }
+  PackResult<size_t> flush_usage_log() const noexcept;  // under `mutex`, or from the destructor
+  void reclaim();                                       // under `mutex`
+  void count_served(const State& state, uint32_t pass, uint32_t variant) const noexcept {
+    ServedCounts* counts = state.served.load(std::memory_order_acquire);
+    if (counts && pass < counts->size() && variant < state.index.passes[pass].variant_count)
+      (*counts)[pass].counts[size_t(thread_stripe()) * (*counts)[pass].stride + variant].fetch_add(1, std::memory_order_relaxed);
+  }
+
+  ReaderEpochs epochs;
+  std::atomic<State*> current{nullptr};
+  std::unique_ptr<State> current_owner;
+  struct Retired {
+    std::unique_ptr<State> state;
+    uint64_t epoch = 0, poll = 0;  // when it was replaced
+  };
+  std::vector<Retired> retired;
+  mutable std::mutex mutex;  // poll_update, record_usage, flush_usage, update_fd
+  std::filesystem::path manifest_file;
+  uint64_t polls = 0, version = 1;
+  FileIdentity seen;  // the manifest file that holds the version served now
+  // The last new pack refused, reported once: its manifest and the archive it named.
+  bool refused = false;
+  FileIdentity refused_manifest, refused_archive;
+  std::string refused_archive_file;
+  std::unique_ptr<UsageRecorder> usage;            // made by the first record_usage()
+  std::atomic<UsageRecorder*> recording{nullptr};  // `usage` once recording
+  int inotify = -1;
+};
+
+PackReader::PackReader() : live_(std::make_unique<Live>()) {}
 PackReader::PackReader(PackReader&&) noexcept = default;
 PackReader& PackReader::operator=(PackReader&&) noexcept = default;
 PackReader::~PackReader() = default;
@@ -429,7 +543,22 @@ PackReader PackReader::open_checked(const std::filesystem::path& path, Check che
     manifest_file = found[0];
   }
   PackReader reader;
-  State& state = *reader.state_;
+  std::unique_ptr<State> version = load(manifest_file, check);
+  reader.name_ = version->name;
+  Live& live = *reader.live_;
+  live.manifest_file = manifest_file;
+  live.seen = version->manifest_text.identity();
+  live.current.store(version.get(), std::memory_order_seq_cst);
+  live.current_owner = std::move(version);
+  return reader;
+}
+
+// One pack version from its manifest file: what open() checks, in its order. `archive_file`, when given, is set to
+// the archive's path as soon as the manifest names it (poll_update() keeps it with a refusal).
+std::unique_ptr<PackReader::State> PackReader::load(const std::filesystem::path& manifest_file, Check check,
+                                                    std::string* archive_path) {
+  auto owner = std::make_unique<State>();
+  State& state = *owner;
   state.manifest_file = manifest_file;
   const std::string manifest_name = manifest_file.string();
   state.manifest_text = MappedFile(manifest_name, "the manifest", kMaxManifestBytes);
@@ -446,18 +575,19 @@ PackReader PackReader::open_checked(const std::filesystem::path& path, Check che
   auto malformed = [&](const std::string& what) {
     return PackError(PackError::Code::Format, "malformed manifest: " + what, manifest_name);
   };
-  reader.name_ = head.name;
+  state.name = head.name;
   // The manifest names the archive; a name of any other shape ("../x", "/etc/passwd") is refused before any
   // file is opened, so a hostile manifest can make the reader read nothing but this pack's own archive.
-  if (std::string problem = name_problem(reader.name_); !problem.empty())
-    throw malformed("/name: " + json(reader.name_).dump() + " is not a pack name: it " + problem);
+  if (std::string problem = name_problem(state.name); !problem.empty())
+    throw malformed("/name: " + json(state.name).dump() + " is not a pack name: it " + problem);
   const std::string& archive_name = head.archive.file;
-  if (archive_name != archive_file_name(reader.name_, head.archive.xxh3_64) || !is_archive_file_name(archive_name, reader.name_))
+  if (archive_name != archive_file_name(state.name, head.archive.xxh3_64) || !is_archive_file_name(archive_name, state.name))
     throw malformed("/archive/file: " + json(archive_name).dump() + " is not the archive's name, <name>.<xxh3_64>" +
                     std::string(kArchiveExtension));
   state.archive_file = (manifest_file.parent_path() / archive_name).string();
+  if (archive_path) *archive_path = state.archive_file;
   auto fail = [&](PackError::Code code, const std::string& message) { throw PackError(code, message, state.archive_file); };
-  const std::string archive_what = "archive of pack '" + reader.name_ + "'";
+  const std::string archive_what = "archive of pack '" + state.name + "'";
   // The header (magic, version, size) is read and checked before the archive is mapped.
   auto check_header = [&](std::string_view header) {
     if (header.size() < kPackHeaderSize || std::memcmp(header.data(), kPackMagic, 8) != 0)
@@ -510,7 +640,7 @@ PackReader PackReader::open_checked(const std::filesystem::path& path, Check che
   if (check == Check::Full) {
     for (uint32_t i = 0; i < count; ++i) {
       const Blob& b = state.blobs[i];
-      if (b.stored_size == b.raw_size) reader.blob(i);
+      if (b.stored_size == b.raw_size) blob_of(state, i);
       else decompress_checked(b, bytes.substr(b.offset, b.stored_size), "blob " + std::to_string(i), state.archive_file);
     }
     if (runtime::encode(*state.manifest) != bytes.substr(index_offset, index_size))
@@ -529,11 +659,12 @@ PackReader PackReader::open_checked(const std::filesystem::path& path, Check che
     }
     std::sort(by_hash.begin(), by_hash.end());
   }
-  return reader;
+  return owner;
 }
 
 const Manifest& PackReader::manifest() const {
-  State& state = *state_;
+  Pinned<State> pinned(live_->epochs, live_->current);
+  State& state = *pinned;
   std::call_once(state.manifest_once, [&] {
     if (state.manifest) return;
     try {
@@ -546,74 +677,139 @@ const Manifest& PackReader::manifest() const {
   return *state.manifest;
 }
 
-const runtime::Index& PackReader::index() const { return state_->index; }
+const runtime::Index& PackReader::index() const {
+  Pinned<State> pinned(live_->epochs, live_->current);
+  return (*pinned).index;
+}
+
+namespace {
+
+// The served counters of a pack version, zero.
+std::unique_ptr<ServedCounts> counts_for(const runtime::Index& index) {
+  auto counts = std::make_unique<ServedCounts>();
+  counts->reserve(index.passes.size());
+  for (const runtime::Pass& pass : index.passes) counts->emplace_back(pass.variant_count);
+  return counts;
+}
+
+// Calls `each(pass name, keywords, count)` for every variant a version's counters say was served.
+template <class Each>
+void for_each_served(const runtime::Index& ix, const ServedCounts& counts, Each&& each) {
+  for (uint32_t p = 0; p < ix.passes.size() && p < counts.size(); ++p) {
+    const runtime::Pass& pass = ix.passes[p];
+    for (uint32_t v = 0; v < pass.variant_count; ++v) {
+      const uint64_t count = counts[p].total(v);
+      if (count == 0) continue;
+      const runtime::Variant& variant = ix.variants[pass.first_variant + v];
+      std::vector<std::string> keywords;
+      for (uint32_t k = 0; k < variant.keyword_count; ++k)
+        keywords.emplace_back(ix.keywords[ix.variant_keywords[variant.first_keyword + k]]);
+      each(std::string(pass.name), std::move(keywords), count);
+    }
+  }
+}
+
+}  // namespace
 
 void PackReader::record_usage(UsageOptions options) {
-  State& state = *state_;
-  std::lock_guard lock(state.mutex);
-  if (!state.usage) {
-    auto recorder = std::make_unique<UsageRecorder>();
-    for (const runtime::Pass& pass : state.index.passes) recorder->served.emplace_back(pass.variant_count);
-    state.usage = std::move(recorder);
-  }
+  Live& live = *live_;
+  std::lock_guard lock(live.mutex);
+  if (!live.usage) live.usage = std::make_unique<UsageRecorder>();
   {
-    std::lock_guard usage_lock(state.usage->mutex);
-    state.usage->options = std::move(options);
+    std::lock_guard usage_lock(live.usage->mutex);
+    live.usage->options = std::move(options);
   }
-  state.pack_name = name_;
-  state.recording.store(state.usage.get(), std::memory_order_release);
+  State& state = *live.current_owner;  // under the mutex: the version served now
+  if (!state.counts) {
+    state.counts = counts_for(state.index);
+    state.served.store(state.counts.get(), std::memory_order_release);
+  }
+  live.recording.store(live.usage.get(), std::memory_order_release);
 }
 
 void PackReader::note_selected(uint32_t pass, uint32_t variant) const noexcept {
-  UsageRecorder* usage = state_->recording.load(std::memory_order_acquire);
-  if (usage && pass < usage->served.size() && variant < state_->index.passes[pass].variant_count)
-    usage->served[pass].counts[size_t(UsageRecorder::stripe()) * usage->served[pass].stride + variant].fetch_add(
-        1, std::memory_order_relaxed);
+  if (!live_->recording.load(std::memory_order_acquire)) return;
+  Pinned<State> pinned(live_->epochs, live_->current);
+  live_->count_served(*pinned, pass, variant);
 }
 
-PackResult<size_t> PackReader::flush_usage() const noexcept { return state_->flush_usage_log(); }
+PackResult<size_t> PackReader::flush_usage() const noexcept {
+  std::lock_guard lock(live_->mutex);
+  return live_->flush_usage_log();
+}
+
+// Frees the versions poll_update() replaced once that is safe: after a later poll_update() call than the one that
+// replaced them (the caller's views into them live until then) and once no call that may have seen them runs. Their
+// served counts are folded into the recorder's first: nothing can add to them any more.
+void PackReader::Live::reclaim() {
+  for (int step = 0; step < 2 && !retired.empty(); ++step)
+    if (!epochs.try_advance()) break;
+  const uint64_t epoch = epochs.epoch();
+  for (auto it = retired.begin(); it != retired.end();) {
+    if (it->poll >= polls || epoch < it->epoch + 2) {
+      ++it;
+      continue;
+    }
+    if (usage && it->state->counts) {
+      std::lock_guard lock(usage->mutex);
+      for_each_served(it->state->index, *it->state->counts, [&](std::string pass, std::vector<std::string> keywords, uint64_t count) {
+        usage->carried[{std::move(pass), std::move(keywords)}] += count;
+      });
+    }
+    it = retired.erase(it);
+  }
+}
 
 // The log (docs/usage.md, variants/schema/usage.schema.json): the pack's name, the game's tags, and per pass the
 // keyword sets served and those missing, each with its count; sorted, so equal counts give equal bytes. Written to
-// a file beside the target, then renamed over it: a reader of the log never sees half of it.
-PackResult<size_t> PackReader::State::flush_usage_log() const noexcept {
+// a file beside the target, then renamed over it: a reader of the log never sees half of it. Counts of every pack
+// version served are added by pass name and keyword set; passes in the order of the pack served now, then those only
+// earlier versions had, by name.
+PackResult<size_t> PackReader::Live::flush_usage_log() const noexcept {
   const UsageRecorder* recorder = recording.load(std::memory_order_acquire);
   if (!recorder) return size_t{0};
   std::filesystem::path file;
   try {
-    const runtime::Index& ix = index;
+    const State& state = *current_owner;
     std::map<std::string, std::string> tags;
-    std::map<uint32_t, std::vector<usage_log::Request>> missing_by_pass;
+    std::map<std::string, std::map<std::vector<std::string>, uint64_t>> served;
+    std::map<std::string, std::vector<usage_log::Request>> missing_by_pass;
     size_t sets = 0;
     uint64_t dropped = 0;
+    auto add = [&](std::string pass, std::vector<std::string> keywords, uint64_t count) {
+      served[std::move(pass)][std::move(keywords)] += count;
+    };
     {
       std::lock_guard lock(recorder->mutex);
       file = recorder->options.file;
       for (const auto& [key, value] : recorder->options.tags) tags[key] = value;
       for (const auto& [key, entry] : recorder->missing)
         missing_by_pass[key.first].push_back({key.second, entry.count, entry.nearest});
+      for (const auto& [key, count] : recorder->carried) served[key.first][key.second] += count;
       dropped = recorder->missing_dropped;
     }
     if (file.empty()) return PackResult<size_t>(PackError::Code::Io, "no usage log file was given", "");
+    for (const Retired& old : retired)
+      if (old.state->counts) for_each_served(old.state->index, *old.state->counts, add);
+    if (state.counts) for_each_served(state.index, *state.counts, add);
+    std::vector<std::string> order;
+    for (const runtime::Pass& pass : state.index.passes) order.emplace_back(pass.name);
+    std::set<std::string> listed(order.begin(), order.end());
+    for (const auto& [pass, counts] : served)
+      if (listed.insert(pass).second) order.push_back(pass);
+    for (const auto& [pass, requests] : missing_by_pass)
+      if (listed.insert(pass).second) order.push_back(pass);
     std::vector<usage_log::Pass> passes;
-    for (uint32_t p = 0; p < ix.passes.size(); ++p) {
-      const runtime::Pass& pass = ix.passes[p];
-      usage_log::Pass entry{std::string(pass.name), {}, {}};
-      for (uint32_t v = 0; v < pass.variant_count; ++v) {
-        const uint64_t count = recorder->served[p].total(v);
-        if (count == 0) continue;
-        const runtime::Variant& variant = ix.variants[pass.first_variant + v];
-        std::vector<std::string> keywords;
-        for (uint32_t k = 0; k < variant.keyword_count; ++k)
-          keywords.emplace_back(ix.keywords[ix.variant_keywords[variant.first_keyword + k]]);
-        entry.served.push_back({std::move(keywords), count, {}});
-      }
-      if (auto missing = missing_by_pass.find(p); missing != missing_by_pass.end()) entry.missing = std::move(missing->second);
+    for (const std::string& name : order) {
+      usage_log::Pass entry{name, {}, {}};
+      if (auto it = served.find(name); it != served.end())
+        for (const auto& [keywords, count] : it->second) entry.served.push_back({keywords, count, {}});
+      if (auto missing = missing_by_pass.find(name); missing != missing_by_pass.end()) entry.missing = std::move(missing->second);
       if (entry.served.empty() && entry.missing.empty()) continue;
       sets += entry.served.size() + entry.missing.size();
       passes.push_back(std::move(entry));
     }
-    const Result<void> written = usage_log::write_atomically(file, usage_log::text(pack_name, tags, std::move(passes), dropped));
+    const Result<void> written = usage_log::write_atomically(file, usage_log::text(state.name, tags, std::move(passes), dropped));
     if (!written) return PackResult<size_t>(PackError::Code::Io, written.error().message, file.string());
     return sets;
   } catch (const std::bad_alloc&) {
@@ -624,23 +820,28 @@ PackResult<size_t> PackReader::State::flush_usage_log() const noexcept {
 }
 
 std::vector<std::string> PackReader::passes() const {
+  Pinned<State> pinned(live_->epochs, live_->current);
   std::vector<std::string> names;
-  for (const runtime::Pass& pass : state_->index.passes) names.emplace_back(pass.name);
+  for (const runtime::Pass& pass : (*pinned).index.passes) names.emplace_back(pass.name);
   return names;
 }
 
-uint32_t PackReader::find_pass(std::string_view name) const {
-  const std::vector<runtime::Pass>& passes = state_->index.passes;
+uint32_t PackReader::find_pass(const State& state, std::string_view name) const {
+  const std::vector<runtime::Pass>& passes = state.index.passes;
   for (size_t p = 0; p < passes.size(); ++p)
     if (passes[p].name == name) return static_cast<uint32_t>(p);
   throw PackError(PackError::Code::UnknownPass, "pack '" + name_ + "' has no pass '" + std::string(name) + "'");
 }
 
-size_t PackReader::variant_count(std::string_view pass) const { return state_->index.passes[find_pass(pass)].variant_count; }
+size_t PackReader::variant_count(std::string_view pass) const {
+  Pinned<State> pinned(live_->epochs, live_->current);
+  return (*pinned).index.passes[find_pass(*pinned, pass)].variant_count;
+}
 
 std::vector<std::vector<std::string>> PackReader::keyword_groups(std::string_view pass_name) const {
-  const runtime::Index& index = state_->index;
-  const runtime::Pass& pass = index.passes[find_pass(pass_name)];
+  Pinned<State> pinned(live_->epochs, live_->current);
+  const runtime::Index& index = (*pinned).index;
+  const runtime::Pass& pass = index.passes[find_pass(*pinned, pass_name)];
   std::vector<std::vector<std::string>> groups;
   for (uint32_t g = 0; g < pass.group_count; ++g) {
     const runtime::Group& group = index.groups[pass.first_group + g];
@@ -654,7 +855,11 @@ std::vector<std::vector<std::string>> PackReader::keyword_groups(std::string_vie
 }
 
 std::string_view PackReader::blob(uint32_t id) const {
-  State& state = *state_;
+  Pinned<State> pinned(live_->epochs, live_->current);
+  return blob_of(*pinned, id);
+}
+
+std::string_view PackReader::blob_of(State& state, uint32_t id) {
   if (id >= state.blobs.size()) throw PackError(PackError::Code::Format, "blob id " + std::to_string(id) + " out of range");
   const Blob& b = state.blobs[id];
   const std::string_view stored = state.archive.bytes().substr(b.offset, b.stored_size);
@@ -675,7 +880,11 @@ std::string_view PackReader::blob(uint32_t id) const {
 }
 
 const Reflection& PackReader::reflection(uint32_t id) const {
-  State& state = *state_;
+  Pinned<State> pinned(live_->epochs, live_->current);
+  return reflection_of(*pinned, id);
+}
+
+const Reflection& PackReader::reflection_of(State& state, uint32_t id) {
   if (id >= state.index.reflections.size())
     throw PackError(PackError::Code::Format, "reflection " + std::to_string(id) + " out of range");
   if (const Reflection* decoded = state.reflections[id].load(std::memory_order_acquire)) return *decoded;
@@ -692,13 +901,14 @@ const Reflection& PackReader::reflection(uint32_t id) const {
 }
 
 SelectedVariant PackReader::variant(std::string_view pass_name, size_t index) const {
-  const uint32_t pass = find_pass(pass_name);
-  if (index >= state_->index.passes[pass].variant_count) throw PackError(PackError::Code::Format, "variant index out of range");
-  return variant_of(pass, static_cast<uint32_t>(index));
+  Pinned<State> pinned(live_->epochs, live_->current);
+  const uint32_t pass = find_pass(*pinned, pass_name);
+  if (index >= (*pinned).index.passes[pass].variant_count) throw PackError(PackError::Code::Format, "variant index out of range");
+  return variant_of(*pinned, pass, static_cast<uint32_t>(index));
 }
 
-SelectedVariant PackReader::variant_of(uint32_t pass_id, uint32_t index) const {
-  const runtime::Index& ix = state_->index;
+SelectedVariant PackReader::variant_of(State& state, uint32_t pass_id, uint32_t index) const {
+  const runtime::Index& ix = state.index;
   const runtime::Pass& pass = ix.passes[pass_id];
   const runtime::Variant& v = ix.variants[pass.first_variant + index];
   SelectedVariant selected;
@@ -714,8 +924,8 @@ SelectedVariant PackReader::variant_of(uint32_t pass_id, uint32_t index) const {
     view.entry_point = std::string(binary.entry);
     for (const TargetName& target : kTargetNames)
       if (const uint32_t blob_id = binary.blobs[static_cast<size_t>(target.target)]; blob_id != runtime::kNone)
-        view.code(target.target) = blob(blob_id);
-    view.reflection = &reflection(binary.reflection);
+        view.code(target.target) = blob_of(state, blob_id);
+    view.reflection = &reflection_of(state, binary.reflection);
     selected.stages.push_back(view);
   }
   const std::vector<bool> on = ix.folded_on(pass, v);
@@ -735,8 +945,14 @@ SelectedVariant PackReader::variant_of(uint32_t pass_id, uint32_t index) const {
 }
 
 SelectedVariant PackReader::select(std::string_view pass_name, const std::vector<std::string>& keywords, bool strict) const {
-  const runtime::Index& ix = state_->index;
-  const uint32_t pass_id = find_pass(pass_name);
+  Pinned<State> pinned(live_->epochs, live_->current);
+  return select_in(*pinned, pass_name, keywords, strict);
+}
+
+SelectedVariant PackReader::select_in(State& state, std::string_view pass_name, const std::vector<std::string>& keywords,
+                                      bool strict) const {
+  const runtime::Index& ix = state.index;
+  const uint32_t pass_id = find_pass(state, pass_name);
   const runtime::Pass& pass = ix.passes[pass_id];
   auto group_values = [&](uint32_t g) {
     const runtime::Group& group = ix.groups[pass.first_group + g];
@@ -783,7 +999,7 @@ SelectedVariant PackReader::select(std::string_view pass_name, const std::vector
   // Declared keyword ids are in name order, so sorting the ids sorts the names.
   std::sort(chosen.begin(), chosen.end());
   chosen.erase(std::unique(chosen.begin(), chosen.end()), chosen.end());
-  const auto& by_hash = state_->keys[pass_id].by_hash;
+  const auto& by_hash = state.keys[pass_id].by_hash;
   const uint64_t hash = hash_ids(chosen.data(), chosen.size());
   auto keywords_of = [&](uint32_t v) {
     const runtime::Variant& variant = ix.variants[pass.first_variant + v];
@@ -797,8 +1013,8 @@ SelectedVariant PackReader::select(std::string_view pass_name, const std::vector
     if (std::equal(kw.begin(), kw.end(), chosen.begin(), chosen.end())) found = it->second;
   }
   if (found) {
-    note_selected(pass_id, *found);
-    return variant_of(pass_id, *found);
+    live_->count_served(state, pass_id, *found);
+    return variant_of(state, pass_id, *found);
   }
 
   // Stripped: name the requested keywords that no variant of this pass has together with the rest.
@@ -826,9 +1042,9 @@ SelectedVariant PackReader::select(std::string_view pass_name, const std::vector
     std::set_symmetric_difference(kw.begin(), kw.end(), chosen_names.begin(), chosen_names.end(), std::back_inserter(diff));
     nearest.emplace(diff.size(), join(kw));
   }
-  if (UsageRecorder* usage = state_->recording.load(std::memory_order_acquire)) {
+  if (UsageRecorder* usage = live_->recording.load(std::memory_order_acquire)) {
     std::lock_guard lock(usage->mutex);
-    auto key = std::make_pair(pass_id, chosen_names);
+    auto key = std::make_pair(std::string(pass.name), chosen_names);
     auto it = usage->missing.find(key);
     if (it != usage->missing.end()) {
       ++it->second.count;
@@ -900,6 +1116,233 @@ PackResult<std::string_view> PackReader::try_blob(uint32_t id) const noexcept {
 
 PackResult<const Reflection*> PackReader::try_reflection(uint32_t id) const noexcept {
   return without_exceptions({}, [&] { return &reflection(id); });
+}
+
+// ---- Live updates -------------------------------------------------------------------------------------------------
+
+namespace {
+
+// A variant's binary identity: per stage its entry point, each target's blob (checksum and size, from the blob
+// table the head checksum covers) and its reflection record; then its folded keywords' values. What a pipeline is
+// made of, so two variants with one identity make the same pipeline.
+uint64_t variant_identity(const runtime::Index& ix, const std::vector<Blob>& blobs, const runtime::Pass& pass,
+                          const runtime::Variant& variant) {
+  std::string bytes;
+  auto put = [&](uint64_t value) {
+    for (int i = 0; i < 8; ++i) bytes.push_back(static_cast<char>(value >> (8 * i)));
+  };
+  auto put_text = [&](std::string_view text) {
+    put(text.size());
+    bytes += text;
+  };
+  for (size_t stage = 0; stage < kStageCount; ++stage) {
+    const uint32_t id = variant.binaries[stage];
+    put(id == runtime::kNone ? 0 : 1);
+    if (id == runtime::kNone) continue;
+    const runtime::Binary& binary = ix.binaries[id];
+    put_text(binary.entry);
+    for (size_t target = 0; target < kTargetCount; ++target) {
+      const uint32_t blob = binary.blobs[target];
+      put(blob == runtime::kNone || blob >= blobs.size() ? 0 : 1);  // ids in range: Index::decode; checked again as cheap
+      if (blob == runtime::kNone || blob >= blobs.size()) continue;
+      put(blobs[blob].hash);
+      put(blobs[blob].raw_size);
+    }
+    put_text(binary.reflection < ix.reflections.size() ? ix.reflections[binary.reflection] : std::string_view());
+  }
+  const std::vector<bool> on = ix.folded_on(pass, variant);
+  for (uint32_t f = 0; f < pass.folded_count; ++f) {
+    const runtime::Folded& folded = ix.folded[pass.first_folded + f];
+    put_text(folded.keyword == runtime::kOffValue ? std::string_view() : ix.keywords[folded.keyword]);
+    put(static_cast<uint64_t>(folded.kind));
+    put(static_cast<uint64_t>(folded.stages));
+    put(folded.slot);
+    put(folded.value);
+    put(folded.fallback);
+    put(on[f] ? 1 : 0);
+  }
+  return XXH3_64bits(bytes.data(), bytes.size());
+}
+
+// A pass's variants by keyword set; of variants with the same keywords the last one, as select() takes.
+std::map<std::vector<std::string>, uint32_t> variants_by_keywords(const runtime::Index& ix, const runtime::Pass& pass) {
+  std::map<std::vector<std::string>, uint32_t> out;
+  for (uint32_t v = 0; v < pass.variant_count; ++v) {
+    const runtime::Variant& variant = ix.variants[pass.first_variant + v];
+    std::vector<std::string> keywords;
+    for (uint32_t k = 0; k < variant.keyword_count; ++k)
+      keywords.emplace_back(ix.keywords[ix.variant_keywords[variant.first_keyword + k]]);
+    out[std::move(keywords)] = v;
+  }
+  return out;
+}
+
+const runtime::Pass* pass_named(const runtime::Index& ix, std::string_view name) {
+  for (const runtime::Pass& pass : ix.passes)
+    if (pass.name == name) return &pass;
+  return nullptr;
+}
+
+void drain(int fd) {
+  alignas(inotify_event) char buffer[4096];
+  while (::read(fd, buffer, sizeof buffer) > 0) {
+  }
+}
+
+}  // namespace
+
+PackResult<PackUpdate> PackReader::poll_update() noexcept {
+  Live& live = *live_;
+  try {
+    std::lock_guard lock(live.mutex);
+    ++live.polls;
+    live.reclaim();
+    if (live.inotify >= 0) drain(live.inotify);
+    State& old = *live.current_owner;
+    PackUpdate update;
+    update.version = live.version;
+    update.archive = std::filesystem::path(old.archive_file).filename().string();
+    const std::string manifest_name = live.manifest_file.string();
+    // The cheap answer, every frame: the manifest is the file this version was read from.
+    FileIdentity now = FileIdentity::at(manifest_name);
+    if (now == live.seen) return update;
+    if (live.refused && now == live.refused_manifest && FileIdentity::at(live.refused_archive_file) == live.refused_archive)
+      return update;  // refused already, and reported
+    auto refuse = [&](const FileIdentity& manifest, const std::string& archive_file, const PackError& error) {
+      live.refused = true;
+      live.refused_manifest = manifest;
+      live.refused_archive_file = archive_file;
+      live.refused_archive = archive_file.empty() ? FileIdentity{} : FileIdentity::at(archive_file);
+      return PackResult<PackUpdate>(error.code(), error.what(), error.file());
+    };
+    std::unique_ptr<State> next;
+    for (int attempt = 0;; ++attempt) {
+      std::string archive_file;
+      try {
+        next = load(live.manifest_file, Check::OnUse, &archive_file);
+        break;
+      } catch (const PackError& error) {
+        // A build may have renamed a newer manifest into place (and removed the archive the one read names) while it
+        // was read: read the newer one. Each manifest is read whole from one file, so an old manifest never meets a
+        // new archive; the archive's name is its checksum.
+        const FileIdentity after = FileIdentity::at(manifest_name);
+        if (attempt < 3 && after != now) {
+          now = after;
+          if (now == live.seen) return update;
+          continue;
+        }
+        return refuse(now, archive_file, error);
+      } catch (const std::bad_alloc&) {
+        return refuse(now, archive_file,
+                      PackError(PackError::Code::OutOfMemory, "the new pack does not fit in the memory this process may use",
+                                manifest_name));
+      }
+    }
+    live.refused = false;
+    if (next->name != old.name)
+      return refuse(now, next->archive_file,
+                    PackError(PackError::Code::Format,
+                              "the new manifest is of pack '" + next->name + "', not '" + old.name + "' that this reader serves",
+                              manifest_name));
+    if (next->archive_file == old.archive_file && next->manifest_text.bytes() == old.manifest_text.bytes()) {
+      live.seen = next->manifest_text.identity();  // the same pack written again: nothing to switch
+      return update;
+    }
+
+    for (State* version : {&old, next.get()}) {
+      if (!version->identities.empty()) continue;
+      const runtime::Index& ix = version->index;
+      version->identities.resize(ix.variants.size());
+      for (const runtime::Pass& pass : ix.passes)
+        for (uint32_t v = 0; v < pass.variant_count; ++v)
+          version->identities[pass.first_variant + v] = variant_identity(ix, version->blobs, pass, ix.variants[pass.first_variant + v]);
+    }
+    const runtime::Index &was = old.index, &is = next->index;
+    auto change = [&](VariantChange::Kind kind, const std::string& pass, const std::vector<std::string>& keywords,
+                      size_t old_index, size_t new_index) {
+      update.changes.push_back({kind, pass, keywords, old_index, new_index});
+    };
+    for (const runtime::Pass& pass : is.passes) {
+      const std::string name(pass.name);
+      const runtime::Pass* before = pass_named(was, pass.name);
+      const auto now_variants = variants_by_keywords(is, pass);
+      const auto old_variants = before ? variants_by_keywords(was, *before) : std::map<std::vector<std::string>, uint32_t>{};
+      auto a = old_variants.begin();
+      auto b = now_variants.begin();
+      while (a != old_variants.end() || b != now_variants.end()) {
+        if (b == now_variants.end() || (a != old_variants.end() && a->first < b->first)) {
+          change(VariantChange::Kind::Removed, name, a->first, a->second, VariantChange::kNoIndex);
+          ++a;
+        } else if (a == old_variants.end() || b->first < a->first) {
+          change(VariantChange::Kind::Added, name, b->first, VariantChange::kNoIndex, b->second);
+          ++b;
+        } else {
+          if (old.identities[before->first_variant + a->second] != next->identities[pass.first_variant + b->second])
+            change(VariantChange::Kind::Changed, name, b->first, a->second, b->second);
+          else if (a->second != b->second)
+            change(VariantChange::Kind::Moved, name, b->first, a->second, b->second);
+          ++a;
+          ++b;
+        }
+      }
+    }
+    for (const runtime::Pass& pass : was.passes)
+      if (!pass_named(is, pass.name))
+        for (const auto& [keywords, index] : variants_by_keywords(was, pass))
+          change(VariantChange::Kind::Removed, std::string(pass.name), keywords, index, VariantChange::kNoIndex);
+    update.ids_changed = was.passes.size() != is.passes.size() || was.declared_keywords != is.declared_keywords ||
+                         !std::equal(was.passes.begin(), was.passes.end(), is.passes.begin(), is.passes.end(),
+                                     [](const runtime::Pass& x, const runtime::Pass& y) { return x.name == y.name; }) ||
+                         !std::equal(was.keywords.begin(), was.keywords.begin() + was.declared_keywords, is.keywords.begin());
+
+    // The switch: counted from its first selection, then published; the version replaced stays until reclaim() frees it.
+    if (live.usage) {
+      next->counts = counts_for(is);
+      next->served.store(next->counts.get(), std::memory_order_release);
+    }
+    live.seen = next->manifest_text.identity();
+    live.current.store(next.get(), std::memory_order_seq_cst);
+    live.retired.push_back({std::move(live.current_owner), live.epochs.epoch(), live.polls});
+    live.current_owner = std::move(next);
+    ++live.version;
+    live.epochs.try_advance();
+    update.switched = true;
+    update.version = live.version;
+    update.archive = std::filesystem::path(live.current_owner->archive_file).filename().string();
+    return update;
+  } catch (const PackError& error) {
+    return {error.code(), error.what(), error.file()};
+  } catch (const std::bad_alloc&) {
+    return {PackError::Code::OutOfMemory, "out of memory looking for a new pack", live.manifest_file.string()};
+  } catch (const std::exception& error) {
+    return {PackError::Code::Io, error.what(), live.manifest_file.string()};
+  }
+}
+
+PackReader::Pin::Pin(Live* live) noexcept : live_(live), stripe_(thread_stripe()), parity_(live->epochs.enter(stripe_)) {}
+PackReader::Pin::Pin(Pin&& other) noexcept
+    : live_(std::exchange(other.live_, nullptr)), stripe_(other.stripe_), parity_(other.parity_) {}
+PackReader::Pin::~Pin() {
+  if (live_) live_->epochs.leave(stripe_, parity_);
+}
+PackReader::Pin PackReader::pin() const noexcept { return Pin(live_.get()); }
+
+PackResult<int> PackReader::update_fd() noexcept {
+  Live& live = *live_;
+  std::lock_guard lock(live.mutex);
+  if (live.inotify >= 0) return live.inotify;
+  std::string directory = live.manifest_file.parent_path().string();
+  if (directory.empty()) directory = ".";
+  const int fd = ::inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
+  if (fd < 0) return PackResult<int>(PackError::Code::Io, std::string("inotify: ") + std::strerror(errno), directory);
+  // A build renames its files into place; a copy closes them after writing; a removal is news too.
+  if (::inotify_add_watch(fd, directory.c_str(), IN_MOVED_TO | IN_CLOSE_WRITE | IN_DELETE | IN_MOVED_FROM) < 0) {
+    const int error = errno;
+    ::close(fd);
+    return PackResult<int>(PackError::Code::Io, std::string("inotify: ") + std::strerror(error), directory);
+  }
+  live.inotify = fd;
+  return fd;
 }
 
 }  // namespace kiln
