@@ -34,7 +34,7 @@ int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cach
   if (summary_file == "-")
     std::cout << kiln::build_summary_json(report, sink, code, options) << std::flush;
   else if (!summary_file.empty())
-    if (kiln::Result<void> written = kiln::write_file_atomic(summary_file, kiln::build_summary_json(report, sink, code, options));
+    if (kiln::Result<void> written = kiln::write_output_file(summary_file, kiln::build_summary_json(report, sink, code, options));
         !written) {
       std::cerr << "kiln: error[K1601]: --summary-json: " << written.error().message << "\n";
       code = kiln::worse_exit_status(code, kiln::exit_status(kiln::ExitClass::Environment));

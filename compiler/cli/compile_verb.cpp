@@ -114,7 +114,7 @@ class CompileVerb final : public Verb {
                                        {"source", std::filesystem::absolute(file_, ec).string()},
                                        {"stages", {{std::string(stage_name(*stage)), entry_}}}}})}};
     const std::filesystem::path pack_file = scratch / "compile.pack.json";
-    if (Result<void> written = write_file_atomic(pack_file, pack.dump(2) + "\n"); !written) {
+    if (Result<void> written = write_output_file(pack_file, pack.dump(2) + "\n"); !written) {
       std::cerr << "kiln: error[K1601]: " << written.error().message << "\n";
       std::filesystem::remove_all(scratch, ec);
       return exit_status(ExitClass::Environment);
@@ -171,7 +171,7 @@ class CompileVerb final : public Verb {
         std::cout.flush();
         return std::cout ? 0 : exit_status(ExitClass::Environment);
       }
-      if (Result<void> written = write_file_atomic(output_, code); !written) {
+      if (Result<void> written = write_output_file(output_, code); !written) {
         std::cerr << output_ << ": error[K1601]: " << written.error().message << "\n";
         return exit_status(ExitClass::Environment);
       }

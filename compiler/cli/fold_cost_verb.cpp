@@ -124,7 +124,7 @@ class FoldCostVerb final : public Verb {
     if (json_file_ == "-") {
       std::cout << result.dump(2) << "\n";
     } else if (!json_file_.empty()) {
-      if (Result<void> written = write_file_atomic(json_file_, result.dump(2) + "\n"); !written) {
+      if (Result<void> written = write_output_file(json_file_, result.dump(2) + "\n"); !written) {
         std::cerr << "kiln: error[K1601]: --json: " << written.error().message << "\n";
         return exit_status(ExitClass::Environment);
       }

@@ -30,7 +30,7 @@ int run_inspect(const std::string& pack_dir, bool as_json, const std::string& ex
         for (const auto& [target, id] : binary.blobs) {
           std::string name = "binary" + std::to_string(b) + "." + std::string(kiln::stage_name(binary.stage)) +
                              std::string(kiln::target_extension(target));
-          if (kiln::Result<void> written = kiln::write_file_atomic(std::filesystem::path(extract) / name, std::string(pack.blob(id)));
+          if (kiln::Result<void> written = kiln::write_output_file(std::filesystem::path(extract) / name, std::string(pack.blob(id)));
               !written) {
             std::cerr << extract << ": error[K1601]: " << written.error().message << "\n";
             return kiln::exit_status(kiln::ExitClass::Environment);

@@ -66,7 +66,7 @@ class LintVerb final : public Verb {
     if (output_ == "-") {
       std::cout << text << std::flush;
     } else if (!output_.empty()) {
-      if (kiln::Result<void> written = kiln::write_file_atomic(output_, text); !written) {
+      if (kiln::Result<void> written = kiln::write_output_file(output_, text); !written) {
         std::cerr << output_ << ": error[K1601]: " << written.error().message << "\n";
         return kiln::exit_status(kiln::ExitClass::Environment);
       }

@@ -165,7 +165,7 @@ class MergeUsageVerb final : public Verb {
     if (!merged) return 1;
     if (output_ == "-") {
       std::cout << merged->text << std::flush;
-    } else if (kiln::Result<void> written = kiln::write_file_atomic(output_, merged->text); !written) {
+    } else if (kiln::Result<void> written = kiln::write_output_file(output_, merged->text); !written) {
       std::cerr << output_ << ": error[K1601]: " << written.error().message << "\n";
       return kiln::exit_status(kiln::ExitClass::Environment);
     }

@@ -121,7 +121,7 @@ TEST(IntegratedEnvironment, AWrongSharedEnvironmentPassesTheTableReferenceAndFai
   Environment environment = load_environment(load_scene(kScene).environment);
   for (float& c : environment.sh[1]) c = -c;
   const std::filesystem::path broken = std::filesystem::temp_directory_path() / ("kiln-broken-sh-" + std::to_string(::getpid()) + ".kenv");
-  write_file_atomically(broken, encode_environment(environment));
+  write_output(broken, encode_environment(environment));
   Judged s(broken);
   const size_t judged = 2;  // fp32 with and without energy compensation
   const std::vector<Image> integrated = s.shade(kSamples, 0, judged);

@@ -60,8 +60,8 @@ TEST(Result, PackResultIsAResultWithThePackError) {
 
 TEST(Result, WritingAFileSaysWhichFileAndWhy) {
   testing::TempDir dir;
-  EXPECT_TRUE(write_file_atomic(dir.path() / "a.txt", "text"));
-  Result<void> failed = write_file_atomic(dir.path() / "missing" / "a.txt", "text");
+  EXPECT_TRUE(write_output_file(dir.path() / "a.txt", "text"));
+  Result<void> failed = write_output_file(dir.path() / "missing" / "a.txt", "text");
   ASSERT_FALSE(failed);
   EXPECT_NE(failed.error().message.find("missing"), std::string::npos) << failed.error().message;
   EXPECT_NE(failed.error().message.find("No such file or directory"), std::string::npos) << failed.error().message;
@@ -75,10 +75,10 @@ TEST(Result, AFileWrittenFromManyPartsHoldsThemJoined) {
   std::vector<std::string_view> parts(texts.begin(), texts.end());
   std::string joined;
   for (std::string_view part : parts) joined += part;
-  ASSERT_TRUE(write_file_atomic(dir.path() / "parts.bin", parts));
+  ASSERT_TRUE(write_output_file(dir.path() / "parts.bin", parts));
   EXPECT_EQ(*read_binary_file(dir.path() / "parts.bin"), joined);
   EXPECT_EQ(hash64(parts), hash64(joined));
-  ASSERT_TRUE(write_file_atomic(dir.path() / "none.bin", std::vector<std::string_view>{}));
+  ASSERT_TRUE(write_output_file(dir.path() / "none.bin", std::vector<std::string_view>{}));
   EXPECT_EQ(*read_binary_file(dir.path() / "none.bin"), "");
 }
 

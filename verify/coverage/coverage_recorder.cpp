@@ -3,11 +3,13 @@
 #include <cctype>
 #include <cstdio>
 #include <fstream>
+#include <sstream>
 #include <functional>
 #include <set>
 
 #include <nlohmann/json.hpp>
 
+#include "scene/image.hpp"
 #include "scene/verify_error.hpp"
 
 namespace kiln::render {
@@ -81,7 +83,7 @@ std::string CoverageRecorder::summary() const {
 }
 
 void CoverageRecorder::write_lcov(const std::filesystem::path& path, const std::string& test_name) const {
-  std::ofstream out(path, std::ios::binary);
+  std::ostringstream out;
   // lcov's test names are word characters only.
   std::string name;
   for (char c : test_name) name.push_back(std::isalnum(static_cast<unsigned char>(c)) ? c : '_');
@@ -99,7 +101,7 @@ void CoverageRecorder::write_lcov(const std::filesystem::path& path, const std::
     }
     out << "LF:" << lines.size() << "\nLH:" << hit << "\nend_of_record\n";
   }
-  if (!out.flush()) fail(DiagId::OutputUnwritable, path, "cannot write the coverage tracefile");
+  write_output(path, std::move(out).str());
 }
 
 void CoverageRecorder::write_json(const std::filesystem::path& path, const std::string& test_name) const {
@@ -113,9 +115,7 @@ void CoverageRecorder::write_json(const std::filesystem::path& path, const std::
     }
     files[file] = std::move(entry);
   }
-  std::ofstream out(path, std::ios::binary);
-  out << nlohmann::ordered_json{{"test", test_name}, {"files", std::move(files)}}.dump(1) << "\n";
-  if (!out.flush()) fail(DiagId::OutputUnwritable, path, "cannot write the coverage JSON");
+  write_output(path, nlohmann::ordered_json{{"test", test_name}, {"files", std::move(files)}}.dump(1) + "\n");
 }
 
 }  // namespace kiln::render

@@ -161,7 +161,7 @@ void write_html_report(const std::filesystem::path& path, const std::string& tit
                      "<th>" + compared_with + "</th><th>|difference| x 16</th></tr>";
   for (const std::string& row : rows) html += row;
   html += "</table>\n";
-  write_file_atomically(path, html);
+  write_output(path, html);
 }
 
 }  // namespace kiln::render

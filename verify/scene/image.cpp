@@ -8,11 +8,14 @@
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfOutputFile.h>
+#include "kiln/output_file.hpp"
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -29,17 +32,11 @@ double srgb_encode(double linear) {
   return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1.0 / 2.4) - 0.055;
 }
 
-std::filesystem::path temporary_for(const std::filesystem::path& path) {
-  return path.string() + ".tmp" + std::to_string(::getpid());
-}
-
-void rename_into_place(const std::filesystem::path& temporary, const std::filesystem::path& path) {
-  std::error_code ec;
-  std::filesystem::rename(temporary, path, ec);
-  if (!ec) return;
-  std::error_code ignored;
-  std::filesystem::remove(temporary, ignored);
-  fail(DiagId::OutputUnwritable, path, "cannot write the file: " + ec.message());
+std::optional<std::string> read_binary(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream bytes;
+  if (!(in && bytes << in.rdbuf())) return std::nullopt;
+  return std::move(bytes).str();
 }
 
 }  // namespace
@@ -50,18 +47,8 @@ void create_output_directory(const std::filesystem::path& dir) {
   if (ec) fail(DiagId::OutputUnwritable, dir, "cannot make the directory: " + ec.message());
 }
 
-void write_file_atomically(const std::filesystem::path& path, const std::string& bytes) {
-  auto temporary = temporary_for(path);
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    if (!out.flush()) {
-      std::error_code ec;
-      std::filesystem::remove(temporary, ec);
-      fail(DiagId::OutputUnwritable, path, "cannot write the file");
-    }
-  }
-  rename_into_place(temporary, path);
+void write_output(const std::filesystem::path& path, std::string_view bytes) {
+  if (Result<void> written = write_output_file(path, bytes); !written) fail(DiagId::OutputUnwritable, path, written.error().message);
 }
 
 std::vector<uint8_t> encode_srgb8(const Image& image, bool apply_aces) {
@@ -93,7 +80,7 @@ void write_png(const std::filesystem::path& path, uint32_t width, uint32_t heigh
   if (!png_image_write_to_memory(&png, bytes.data(), &size, 0, rgba8.data(), 0, nullptr))
     fail(DiagId::OutputUnwritable, path, std::string("PNG encoding failed: ") + png.message);
   bytes.resize(size);
-  write_file_atomically(path, bytes);
+  write_output(path, bytes);
 }
 
 std::vector<uint8_t> read_png(const std::filesystem::path& path, uint32_t& width, uint32_t& height) {
@@ -112,7 +99,12 @@ std::vector<uint8_t> read_png(const std::filesystem::path& path, uint32_t& width
 }
 
 void write_exr(const std::filesystem::path& path, const Image& image) {
-  auto temporary = temporary_for(path);
+  // In the temporary directory, not beside the path: the path may be a device (`-o /dev/null`).
+  std::error_code no_tmp;
+  std::filesystem::path temporary = std::filesystem::temp_directory_path(no_tmp);
+  if (no_tmp) temporary = "/tmp";
+  static std::atomic<unsigned> counter{0};
+  temporary /= "kiln-exr-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ".exr";
   {
     Imf::Header header(static_cast<int>(image.width), static_cast<int>(image.height));
     const char* names[4] = {"R", "G", "B", "A"};
@@ -132,7 +124,12 @@ void write_exr(const std::filesystem::path& path, const Image& image) {
       fail(DiagId::OutputUnwritable, path, std::string("cannot write the OpenEXR image: ") + e.what());
     }
   }
-  rename_into_place(temporary, path);
+  // OpenEXR writes (and seeks in) a file of its own; its bytes then go where they were asked for, as every output's.
+  std::optional<std::string> bytes = read_binary(temporary);
+  std::error_code ignored;
+  std::filesystem::remove(temporary, ignored);
+  if (!bytes) fail(DiagId::OutputUnwritable, path, "cannot read back the OpenEXR image written beside it");
+  write_output(path, *bytes);
 }
 
 void write_kimg(const std::filesystem::path& path, const Image& image) {
@@ -142,7 +139,7 @@ void write_kimg(const std::filesystem::path& path, const Image& image) {
   put(image.width);
   put(image.height);
   bytes.append(reinterpret_cast<const char*>(image.rgba.data()), image.rgba.size() * sizeof(float));
-  write_file_atomically(path, bytes);
+  write_output(path, bytes);
 }
 
 Image read_kimg(const std::filesystem::path& path) {

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace kiln::render {
@@ -34,7 +35,8 @@ Image read_kimg(const std::filesystem::path& path);
 
 // Creates `dir` and its parents; one that cannot be made is K1601 (OutputUnwritable, exit 3).
 void create_output_directory(const std::filesystem::path& dir);
-// Writes `bytes` to `path` through a temporary file in the same directory and a rename.
-void write_file_atomically(const std::filesystem::path& path, const std::string& bytes);
+// Writes `bytes` to `path` as kiln writes every output (kiln/output_file.hpp: atomic for a regular file, in place
+// for a device or a FIFO, never through a link); fails with K1601 when it cannot.
+void write_output(const std::filesystem::path& path, std::string_view bytes);
 
 }  // namespace kiln::render

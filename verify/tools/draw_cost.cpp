@@ -21,6 +21,7 @@
 #include <nlohmann/json.hpp>
 
 #include "render/renderer.hpp"
+#include "scene/image.hpp"
 #include "scene/verify_error.hpp"
 #include "tools/draw_cost.hpp"
 
@@ -108,7 +109,7 @@ int run_draw_cost(const std::string& config_file, const std::string& out_file) {
       }
       out["rows"].push_back(std::move(row));
     }
-    std::ofstream(out_file) << out.dump(1) << "\n";
+    write_output(out_file, out.dump(1) + "\n");
     return 0;
   });
 }

@@ -64,7 +64,7 @@ int make_goldens(const std::string& pack_dir, const std::string& scene_file,
     render::write_kimg(std::filesystem::path(output) / file, image);
   });
   const size_t shaded = to_shade.size();
-  render::write_file_atomically(std::filesystem::path(output) / "index.json", index.dump(1) + "\n");
+  render::write_output(std::filesystem::path(output) / "index.json", index.dump(1) + "\n");
   std::cout << "kiln-reference: " << shaded << " reference images for " << index["variants"].size()
             << " Forward variants of " << pack.name() << " (scene " << scene.name << ") in " << output << "\n";
   return 0;
@@ -114,7 +114,7 @@ int run(int argc, char** argv) {
       auto table = kiln::reference::make_dfg_table(size, size, samples);
       bytes = kiln::reference::encode_dfg_table(table, samples);
     }
-    kiln::render::write_file_atomically(output, bytes);
+    kiln::render::write_output(output, bytes);
     std::cout << "wrote " << output << "\n";
     return 0;
   });

@@ -383,7 +383,7 @@ Result<void> Cache::commit() {
   std::string checksums;
   for (const auto& [key, record] : records) checksums.append(record, 40, 8);
   const std::string name = "seg-" + hash128(header + index + checksums).hex() + kSegmentExtension;
-  Result<void> written = write_file_atomic(directory_ / name, parts);
+  Result<void> written = write_output_file(directory_ / name, parts);
   if (written) {
     for (size_t s : merged)
       if (segments_[s].path.filename() != name) std::filesystem::remove(segments_[s].path, ec);

@@ -3,10 +3,8 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
-#include <sys/uio.h>
 #include <unistd.h>
 
-#include <atomic>
 #include <cerrno>
 #include <climits>
 #include <cstring>
@@ -154,56 +152,6 @@ std::filesystem::path make_scratch_directory(const std::filesystem::path& direct
   std::string scratch = (directory / (std::string(prefix) + std::to_string(::getpid()) + "-XXXXXX")).string();
   if (!::mkdtemp(scratch.data())) return {};
   return scratch;
-}
-
-Result<void> write_file_atomic(const std::filesystem::path& path, std::string_view bytes) {
-  return write_file_atomic(path, std::vector<std::string_view>{bytes});
-}
-
-Result<void> write_file_atomic(const std::filesystem::path& path, const std::vector<std::string_view>& parts) {
-  static std::atomic<uint64_t> counter{0};
-  std::filesystem::path temp = path;
-  temp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
-  int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return failure("cannot create '" + temp.string() + "': " + std::strerror(errno));
-  // Up to IOV_MAX parts a call (an archive is thousands of blobs); a short write resumes inside its part.
-  size_t part = 0, offset = 0;  // the first byte not yet written
-  while (part < parts.size()) {
-    std::vector<iovec> batch;
-    for (size_t p = part; p < parts.size() && batch.size() < IOV_MAX; ++p) {
-      const size_t skip = p == part ? offset : 0;
-      if (parts[p].size() > skip) batch.push_back({const_cast<char*>(parts[p].data() + skip), parts[p].size() - skip});
-    }
-    if (batch.empty()) break;
-    ssize_t put = ::writev(fd, batch.data(), static_cast<int>(batch.size()));
-    if (put < 0 && errno == EINTR) continue;
-    if (put <= 0) {
-      std::string error = "cannot write '" + temp.string() + "': " + std::strerror(errno);
-      ::close(fd);
-      ::unlink(temp.c_str());
-      return failure(std::move(error));
-    }
-    for (auto left = static_cast<size_t>(put); part < parts.size();) {
-      const size_t rest = parts[part].size() - offset;
-      if (left < rest) {
-        offset += left;
-        break;
-      }
-      left -= rest;
-      ++part;
-      offset = 0;
-    }
-  }
-  if (::close(fd) != 0) {
-    ::unlink(temp.c_str());
-    return failure("cannot write '" + temp.string() + "': " + std::strerror(errno));
-  }
-  if (::rename(temp.c_str(), path.c_str()) != 0) {
-    std::string error = "cannot rename '" + temp.string() + "' to '" + path.string() + "': " + std::strerror(errno);
-    ::unlink(temp.c_str());
-    return failure(std::move(error));
-  }
-  return {};
 }
 
 }  // namespace kiln

@@ -428,14 +428,14 @@ class Scheduler {
     if (module) {
       std::filesystem::path spv = dir / (base + ".spv");
       Result<void> written =
-          write_file_atomic(spv, std::string_view(reinterpret_cast<const char*>(module->data()), module->size() * 4));
+          write_output_file(spv, std::string_view(reinterpret_cast<const char*>(module->data()), module->size() * 4));
       header += "// the front end succeeded; the worker died in the back end, given " + spv.filename().string() +
                 ":\n// spirv-opt --legalize-hlsl " + base + ".spv -o legal.spv && spirv-val --target-env " + kTargetEnvironment.spirv_env +
                 " legal.spv && spirv-opt -O legal.spv -o opt.spv && spirv-cross opt.spv\n";
       if (written) notes.push_back("the front end's SPIR-V module (the back end's input) written to " + spv.string());
       else unwritten.push_back("the front end's SPIR-V module could not be written: " + written.error().message);
     }
-    if (Result<void> written = write_file_atomic(repro, header + s.text))
+    if (Result<void> written = write_output_file(repro, header + s.text))
       notes.insert(notes.begin(), "reproducer written to " + repro.string());
     else
       unwritten.insert(unwritten.begin(), "the reproducer could not be written: " + written.error().message);

@@ -19,7 +19,7 @@ void emit_dumps(BuildContext& build, const Plan& plan, const StageSources& sourc
   auto put = [&](const std::filesystem::path& path, const std::string& bytes) {
     std::error_code ec;
     std::filesystem::create_directories(path.parent_path(), ec);
-    if (Result<void> written = write_file_atomic(path, bytes); !written)
+    if (Result<void> written = write_output_file(path, bytes); !written)
       sink.report(DiagId::OutputUnwritable, SourceLocation{path.string(), 0, 0}, written.error().message);
   };
   if (emit.count("variants")) {

@@ -62,14 +62,14 @@ std::optional<std::string> current_archive(const std::filesystem::path& director
 
 Result<void> write_stamp(const std::filesystem::path& directory, const std::string& name, const std::string& archive_file,
                         const std::string& inputs_hash) {
-  return write_file_atomic(stamp_path(directory, name), stamp_text(directory, name, archive_file, inputs_hash));
+  return write_output_file(stamp_path(directory, name), stamp_text(directory, name, archive_file, inputs_hash));
 }
 
 bool write_depfile(const std::filesystem::path& depfile, const std::filesystem::path& manifest,
                    const std::vector<std::filesystem::path>& dependencies, DiagnosticSink& sink) {
   std::string text = depfile_escape(manifest.string()) + ":";
   for (const auto& dependency : dependencies) text += " \\\n  " + depfile_escape(dependency.string());
-  Result<void> written = write_file_atomic(depfile, text + "\n");
+  Result<void> written = write_output_file(depfile, text + "\n");
   if (written) return true;
   sink.report(DiagId::OutputUnwritable, SourceLocation{depfile.string(), 0, 0}, written.error().message);
   return false;

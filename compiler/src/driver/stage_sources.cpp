@@ -244,7 +244,7 @@ void Preprocessor::write_reproducer(StageSource& s) const {
                            preamble + "#line 1\n" + (file ? file->text : std::string());
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  if (Result<void> written = write_file_atomic(repro, text))
+  if (Result<void> written = write_output_file(repro, text))
     s.internal_notes.push_back("reproducer written to " + repro.string());
   else
     s.internal_notes.push_back("the reproducer could not be written: " + written.error().message);

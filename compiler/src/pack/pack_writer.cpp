@@ -126,10 +126,10 @@ Result<std::string> write_pack(const std::filesystem::path& directory, const std
 
   // The previous manifest names another archive (or this one, when the content is the same: then the rename
   // replaces it with the same bytes), so until the manifest's rename below the previous pack is whole.
-  if (Result<void> written = write_file_atomic(directory / archive_file, bytes.parts); !written) return failure(written.error());
+  if (Result<void> written = write_output_file(directory / archive_file, bytes.parts); !written) return failure(written.error());
   inject_fault("kill-after-archive");
   // On failure the new archive is left for the next build to remove: with the same content, it is the previous pack's.
-  if (Result<void> written = write_file_atomic(manifest_path(directory, name), text); !written) return failure(written.error());
+  if (Result<void> written = write_output_file(manifest_path(directory, name), text); !written) return failure(written.error());
   inject_fault("kill-after-manifest");
   remove_orphaned_archives(directory, name, archive_file);
   if (files) *files = {std::move(bytes), std::move(text)};

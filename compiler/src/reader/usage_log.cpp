@@ -8,6 +8,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "kiln/output_file.hpp"
+
 namespace kiln::usage_log {
 
 std::string text(std::string_view pack, const std::map<std::string, std::string>& tags, std::vector<Pass> passes,
@@ -36,23 +38,8 @@ std::string text(std::string_view pack, const std::map<std::string, std::string>
 }
 
 Result<void> write_atomically(const std::filesystem::path& file, const std::string& text) {
-  const std::filesystem::path temporary = file.string() + ".tmp-" + std::to_string(::getpid());
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out << text;
-    if (!out.flush()) {
-      std::error_code ignored;
-      std::filesystem::remove(temporary, ignored);
-      return failure("cannot write the usage log");
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(temporary, file, ec);
-  if (ec) {
-    std::error_code ignored;
-    std::filesystem::remove(temporary, ignored);
-    return failure("cannot write the usage log: " + ec.message());
-  }
+  if (Result<void> written = write_output_file(file, text); !written)
+    return failure("cannot write the usage log: " + written.error().message);
   return {};
 }
 

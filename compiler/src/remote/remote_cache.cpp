@@ -645,8 +645,8 @@ std::optional<std::string> RemoteCache::fetch_pack(const RemoteKey& key, const s
   const std::string scratch = make_scratch_directory(directory, ".kiln-remote-").string();
   if (scratch.empty()) return std::nullopt;
   std::error_code ec;
-  bool good = write_file_atomic(std::filesystem::path(scratch) / archive_file, *archive).has_value() &&
-              write_file_atomic(manifest_path(scratch, pack_name), *manifest).has_value();
+  bool good = write_output_file(std::filesystem::path(scratch) / archive_file, *archive).has_value() &&
+              write_output_file(manifest_path(scratch, pack_name), *manifest).has_value();
   try {
     good = good && PackReader::open(manifest_path(scratch, pack_name), PackReader::Check::Full).name() == pack_name;
   } catch (const PackError& error) {
@@ -657,6 +657,10 @@ std::optional<std::string> RemoteCache::fetch_pack(const RemoteKey& key, const s
   // rename.
   if (good && !std::filesystem::exists(directory / archive_file, ec))
     std::filesystem::rename(std::filesystem::path(scratch) / archive_file, directory / archive_file, ec);
+  // Only a manifest kiln wrote is replaced: a link or anything else there is left for the pack writer to refuse.
+  std::error_code absent;  // not found is no error here
+  const std::filesystem::file_status there = std::filesystem::symlink_status(manifest_path(directory, pack_name), absent);
+  good = good && (there.type() == std::filesystem::file_type::not_found || there.type() == std::filesystem::file_type::regular);
   if (good && !ec) std::filesystem::rename(manifest_path(scratch, pack_name), manifest_path(directory, pack_name), ec);
   std::filesystem::remove_all(scratch, ec);
   if (!good || !std::filesystem::exists(manifest_path(directory, pack_name))) return std::nullopt;
