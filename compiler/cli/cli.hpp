@@ -64,6 +64,7 @@ std::unique_ptr<Verb> make_merge_usage_verb();
 std::unique_ptr<Verb> make_diff_packs_verb();
 std::unique_ptr<Verb> make_compile_verb();
 std::unique_ptr<Verb> make_fold_cost_verb();
+std::unique_ptr<Verb> make_watch_verb();
 
 // Rendering and golden tests are kiln-verify's verbs (it links Vulkan, EGL, PNG and OpenEXR; kiln does not):
 // listed in --help, handed to kiln-verify before parsing.

@@ -28,7 +28,7 @@ int run(int argc, char** argv) {
   for (auto make : {kiln::cli::make_build_verb, kiln::cli::make_list_verb, kiln::cli::make_inspect_verb,
                     kiln::cli::make_lint_verb, kiln::cli::make_check_scene_verb, kiln::cli::make_check_usage_verb,
                     kiln::cli::make_merge_usage_verb, kiln::cli::make_diff_packs_verb, kiln::cli::make_compile_verb,
-                    kiln::cli::make_fold_cost_verb}) {
+                    kiln::cli::make_fold_cost_verb, kiln::cli::make_watch_verb}) {
     std::unique_ptr<kiln::cli::Verb> verb = make();
     CLI::App* command = verb->add_to(app);
     verbs.emplace_back(command, std::move(verb));

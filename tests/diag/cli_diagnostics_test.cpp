@@ -1346,6 +1346,7 @@ TEST_F(Cli, AnExceptionThatEscapesAnyVerbIsABugInKilnWithExitTwo) {
         EXPECT_NE(r.err.find("injected into '" + verb + "'"), std::string::npos) << shown;
       }
     }
+      {"watch", {"p.pack.json", "-o", "out3", "--cache", "cache"}},
   }
   // The shipped executables have no fault injection.
   const auto shipped = testing::run({"/usr/bin/env", "KILN_INJECT_FAULT=list:runtime_error", KILN_CLI_PATH, "list", "p.pack.json"},

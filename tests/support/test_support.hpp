@@ -2,7 +2,9 @@
 #pragma once
 
 #include <fcntl.h>
+#include <poll.h>
 #include <pty.h>
+#include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <termios.h>
@@ -17,6 +19,7 @@
 #include <cstdio>
 #include <chrono>
 #include <filesystem>
+#include <optional>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -222,5 +225,83 @@ inline nlohmann::json corpus_stages(const std::string& header, const std::filesy
   }
   return stages;
 }
+
+// A program running in the background (kiln watch), its standard output read line by line from a pipe as it writes
+// them, its standard error into a file. A test waits on what it writes, never on time; the program is killed if the
+// test ends first.
+class BackgroundProcess {
+ public:
+  BackgroundProcess(const std::vector<std::string>& argv, const std::filesystem::path& cwd) {
+    int out[2];
+    if (::pipe2(out, O_CLOEXEC) != 0) return;
+    const std::string err_path = (capture_ / "err").string();
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, out[1], 1);
+    posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addchdir_np(&actions, cwd.c_str());
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    if (posix_spawn(&pid_, args[0], &actions, nullptr, args.data(), environ) != 0) pid_ = -1;
+    posix_spawn_file_actions_destroy(&actions);
+    ::close(out[1]);
+    out_ = out[0];
+  }
+  BackgroundProcess(const BackgroundProcess&) = delete;
+  BackgroundProcess& operator=(const BackgroundProcess&) = delete;
+  ~BackgroundProcess() {
+    if (pid_ > 0) end(SIGKILL);
+    if (out_ >= 0) ::close(out_);
+  }
+  pid_t pid() const { return pid_; }
+
+  // The next line it writes to standard output, without its newline; nothing when it closed its output first (it
+  // ended), or after `limit`, which is no timing but a hung program failing its test rather than hanging it.
+  std::optional<std::string> next_line(std::chrono::seconds limit = std::chrono::seconds(120)) {
+    for (;;) {
+      if (const size_t end = buffered_.find('\n'); end != std::string::npos) {
+        std::string line = buffered_.substr(0, end);
+        buffered_.erase(0, end + 1);
+        return line;
+      }
+      pollfd entry{out_, POLLIN, 0};
+      const int ready = ::poll(&entry, 1, static_cast<int>(limit.count() * 1000));
+      if (ready < 0 && errno == EINTR) continue;
+      if (ready <= 0) return std::nullopt;
+      char buffer[4096];
+      const ssize_t n = ::read(out_, buffer, sizeof buffer);
+      if (n <= 0) return std::nullopt;
+      buffered_.append(buffer, static_cast<size_t>(n));
+    }
+  }
+  // Everything it wrote to standard error so far.
+  std::string err() const { return read_file(capture_ / "err"); }
+  // Its open file descriptors now (the entries of /proc/PID/fd).
+  size_t open_descriptors() const {
+    size_t count = 0;
+    std::error_code ec;
+    for (auto it = std::filesystem::directory_iterator("/proc/" + std::to_string(pid_) + "/fd", ec);
+         !ec && it != std::filesystem::directory_iterator(); it.increment(ec))
+      ++count;
+    return count;
+  }
+  // Sends `signal` and waits for it to end: its exit status, 128 + the signal when a signal ended it.
+  int end(int signal) {
+    if (pid_ <= 0) return -1;
+    ::kill(pid_, signal);
+    int status = 0;
+    while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
+    }
+    pid_ = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  }
+
+ private:
+  TempDir capture_;
+  pid_t pid_ = -1;
+  int out_ = -1;
+  std::string buffered_;
+};
 
 }  // namespace kiln::testing

@@ -22,5 +22,8 @@ inline constexpr std::chrono::seconds kRemoteLowSpeedTime{4};
 inline constexpr int kRemoteRetries = 2;
 inline constexpr std::chrono::milliseconds kRemoteRetryPause{100};
 inline constexpr unsigned kRemoteParallelTransfers = 32;                   // --remote-parallel
+// kiln watch: a save is over once no change to an input has come for this long. An editor's save is a sequence
+// (write a temporary file, rename it over the old one, set its mode) that takes milliseconds; one round builds it.
+inline constexpr std::chrono::milliseconds kWatchQuietPeriod{100};
 
 }  // namespace kiln::defaults
