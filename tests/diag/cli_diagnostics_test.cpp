@@ -1325,6 +1325,7 @@ TEST_F(Cli, AnExceptionThatEscapesAnyVerbIsABugInKilnWithExitTwo) {
       {"diff-packs", {"out", "out"}},
       {"compile", {"S.hlsl", "-S", "fragment", "-E", "F", "-o", "f.spv"}},
       {"fold-cost", {"p.pack.json"}},
+      {"watch", {"p.pack.json", "-o", "out3", "--cache", "cache"}},
       {"render", {"out", "--scene", "p.pack.json", "-o", "x.png"}},
       {"test", {"out", "--scene", "p.pack.json", "--golden", "golden", "--tolerances", "p.pack.json"}},
   };
@@ -1346,7 +1347,6 @@ TEST_F(Cli, AnExceptionThatEscapesAnyVerbIsABugInKilnWithExitTwo) {
         EXPECT_NE(r.err.find("injected into '" + verb + "'"), std::string::npos) << shown;
       }
     }
-      {"watch", {"p.pack.json", "-o", "out3", "--cache", "cache"}},
   }
   // The shipped executables have no fault injection.
   const auto shipped = testing::run({"/usr/bin/env", "KILN_INJECT_FAULT=list:runtime_error", KILN_CLI_PATH, "list", "p.pack.json"},
