@@ -6,6 +6,7 @@
 #include "cli.hpp"
 #include "kiln/files.hpp"
 #include "kiln/defaults.hpp"
+#include "kiln/pack_format.hpp"
 #include "kiln/pack_reader.hpp"
 #include "kiln/pack_tools.hpp"
 
@@ -122,7 +123,7 @@ class CheckUsageVerb final : public Verb {
     for (kiln::UsageLog& log : kiln::load_usage_logs(logs_, *filters, sink)) {
       if (log.pack != pack->name())
         sink.report(kiln::DiagId::UsageLog, kiln::usage_log_pack_location(log),
-                    "this usage log is of pack '" + log.pack + "', not of '" + pack->name() + "'");
+                    "this usage log is of pack '" + kiln::echoed(log.pack) + "', not of '" + pack->name() + "'");
       else
         logs.push_back(std::move(log));
     }

@@ -778,6 +778,27 @@ TEST_F(Cli, UsageLogsStripAPackToWhatTheRunsAskedForAndCheckUsageFindsWhatItLack
   EXPECT_FALSE(std::filesystem::exists(dir / "x"));
 }
 
+// merge-usage wrote logs whose pack was "", "../lit" or "lit\u0000" (a name no other verb accepts); -D with a value
+// of 120,000 characters was glslang's bare "name too long". Both are refused at the input, with the value cut short.
+TEST_F(Cli, MergeUsageRefusesALogWhosePackIsNoPackNameAndALongDefineIsRefusedByName) {
+  for (const std::string pack : {"", "../lit", "lit\\u0000"}) {
+    dir.write("bad.json", "{\"format\": \"kiln-usage\", \"format_version\": 1, \"pack\": \"" + pack +
+                              "\", \"tags\": {}, \"passes\": [], \"missing_dropped\": 0}\n");
+    auto r = testing::run_kiln({"merge-usage", "bad.json", "-o", "merged.json"}, dir.path());
+    EXPECT_EQ(r.exit_code, 1) << pack;
+    EXPECT_NE(r.err.find("bad.json:1:48: error[K1015]: \"pack\": '"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("' is not a pack name: it "), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "merged.json")) << pack;
+  }
+  dir.write("S.hlsl", kTwoKeywords);
+  auto r = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "cache", "-D", "V=" + std::string(120000, 'x')},
+                             dir.path());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "<command line>: error[K1014]: -D 'V=" + std::string(62, 'x') +
+                       "... (120002 bytes)': the value of 'V' holds a name or number longer than the 1023 characters the "
+                       "preprocessor reads (expected -D NAME or -D NAME=VALUE)\n");
+}
+
 TEST_F(Cli, OnATerminalABuildShowsOneProgressLineAndErasesItBeforeTheSummary) {
   dir.write("S.hlsl", kTwoKeywords);
   const std::vector<std::string> cold{KILN_CLI_PATH, "build", "p.pack.json", "-o", "out", "--cache", "cache"};

@@ -2,7 +2,11 @@
 // (legalize, validate, optimize), reflect (and the pass layout merge), and the 16-bit widening for GL.
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <set>
 
 #include "coverage/instrument.hpp"
@@ -199,6 +203,78 @@ float4 F() : SV_Target { mine[0] = 1; return 0; }
   Result<std::optional<CoverageMap>> past = read_coverage_map(bytes_of(words));
   ASSERT_FALSE(past);
   EXPECT_NE(past.error().message.find("past the buffer"), std::string::npos) << past.error().message;
+}
+
+// A hand-made coverage module: the buffer's name and place, OpString "f.hlsl" (id 1), one function of one block
+// with `lines` OpLines (each a line of its own) then `stores` coverage stores through one access chain into word 8.
+// `extra` is inserted after the header.
+std::vector<uint32_t> coverage_module(uint32_t lines, uint32_t stores, const std::vector<uint32_t>& extra = {}) {
+  constexpr uint32_t kOpName = 5, kOpString = 7, kOpLine = 8, kOpConstant = 43, kOpFunction = 54, kOpStore = 62,
+                     kOpAccessChain = 65, kOpDecorate = 71, kOpLabel = 248, kDescriptorSet = 34, kBinding = 33;
+  auto op = [](uint32_t code, uint32_t count) { return (count << 16) | code; };
+  auto text = [](std::string_view s) {  // a literal string: NUL-terminated, little-endian, padded to a word
+    std::vector<uint32_t> out((s.size() + 4) / 4, 0);
+    for (size_t i = 0; i < s.size(); ++i) out[i / 4] |= uint32_t{static_cast<unsigned char>(s[i])} << (8 * (i % 4));
+    return out;
+  };
+  std::vector<uint32_t> m = {0x07230203, 0x10000, 0, 100, 0};
+  m.insert(m.end(), extra.begin(), extra.end());
+  const std::vector<uint32_t> file = text("f.hlsl"), name = text(kCoverageBufferName);
+  m.push_back(op(kOpString, 2 + static_cast<uint32_t>(file.size())));
+  m.push_back(1);
+  m.insert(m.end(), file.begin(), file.end());
+  m.push_back(op(kOpName, 2 + static_cast<uint32_t>(name.size())));
+  m.push_back(2);
+  m.insert(m.end(), name.begin(), name.end());
+  m.insert(m.end(), {op(kOpDecorate, 4), 2, kDescriptorSet, kCoverageSet, op(kOpDecorate, 4), 2, kBinding, kCoverageBinding});
+  m.insert(m.end(), {op(kOpConstant, 4), 9, 3, 8});                       // %3 = 8, the word
+  m.insert(m.end(), {op(kOpFunction, 5), 9, 4, 0, 9, op(kOpLabel, 2), 5});
+  for (uint32_t l = 0; l < lines; ++l) m.insert(m.end(), {op(kOpLine, 4), 1, l + 1, 1});
+  m.insert(m.end(), {op(kOpAccessChain, 5), 9, 6, 2, 3});                // %6 = &buffer[%3]
+  for (uint32_t s = 0; s < stores; ++s) m.insert(m.end(), {op(kOpStore, 3), 6, 3});
+  return m;
+}
+
+TEST(Coverage, AnOpStringOrOpNameTooShortToHoldItsStringIsAnError) {
+  Result<std::optional<CoverageMap>> whole = read_coverage_map(bytes_of(coverage_module(2, 1)));
+  ASSERT_TRUE(whole && *whole) << (whole ? "no map" : whole.error().message);
+  EXPECT_EQ((*whole)->files, std::vector<std::string>{"f.hlsl"});
+  // A word count of 1 made the reader read count - 2 = 4,294,967,295 words from there: past the module.
+  for (uint32_t opcode : {7u, 5u})
+    for (uint32_t count : {1u, 2u}) {
+      std::vector<uint32_t> extra = {(count << 16) | opcode};
+      if (count == 2) extra.push_back(1);
+      Result<std::optional<CoverageMap>> map = read_coverage_map(bytes_of(coverage_module(2, 1, extra)));
+      ASSERT_FALSE(map) << "opcode " << opcode << ", " << count << " words";
+      EXPECT_EQ(map.error().message, std::string("an Op") + (opcode == 7 ? "String" : "Name") + " of " +
+                                         std::to_string(count) + " words (it needs 3 or more) at word 5");
+    }
+}
+
+// The child of AMapIsAsLargeAsItsModuleHoweverManyStoresABlockHolds: reads the map under a 2 GiB address-space
+// limit and prints its size.
+[[noreturn]] void print_map_size_within_limits(const std::vector<uint32_t>& module) {
+#if !defined(__SANITIZE_ADDRESS__)  // ASan reserves terabytes of shadow memory: no address-space limit there
+  const rlimit limit{uint64_t{2} << 30, uint64_t{2} << 30};
+  ::setrlimit(RLIMIT_AS, &limit);
+#endif
+  Result<std::optional<CoverageMap>> map = read_coverage_map(bytes_of(module));
+  size_t lines = 0;
+  if (map && *map)
+    for (const CoverageProbe& probe : (*map)->probes) lines += probe.lines.size();
+  std::fprintf(stderr, "%zu probes, %zu lines, first %zu\n", map && *map ? (*map)->probes.size() : 0, lines,
+               map && *map && !(*map)->probes.empty() ? (*map)->probes.front().lines.size() : 0);
+  std::_Exit(0);
+}
+
+// 20,000 stores in a block of 20,000 lines (a 560 KB module) were 400 million line records, each store a copy of
+// the block's lines: std::bad_alloc after 2.5 GB. The map holds each line once, so the reader needs memory in
+// proportion to the module; it runs under an address-space limit here so that a regression fails the test, not the
+// machine.
+TEST(Coverage, AMapIsAsLargeAsItsModuleHoweverManyStoresABlockHolds) {
+  const std::vector<uint32_t> module = coverage_module(20000, 20000);
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(print_map_size_within_limits(module), ::testing::ExitedWithCode(0), "20000 probes, 20000 lines, first 20000\n");
 }
 
 // ---- reflect --------------------------------------------------------------------------------------------------

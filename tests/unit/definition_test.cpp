@@ -7,6 +7,7 @@
 
 #include "definition/definition.hpp"
 #include "frontend/bindings.hpp"
+#include "kiln/command_line.hpp"
 #include "test_support.hpp"
 
 namespace kiln {
@@ -77,6 +78,25 @@ TEST(Definition, DefinesParseAsTheCommandLineWritesThem) {
   EXPECT_FALSE(parse_define("A-B=1"));
   EXPECT_FALSE(parse_define("=1"));
   EXPECT_FALSE(parse_define("A=1\n#define B 2"));
+}
+
+// -D V=<120,000 characters> reached glslang, whose preprocessor reads names and numbers of up to 1023 characters,
+// and came back as a bare "name too long". It is refused first, saying which define, with the value cut to 64 bytes.
+TEST(Definition, ADefineTooLongForThePreprocessorIsRefusedWithItsTextCutShort) {
+  EXPECT_TRUE(parse_define("V=" + std::string(1023, 'x')));
+  EXPECT_TRUE(parse_define("V=" + std::string(1023, 'x') + " + " + std::string(1023, 'y')));
+  EXPECT_FALSE(parse_define("V=" + std::string(1024, 'x')));
+  EXPECT_FALSE(parse_define(std::string(1024, 'N')));
+  DiagnosticSink sink;
+  EXPECT_FALSE(parse_command_line_defines({"V=" + std::string(120000, 'x'), std::string(2000, 'N') + "=1"}, sink));
+  const std::vector<Diagnostic> diagnostics = sink.diagnostics();
+  ASSERT_EQ(diagnostics.size(), 2u);
+  EXPECT_EQ(diagnostics[0].message, "-D 'V=" + std::string(62, 'x') +
+                                        "... (120002 bytes)': the value of 'V' holds a name or number longer than the 1023 "
+                                        "characters the preprocessor reads (expected -D NAME or -D NAME=VALUE)");
+  EXPECT_EQ(diagnostics[1].message, "-D '" + std::string(64, 'N') + "... (2002 bytes)': '" + std::string(64, 'N') +
+                                        "... (2000 bytes)' is longer than the 1023 characters a preprocessor name may have "
+                                        "(expected -D NAME or -D NAME=VALUE)");
 }
 
 TEST(Definition, BindingOptionsOverrideFieldByFieldAndASpaceShiftWinsOverAll) {

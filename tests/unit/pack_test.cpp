@@ -539,6 +539,65 @@ TEST(HostilePack, AManifestNumberTooLargeForADoubleIsAPackError) {
   }
 }
 
+// The groups' pragmas decide which keywords fold and where their values go. A game's open parses only the manifest's
+// head, so an index resealed to fold a group the JSON does not (shader_feature made dynamic_branch, the same length)
+// was used by games while tools refused it; both refuse it now, games by comparing the pragmas with the text.
+TEST(HostilePack, AGamesOpenRefusesAnIndexWhosePragmasFoldKeywordsTheManifestDoesNot) {
+  testing::TempDir dir;
+  ArchiveBuilder archive;
+  Manifest manifest;
+  manifest.format_version = kPackFormatVersion;
+  manifest.name = "folds";
+  manifest.binaries.push_back({Stage::Fragment, "F", {{Target::Spirv, archive.add("SPIRV-BYTES")}}, 0});
+  manifest.reflections.emplace_back();
+  for (const char* name : {"P", "Q"}) {
+    ManifestPass& pass = manifest.passes.emplace_back();
+    pass.name = name;
+    pass.entry_points[Stage::Fragment] = "F";
+    pass.keyword_groups = {{"multi_compile", {"", "M"}, kAllStageBits}, {"shader_feature", {"", "A"}, kAllStageBits}};
+    for (auto keywords : std::vector<std::vector<std::string>>{{}, {"A"}, {"M"}, {"A", "M"}})
+      pass.variants.push_back({keywords, {{Stage::Fragment, 0}}});
+  }
+  ASSERT_TRUE(write_pack(dir.path(), "folds", archive, manifest));
+  const auto manifest_file = dir / "folds.manifest.json";
+  EXPECT_TRUE(PackReader::open(manifest_file).variant("Q", 1).values.empty());  // nothing folds
+
+  std::string bytes = testing::read_archive(manifest_file);
+  const size_t index_end = get64(bytes, 32) + get64(bytes, 40);
+  const size_t at = bytes.rfind("shader_feature", index_end);  // pass Q's second group
+  ASSERT_NE(at, std::string::npos);
+  ASSERT_GT(at, get64(bytes, 32));
+  bytes.replace(at, 14, "dynamic_branch");
+  testing::reseal_pack(manifest_file, bytes);
+  for (PackReader::Check check : {PackReader::Check::OnUse, PackReader::Check::Full}) {
+    try {
+      PackReader::open(manifest_file, check);
+      ADD_FAILURE() << "opened";
+    } catch (const PackError& e) {
+      EXPECT_EQ(e.code(), PackError::Code::Format);
+      EXPECT_EQ(std::string(e.what()), check == PackReader::Check::OnUse
+                                           ? "malformed manifest: its keyword groups are not the runtime index's: group 3 "
+                                             "is 'shader_feature' in the manifest, 'dynamic_branch' in the index"
+                                           : "archive of pack 'folds': its runtime index does not match the manifest");
+    }
+  }
+  // A manifest that lost a group's pragma line is refused too.
+  bytes.replace(at, 14, "shader_feature");
+  testing::reseal_pack(manifest_file, bytes);
+  std::string text = testing::read_file(manifest_file);
+  const size_t line = text.rfind("\"pragma\": \"shader_feature\"");
+  ASSERT_NE(line, std::string::npos);
+  text.replace(line, 8, "\"pragmas\"");
+  dir.write("folds.manifest.json", testing::resealed_manifest(text));
+  try {
+    PackReader::open(manifest_file);
+    ADD_FAILURE() << "opened";
+  } catch (const PackError& e) {
+    EXPECT_EQ(std::string(e.what()), "malformed manifest: its keyword groups are not the runtime index's: the manifest has 3 "
+                                     "groups, the index 4");
+  }
+}
+
 // The archive is written and uploaded as parts (the blobs are not copied into one buffer): the file holds exactly the
 // bytes finish() joins, its checksums are over those bytes, and the parts write_pack hands back are the same bytes.
 TEST(Pack, AnArchiveWrittenFromPartsIsTheBytesItsChecksumsSay) {

@@ -1,8 +1,12 @@
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <random>
 
 #include "kiln/build.hpp"
+#include "kiln/pack_format.hpp"
+#include "kiln/pack_tools.hpp"
+#include "pack/pack_writer.hpp"
 #include "permutations/permutations.hpp"
 #include "test_support.hpp"
 
@@ -152,6 +156,91 @@ TEST(Permutations, FragmentOnlyKeywordDoesNotMultiplyVertexVariants) {
   EXPECT_EQ(listing->variants.size(), 8u);
   EXPECT_EQ(vertex.size(), 2u);
   EXPECT_EQ(fragment.size(), 8u);
+}
+
+// ---- Usage logs (docs/usage.md): input from play-test and QA machines, read by build --usage, check-usage and
+// merge-usage (load_usage_logs) --------------------------------------------------------------------------------------
+
+std::string usage_log(const std::string& pack_json, const std::string& extra = "") {
+  return "{\"format\": \"kiln-usage\", \"format_version\": 1, \"pack\": " + pack_json + ", \"tags\": {},\n" + extra +
+         "\"passes\": [{\"name\": \"P\", \"served\": [{\"keywords\": [], \"count\": 3}]}], \"missing_dropped\": 0}\n";
+}
+
+// A 4 MiB log of 40,000 unknown keys took 25 s (each error located by counting lines from the start, every one
+// reported): the errors stop at 20, the rest are counted in one line, each is located by a search.
+TEST(UsageLog, ALogOfFortyThousandUnknownKeysIsTwentyErrorsAndACountOfTheRest) {
+  testing::TempDir dir;
+  std::string keys;
+  for (int k = 0; k < 40000; ++k) keys += "\"unknown_" + std::string(80, 'x') + std::to_string(k) + "\": 0,\n";
+  ASSERT_GT(keys.size(), size_t{3} << 20);
+  dir.write("big.json", usage_log("\"p\"", keys));
+  DiagnosticSink sink;
+  EXPECT_TRUE(load_usage_logs({(dir / "big.json").string()}, {}, sink).empty());
+  const std::vector<Diagnostic> diagnostics = sink.diagnostics();
+  ASSERT_EQ(diagnostics.size(), 21u);
+  // The object's keys come in name order: unknown_x...0, unknown_x...1, unknown_x...10, ...
+  EXPECT_EQ(diagnostics[0].message, "unknown field \"unknown_" + std::string(64 - 8, 'x') + "... (89 bytes)\" in the usage log");
+  EXPECT_EQ(diagnostics[0].location.line, 2);
+  EXPECT_EQ(diagnostics[0].location.column, 2);
+  EXPECT_EQ(diagnostics[2].location.line, 12);  // unknown_x...10
+  EXPECT_EQ(diagnostics[20].message, "... and 39980 more problems in this usage log (the first 20 are shown)");
+  EXPECT_EQ(diagnostics[20].location.line, 1);
+  for (const Diagnostic& d : diagnostics) EXPECT_EQ(d.id, DiagId::UsageLog);
+}
+
+// merge-usage wrote logs of pack "", "../lit" and "lit\0", which every verb that names files refuses: the pack's
+// name is held to the rule of every name, and a 3 MiB one is echoed as 64 bytes and its size.
+TEST(UsageLog, ALogWhosePackIsNoPackNameIsRefused) {
+  testing::TempDir dir;
+  const std::pair<std::string, std::string> cases[] = {
+      {"\"\"", "\"pack\": '' is not a pack name: it is empty"},
+      {"\"../lit\"", "\"pack\": '../lit' is not a pack name: it may only use letters, digits, '_', '-' and '.'"},
+      {"\"lit\\u0000\"", "\"pack\": 'lit\\x00' is not a pack name: it may only use letters, digits, '_', '-' and '.'"},
+      {"\"" + std::string(3 << 20, 'n') + "\"",
+       "\"pack\": '" + std::string(64, 'n') + "... (3145728 bytes)' is not a pack name: it is longer than 128 characters"},
+  };
+  for (const auto& [pack, error] : cases) {
+    dir.write("log.json", usage_log(pack));
+    DiagnosticSink sink;
+    EXPECT_TRUE(load_usage_logs({(dir / "log.json").string()}, {}, sink).empty()) << error;
+    const std::vector<Diagnostic> diagnostics = sink.diagnostics();
+    ASSERT_EQ(diagnostics.size(), 1u) << error;
+    EXPECT_EQ(diagnostics[0].message, error);
+    EXPECT_EQ(diagnostics[0].location.line, 1);
+    EXPECT_EQ(diagnostics[0].location.column, 48);  // at "pack"
+  }
+  dir.write("log.json", usage_log("\"lit\""));
+  DiagnosticSink sink;
+  ASSERT_EQ(load_usage_logs({(dir / "log.json").string()}, {}, sink).size(), 1u);
+}
+
+// docs/usage.md: counts stop at the largest 64-bit number rather than wrap. check-usage's totals wrapped.
+TEST(UsageLog, CheckUsageTotalsSaturateRatherThanWrap) {
+  testing::TempDir dir;
+  ArchiveBuilder archive;
+  Manifest manifest;
+  manifest.format_version = kPackFormatVersion;
+  manifest.name = "p";
+  manifest.binaries.push_back({Stage::Fragment, "F", {{Target::Spirv, archive.add("SPIRV")}}, 0});
+  manifest.reflections.emplace_back();
+  ManifestPass& pass = manifest.passes.emplace_back();
+  pass.name = "P";
+  pass.entry_points[Stage::Fragment] = "F";
+  pass.keyword_groups = {{"multi_compile", {"", "A", "B"}, kAllStageBits}};
+  pass.variants = {{{}, {{Stage::Fragment, 0}}}, {{"A"}, {{Stage::Fragment, 0}}}};
+  ASSERT_TRUE(write_pack(dir.path(), "p", archive, manifest));
+  const PackReader pack = PackReader::open(dir / "p.manifest.json");
+  constexpr uint64_t kMax = std::numeric_limits<uint64_t>::max();
+  UsageLog log;
+  log.file = dir / "log.json";
+  log.pack = "p";
+  log.passes["P"] = {{{}, kMax, false, {}}, {{"A"}, 2, false, {}}, {{"B"}, kMax - 1, true, {}}, {{"B"}, 5, true, {}}};
+  DiagnosticSink sink;
+  const UsageCheck check = check_usage(pack, {log, log}, sink);
+  EXPECT_EQ(check.sets, 8u);
+  EXPECT_EQ(check.missed, 4u);
+  EXPECT_EQ(check.requests, kMax);
+  EXPECT_EQ(check.requests_missed, kMax);
 }
 
 }  // namespace

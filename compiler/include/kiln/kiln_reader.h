@@ -238,7 +238,10 @@ kiln_result kiln_variant_code(const kiln_pack* pack, kiln_pass pass, uint32_t va
  *     (GLSL/GLSL ES: `#define SPIRV_CROSS_CONSTANT_ID_<slot> <value>`).
  *   KILN_KEYWORD_DYNAMIC_BRANCH: a 4-byte `value`, 0 or 1, at byte offset `slot` of the uniform block
  *     KILN_KEYWORD_BLOCK (set KILN_KEYWORD_BLOCK_SET, binding KILN_KEYWORD_BLOCK_BINDING; its reflection lists it),
- *     before the draw. */
+ *     before the draw.
+ * A slot is derived from the pack, which may be damaged or hostile: before writing a dynamic-branch value, check
+ * that `slot` + 4 is at most the `size` of the stage's KILN_KEYWORD_BLOCK resource (kiln_reflection) and of the
+ * buffer you bound for it; skip a value that does not fit. */
 typedef enum kiln_keyword_kind {
   KILN_KEYWORD_DYNAMIC_BRANCH = 1,
   KILN_KEYWORD_SPECIALIZATION_CONSTANT = 2,
@@ -256,8 +259,15 @@ typedef struct kiln_keyword_value {
   uint32_t value;       /* what to set at `slot` (an int group's: only from the value that is on) */
 } kiln_keyword_value;
 uint32_t kiln_pass_value_count(const kiln_pack* pack, kiln_pass pass); /* 0 for a pass without folded keywords */
+/* Value `index` alone. Each call works out the whole pass's values (O(F log K) for F values and K keywords of the
+ * variant): to read them all, call kiln_variant_values once. */
 kiln_result kiln_variant_value(const kiln_pack* pack, kiln_pass pass, uint32_t variant, uint32_t index,
                                kiln_keyword_value* value, kiln_error* error);
+/* Every value at once, in the order of kiln_variant_value's index, into values[0 .. kiln_pass_value_count() - 1]
+ * (the same cost as one kiln_variant_value call). INVALID_ARGUMENT, nothing written, when `capacity` is smaller
+ * than the count; `values` may be NULL for a pass without folded keywords. */
+kiln_result kiln_variant_values(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_keyword_value* values,
+                                uint32_t capacity, kiln_error* error);
 
 /* The entry point the stage's code has (the manifest's binary record); NULL when the variant has no such stage. */
 const char* kiln_variant_entry_point(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_stage stage);

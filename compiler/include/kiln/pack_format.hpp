@@ -70,6 +70,27 @@ inline std::string name_problem(std::string_view name) {
   if (name == "." || name == "..") return "is not a file name";
   return "";
 }
+// A name or value from outside as a message echoes it: at most kMaxEchoedBytes of it (never half a UTF-8
+// character), then "... (N bytes)", control characters as \xNN, so that a 3 MiB pack name is one short line.
+inline constexpr size_t kMaxEchoedBytes = 64;
+inline std::string echoed(std::string_view value, size_t max_bytes = kMaxEchoedBytes) {
+  size_t shown = value.size();
+  if (shown > max_bytes) {
+    shown = max_bytes;
+    while (shown > 0 && (static_cast<unsigned char>(value[shown]) & 0xC0) == 0x80) --shown;
+  }
+  std::string out;
+  for (unsigned char c : value.substr(0, shown)) {
+    if (c >= 0x20 && c != 0x7f) {
+      out.push_back(static_cast<char>(c));
+      continue;
+    }
+    constexpr char kHex[] = "0123456789abcdef";
+    out += {'\\', 'x', kHex[c >> 4], kHex[c & 15]};
+  }
+  if (shown < value.size()) out += "... (" + std::to_string(value.size()) + " bytes)";
+  return out;
+}
 inline constexpr std::string_view kArchiveExtension = ".kpack";
 
 // Limits that the writer keeps and the reader enforces before it allocates, so a damaged or hostile pack

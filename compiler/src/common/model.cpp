@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cctype>
 
+#include "kiln/pack_format.hpp"
+
 namespace kiln {
 
 char register_class_letter(RegisterClass register_class) { return "btsu"[static_cast<size_t>(register_class)]; }
@@ -57,13 +59,26 @@ std::optional<Define> parse_define(std::string_view text) {
 
 std::string define_problem(const Define& define) {
   if (!is_identifier(define.name))
-    return "'" + define.name + "' is not a preprocessor identifier: letters, digits and '_', not starting with a digit";
+    return "'" + echoed(define.name) + "' is not a preprocessor identifier: letters, digits and '_', not starting with a digit";
+  // glslang's preprocessor reads names and numbers of up to 1023 characters (its MaxTokenLength, 1024); a longer one
+  // was its bare "name too long", which names neither the define nor the value.
+  constexpr size_t kMaxTokenCharacters = 1023;
+  if (define.name.size() > kMaxTokenCharacters)
+    return "'" + echoed(define.name) + "' is longer than the " + std::to_string(kMaxTokenCharacters) +
+           " characters a preprocessor name may have";
+  size_t run = 0;
+  for (char c : define.value) {
+    run = std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' ? run + 1 : 0;
+    if (run > kMaxTokenCharacters)
+      return "the value of '" + echoed(define.name) + "' holds a name or number longer than the " +
+             std::to_string(kMaxTokenCharacters) + " characters the preprocessor reads";
+  }
   // A value is one line of the preamble: a newline would end the #define and start another directive.
   for (unsigned char c : define.value)
     if (c < 0x20 && c != '\t')
-      return "the value of '" + define.name + "' holds a line break or another control character";
+      return "the value of '" + echoed(define.name) + "' holds a line break or another control character";
   if (define.value.ends_with('\\'))
-    return "the value of '" + define.name +
+    return "the value of '" + echoed(define.name) +
            "' ends in a backslash, which would continue the #define onto the next line and swallow it";
   return "";
 }

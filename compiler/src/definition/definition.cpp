@@ -215,7 +215,7 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
   if (auto name = fields.string(*root, "name", true)) {
     pack.name = *name;
     if (std::string problem = name_problem(pack.name); !problem.empty())
-      fields.fail("name", "pack name '" + pack.name + "' " + problem);
+      fields.fail("name", "pack name '" + echoed(pack.name) + "' " + problem);
   }
   auto default_source = fields.string(*root, "shader", false);
   for (const std::string& dir : fields.strings(*root, "include_dirs")) pack.include_dirs.push_back(base / dir);
@@ -266,7 +266,7 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
       pass.defined_at = fields.at(pass.name);
       if (item.contains("name") && item["name"].is_string())
         if (std::string problem = name_problem(pass.name); !problem.empty())
-          fields.fail(pass.name, "pass name '" + pass.name + "' " + problem + " (it names the pass's --emit directory)");
+          fields.fail(pass.name, "pass name '" + echoed(pass.name) + "' " + problem + " (it names the pass's --emit directory)");
       auto source = fields.string(item, "source", false);
       if (source || default_source) pass.source = base / source.value_or(default_source.value_or(""));
       auto stages = item.find("stages");
@@ -444,7 +444,7 @@ std::optional<std::vector<Define>> parse_command_line_defines(const std::vector<
       const size_t equals = text.find('=');
       const Define refused{text.substr(0, equals), equals == std::string::npos ? "1" : text.substr(equals + 1)};
       sink.report(DiagId::InvalidCommandLineOption, kCommandLine,
-                  "-D '" + text + "': " + define_problem(refused) + " (expected -D NAME or -D NAME=VALUE)");
+                  "-D '" + echoed(text) + "': " + define_problem(refused) + " (expected -D NAME or -D NAME=VALUE)");
     }
   }
   if (!ok) return std::nullopt;
@@ -508,7 +508,7 @@ std::optional<SceneProfile> load_scene_profile(const std::filesystem::path& file
   if (auto name = fields.string(*root, "name", true)) {
     scene.name = *name;
     if (std::string problem = name_problem(scene.name); !problem.empty())
-      fields.fail("name", "scene name '" + scene.name + "' " + problem);
+      fields.fail("name", "scene name '" + echoed(scene.name) + "' " + problem);
   }
   if (!root->contains("keywords") && !root->contains("uses") && !root->contains("materials"))
     fields.fail("name", "a scene profile needs \"uses\", \"materials\" or \"keywords\"");

@@ -8,6 +8,7 @@
 
 #include "kiln/bounded_json.hpp"
 #include "kiln/defaults.hpp"
+#include "kiln/pack_format.hpp"
 #include "kiln/usage_log.hpp"
 
 namespace kiln {
@@ -15,18 +16,47 @@ namespace {
 
 using nlohmann::json;
 
+// The problems a log reports before the rest are only counted: a 4 MiB log of 40,000 unknown keys is 20 errors and
+// one line for the rest, not 40,000 (each located by a search of the text and quoted by the sink).
+constexpr size_t kMaxLogProblemsShown = 20;
+
 // A problem in a log, at the field it is about (the file's start when the field cannot be found).
 struct LogReader {
   const std::filesystem::path& file;
   const std::string& text;
   DiagnosticSink& sink;
   bool ok = true;
+  size_t shown = 0, not_shown = 0;
+  std::vector<size_t> line_starts;  // made on the first problem located: each then costs a search, not a count
 
   void fail(std::string_view key, const std::string& message) {
     ok = false;
-    SourceLocation at = key.empty() ? SourceLocation{} : locate_json_string(file.string(), text, key);
-    if (at.line == 0) at = SourceLocation{file.string(), 1, 1};
-    sink.report(DiagId::UsageLog, at, message);
+    if (shown == kMaxLogProblemsShown) {
+      ++not_shown;
+      return;
+    }
+    ++shown;
+    sink.report(DiagId::UsageLog, locate(key), message);
+  }
+  // After the last problem: how many were not shown.
+  void finish() {
+    if (not_shown > 0)
+      sink.report(DiagId::UsageLog, SourceLocation{file.string(), 1, 1},
+                  "... and " + std::to_string(not_shown) + " more problems in this usage log (the first " +
+                      std::to_string(kMaxLogProblemsShown) + " are shown)");
+  }
+  SourceLocation locate(std::string_view key) {
+    const size_t at = key.empty() ? std::string::npos : text.find("\"" + std::string(key) + "\"");
+    if (at == std::string::npos) return SourceLocation{file.string(), 1, 1};
+    if (line_starts.empty()) {
+      line_starts.push_back(0);
+      for (size_t i = 0; i < text.size(); ++i)
+        if (text[i] == '\n') line_starts.push_back(i + 1);
+    }
+    // The key's first character, as location_of_offset counts: lines and columns from 1, columns in bytes.
+    const size_t offset = at + 1;
+    const auto line = std::upper_bound(line_starts.begin(), line_starts.end(), offset) - 1;
+    return SourceLocation{file.string(), static_cast<int>(line - line_starts.begin() + 1), static_cast<int>(offset - *line + 1)};
   }
   // A sorted, duplicate-free list of strings.
   std::optional<std::vector<std::string>> keywords(const json& value, std::string_view key) {
@@ -78,42 +108,33 @@ size_t groups_apart(const std::vector<uint16_t>& a, const std::vector<uint16_t>&
   return apart;
 }
 
-}  // namespace
-
-std::optional<UsageLog> load_usage_log(const std::filesystem::path& file, const ReadLimits& limits, DiagnosticSink& sink) {
-  auto text = read_text_file(file, limits, sink, SourceLocation{file.string(), 0, 0});
-  if (!text) return std::nullopt;
-  json root;
-  try {
-    root = parse_json_bounded(*text, {text->size(), kMaxJsonDepth});
-  } catch (const JsonDecodeError& error) {
-    sink.report(DiagId::JsonSyntax, location_of_offset(file.string(), *text, error.offset()),
-                std::string("invalid JSON: ") + error.what());
-    return std::nullopt;
-  }
-  UsageLog log;
-  log.file = file;
-  log.text = *text;
-  LogReader reader{file, log.text, sink};
+// The log's fields into `log`; false where what follows cannot be read (each problem reported to `reader`).
+bool read_usage_log(const json& root, UsageLog& log, LogReader& reader) {
   if (!root.is_object() || root.value("format", json()) != "kiln-usage") {
     reader.fail("format", "not a kiln usage log (its \"format\" must be \"kiln-usage\")");
-    return std::nullopt;
+    return false;
   }
   if (root.value("format_version", json()) != 1) {
     reader.fail("format_version", "usage log format version " + root.value("format_version", json()).dump() +
                                       " is not supported (this kiln reads version 1)");
-    return std::nullopt;
+    return false;
   }
   for (const auto& [key, value] : root.items())
     if (key != "format" && key != "format_version" && key != "pack" && key != "tags" && key != "passes" && key != "missing_dropped")
-      reader.fail(key, "unknown field \"" + key + "\" in the usage log");
-  if (!root.value("pack", json()).is_string()) reader.fail("pack", "missing or wrong field \"pack\": the pack's name");
-  else log.pack = root["pack"].get<std::string>();
+      reader.fail(key, "unknown field \"" + echoed(key) + "\" in the usage log");
+  if (const auto pack = root.find("pack"); pack == root.end() || !pack->is_string()) {
+    reader.fail("pack", "missing or wrong field \"pack\": the pack's name");
+  } else {
+    log.pack = pack->get<std::string>();
+    // A merged log's pack is named again in files (the log, a pack built from it): held to the rule of every name.
+    if (std::string problem = name_problem(log.pack); !problem.empty())
+      reader.fail("pack", "\"pack\": '" + echoed(log.pack) + "' is not a pack name: it " + problem);
+  }
   const json tags = root.value("tags", json::object());
   if (!tags.is_object()) reader.fail("tags", "\"tags\" must be an object of strings");
   for (const auto& [key, value] : tags.items()) {
     if (value.is_string()) log.tags[key] = value.get<std::string>();
-    else reader.fail(key, "tag \"" + key + "\" must be a string");
+    else reader.fail(key, "tag \"" + echoed(key) + "\" must be a string");
   }
   const json dropped = root.value("missing_dropped", json(0));
   if (dropped.is_number_unsigned()) log.missing_dropped = dropped.get<uint64_t>();
@@ -121,7 +142,7 @@ std::optional<UsageLog> load_usage_log(const std::filesystem::path& file, const 
   const json passes = root.value("passes", json());
   if (!passes.is_array()) {
     reader.fail("passes", "missing or wrong field \"passes\": an array of passes");
-    return std::nullopt;
+    return false;
   }
   for (const json& pass : passes) {
     if (!pass.is_object() || !pass.value("name", json()).is_string()) {
@@ -152,9 +173,33 @@ std::optional<UsageLog> load_usage_log(const std::filesystem::path& file, const 
       }
     }
   }
-  if (!reader.ok) return std::nullopt;
+  return true;
+}
+
+}  // namespace
+
+std::optional<UsageLog> load_usage_log(const std::filesystem::path& file, const ReadLimits& limits, DiagnosticSink& sink) {
+  auto text = read_text_file(file, limits, sink, SourceLocation{file.string(), 0, 0});
+  if (!text) return std::nullopt;
+  json root;
+  try {
+    root = parse_json_bounded(*text, {text->size(), kMaxJsonDepth});
+  } catch (const JsonDecodeError& error) {
+    sink.report(DiagId::JsonSyntax, location_of_offset(file.string(), *text, error.offset()),
+                std::string("invalid JSON: ") + error.what());
+    return std::nullopt;
+  }
+  UsageLog log;
+  log.file = file;
+  log.text = *text;
+  LogReader reader{file, log.text, sink};
+  const bool read = read_usage_log(root, log, reader);
+  reader.finish();
+  if (!read || !reader.ok) return std::nullopt;
   return log;
 }
+
+
 
 bool usage_matches(const UsageLog& log, const std::vector<std::pair<std::string, std::string>>& filters) {
   return std::all_of(filters.begin(), filters.end(), [&](const auto& filter) {
@@ -239,8 +284,8 @@ std::optional<UsageMerge> merge_usage_logs(const std::vector<UsageLog>& logs, co
   for (const UsageLog& log : logs)
     if (log.pack != logs.front().pack) {
       sink.report(DiagId::UsageLog, usage_log_pack_location(log),
-                  "this usage log is of pack '" + log.pack + "', the first log (" + logs.front().file.string() +
-                      ") of '" + logs.front().pack + "': logs of different packs cannot be merged");
+                  "this usage log is of pack '" + echoed(log.pack) + "', the first log (" + logs.front().file.string() +
+                      ") of '" + echoed(logs.front().pack) + "': logs of different packs cannot be merged");
       return std::nullopt;
     }
   // Counts from hostile logs cannot wrap: they stop at the largest count.

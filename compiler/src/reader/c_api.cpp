@@ -54,8 +54,18 @@ constexpr uint32_t kNoValue = UINT32_MAX;
 
 struct PassIndex {
   const kiln::runtime::Pass* pass = nullptr;
-  // Per pack keyword id: its group in this pass (kNoValue: not declared) and its value index in that group.
-  std::vector<uint32_t> group_of, value_of;
+  // The pass's keywords, by pack keyword id: its group and its value index in that group. A table per pass as long
+  // as the pack's keyword list made a game's open passes x keywords in time and memory (a hostile index of 100,000
+  // passes and as many keywords asked for 80 GB); this one is as long as the pass's groups.
+  struct KeywordPlace {
+    uint32_t keyword, group, value;
+  };
+  std::vector<KeywordPlace> places;  // sorted by keyword, one per keyword
+  const KeywordPlace* place_of(uint32_t keyword) const {
+    auto it = std::lower_bound(places.begin(), places.end(), keyword,
+                               [](const KeywordPlace& p, uint32_t k) { return p.keyword < k; });
+    return it != places.end() && it->keyword == keyword ? &*it : nullptr;
+  }
   std::vector<uint32_t> off_value;    // per group: the index of "" (kNoValue: none)
   std::vector<uint64_t> radix;        // per group: its place value in a variant's code
   std::vector<std::pair<uint64_t, uint32_t>> by_code;  // variant code -> variant index, sorted by code
@@ -158,25 +168,25 @@ uint32_t find_binary(const kiln_pack* pack, kiln_pass pass, uint32_t variant, ki
 void index_pass(const kiln::runtime::Index& ix, PassIndex& index) {
   const kiln::runtime::Pass& pass = *index.pass;
   const size_t groups = pass.group_count;
-  index.group_of.assign(ix.declared_keywords, kNoValue);
-  index.value_of.assign(ix.declared_keywords, kNoValue);
+  index.places.clear();
   index.off_value.assign(groups, kNoValue);
   index.radix.assign(groups, 0);
   index.one_value.assign(groups, 0);
   auto group = [&](size_t g) -> const kiln::runtime::Group& { return ix.groups[pass.first_group + g]; };
-  // A keyword in two groups belongs to the first, as in PackReader::select.
-  for (size_t g = groups; g-- > 0;) {
+  for (size_t g = 0; g < groups; ++g) {
     index.one_value[g] = group(g).value_count == 1;
     for (uint32_t v = 0; v < group(g).value_count; ++v) {
       const uint32_t id = ix.values[group(g).first_value + v];
-      if (id == kiln::runtime::kOffValue) {
-        index.off_value[g] = v;
-        continue;
-      }
-      index.group_of[id] = static_cast<uint32_t>(g);
-      index.value_of[id] = v;
+      if (id == kiln::runtime::kOffValue) index.off_value[g] = v;
+      else index.places.push_back({id, static_cast<uint32_t>(g), v});
     }
   }
+  // A keyword in two groups (or twice in one) belongs to its first place, as in PackReader::select.
+  std::stable_sort(index.places.begin(), index.places.end(),
+                   [](const auto& a, const auto& b) { return a.keyword < b.keyword; });
+  index.places.erase(std::unique(index.places.begin(), index.places.end(),
+                                 [](const auto& a, const auto& b) { return a.keyword == b.keyword; }),
+                     index.places.end());
   uint64_t place = 1;
   index.fast = groups <= kMaxFastGroups;
   for (size_t g = 0; g < groups && index.fast; ++g) {
@@ -194,13 +204,12 @@ void index_pass(const kiln::runtime::Index& ix, PassIndex& index) {
     // one group (the first group that declares a keyword takes it), or none for a group without an off value.
     bool reachable = true;
     for (uint32_t k = 0; k < variant.keyword_count; ++k) {
-      const uint32_t id = ix.variant_keywords[variant.first_keyword + k];
-      const uint32_t g = id < ix.declared_keywords ? index.group_of[id] : kNoValue;
-      if (g == kNoValue || chosen[g] != kNoValue) {
+      const PassIndex::KeywordPlace* at = index.place_of(ix.variant_keywords[variant.first_keyword + k]);
+      if (!at || chosen[at->group] != kNoValue) {
         reachable = false;
         break;
       }
-      chosen[g] = index.value_of[id];
+      chosen[at->group] = at->value;
     }
     uint64_t code = 0;
     for (size_t g = 0; g < groups && reachable; ++g) {
@@ -224,13 +233,13 @@ bool select_fast(const PassIndex& index, const kiln_keyword* keywords, size_t co
   uint32_t chosen[kMaxFastGroups];
   std::fill_n(chosen, groups, kNoValue);
   for (size_t k = 0; k < count; ++k) {
-    const uint32_t g = index.group_of[keywords[k]];
-    if (g == kNoValue) {
+    const PassIndex::KeywordPlace* place = index.place_of(keywords[k]);
+    if (!place) {
       if (strict) return false;
       continue;
     }
-    if (chosen[g] != kNoValue && chosen[g] != index.value_of[keywords[k]]) return false;
-    chosen[g] = index.value_of[keywords[k]];
+    if (chosen[place->group] != kNoValue && chosen[place->group] != place->value) return false;
+    chosen[place->group] = place->value;
   }
   uint64_t code = 0;
   for (size_t g = 0; g < groups; ++g) {
@@ -466,6 +475,19 @@ uint32_t kiln_pass_value_count(const kiln_pack* pack, kiln_pass pass) {
   return pack && pass < pack->index->passes.size() ? pack->index->passes[pass].folded_count : 0;
 }
 
+namespace {
+
+kiln_keyword_value keyword_value(const kiln_pack* pack, const kiln::runtime::Folded& folded, bool on) {
+  uint32_t flags = 0;
+  for (kiln::Stage s : kiln::kAllStages)
+    if (folded.stages & kiln::stage_bit(s)) flags |= stage_flag(static_cast<kiln_stage>(s));
+  return kiln_keyword_value{folded.keyword == kiln::runtime::kOffValue ? "" : pack->index->keywords[folded.keyword].data(),
+                            static_cast<kiln_keyword_kind>(folded.kind), flags, folded.slot, on ? 1u : 0u,
+                            on ? folded.value : folded.fallback};
+}
+
+}  // namespace
+
 kiln_result kiln_variant_value(const kiln_pack* pack, kiln_pass pass, uint32_t variant, uint32_t index,
                                kiln_keyword_value* value, kiln_error* error) {
   if (!value) return invalid(error, "kiln_variant_value: value is NULL");
@@ -473,15 +495,23 @@ kiln_result kiln_variant_value(const kiln_pack* pack, kiln_pass pass, uint32_t v
   if (!v) return invalid(error, "kiln_variant_value: no variant %u of pass %u", variant, pass);
   const kiln::runtime::Pass& p = pack->index->passes[pass];
   if (index >= p.folded_count) return invalid(error, "kiln_variant_value: pass %u has %u folded keywords, not %u", pass, p.folded_count, index + 1);
-  const kiln::runtime::Folded& folded = pack->index->folded[p.first_folded + index];
   return guarded(error, [&] {  // folded_on allocates: OUT_OF_MEMORY, never an exception through C
-    const bool on = pack->index->folded_on(p, *v)[index];
-    uint32_t flags = 0;
-    for (kiln::Stage s : kiln::kAllStages)
-      if (folded.stages & kiln::stage_bit(s)) flags |= stage_flag(static_cast<kiln_stage>(s));
-    *value = kiln_keyword_value{folded.keyword == kiln::runtime::kOffValue ? "" : pack->index->keywords[folded.keyword].data(),
-                                static_cast<kiln_keyword_kind>(folded.kind), flags, folded.slot, on ? 1u : 0u,
-                                on ? folded.value : folded.fallback};
+    *value = keyword_value(pack, pack->index->folded[p.first_folded + index], pack->index->folded_on(p, *v)[index]);
+    return ok(error);
+  });
+}
+
+kiln_result kiln_variant_values(const kiln_pack* pack, kiln_pass pass, uint32_t variant, kiln_keyword_value* values,
+                                uint32_t capacity, kiln_error* error) {
+  const kiln::runtime::Variant* v = find_variant(pack, pass, variant);
+  if (!v) return invalid(error, "kiln_variant_values: no variant %u of pass %u", variant, pass);
+  const kiln::runtime::Pass& p = pack->index->passes[pass];
+  if (capacity < p.folded_count)
+    return invalid(error, "kiln_variant_values: pass %u has %u folded keywords, room for %u", pass, p.folded_count, capacity);
+  if (p.folded_count > 0 && !values) return invalid(error, "kiln_variant_values: values is NULL");
+  return guarded(error, [&] {  // one folded_on for them all: a value at a time is that cost per value
+    const std::vector<bool> on = pack->index->folded_on(p, *v);
+    for (uint32_t f = 0; f < p.folded_count; ++f) values[f] = keyword_value(pack, pack->index->folded[p.first_folded + f], on[f]);
     return ok(error);
   });
 }

@@ -12,6 +12,8 @@
 namespace kiln {
 namespace {
 
+// The NUL-terminated string in `count` words (OpString's and OpName's last operand); the caller has checked that the
+// instruction holds them.
 std::string literal_string(const uint32_t* words, size_t count) {
   std::string out;
   for (size_t w = 0; w < count; ++w)
@@ -47,6 +49,10 @@ Result<std::optional<CoverageMap>> read_coverage_map(std::string_view bytes) {
     if (count == 0 || at + count > words.size()) return failure("a truncated SPIR-V instruction at word " + std::to_string(at));
     const uint32_t* w = &words[at];
     auto operand = [&](uint32_t i) { return i < count ? w[i] : 0; };
+    // Both name an id and then hold a string of at least one word: a shorter one would make count - 2 wrap.
+    if ((op == spv::OpString || op == spv::OpName) && count < 3)
+      return failure("an Op" + std::string(op == spv::OpString ? "String" : "Name") + " of " + std::to_string(count) +
+                     " words (it needs 3 or more) at word " + std::to_string(at));
     switch (op) {
       case spv::OpString: strings[operand(1)] = literal_string(w + 2, count - 2); break;
       case spv::OpName: names[operand(1)] = literal_string(w + 2, count - 2); break;
@@ -83,16 +89,21 @@ Result<std::optional<CoverageMap>> read_coverage_map(std::string_view bytes) {
   }
   if (buffer_variables.empty()) return std::optional<CoverageMap>{};
 
+  // The map is as large as what the module holds: each OpLine goes to one probe. kiln stores once per block; when a
+  // block stores more than once (another writer's module, or a hostile one), its lines go to its first probe and the
+  // others carry none: they run when the first does. Copying the lines to every probe made 20,000 stores in a block
+  // of 20,000 lines 400 million pairs (std::bad_alloc after 2.5 GB from a 1 MB module).
   CoverageMap map;
   std::map<uint32_t, uint32_t> file_index;  // string id -> index into map.files
   for (const Block& block : blocks) {
-    for (uint32_t index_id : block.probe_chains) {
-      auto word = constants.find(index_id);
+    for (size_t p = 0; p < block.probe_chains.size(); ++p) {
+      auto word = constants.find(block.probe_chains[p]);
       if (word == constants.end()) return failure("a coverage store whose index is not a constant");
       if (word->second >= kCoverageBufferWords)
         return failure("a coverage word (" + std::to_string(word->second) + ") past the buffer's " + std::to_string(kCoverageBufferWords));
       CoverageProbe probe{word->second, {}};
-      for (const auto& [string_id, line] : block.lines) {
+      for (size_t l = 0; p == 0 && l < block.lines.size(); ++l) {
+        const auto& [string_id, line] = block.lines[l];
         auto file = strings.find(string_id);
         if (file == strings.end()) return failure("an OpLine whose file is not an OpString");
         auto [found, added] = file_index.try_emplace(string_id, static_cast<uint32_t>(map.files.size()));

@@ -269,6 +269,47 @@ ManifestHead scan_manifest_head(std::string_view text, const std::string& manife
   return head;
 }
 
+// A game's open parses only the manifest's head, but the groups' pragmas decide which keywords fold and where their
+// values go (kiln/folded_keywords.hpp): the index's must be the manifest's, or a pack whose index folds keywords its
+// JSON does not would be refused by tools (the whole index is compared there) and used by games. Under "passes" kiln
+// writes each group's "pragma" on a line of its own (one space of indentation per level), and no other key of that
+// name: one pass over the passes' text finds them in the index's order.
+void check_group_pragmas(std::string_view text, const runtime::Index& index, const std::string& manifest_name) {
+  auto refuse = [&](const std::string& what) {
+    return PackError(PackError::Code::Format,
+                     "malformed manifest: its keyword groups are not the runtime index's: " + what, manifest_name);
+  };
+  constexpr std::string_view kPasses = "\n \"passes\": [", kKey = "\"pragma\": ";
+  size_t from = find(text, kPasses);
+  if (from == std::string_view::npos) throw refuse("it has no \"passes\"");
+  from += kPasses.size();
+  const size_t end = text.substr(from, 1) == "]" ? from : find(text, "\n ]", from);
+  if (end == std::string_view::npos) throw refuse("its \"passes\" do not end");
+  const std::string_view passes = text.substr(0, end);
+  size_t group = 0;
+  for (size_t at = find(passes, kKey, from); at != std::string_view::npos; at = find(passes, kKey, from)) {
+    from = at + kKey.size();
+    size_t line = at;
+    while (line > 0 && passes[line - 1] == ' ') --line;
+    if (line == 0 || passes[line - 1] != '\n') continue;  // not a key: inside a string or after another field
+    const std::string_view value = passes.substr(from, passes.find_first_of(",\n", from) - from);
+    json pragma;
+    try {
+      pragma = parse_json_bounded(value, {value.size(), kMaxJsonDepth});
+    } catch (const JsonDecodeError&) {
+    }
+    if (!pragma.is_string()) throw refuse("group " + std::to_string(group) + "'s pragma is not a string");
+    if (group >= index.groups.size())
+      throw refuse("the manifest has more groups than the index's " + std::to_string(index.groups.size()));
+    if (pragma.get<std::string>() != index.groups[group].pragma)
+      throw refuse("group " + std::to_string(group) + " is '" + echoed(pragma.get<std::string>()) + "' in the manifest, '" +
+                   echoed(index.groups[group].pragma) + "' in the index");
+    ++group;
+  }
+  if (group != index.groups.size())
+    throw refuse("the manifest has " + std::to_string(group) + " groups, the index " + std::to_string(index.groups.size()));
+}
+
 // The whole manifest, parsed and typed (a tool's open, or manifest() after a game's).
 Manifest parse_manifest(std::string_view text, const std::filesystem::path& manifest_file) {
   const std::string manifest_name = manifest_file.string();
@@ -579,7 +620,7 @@ std::unique_ptr<PackReader::State> PackReader::load(const std::filesystem::path&
   // The manifest names the archive; a name of any other shape ("../x", "/etc/passwd") is refused before any
   // file is opened, so a hostile manifest can make the reader read nothing but this pack's own archive.
   if (std::string problem = name_problem(state.name); !problem.empty())
-    throw malformed("/name: " + json(state.name).dump() + " is not a pack name: it " + problem);
+    throw malformed("/name: \"" + echoed(state.name) + "\" is not a pack name: it " + problem);
   const std::string& archive_name = head.archive.file;
   if (archive_name != archive_file_name(state.name, head.archive.xxh3_64) || !is_archive_file_name(archive_name, state.name))
     throw malformed("/archive/file: " + json(archive_name).dump() + " is not the archive's name, <name>.<xxh3_64>" +
@@ -633,6 +674,7 @@ std::unique_ptr<PackReader::State> PackReader::load(const std::filesystem::path&
   } catch (const runtime::IndexError& error) {
     fail(PackError::Code::Format, archive_what + ": " + error.what());
   }
+  if (check == Check::OnUse) check_group_pragmas(text, state.index, manifest_name);  // Full compares the whole index
   state.checked = std::make_unique<std::atomic<uint8_t>[]>(count);
   state.decompressed = std::make_unique<std::atomic<const std::string*>[]>(count);
   state.reflections = std::make_unique<std::atomic<const Reflection*>[]>(state.index.reflections.size());

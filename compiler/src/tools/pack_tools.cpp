@@ -1,12 +1,14 @@
 #include "kiln/pack_tools.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <map>
 #include <set>
 
 #include "common/files.hpp"
 #include "common/keyword_pragmas.hpp"
 #include "definition/definition.hpp"
+#include "kiln/pack_format.hpp"
 #include "permutations/permutations.hpp"
 
 namespace kiln {
@@ -112,6 +114,10 @@ namespace kiln {
 
 UsageCheck check_usage(const PackReader& pack, const std::vector<UsageLog>& logs, DiagnosticSink& sink) {
   UsageCheck check;
+  // Counts from hostile logs cannot wrap: the totals stop at the largest count (docs/usage.md), as merge-usage's do.
+  auto add = [](uint64_t& total, uint64_t count) {
+    total = count > std::numeric_limits<uint64_t>::max() - total ? std::numeric_limits<uint64_t>::max() : total + count;
+  };
   for (const UsageLog& log : logs) {
     const SourceLocation at{log.file.string(), 0, 0};
     if (log.missing_dropped > 0)
@@ -121,12 +127,12 @@ UsageCheck check_usage(const PackReader& pack, const std::vector<UsageLog>& logs
     for (const auto& [pass, requests] : log.passes) {
       for (const UsageRequest& request : requests) {
         ++check.sets;
-        check.requests += request.count;
+        add(check.requests, request.count);
         auto selected = pack.try_select(pass, request.keywords);
         if (selected) continue;
         ++check.missed;
-        check.requests_missed += request.count;
-        std::string text = "pass '" + pass + "': [" + join_keywords(request.keywords) + "], asked for " +
+        add(check.requests_missed, request.count);
+        std::string text = "pass '" + echoed(pass, kMaxNameLength) + "': [" + join_keywords(request.keywords) + "], asked for " +
                            std::to_string(request.count) + (request.count == 1 ? " time" : " times") + ", is not in pack '" +
                            pack.name() + "'";
         std::vector<std::string> notes;
