@@ -2,7 +2,7 @@
 // (u2), reading a Texture2D at t0 and a cbuffer at b0, every class numbered from 0 (the u class shifted)
 // default: K1406
 // option: {"shifts": [{"register": "u", "shift": 16}]}
-// layout: VolumeParams uniform_buffer 0.0, sceneColor texture 0.1, outputColor storage_image 0.16, froxels storage_image 0.17, tileCounts storage_image 0.18
+// layout: VolumeParams uniform_buffer 0.0, sceneColor texture 0.1, outputColor storage_image 0.16, froxels storage_image 0.17, tileCounts storage_texel_buffer 0.18
 // stages: compute=CSMain
 cbuffer VolumeParams : register(b0) { uint2 outputSize; uint froxelDepth; float density; };
 Texture2D<float4> sceneColor : register(t1);

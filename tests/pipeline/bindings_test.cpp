@@ -3,6 +3,9 @@
 // part of the no-change check.
 #include <gtest/gtest.h>
 
+#include <map>
+#include <set>
+
 #include <nlohmann/json.hpp>
 
 #include "kiln/build.hpp"
@@ -277,6 +280,84 @@ TEST_F(Bindings, AShiftAboveTheLimitInThePackIsAnError) {
   DiagnosticSink global;
   EXPECT_FALSE(build(global));
   EXPECT_NE(errors_of(global).find("each a non-negative integer up to 999999999)"), std::string::npos) << errors_of(global);
+}
+
+// Each reflected kind is one Vulkan descriptor type: a Buffer<T> is a uniform texel buffer and a RWBuffer<T> a storage
+// texel buffer (they were `texture` and `storage_image` with dimension "Buffer", which a loader took for images), in
+// the stage's reflection, the pass layout, the runtime index and the MSL records.
+TEST_F(Bindings, TexelBuffersHaveKindsOfTheirOwn) {
+  dir.write("S.hlsl",
+            "Buffer<float4> offsets : register(t0);\nRWBuffer<uint> counts : register(u1);\nTexture2D albedo : register(t2);\n"
+            "RWTexture2D<float4> target : register(u3);\n"
+            "float4 V(float4 p : POSITION, uint i : SV_InstanceID) : SV_Position { return p + offsets.Load(i); }\n"
+            "float4 F(float4 p : SV_Position) : SV_Target {\n"
+            "  InterlockedAdd(counts[uint(p.x) & 63u], 1u);\n  target[uint2(p.xy)] = p;\n"
+            "  return albedo.Load(int3(p.xy, 0)) + offsets[1];\n}\n");
+  write_pack(R"("targets": ["spirv", "msl"])");
+  DiagnosticSink sink;
+  ASSERT_TRUE(build(sink)) << errors_of(sink);
+  EXPECT_EQ(layout(), "offsets uniform_texel_buffer 0.0, counts storage_texel_buffer 0.1, albedo texture 0.2, "
+                      "target storage_image 0.3");
+  PackReader pack = PackReader::open(dir / "out");  // the reflections as the runtime index carries them
+  const StageView* fragment = pack.select("P", {}).stage("fragment");
+  ASSERT_NE(fragment, nullptr);
+  std::map<std::string, std::pair<ResourceKind, std::string>> kinds;
+  for (const Resource& r : fragment->reflection->resources) kinds[r.name] = {r.kind, r.dimension};
+  EXPECT_EQ(kinds, (std::map<std::string, std::pair<ResourceKind, std::string>>{
+                       {"albedo", {ResourceKind::Texture, "2D"}},
+                       {"counts", {ResourceKind::StorageTexelBuffer, ""}},
+                       {"offsets", {ResourceKind::UniformTexelBuffer, ""}},
+                       {"target", {ResourceKind::StorageImage, "2D"}}}));
+  // Metal binds every one of them at a texture index, the written ones too.
+  std::set<std::string> msl;
+  for (const MslResource& r : fragment->reflection->msl->resources)
+    if (r.kind == MslResourceKind::Texture) msl.insert(r.name);
+  EXPECT_EQ(msl, (std::set<std::string>{"albedo", "counts", "offsets", "target"}));
+}
+
+// SubpassInput and SubpassInputMS are input attachments with their index, in the reflection, the pass layout and
+// every target's records (GL and GL ES read them as a sampler of their own name at gl_FragCoord; Metal as a
+// texture). They were in no record at all, so a loader building descriptor set layouts from the reflection missed
+// them. An attribute list (`[[vk::input_attachment_index(2), vk::binding(5)]]`, which glslang 12 refuses) gives
+// what the two attributes give apart.
+TEST_F(Bindings, InputAttachmentsAreReflectedWithTheirIndexInEveryTarget) {
+  dir.write("S.hlsl",
+            "[[vk::input_attachment_index(0)]] SubpassInput<float4> albedo : register(t0);\n"
+            "[[vk::input_attachment_index(2), vk::binding(5)]] SubpassInputMS<float4> normals;\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "float4 F() : SV_Target { return albedo.SubpassLoad() + normals.SubpassLoad(1); }\n");
+  write_pack();
+  DiagnosticSink sink;
+  ASSERT_TRUE(build(sink)) << errors_of(sink);
+  ASSERT_EQ(layout(), "albedo input_attachment 0.0, normals input_attachment 0.5");
+  const json manifest = json::parse(testing::read_file(dir / "out" / "p.manifest.json"));
+  EXPECT_EQ(manifest["passes"][0]["layout"]["resources"][1]["input_attachment_index"], 2);
+  PackReader pack = PackReader::open(dir / "out");
+  const StageView* fragment = pack.select("P", {}).stage("fragment");
+  ASSERT_NE(fragment, nullptr);
+  std::map<std::string, uint32_t> indices;
+  for (const Resource& r : fragment->reflection->resources) {
+    EXPECT_EQ(r.kind, ResourceKind::InputAttachment) << r.name;
+    indices[r.name] = r.input_attachment_index;
+  }
+  EXPECT_EQ(indices, (std::map<std::string, uint32_t>{{"albedo", 0}, {"normals", 2}}));
+  for (bool es : {false, true}) {
+    const GlBindings* gl = fragment->reflection->gl(es);
+    ASSERT_NE(gl, nullptr);
+    std::map<std::string, uint32_t> samplers;
+    for (const GlCombinedSampler& s : gl->combined_image_samplers) {
+      EXPECT_EQ(s.texture, s.name);
+      EXPECT_EQ(s.sampler, "");
+      samplers[s.name] = s.binding;
+    }
+    EXPECT_EQ(samplers, (std::map<std::string, uint32_t>{{"albedo", 0}, {"normals", 5}})) << (es ? "GL ES" : "GL");
+  }
+  const std::string glsl(fragment->glsl);
+  EXPECT_NE(glsl.find("uniform sampler2D albedo;"), std::string::npos) << glsl;
+  std::set<std::string> msl;
+  for (const MslResource& r : fragment->reflection->msl->resources)
+    if (r.kind == MslResourceKind::Texture) msl.insert(r.name);
+  EXPECT_EQ(msl, (std::set<std::string>{"albedo", "normals"}));
 }
 
 }  // namespace

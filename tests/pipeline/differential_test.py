@@ -73,8 +73,12 @@ import time
 # the table and docs/bindings.md are then out of date.
 EXPECTED = [
     {"construct": "DXC push-constant spelling `[[vk::push_constant]] T name;` (T a struct type)",
-     "pattern": re.compile(r"\[\[\s*vk::push_constant\s*\]\]\s*(?!ConstantBuffer\b)[A-Za-z_]\w*\s+[A-Za-z_]\w*\s*;"),
+     "pattern": re.compile(r"\[\[[^\]]*\bvk\s*::\s*push_constant\b[^\]]*\]\]\s*(?:\[\[[^\]]*\]\]\s*)*"
+                           r"(?!ConstantBuffer\b)[A-Za-z_]\w*\s+[A-Za-z_]\w*\s*;"),
      "tools": "global_block"},
+    {"construct": "an attribute list `[[vk::binding(0), vk::push_constant]]` (glslang 12 takes one attribute per group)",
+     "pattern": re.compile(r"\[\[(?:[^\](,]|\([^)]*\))*,"),
+     "tools": "reject"},
     {"construct": "HLSL 2021 intrinsics select(c, a, b), and(a, b), or(a, b)",
      "pattern": re.compile(r"(?<![\w.])(select|and|or)\s*\("), "unless_declared": True,
      "tools": "reject"},
@@ -116,7 +120,7 @@ OP_CONSTANT, OP_SPEC_CONSTANT, OP_FUNCTION, OP_FUNCTION_END, OP_FUNCTION_CALL, O
 DEC_ROW_MAJOR, DEC_COL_MAJOR, DEC_ARRAY_STRIDE, DEC_MATRIX_STRIDE, DEC_BLOCK, DEC_BUFFER_BLOCK = 4, 5, 6, 7, 2, 3
 DEC_BINDING, DEC_DESCRIPTOR_SET, DEC_OFFSET = 33, 34, 35
 SC_UNIFORM_CONSTANT, SC_UNIFORM, SC_PUSH_CONSTANT, SC_STORAGE_BUFFER = 0, 2, 9, 12
-DIM_SUBPASS_DATA = 6
+DIM_BUFFER, DIM_SUBPASS_DATA = 5, 6
 # Where an instruction inside a function names a pointer (operand indices after the opcode word, result type and
 # result id included): what "the entry point references a variable" means here.
 POINTER_OPERANDS = {
@@ -245,8 +249,8 @@ class Module:
         """([resource], [push-constant block sizes]) of the variables the entry point references. A resource is a
         dict: set, binding, kind, names (the variable's and its type's OpName), and for a uniform buffer its block's
         size and member count. Kinds are kiln's (reflect.cpp): uniform_buffer, storage_buffer, texture (sampled
-        images, uniform texel buffers included), storage_image (storage images and storage texel buffers), sampler,
-        combined_image_sampler."""
+        images), storage_image, uniform_texel_buffer and storage_texel_buffer (images of dimension Buffer), sampler,
+        combined_image_sampler, input_attachment."""
         found, push = [], []
         for variable in self.referenced_variables(self.entry_point(entry_name)):
             info = self.variables[variable]
@@ -264,6 +268,8 @@ class Module:
                 if opcode == OP_TYPE_IMAGE:
                     if ops[1] == DIM_SUBPASS_DATA:
                         kind = "input_attachment"
+                    elif ops[1] == DIM_BUFFER:
+                        kind = "storage_texel_buffer" if ops[5] == 2 else "uniform_texel_buffer"
                     else:
                         kind = "storage_image" if ops[5] == 2 else "texture"
                 elif opcode == OP_TYPE_SAMPLER:

@@ -66,6 +66,49 @@ TEST(HlslCompat, APushConstantOfStructTypeIsAPushConstantBlockAsInDxc) {
   EXPECT_EQ(dxc.manifest().passes.at(0).layout.push_constants.size(), 1u);
 }
 
+// The attribute as DXC users format it: on a line of its own above the declaration (3 files of one collection kept
+// the $Global uniform buffer, silently) or with comments between (lists and other attribute groups beside it:
+// ThePushConstantRewriteTouchesOnlyThatDeclaration). And the variable name that
+// starts with the attribute's word (`push_constants`: 9 files of another collection), which the rewrite took for a
+// second attribute and rewrote twice, so glslang read the file's text twice ("block instance name redefinition").
+TEST(HlslCompat, APushConstantAttributeIsSeenHoweverItIsFormattedAndWhateverTheVariableIsCalled) {
+  testing::TempDir dir;
+  const std::string structure = "struct PushData { float4x4 mvp; float4 tint; };\n";
+  auto body = [](const std::string& name) {
+    return " " + name + ";\nfloat4 V(float4 p : POSITION) : SV_Position { return mul(" + name + ".mvp, p); }\n"
+           "float4 F() : SV_Target { return " + name + ".tint; }\n";
+  };
+  for (const std::string& name : {std::string("pc"), std::string("push_constants"), std::string("push_constant_data")}) {
+    PackReader reference = build_source(dir, "reference_" + name, structure + "[[vk::push_constant]] ConstantBuffer<PushData>" + body(name));
+    const std::map<std::string, std::string> spellings = {
+        {"own_line", "[[vk::push_constant]]\nPushData" + body(name)},
+        {"comments", "[[ vk :: push_constant ]] // DXC: a push-constant block\n/* per draw */\n  PushData" + body(name)},
+        {"same_line", "[[vk::push_constant]] PushData" + body(name)},
+    };
+    const SelectedVariant expected = reference.select("P", {});
+    for (const auto& [spelling, text] : spellings) {
+      PackReader pack = build_source(dir, spelling + "_" + name, structure + text);
+      const SelectedVariant selected = pack.select("P", {});
+      for (const char* stage : {"vertex", "fragment"}) {
+        const StageView* mine = selected.stage(stage);
+        const StageView* theirs = expected.stage(stage);
+        ASSERT_TRUE(mine && theirs) << spelling << " " << name;
+        EXPECT_EQ(mine->spirv, theirs->spirv) << spelling << " " << name << " " << stage;
+        ASSERT_EQ(mine->reflection->push_constants.size(), 1u) << spelling << " " << name << " " << stage;
+        EXPECT_TRUE(mine->reflection->resources.empty()) << spelling << " " << name << " " << stage << ": a $Global buffer";
+      }
+    }
+  }
+}
+
+TEST(HlslCompat, AttributeListsBecomeOneGroupPerAttribute) {
+  EXPECT_EQ(rewrite_attribute_lists("[[vk::binding(0, 1), vk::push_constant]] P p;"), "[[vk::binding(0, 1)]][[ vk::push_constant]] P p;");
+  EXPECT_EQ(rewrite_attribute_lists("[[vk::input_attachment_index(1),vk::binding(2),vk::location(3)]] SubpassInput s;"),
+            "[[vk::input_attachment_index(1)]][[vk::binding(2)]][[vk::location(3)]] SubpassInput s;");
+  EXPECT_FALSE(rewrite_attribute_lists("[[vk::binding(0, 1)]] Texture2D t; [numthreads(8, 8, 1)] void main() { a[b[0]] = c; }"));
+  EXPECT_FALSE(rewrite_attribute_lists("[[vk::binding(0, 1)"));  // unfinished: glslang's error stays
+}
+
 TEST(HlslCompat, ThePushConstantRewriteTouchesOnlyThatDeclaration) {
   EXPECT_EQ(rewrite_push_constants("[[vk :: push_constant]]PushData pc;\nPushData other;\n"),
             "[[vk :: push_constant]]ConstantBuffer<PushData> pc;\nPushData other;\n");
@@ -76,6 +119,15 @@ TEST(HlslCompat, ThePushConstantRewriteTouchesOnlyThatDeclaration) {
   EXPECT_FALSE(rewrite_push_constants("[[vk::push_constant]] cbuffer PC { float4 tint; };"));
   EXPECT_FALSE(rewrite_push_constants("// push_constant\nfloat push_constant_count;"));
   EXPECT_FALSE(rewrite_push_constants("[[vk::binding(0)]] PushData pc;"));
+  EXPECT_FALSE(rewrite_push_constants("[[vk::push_constants]] PushData pc;\nfloat push_constant;"));
+  // Once, however the variable is named and the attribute formatted.
+  EXPECT_EQ(rewrite_push_constants("[[vk::push_constant]] PushConstants push_constants;"),
+            "[[vk::push_constant]] ConstantBuffer<PushConstants> push_constants;");
+  EXPECT_EQ(rewrite_push_constants("[[vk::push_constant]]\n// note\n/* a\nb */ [[vk::binding(1)]]\nP\tpc\n;"),
+            "[[vk::push_constant]]\n// note\n/* a\nb */ [[vk::binding(1)]]\nConstantBuffer<P>\tpc\n;");
+  EXPECT_EQ(rewrite_push_constants("[[vk::binding(1), vk::push_constant]] P pc;"), "[[vk::binding(1), vk::push_constant]] ConstantBuffer<P> pc;");
+  EXPECT_EQ(rewrite_push_constants("[[vk::push_constant, vk::something]] [[other]] P pc;"),
+            "[[vk::push_constant, vk::something]] [[other]] ConstantBuffer<P> pc;");
   // Lines are kept: a diagnostic after the rewrite points at the same line.
   const std::string text = "a\n[[vk::push_constant]] P p;\nb\n";
   const std::string rewritten = *rewrite_push_constants(text);
@@ -322,6 +374,45 @@ TEST(HlslCompat, ViewIdAndShadingRateAreBuiltInsAndLaterLocationsDoNotMove) {
   EXPECT_TRUE(facts.builtins.count(4444));      // ShadingRateKHR
   EXPECT_FALSE(std::string(mine->msl).empty());
   EXPECT_EQ(std::string(mine->spirv).find("hlsl_functionality1"), std::string::npos);  // glslang's semantics are gone
+}
+
+// Beside located inputs (`[[vk::location(N)]]`, which DXC requires of all or none), the built-ins took a location
+// that glslang numbered automatically, and moving the later locations down put the second located input onto the
+// first ("conflicting input location"); only one located input worked. The stated locations stay as written.
+TEST(HlslCompat, ViewIdAndShadingRateLeaveStatedLocationsWhereTheyAre) {
+  testing::TempDir dir;
+  const std::string vertex =
+      "struct VOut { float4 pos : SV_Position; [[vk::location(0)]] float2 uv : TEXCOORD0;\n"
+      "  [[vk::location(1)]] float4 color : COLOR0; [[vk::location(2)]] float3 normal : NORMAL; };\n"
+      "VOut V([[vk::location(0)]] float4 p : POSITION) { VOut o; o.pos = p; o.uv = p.xy; o.color = p; o.normal = p.xyz; return o; }\n";
+  const std::map<std::string, std::pair<std::string, std::string>> cases = {
+      {"two", {"uint view : SV_ViewID, [[vk::location(1)]] float4 color : COLOR0, [[vk::location(0)]] float2 uv : TEXCOORD0",
+               "[[vk::location(1)]] float4 color : COLOR0, [[vk::location(0)]] float2 uv : TEXCOORD0"}},
+      {"three", {"[[vk::location(0)]] float2 uv : TEXCOORD0, uint view : SV_ViewID, [[vk::location(1)]] float4 color : COLOR0,\n"
+                 "  uint rate : SV_ShadingRate, [[vk::location(2)]] float3 normal : NORMAL",
+                 "[[vk::location(0)]] float2 uv : TEXCOORD0, [[vk::location(1)]] float4 color : COLOR0,\n"
+                 "  [[vk::location(2)]] float3 normal : NORMAL"}},
+  };
+  for (const auto& [name, parameters] : cases) {
+    const bool normal = name == "three";
+    const std::string use = normal ? " + normal.xyzz" : "";
+    PackReader builtins = build_source(dir, name, vertex + "float4 F(" + parameters.first + ") : SV_Target {\n"
+        "  return color * float(view" + (normal ? " + rate" : "") + ") + uv.xyxy" + use + ";\n}\n", R"(["spirv", "msl"])");
+    PackReader plain = build_source(dir, name + "_plain", vertex + "float4 F(" + parameters.second + ") : SV_Target {\n"
+        "  return color * 3.0 + uv.xyxy" + use + ";\n}\n", R"(["spirv", "msl"])");
+    const SelectedVariant a = builtins.select("P", {}), b = plain.select("P", {});
+    const StageView* mine = a.stage("fragment");
+    const StageView* reference = b.stage("fragment");
+    ASSERT_TRUE(mine && reference) << name;
+    EXPECT_EQ(mine->reflection->inputs, reference->reflection->inputs) << name;
+    EXPECT_EQ(mine->reflection->inputs.size(), normal ? 3u : 2u) << name;
+    for (const StageVariable& input : mine->reflection->inputs)
+      EXPECT_EQ(input.location, input.name == "uv" ? 0u : input.name == "color" ? 1u : 2u) << name << " " << input.name;
+    EXPECT_TRUE(facts_of(mine->spirv).builtins.count(4440)) << name;  // ViewIndex
+  }
+  EXPECT_EQ(explicit_locations("void F([[vk :: location ( 2 ) ]] in float4 a : A, [[vk::location(0)]] nointerpolation uint b[2] : B,\n"
+                               "  uint c : C) {}\nstruct S { [[vk::location(7)]] Texture2D<float4> d; };"),
+            (std::vector<std::pair<std::string, uint32_t>>{{"a", 2}, {"b", 0}, {"d", 7}}));
 }
 
 }  // namespace

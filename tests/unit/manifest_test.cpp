@@ -275,10 +275,47 @@ TEST(Manifest, ChecksIndicesBetweenRecords) {
   EXPECT_THROW(m.check_indices(), ManifestError);
 }
 
+// Texel buffers and input attachments have kinds of their own; an input attachment's index is written (JSON) and
+// encoded (runtime index) for it alone, so the records of every other kind keep the bytes they had.
+TEST(Manifest, TexelBuffersAndInputAttachmentsRoundTripAndOtherRecordsKeepTheirBytes) {
+  Resource attachment;
+  attachment.name = "gbufferAlbedo";
+  attachment.kind = ResourceKind::InputAttachment;
+  attachment.binding = 2;
+  attachment.input_attachment_index = 3;
+  Resource texel;
+  texel.name = "instanceData";
+  texel.kind = ResourceKind::UniformTexelBuffer;
+  texel.binding = 5;
+  Reflection r;
+  r.resources = {attachment, texel};
+  EXPECT_EQ(json(r).at("resources").at(0).dump(),
+            R"({"binding":2,"count":1,"input_attachment_index":3,"kind":"input_attachment","name":"gbufferAlbedo","set":0})");
+  EXPECT_EQ(json(r).at("resources").at(1).dump(), R"({"binding":5,"count":1,"kind":"uniform_texel_buffer","name":"instanceData","set":0})");
+  EXPECT_EQ(json(r).get<Reflection>(), r);
+  EXPECT_EQ(runtime::decode_reflection(runtime::encode_reflection(r)), r);
+
+  Reflection as_texture = r;
+  as_texture.resources[0].kind = ResourceKind::Texture;
+  as_texture.resources[0].input_attachment_index = 0;
+  EXPECT_EQ(runtime::encode_reflection(r).size(), runtime::encode_reflection(as_texture).size() + 4);
+  EXPECT_FALSE(json(as_texture).at("resources").at(0).contains("input_attachment_index"));
+  // A kind past the last one is refused, not taken for another.
+  std::string record = runtime::encode_reflection(as_texture);
+  const size_t kind_at = 4 + 4 + attachment.name.size() + 1;  // resource count, then the name's length, bytes and NUL
+  ASSERT_EQ(record[kind_at], static_cast<char>(ResourceKind::Texture));
+  record[kind_at] = static_cast<char>(static_cast<int>(ResourceKind::InputAttachment) + 1);
+  EXPECT_THROW(runtime::decode_reflection(record), runtime::IndexError);
+}
+
 TEST(Manifest, NamesEveryResourceKindBothWays) {
   for (ResourceKind kind : {ResourceKind::UniformBuffer, ResourceKind::StorageBuffer, ResourceKind::Texture, ResourceKind::Sampler,
-                            ResourceKind::CombinedImageSampler, ResourceKind::StorageImage})
+                            ResourceKind::CombinedImageSampler, ResourceKind::StorageImage, ResourceKind::UniformTexelBuffer,
+                            ResourceKind::StorageTexelBuffer, ResourceKind::InputAttachment})
     EXPECT_EQ(parse_resource_kind(resource_kind_name(kind)), kind);
+  EXPECT_EQ(resource_kind_name(ResourceKind::UniformTexelBuffer), "uniform_texel_buffer");
+  EXPECT_EQ(resource_kind_name(ResourceKind::StorageTexelBuffer), "storage_texel_buffer");
+  EXPECT_EQ(resource_kind_name(ResourceKind::InputAttachment), "input_attachment");
   EXPECT_EQ(parse_resource_kind("buffer"), std::nullopt);
   for (const TargetName& t : kTargetNames) EXPECT_EQ(parse_target(t.name), t.target);
   for (Stage s : kAllStages) EXPECT_EQ(parse_stage(stage_name(s)), s);

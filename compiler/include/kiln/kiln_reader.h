@@ -277,13 +277,17 @@ const kiln_reflection* kiln_variant_reflection(const kiln_pack* pack, kiln_pass 
 
 /* ---- Reflection: what a stage binds (enough for a Vulkan pipeline layout), and each target's bindings ------- */
 
+/* One per Vulkan descriptor type (VK_DESCRIPTOR_TYPE_*); values are never renumbered, new kinds are appended. */
 typedef enum kiln_resource_kind {
-  KILN_RESOURCE_UNIFORM_BUFFER = 0,
-  KILN_RESOURCE_STORAGE_BUFFER = 1,
-  KILN_RESOURCE_TEXTURE = 2,                /* a separate (sampled) image */
-  KILN_RESOURCE_SAMPLER = 3,
-  KILN_RESOURCE_COMBINED_IMAGE_SAMPLER = 4,
-  KILN_RESOURCE_STORAGE_IMAGE = 5
+  KILN_RESOURCE_UNIFORM_BUFFER = 0,         /* UNIFORM_BUFFER: cbuffer, ConstantBuffer<T> */
+  KILN_RESOURCE_STORAGE_BUFFER = 1,         /* STORAGE_BUFFER: (RW)StructuredBuffer, (RW)ByteAddressBuffer */
+  KILN_RESOURCE_TEXTURE = 2,                /* SAMPLED_IMAGE: a separate (sampled) image, Texture2D etc.; never Buffer<T> */
+  KILN_RESOURCE_SAMPLER = 3,                /* SAMPLER */
+  KILN_RESOURCE_COMBINED_IMAGE_SAMPLER = 4, /* COMBINED_IMAGE_SAMPLER */
+  KILN_RESOURCE_STORAGE_IMAGE = 5,          /* STORAGE_IMAGE: RWTexture2D etc.; never RWBuffer<T> */
+  KILN_RESOURCE_UNIFORM_TEXEL_BUFFER = 6,   /* UNIFORM_TEXEL_BUFFER: Buffer<T> (older packs: TEXTURE, "Buffer") */
+  KILN_RESOURCE_STORAGE_TEXEL_BUFFER = 7,   /* STORAGE_TEXEL_BUFFER: RWBuffer<T> (older packs: STORAGE_IMAGE, "Buffer") */
+  KILN_RESOURCE_INPUT_ATTACHMENT = 8        /* INPUT_ATTACHMENT: SubpassInput, SubpassInputMS; see input_attachment_index */
 } kiln_resource_kind;
 
 typedef struct kiln_resource {
@@ -294,8 +298,9 @@ typedef struct kiln_resource {
   uint32_t count;       /* array size (descriptorCount) */
   uint32_t stage_flags; /* KILN_STAGE_FLAG_*: the reflected stage's; OR them over the stages for a pipeline layout */
   uint64_t size;        /* blocks: the declared size in bytes; 0 otherwise */
-  const char* dimension; /* images: "1D", "2D", "2DArray", "3D", "Cube", "CubeArray", "Buffer"; "" otherwise */
+  const char* dimension; /* images: "1D", "2D", "2DArray", "3D", "Cube", "CubeArray"; "" otherwise */
   int depth;            /* images: depth comparison */
+  uint32_t input_attachment_index; /* input attachments: [[vk::input_attachment_index(N)]]; 0 otherwise */
 } kiln_resource;
 
 typedef struct kiln_push_constant {

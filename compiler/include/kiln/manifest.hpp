@@ -46,7 +46,13 @@ struct BlockMember {
   friend bool operator==(const BlockMember&, const BlockMember&) = default;
 };
 
-enum class ResourceKind : uint8_t { UniformBuffer, StorageBuffer, Texture, Sampler, CombinedImageSampler, StorageImage };
+// One per Vulkan descriptor type kiln reflects. New kinds go at the end: the values are the C API's and the runtime
+// index's. Texture is a sampled image (never a Buffer<T>, which is UniformTexelBuffer; RWBuffer<T> is
+// StorageTexelBuffer, not StorageImage); InputAttachment is HLSL's SubpassInput / SubpassInputMS.
+enum class ResourceKind : uint8_t {
+  UniformBuffer, StorageBuffer, Texture, Sampler, CombinedImageSampler, StorageImage,
+  UniformTexelBuffer, StorageTexelBuffer, InputAttachment
+};
 std::string_view resource_kind_name(ResourceKind kind);  // "uniform_buffer", ...
 std::optional<ResourceKind> parse_resource_kind(std::string_view name);
 constexpr bool is_block(ResourceKind kind) { return kind == ResourceKind::UniformBuffer || kind == ResourceKind::StorageBuffer; }
@@ -63,9 +69,11 @@ struct Resource {
   // Blocks (is_block(kind)): the declared size and the members.
   uint64_t size = 0;
   std::vector<BlockMember> members;
-  // Images (is_image(kind)): "1D", "2D", "2DArray", "3D", "Cube", "CubeArray", "Buffer"; depth comparison.
+  // Images (is_image(kind)): "1D", "2D", "2DArray", "3D", "Cube", "CubeArray"; depth comparison.
   std::string dimension;
   bool depth = false;
+  // Input attachments: the attachment's index in the subpass's input attachments ([[vk::input_attachment_index(N)]]).
+  uint32_t input_attachment_index = 0;
   friend bool operator==(const Resource&, const Resource&) = default;
 };
 

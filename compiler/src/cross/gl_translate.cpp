@@ -35,9 +35,15 @@ std::string translate_to_glsl(const std::vector<uint32_t>& spirv, const GlslOpti
     records.combined_image_samplers.push_back({name, texture, sampler, binding});
   }
   std::string source = compiler.compile();
+  spirv_cross::ShaderResources resources = compiler.get_shader_resources();
+  // An input attachment (SubpassInput) is a sampler uniform of its own name in GL, read with texelFetch at
+  // gl_FragCoord: the attachment's texture goes to its binding, with no sampler.
+  for (const auto& input : resources.subpass_inputs) {
+    const std::string name = compiler.get_name(input.id);
+    records.combined_image_samplers.push_back({name, name, "", compiler.get_decoration(input.id, spv::DecorationBinding)});
+  }
   std::sort(records.combined_image_samplers.begin(), records.combined_image_samplers.end(),
             [](const GlCombinedSampler& a, const GlCombinedSampler& b) { return a.name < b.name; });
-  spirv_cross::ShaderResources resources = compiler.get_shader_resources();
   // Blocks by their interface name (what GL's glGetUniformBlockIndex takes), not the unnamed HLSL instance.
   for (const auto& buffer : resources.uniform_buffers)
     records.blocks.push_back({buffer.name, ResourceKind::UniformBuffer, compiler.get_decoration(buffer.id, spv::DecorationBinding)});

@@ -33,7 +33,8 @@ std::string translate_msl(CrossModules& modules, Reflection& reflection) {
   spirv_cross::ShaderResources resources = compiler.get_shader_resources();
   std::map<uint32_t, std::string> declared;
   for (const auto* list : {&resources.uniform_buffers, &resources.storage_buffers, &resources.separate_images,
-                           &resources.separate_samplers, &resources.sampled_images, &resources.storage_images})
+                           &resources.separate_samplers, &resources.sampled_images, &resources.storage_images,
+                           &resources.subpass_inputs})
     for (const auto& resource : *list) {
       declared[resource.id] = resource.name;
       // SPIRV-Cross 2023 asserts (aborts) on a runtime array without argument buffers, which kiln's MSL does not use.
@@ -56,6 +57,10 @@ std::string translate_msl(CrossModules& modules, Reflection& reflection) {
   record(resources.separate_images, MslResourceKind::Texture);
   record(resources.separate_samplers, MslResourceKind::Sampler);
   record(resources.sampled_images, MslResourceKind::Texture);
+  // RWTexture and RWBuffer are textures with write access in Metal; an input attachment is a texture read at the
+  // fragment's position (SPIRV-Cross's default for macOS, which has no framebuffer fetch).
+  record(resources.storage_images, MslResourceKind::Texture);
+  record(resources.subpass_inputs, MslResourceKind::Texture);
   std::sort(indices.begin(), indices.end(), [](const MslResource& a, const MslResource& b) { return a.name < b.name; });
   return source;
 }

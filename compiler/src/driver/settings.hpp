@@ -56,10 +56,13 @@ struct BuildSettings {
   // block sizes: a cached push-constant struct of an older build was a $Global uniform buffer. "hlsl compat 2":
   // unbounded resource arrays are runtime arrays, SV_ViewID and SV_ShadingRate built-ins (frontend/dxc_semantics.hpp),
   // and NonUniformResourceIndex is DXC's (frontend/nonuniform.hpp): an older build's module had other interfaces.
+  // "hlsl compat 3": attribute lists and a [[vk::push_constant]] on its own line are read as DXC reads them, stated
+  // locations stay beside SV_ViewID, and reflections give texel buffers and input attachments their own kinds (and
+  // MSL records storage images): an older build's cached output had other interfaces or reflections.
   template <typename KeyHasher>
   KeyHasher& add_compile_options(KeyHasher& hasher, const PassDefinition& pass, Stage stage) const {
     hasher.add(fingerprint).add(optimize ? 1 : 0).add(optimizer_recipe_name(optimizer_recipe)).add(target_names_for(pass)).add(stage_name(stage))
-        .add(pass.entry_points[static_cast<size_t>(stage)]).add("binding model 1").add("hlsl compat 2")
+        .add(pass.entry_points[static_cast<size_t>(stage)]).add("binding model 1").add("hlsl compat 3")
         .add(pass.bindings_for(stage).canonical());
     if (debug_info) hasher.add("debug info");
     if (coverage) hasher.add("coverage 1");

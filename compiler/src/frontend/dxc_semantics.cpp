@@ -54,6 +54,61 @@ bool names_builtin_semantics(std::string_view text) {
   return up.find("SV_VIEWID") != std::string::npos || up.find("SV_SHADINGRATE") != std::string::npos;
 }
 
+std::vector<std::pair<std::string, uint32_t>> explicit_locations(std::string_view text) {
+  std::vector<std::pair<std::string, uint32_t>> found;
+  auto word = [&](size_t at) {
+    size_t end = at;
+    while (end < text.size() && (std::isalnum(static_cast<unsigned char>(text[end])) || text[end] == '_')) ++end;
+    return end;
+  };
+  auto blanks = [&](size_t at) {
+    while (at < text.size() && std::isspace(static_cast<unsigned char>(text[at]))) ++at;
+    return at;
+  };
+  for (size_t at = text.find("location"); at != std::string_view::npos; at = text.find("location", at + 8)) {
+    // `vk :: location ( N ) ]]`, as the preprocessor spaces it or not.
+    size_t colons = at;
+    while (colons > 0 && std::isspace(static_cast<unsigned char>(text[colons - 1]))) --colons;
+    if (colons < 2 || text.substr(colons - 2, 2) != "::" || word(at) != at + 8) continue;
+    size_t vk = colons - 2;
+    while (vk > 0 && std::isspace(static_cast<unsigned char>(text[vk - 1]))) --vk;
+    if (vk < 2 || text.substr(vk - 2, 2) != "vk" || (vk > 2 && word(vk - 3) != vk - 3)) continue;
+    size_t cursor = blanks(at + 8);
+    if (cursor >= text.size() || text[cursor] != '(') continue;
+    const size_t digits = blanks(cursor + 1), digits_end = word(digits);
+    if (digits_end == digits || digits_end - digits > 9 ||
+        !std::all_of(text.begin() + digits, text.begin() + digits_end, [](char c) { return std::isdigit(static_cast<unsigned char>(c)); }))
+      continue;
+    const uint32_t location = static_cast<uint32_t>(std::stoul(std::string(text.substr(digits, digits_end - digits))));
+    cursor = blanks(digits_end);
+    if (cursor >= text.size() || text[cursor] != ')') continue;
+    cursor = blanks(cursor + 1);
+    if (text.substr(cursor, 2) != "]]") continue;
+    ++cursor;
+    // The declared name: the last word before the declaration's semantic, its end or the next parameter, past
+    // other attribute groups, qualifiers, the type's template arguments and array sizes (bounded: a declaration is
+    // short, and a malformed one must not make this scan the rest of the file).
+    std::string name;
+    int depth = 0;
+    for (size_t scanned = 0; ++cursor < text.size() && scanned < 4096; ++scanned) {
+      const char c = text[cursor];
+      if (c == '[' || c == '<' || c == '(') ++depth;
+      if (c == ']' || c == '>' || c == ')') --depth;
+      if (depth < 0 || (depth == 0 && (c == ':' || c == ';' || c == ',' || c == '=' || c == '{' || c == '}'))) break;
+      if (depth == 0 && (std::isalpha(static_cast<unsigned char>(c)) || c == '_') && !std::isalnum(static_cast<unsigned char>(text[cursor - 1])) &&
+          text[cursor - 1] != '_') {
+        const size_t end = word(cursor);
+        name = std::string(text.substr(cursor, end - cursor));
+        cursor = end - 1;
+      }
+    }
+    if (!name.empty()) found.emplace_back(std::move(name), location);
+  }
+  std::sort(found.begin(), found.end());
+  found.erase(std::unique(found.begin(), found.end()), found.end());
+  return found;
+}
+
 Result<void> make_arrays_unbounded(std::vector<uint32_t>& spirv, const std::vector<std::string>& names) {
   if (names.empty()) return {};
   std::optional<spirv_edit::Module> parsed = spirv_edit::Module::parse(spirv);
@@ -108,7 +163,7 @@ Result<void> make_arrays_unbounded(std::vector<uint32_t>& spirv, const std::vect
   return {};
 }
 
-Result<void> restore_builtin_semantics(std::vector<uint32_t>& spirv) {
+Result<void> restore_builtin_semantics(std::vector<uint32_t>& spirv, const std::vector<std::pair<std::string, uint32_t>>& located) {
   std::optional<spirv_edit::Module> parsed = spirv_edit::Module::parse(spirv);
   if (!parsed) return failure("glslang's module does not parse");
   spirv_edit::Module& module = *parsed;
@@ -145,11 +200,19 @@ Result<void> restore_builtin_semantics(std::vector<uint32_t>& spirv) {
       return true;
     return op == spv::OpDecorate && in.words.size() > 2 && in.words[2] == spv::DecorationLocation && builtins.count(in.words[1]);
   });
+  // A location the source states (`[[vk::location(N)]]`, by its declaration's name: glslang names a struct member's
+  // variable "input.member") stays where it is: only glslang's automatic numbering counted the built-ins.
+  auto stated = [&](uint32_t id, uint32_t location) {
+    const std::string name = module.name_of(id);
+    const std::string member = name.substr(name.rfind('.') == std::string::npos ? 0 : name.rfind('.') + 1);
+    return std::binary_search(located.begin(), located.end(), std::make_pair(member, location));
+  };
   for (Instruction& in : code)
     if (in.op() == spv::OpDecorate && in.words.size() > 3 && in.words[2] == spv::DecorationLocation) {
       const auto it = freed.find(storage_of(in.words[1]));
       if (it == freed.end()) continue;
       const uint32_t location = in.words[3];
+      if (stated(in.words[1], location)) continue;
       in.words[3] -= static_cast<uint32_t>(std::count_if(it->second.begin(), it->second.end(), [&](uint32_t l) { return l < location; }));
     }
   bool view = false, shading_rate = false;

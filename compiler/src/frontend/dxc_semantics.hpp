@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "kiln/result.hpp"
@@ -24,9 +25,14 @@ std::vector<std::string> unbounded_resource_arrays(std::string_view text);
 // reads and removes.
 bool names_builtin_semantics(std::string_view text);
 
+// The (name, location) of every declaration the text gives a `[[vk::location(N)]]`, sorted: a parameter's or a
+// struct member's name.
+std::vector<std::pair<std::string, uint32_t>> explicit_locations(std::string_view text);
+
 // The edits on glslang's module. They fail when the module cannot be edited as it should (never expected of
-// glslang's output).
+// glslang's output). restore_builtin_semantics moves the locations glslang numbered after a built-in down, and
+// leaves those in `located` (explicit_locations) where the author put them.
 Result<void> make_arrays_unbounded(std::vector<uint32_t>& spirv, const std::vector<std::string>& names);
-Result<void> restore_builtin_semantics(std::vector<uint32_t>& spirv);
+Result<void> restore_builtin_semantics(std::vector<uint32_t>& spirv, const std::vector<std::pair<std::string, uint32_t>>& located);
 
 }  // namespace kiln

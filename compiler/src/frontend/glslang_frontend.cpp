@@ -229,7 +229,9 @@ class GlslangFrontend final : public Frontend {
   CompileResult compile(const CompileRequest& request) override {
     CompileResult result;
     // DXC's meanings that glslang 12 would change (frontend/hlsl_compat.hpp).
-    std::optional<std::string> compatible = rewrite_push_constants(request.source);
+    std::optional<std::string> compatible = rewrite_attribute_lists(request.source);
+    if (auto rewritten = rewrite_push_constants(compatible ? std::string_view(*compatible) : std::string_view(request.source)))
+      compatible = std::move(rewritten);
     if (auto rewritten = rewrite_hlsl2021_intrinsics(compatible ? std::string_view(*compatible) : std::string_view(request.source)))
       compatible = std::move(rewritten);
     if (auto rewritten = rewrite_literal_swizzles(compatible ? std::string_view(*compatible) : std::string_view(request.source)))
@@ -265,7 +267,7 @@ class GlslangFrontend final : public Frontend {
       result.messages.insert(result.messages.end(), link.begin(), link.end());
       return result;
     }
-    if (Result<void> mapped = map_glslang_bindings(program, to_glslang(request.stage), request.bindings, request.source); !mapped) {
+    if (Result<void> mapped = map_glslang_bindings(program, to_glslang(request.stage), request.bindings, source); !mapped) {
       const std::string& error = mapped.error().message;
       auto messages = parse_frontend_log(error, request.source_name);
       if (messages.empty()) messages.push_back({Severity::Error, request.source_name, 0, error});
@@ -286,7 +288,7 @@ class GlslangFrontend final : public Frontend {
     glslang::GlslangToSpv(*program.getIntermediate(to_glslang(request.stage)), result.spirv, &logger, &options);
     // DXC's meanings that glslang 12 would change without a word (frontend/dxc_semantics.hpp, nonuniform.hpp).
     Result<void> edited = make_arrays_unbounded(result.spirv, unbounded_resource_arrays(source));
-    if (edited && builtin_semantics) edited = restore_builtin_semantics(result.spirv);
+    if (edited && builtin_semantics) edited = restore_builtin_semantics(result.spirv, explicit_locations(source));
     if (edited)
       edited = attach_interface_semantics(result.spirv, interface_semantics(*program.getIntermediate(to_glslang(request.stage))));
     if (!edited) {

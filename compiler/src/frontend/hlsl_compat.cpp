@@ -19,16 +19,51 @@ size_t word_end(std::string_view text, size_t at) {
   return at;
 }
 
-// `[[vk::push_constant]]` with any blanks between its tokens (glslang's preprocessed text writes
-// `[[vk :: push_constant]]`): the offset just past it, or npos.
-size_t push_constant_attribute_end(std::string_view text, size_t at) {
-  for (std::string_view token : {"[", "[", "vk", ":", ":", "push_constant", "]", "]"}) {
-    at = skip_blanks(text, at);
-    if (text.substr(at, token.size()) != token) return std::string_view::npos;
-    if (is_token_char(token[0]) && word_end(text, at) != at + token.size()) return std::string_view::npos;
-    at += token.size();
+// Blanks, line ends and comments (the preprocessed text has none left, a caller's text may): the offset past them.
+size_t skip_space(std::string_view text, size_t at) {
+  while (at < text.size()) {
+    if (text[at] == ' ' || text[at] == '\t' || text[at] == '\n' || text[at] == '\r') {
+      ++at;
+    } else if (text.substr(at, 2) == "//") {
+      at = std::min(text.find('\n', at), text.size());
+    } else if (text.substr(at, 2) == "/*") {
+      const size_t close = text.find("*/", at + 2);
+      at = close == std::string_view::npos ? text.size() : close + 2;
+    } else {
+      break;
+    }
   }
   return at;
+}
+
+// The offset just past the `]]` that closes an attribute group whose `[[` ends before `at` (parentheses of the
+// attributes' arguments balanced), or npos.
+size_t attribute_group_end(std::string_view text, size_t at) {
+  for (int depth = 0; at + 1 < text.size(); ++at) {
+    const char c = text[at];
+    if (c == '(') ++depth;
+    if (c == ')' && --depth < 0) return std::string_view::npos;
+    if (c == ';' || c == '{' || c == '}') return std::string_view::npos;  // no attribute spans these
+    if (depth == 0 && c == ']' && text[at + 1] == ']') return at + 2;
+  }
+  return std::string_view::npos;
+}
+
+// Whether the word `push_constant` at `at` is the attribute `vk::push_constant` of a group (after `[[` or after a
+// comma of the group's list).
+bool is_push_constant_attribute(std::string_view text, size_t at) {
+  auto previous = [&](size_t before) {  // the offset of the last non-blank character before `before`, or npos
+    while (before > 0 && std::string_view(" \t\r\n").find(text[before - 1]) != std::string_view::npos) --before;
+    return before == 0 ? std::string_view::npos : before - 1;
+  };
+  const size_t colons = previous(at);
+  if (colons == std::string_view::npos || colons == 0 || text[colons] != ':' || text[colons - 1] != ':') return false;
+  const size_t vk_end = previous(colons - 1);
+  if (vk_end == std::string_view::npos || vk_end < 1 || text.substr(vk_end - 1, 2) != "vk" ||
+      (vk_end >= 2 && is_token_char(text[vk_end - 2])))
+    return false;
+  const size_t opener = previous(vk_end - 1);
+  return opener != std::string_view::npos && (text[opener] == ',' || (text[opener] == '[' && opener > 0 && text[opener - 1] == '['));
 }
 
 }  // namespace
@@ -36,29 +71,62 @@ size_t push_constant_attribute_end(std::string_view text, size_t at) {
 std::optional<std::string> rewrite_push_constants(std::string_view text) {
   std::optional<std::string> out;
   size_t copied = 0;
-  for (size_t at = text.find("push_constant"); at != std::string_view::npos; at = text.find("push_constant", at + 1)) {
-    // Back to the attribute's first '[' on this line, then forward over it.
-    const size_t line_start = text.rfind('\n', at) == std::string_view::npos ? 0 : text.rfind('\n', at) + 1;
-    const size_t open = text.rfind("[", at);
-    if (open == std::string_view::npos || open < line_start || open == 0 || text[open - 1] != '[' ) continue;
-    const size_t end = push_constant_attribute_end(text, open - 1);
+  constexpr std::string_view kWord = "push_constant";
+  for (size_t at = text.find(kWord); at != std::string_view::npos; at = text.find(kWord, at + 1)) {
+    // The whole word only: a variable named `push_constants` is no attribute (it was taken for one, and the
+    // declaration rewritten twice).
+    if ((at > 0 && is_token_char(text[at - 1])) || word_end(text, at) != at + kWord.size()) continue;
+    if (at < copied || !is_push_constant_attribute(text, at)) continue;
+    size_t end = attribute_group_end(text, at + kWord.size());
+    if (end == std::string_view::npos) continue;
+    // Other attribute groups may follow (`[[vk::push_constant]] [[vk::binding(1)]]`), on this line or the next.
+    for (size_t next = skip_space(text, end); text.substr(next, 2) == "[["; next = skip_space(text, end)) {
+      end = attribute_group_end(text, next + 2);
+      if (end == std::string_view::npos) break;
+    }
     if (end == std::string_view::npos) continue;
     // `T name ;` (or `T name :` / `T name [`) with T a plain type name, not ConstantBuffer<...>, cbuffer or a keyword
     // that glslang already reads as DXC does.
-    const size_t type_at = skip_blanks(text, end), type_end = word_end(text, type_at);
+    const size_t type_at = skip_space(text, end), type_end = word_end(text, type_at);
     if (type_end == type_at) continue;
     const std::string_view type = text.substr(type_at, type_end - type_at);
     if (type == "ConstantBuffer" || type == "cbuffer" || type == "struct" || type == "const" || type == "static" ||
         type == "uniform")
       continue;
-    const size_t name_at = skip_blanks(text, type_end), name_end = word_end(text, name_at);
+    const size_t name_at = skip_space(text, type_end), name_end = word_end(text, name_at);
     if (name_end == name_at) continue;
-    const size_t after = skip_blanks(text, name_end);
+    const size_t after = skip_space(text, name_end);
     if (after >= text.size() || (text[after] != ';' && text[after] != ':' && text[after] != '[')) continue;
     if (!out) out.emplace();
     out->append(text.substr(copied, type_at - copied));
     out->append("ConstantBuffer<").append(type).append(">");
     copied = type_end;
+  }
+  if (out) out->append(text.substr(copied));
+  return out;
+}
+
+std::optional<std::string> rewrite_attribute_lists(std::string_view text) {
+  std::optional<std::string> out;
+  size_t copied = 0;
+  for (size_t open = text.find("[["); open != std::string_view::npos; open = text.find("[[", open + 2)) {
+    if (open < copied) continue;
+    const size_t end = attribute_group_end(text, open + 2);
+    if (end == std::string_view::npos) continue;
+    // The commas between the group's attributes (not those of an attribute's arguments).
+    std::vector<size_t> commas;
+    int depth = 0;
+    for (size_t at = open + 2; at + 2 < end; ++at) {
+      depth += text[at] == '(' ? 1 : text[at] == ')' ? -1 : 0;
+      if (depth == 0 && text[at] == ',') commas.push_back(at);
+    }
+    if (commas.empty()) continue;
+    if (!out) out.emplace();
+    for (size_t comma : commas) {
+      out->append(text.substr(copied, comma - copied)).append("]][[");
+      copied = comma + 1;
+    }
+    open = end - 2;
   }
   if (out) out->append(text.substr(copied));
   return out;

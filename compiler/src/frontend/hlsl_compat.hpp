@@ -13,9 +13,15 @@ namespace kiln {
 
 // `[[vk::push_constant]] T name;` with a struct type T: glslang 12 makes it a member of the `$Global` uniform
 // buffer at set 0, binding 0 (silently); DXC makes it a push-constant block. Rewritten to
-// `[[vk::push_constant]] ConstantBuffer<T> name;`, which glslang makes a push-constant block. Nothing when the
-// text has no such declaration.
+// `[[vk::push_constant]] ConstantBuffer<T> name;`, which glslang makes a push-constant block. The attribute may
+// stand on a line of its own, among others in its group or beside other groups (`[[vk::push_constant]]
+// [[vk::binding(0)]]`), with comments between. Nothing when the text has no such declaration.
 std::optional<std::string> rewrite_push_constants(std::string_view text);
+
+// Attribute lists (`[[vk::binding(0), vk::push_constant]]`), which DXC takes and glslang 12's grammar refuses
+// ("']' : Expected"): rewritten to one group per attribute, `[[vk::binding(0)]][[vk::push_constant]]`, on the same
+// line. Commas inside an attribute's arguments stay. Nothing when the text has no list.
+std::optional<std::string> rewrite_attribute_lists(std::string_view text);
 
 // HLSL 2021's `select(c, a, b)`, `and(a, b)` and `or(a, b)`, which glslang 12 does not have: rewritten to HLSL 2018's
 // componentwise `((c) ? (a) : (b))`, `((a) && (b))` and `((a) || (b))`, which DXC gives the same meaning and glslang

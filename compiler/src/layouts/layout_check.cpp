@@ -14,10 +14,13 @@ std::string register_classes(const Resource& resource) {
   switch (resource.kind) {
     case ResourceKind::UniformBuffer: return "b";
     case ResourceKind::Sampler: return "s";
-    case ResourceKind::StorageImage: return "u";
+    case ResourceKind::StorageImage:
+    case ResourceKind::StorageTexelBuffer: return "u";
     case ResourceKind::StorageBuffer: return "tu";
     case ResourceKind::Texture:
-    case ResourceKind::CombinedImageSampler: return "t";
+    case ResourceKind::CombinedImageSampler:
+    case ResourceKind::UniformTexelBuffer:
+    case ResourceKind::InputAttachment: return "t";
   }
   return "t";
 }

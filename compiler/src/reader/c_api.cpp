@@ -577,6 +577,7 @@ int kiln_reflection_resource(const kiln_reflection* r, uint32_t index, kiln_reso
   out->size = resource.size;
   out->dimension = resource.dimension.c_str();
   out->depth = resource.depth ? 1 : 0;
+  out->input_attachment_index = resource.input_attachment_index;
   return 1;
 }
 
@@ -742,7 +743,10 @@ static_assert(KILN_RESOURCE_UNIFORM_BUFFER == static_cast<int>(kiln::ResourceKin
               KILN_RESOURCE_TEXTURE == static_cast<int>(kiln::ResourceKind::Texture) &&
               KILN_RESOURCE_SAMPLER == static_cast<int>(kiln::ResourceKind::Sampler) &&
               KILN_RESOURCE_COMBINED_IMAGE_SAMPLER == static_cast<int>(kiln::ResourceKind::CombinedImageSampler) &&
-              KILN_RESOURCE_STORAGE_IMAGE == static_cast<int>(kiln::ResourceKind::StorageImage));
+              KILN_RESOURCE_STORAGE_IMAGE == static_cast<int>(kiln::ResourceKind::StorageImage) &&
+              KILN_RESOURCE_UNIFORM_TEXEL_BUFFER == static_cast<int>(kiln::ResourceKind::UniformTexelBuffer) &&
+              KILN_RESOURCE_STORAGE_TEXEL_BUFFER == static_cast<int>(kiln::ResourceKind::StorageTexelBuffer) &&
+              KILN_RESOURCE_INPUT_ATTACHMENT == static_cast<int>(kiln::ResourceKind::InputAttachment));
 static_assert(KILN_MSL_BUFFER == static_cast<int>(kiln::MslResourceKind::Buffer) &&
               KILN_MSL_TEXTURE == static_cast<int>(kiln::MslResourceKind::Texture) &&
               KILN_MSL_SAMPLER == static_cast<int>(kiln::MslResourceKind::Sampler));

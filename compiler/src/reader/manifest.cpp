@@ -23,8 +23,9 @@ namespace {
 
 // ---- Names ------------------------------------------------------------------------------------------------------
 
-constexpr std::array<std::string_view, 6> kResourceKindNames{"uniform_buffer", "storage_buffer", "texture",
-                                                             "sampler",        "combined_image_sampler", "storage_image"};
+constexpr std::array<std::string_view, 9> kResourceKindNames{
+    "uniform_buffer",       "storage_buffer",       "texture",         "sampler", "combined_image_sampler", "storage_image",
+    "uniform_texel_buffer", "storage_texel_buffer", "input_attachment"};
 constexpr std::array<std::string_view, 3> kMslKindNames{"buffer", "texture", "sampler"};
 
 template <class Enum, size_t N>
@@ -261,6 +262,7 @@ void read_fields(const json& j, S& v) {
 
 constexpr bool block_resource(const Resource& r) { return is_block(r.kind); }
 constexpr bool image_resource(const Resource& r) { return is_image(r.kind); }
+constexpr bool input_attachment(const Resource& r) { return r.kind == ResourceKind::InputAttachment; }
 
 template <>
 struct Fields<BlockMember> {
@@ -276,7 +278,8 @@ struct Fields<Resource> {
                  always("count", &Resource::count),    always("size", &Resource::size, block_resource),
                  always("members", &Resource::members, block_resource),
                  always("dimension", &Resource::dimension, image_resource),
-                 when_set("depth", &Resource::depth, image_resource)};
+                 when_set("depth", &Resource::depth, image_resource),
+                 always("input_attachment_index", &Resource::input_attachment_index, input_attachment)};
 };
 template <>
 struct Fields<PushConstantBlock> {

@@ -106,7 +106,9 @@ struct Decoder {
     if (b > 1) in.fail("a flag is not 0 or 1");
     v = b != 0;
   }
-  void field(ResourceKind& v) { v = in.enumerated<ResourceKind>(6, "a resource kind"); }
+  void field(ResourceKind& v) {
+    v = in.enumerated<ResourceKind>(static_cast<size_t>(ResourceKind::InputAttachment) + 1, "a resource kind");
+  }
   void field(MslResourceKind& v) { v = in.enumerated<MslResourceKind>(3, "an MSL resource kind"); }
   template <class... T>
   void fields(T&... v) {
@@ -169,6 +171,9 @@ void reflection_fields(IO& io, R& r) {
     io.fields(res.name, res.kind, res.set, res.binding, res.count, res.size);
     members(io, res.members);
     io.fields(res.dimension, res.depth);
+    // Only an input attachment carries its index: a record of any other kind has the bytes it had before the kind
+    // existed, so packs without input attachments are unchanged (a reader without the kind refuses the record).
+    if (res.kind == ResourceKind::InputAttachment) io.field(res.input_attachment_index);
   });
   io.list(r.push_constants, [&](auto& block) {
     io.fields(block.name, block.size);

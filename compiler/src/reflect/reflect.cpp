@@ -39,7 +39,6 @@ std::string image_dimension(const spirv_cross::SPIRType& type) {
     case spv::Dim2D: return type.image.arrayed ? "2DArray" : "2D";
     case spv::Dim3D: return "3D";
     case spv::DimCube: return type.image.arrayed ? "CubeArray" : "Cube";
-    case spv::DimBuffer: return "Buffer";
     default: return "other";
   }
 }
@@ -103,16 +102,22 @@ Reflection reflect_spirv(const std::vector<uint32_t>& spirv) {
       Resource& resource = out.resources.emplace_back();
       resource.name = compiler.get_name(item.id);
       if (resource.name.empty()) resource.name = item.name;
-      resource.kind = kind;
+      // A texel buffer is an image of dimension Buffer in SPIR-V, and its own descriptor type in Vulkan.
+      resource.kind = base_type.image.dim != spv::DimBuffer ? kind
+                      : kind == ResourceKind::Texture      ? ResourceKind::UniformTexelBuffer
+                      : kind == ResourceKind::StorageImage ? ResourceKind::StorageTexelBuffer
+                                                           : kind;
       resource.set = compiler.get_decoration(item.id, spv::DecorationDescriptorSet);
       resource.binding = compiler.get_decoration(item.id, spv::DecorationBinding);
       resource.count = type.array.empty() ? 1u : type.array[0];
       if (is_block(kind)) {
         resource.size = checked_block_size(compiler, base_type, resource.name);
         resource.members = block_members(compiler, base_type);
-      } else if (is_image(kind)) {
+      } else if (is_image(resource.kind)) {
         resource.dimension = image_dimension(base_type);
         resource.depth = base_type.image.depth;
+      } else if (resource.kind == ResourceKind::InputAttachment) {
+        resource.input_attachment_index = compiler.get_decoration(item.id, spv::DecorationInputAttachmentIndex);
       }
     }
   };
@@ -122,6 +127,7 @@ Reflection reflect_spirv(const std::vector<uint32_t>& spirv) {
   add(resources.separate_samplers, ResourceKind::Sampler);
   add(resources.sampled_images, ResourceKind::CombinedImageSampler);
   add(resources.storage_images, ResourceKind::StorageImage);
+  add(resources.subpass_inputs, ResourceKind::InputAttachment);
   std::sort(out.resources.begin(), out.resources.end(), [](const Resource& a, const Resource& b) {
     return std::tie(a.set, a.binding, a.name) < std::tie(b.set, b.binding, b.name);
   });
