@@ -62,7 +62,7 @@ class BuildVerb final : public Verb {
     verb->add_option("--emit", emit_, "Dump a stage: " + kiln::emit_stage_list() + " (repeatable)")
         ->check(CLI::IsMember(kiln::emit_stage_names()))
         ->delimiter(',');
-    verb->add_option("--depfile", depfile_, "Write a Makefile-style depfile listing every input read");
+    verb->add_option("--depfile", depfile_, "Write a Makefile-style depfile listing every input read (-: standard output)");
     std::vector<std::string> known_targets;
     for (const kiln::TargetName& target : kiln::kTargetNames) known_targets.emplace_back(target.name);
     verb->add_option("--targets", target_names_, "Override the pack's targets: " + kiln::target_name_list() + " (comma-separated)")
@@ -118,7 +118,8 @@ class BuildVerb final : public Verb {
   int run() override {
     options_.pack_file = pack_file_;
     options_.worker_timeout = std::chrono::milliseconds(static_cast<long>(timeout_s_ * 1000));
-    if (!depfile_.empty()) options_.depfile = depfile_;
+    // `-`: standard output, as for --summary-json (the writer writes a descriptor's link in place).
+    if (!depfile_.empty()) options_.depfile = depfile_ == "-" ? "/dev/stdout" : depfile_;
     options_.emit.insert(emit_.begin(), emit_.end());
     for (const auto& name : target_names_) options_.targets.push_back(*kiln::parse_target(name));
     if (!plan_.apply(options_)) return 1;

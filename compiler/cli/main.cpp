@@ -16,7 +16,8 @@ namespace {
 int run(int argc, char** argv) {
   for (const kiln::cli::VerifyVerb& verb : kiln::cli::kVerifyVerbs)
     if (argc > 1 && std::strcmp(argv[1], verb.name) == 0) return kiln::cli::run_verify(argc, argv);
-  CLI::App app{"kiln: shader permutation compiler (HLSL -> SPIR-V, GLSL, GLSL ES, MSL variant packs)"};
+  // Named, so that `Usage:` says kiln and not the path it was started by (build/ci/compiler/kiln).
+  CLI::App app{"kiln: shader permutation compiler (HLSL -> SPIR-V, GLSL, GLSL ES, MSL variant packs)", "kiln"};
   app.require_subcommand(1);
   app.set_version_flag("--version", kiln::cli::version_text());
   std::string colour_mode = "auto";

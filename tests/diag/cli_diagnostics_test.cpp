@@ -638,6 +638,11 @@ TEST_F(Cli, DashWritesTheSummaryJsonOrTheLintReportToStandardOutput) {
   auto lint = testing::run_kiln({"lint", "S.hlsl", "--format", "json", "-o", "-"}, dir.path());
   EXPECT_EQ(lint.exit_code, 0) << lint.err;
   EXPECT_TRUE(nlohmann::json::parse(lint.out).is_object()) << lint.out;
+  // --depfile - as well (it wrote a file named `-`): the depfile alone on standard output with -q.
+  auto depfile = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--cache", "cache", "-q", "--depfile", "-"}, dir.path());
+  ASSERT_EQ(depfile.exit_code, 0) << depfile.err;
+  EXPECT_EQ(depfile.out.rfind("out/p.manifest.json:", 0), 0u) << depfile.out;
+  EXPECT_NE(depfile.out.find("S.hlsl"), std::string::npos) << depfile.out;
   EXPECT_FALSE(std::filesystem::exists(dir / "-"));
 }
 
@@ -869,7 +874,7 @@ TEST_F(Cli, EveryVerbHasHelp) {
   for (std::string line; std::getline(lines, line);)
     if (line.starts_with("  ") && line[2] != ' ') verbs.push_back(line.substr(2, line.find(' ', 2) - 2));
   EXPECT_EQ(verbs, (std::vector<std::string>{"build", "list", "inspect", "lint", "check-scene", "check-usage",
-                                             "merge-usage", "diff-packs", "compile", "fold-cost", "render", "test"}));
+                                             "merge-usage", "diff-packs", "compile", "fold-cost", "watch", "render", "test"}));
   for (const std::string& verb : verbs) {
     auto r = testing::run_kiln({verb, "--help"}, dir.path());
     EXPECT_EQ(r.exit_code, 0) << verb;

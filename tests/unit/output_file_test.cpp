@@ -99,17 +99,19 @@ TEST(OutputFile, ALinkToADeviceOrAFifoIsWrittenThrough) {
   EXPECT_EQ(kind_at(dir / "to-fifo"), S_IFLNK);
 }
 
-// `-o /dev/stdout > file` (or `>> file`): the descriptor the shell opened is the caller's to write, and a link of
-// /proc/self/fd leads to it; its bytes come after what is already there.
-TEST(OutputFile, ARedirectedDescriptorIsWrittenWhereTheShellPointedIt) {
+// `-o /dev/stdout > log`: the descriptor the shell opened is the caller's to write, through a link of /dev/fd or
+// /proc/self/fd, and written through the descriptor itself: what the process writes to it afterwards comes after
+// (a reopened file would have its own offset, and the next write would overwrite what kiln wrote).
+TEST(OutputFile, ARedirectedDescriptorIsWrittenThroughTheDescriptorItself) {
   testing::TempDir dir;
   const int fd = ::open((dir / "log").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   ASSERT_GE(fd, 0);
   ASSERT_EQ(::write(fd, "head ", 5), 5);
-  Result<void> written = write_output_file("/dev/fd/" + std::to_string(fd), "tail");
-  ::close(fd);
+  Result<void> written = write_output_file("/dev/fd/" + std::to_string(fd), "middle ");
   ASSERT_TRUE(written) << written.error().message;
-  EXPECT_EQ(testing::read_file(dir / "log"), "head tail");
+  ASSERT_EQ(::write(fd, "tail", 4), 4);
+  ::close(fd);
+  EXPECT_EQ(testing::read_file(dir / "log"), "head middle tail");
 }
 
 TEST(OutputFile, ADirectoryIsRefused) {

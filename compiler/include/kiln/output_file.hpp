@@ -5,8 +5,9 @@
 //                                      readers see the old file or the new one, never a torn one
 //   a character device or a FIFO       written in place, as glslc and DXC do (`-o /dev/null` checks a shader;
 //                                      /dev/full is an error, ENOSPC; a FIFO waits for its reader)
-//   a link to a device or a FIFO,      written in place through the link (`-o /dev/stdout`, `-o >(xxd)`)
-//   or a /proc/self/fd link
+//   a link to one of this process's    written through that descriptor, whatever it is, so that its offset moves
+//   descriptors                        as the shell's does (`-o /dev/stdout > log`, `-o /dev/fd/3`, `-o >(xxd)`)
+//   a link to a device or a FIFO       written in place through the link
 //   a link to anything else            refused: kiln neither writes through it nor replaces it
 //   a directory, block device, socket  refused
 //

@@ -8,7 +8,9 @@
 #include <atomic>
 #include <cerrno>
 #include <climits>
+#include <cstdio>
 #include <cstring>
+#include <optional>
 #include <string>
 
 namespace kiln {
@@ -58,28 +60,32 @@ bool write_parts(int fd, const std::vector<std::string_view>& parts) {
   return true;
 }
 
-// A link that ends in a process's file descriptors (/dev/stdout -> /proc/self/fd/1, /dev/fd/63 from `>(...)`):
-// what the shell redirected there, which is the caller's to write even when it is a regular file.
-bool is_descriptor_link(std::filesystem::path link) {
+// The descriptor of this process that a link ends in (/dev/stdout -> /proc/self/fd/1, /dev/fd/63 from `>(...)`):
+// what the shell redirected there, which is the caller's to write whatever it is. Written through the descriptor
+// itself, not reopened, so that its offset moves as the shell's and the process's own writes expect (`> log`
+// followed by more output, `>> log`).
+std::optional<int> own_descriptor(std::filesystem::path link) {
+  const std::string own = "/proc/" + std::to_string(::getpid()) + "/fd";
   for (int hop = 0; hop < 8; ++hop) {
     std::error_code ec;
     const std::filesystem::path parent =
         std::filesystem::canonical(link.has_parent_path() ? link.parent_path() : std::filesystem::path("."), ec);
-    if (ec) return false;
-    const std::string where = parent.string();
-    if (where == "/proc/self/fd" || (where.starts_with("/proc/") && where.ends_with("/fd"))) return true;
+    if (ec) return std::nullopt;
+    const std::string name = link.filename().string();
+    if (parent == own && !name.empty() && name.size() < 10 && name.find_first_not_of("0123456789") == std::string::npos)
+      return std::stoi(name);
     struct stat info {};
-    if (::lstat(link.c_str(), &info) != 0 || !S_ISLNK(info.st_mode)) return false;
+    if (::lstat(link.c_str(), &info) != 0 || !S_ISLNK(info.st_mode)) return std::nullopt;
     std::filesystem::path target = std::filesystem::read_symlink(link, ec);
-    if (ec) return false;
+    if (ec) return std::nullopt;
     link = target.is_absolute() ? target : parent / target;
   }
-  return false;
+  return std::nullopt;
 }
 
-Result<void> write_in_place(const std::filesystem::path& path, const std::vector<std::string_view>& parts, bool append) {
+Result<void> write_in_place(const std::filesystem::path& path, const std::vector<std::string_view>& parts) {
   // No O_CREAT: the path was there a moment ago; if it went away, that is an error, not a new file.
-  const int fd = ::open(path.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC | (append ? O_APPEND : 0));
+  const int fd = ::open(path.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC);
   if (fd < 0) return failure("cannot open '" + path.string() + "' for writing: " + errno_text());
   if (!write_parts(fd, parts)) {
     std::string error = "cannot write '" + path.string() + "': " + errno_text();
@@ -135,15 +141,20 @@ Result<void> write_output_file(const std::filesystem::path& path, const std::vec
     return failure("cannot write '" + path.string() + "': " + errno_text());
   }
   if (S_ISREG(here.st_mode)) return replace_atomically(path, parts);
-  if (S_ISCHR(here.st_mode) || S_ISFIFO(here.st_mode)) return write_in_place(path, parts, false);
+  if (S_ISCHR(here.st_mode) || S_ISFIFO(here.st_mode)) return write_in_place(path, parts);
   if (!S_ISLNK(here.st_mode))
     return failure("cannot write '" + path.string() + "': it is " + kind_of(here.st_mode) +
                    "; kiln writes regular files, character devices and FIFOs only");
+  if (const std::optional<int> fd = own_descriptor(path)) {
+    // What this process buffered for the descriptor goes first.
+    if (*fd == STDOUT_FILENO) std::fflush(stdout);
+    if (*fd == STDERR_FILENO) std::fflush(stderr);
+    if (!write_parts(*fd, parts)) return failure("cannot write '" + path.string() + "': " + errno_text());
+    return {};
+  }
   struct stat target {};
   const bool resolves = ::stat(path.c_str(), &target) == 0;
-  if (resolves && (S_ISCHR(target.st_mode) || S_ISFIFO(target.st_mode))) return write_in_place(path, parts, false);
-  // A redirected descriptor that is a regular file: append, which is where a fresh `>` or an earlier `>>` left it.
-  if (resolves && S_ISREG(target.st_mode) && is_descriptor_link(path)) return write_in_place(path, parts, true);
+  if (resolves && (S_ISCHR(target.st_mode) || S_ISFIFO(target.st_mode))) return write_in_place(path, parts);
   std::error_code ec;
   const std::string to = std::filesystem::read_symlink(path, ec).string();
   return failure("cannot write '" + path.string() + "': it is a symbolic link (to '" + to + "', " +
