@@ -29,11 +29,18 @@ class LintVerb final : public Verb {
                      "Write the report to this file (only when lint ran: never an empty or partial file); - for standard output");
     verb->add_option("--sarif-root", sarif_root_, "SARIF URIs are relative to this directory (default: the git work tree, else the current directory)");
     verb->add_flag("--werror", werror_, "Treat warnings as errors");
+    std::vector<std::string> rule_ids(kiln::kRuleIdTexts.begin(), kiln::kRuleIdTexts.end());
+    verb->add_option("--disable", disabled_,
+                     "Rules that are off, RULE[,RULE...] (repeatable): their findings are suppressed, never counted")
+        ->delimiter(',')
+        ->check(CLI::IsMember(rule_ids));
     return verb;
   }
 
   int run() override {
     if (!plan_.apply(options_)) return 1;
+    kiln::LintOptions lint;
+    for (const std::string& rule : disabled_) lint.disabled.push_back(*kiln::parse_rule_id(rule));  // checked by CLI11
     kiln::LintReport report;
     if (inputs_.size() == 1 && inputs_[0].ends_with(".json")) {
       // The pack is built into a scratch directory under $TMPDIR, else /tmp, else /var/tmp (as gcc falls back).
@@ -48,7 +55,7 @@ class LintVerb final : public Verb {
       options_.pack_file = inputs_[0];
       options_.output_dir = temp;
       if (!no_cache_) options_.cache_dir = cache_dir_.empty() ? kiln::user_cache_directory() : std::filesystem::path(cache_dir_);
-      report = kiln::lint_pack(options_);
+      report = kiln::lint_pack(options_, lint);
       // A finding that names a file in the scratch directory (an internal compiler error's reproducer) keeps it.
       const bool referenced = std::any_of(report.findings.begin(), report.findings.end(), [&](const kiln::LintFinding& f) {
         return std::any_of(f.notes.begin(), f.notes.end(), [&](const std::string& note) { return note.find(temp) != std::string::npos; });
@@ -57,7 +64,7 @@ class LintVerb final : public Verb {
     } else {
       std::vector<std::filesystem::path> files(inputs_.begin(), inputs_.end());
       report = kiln::lint_files(files, std::vector<std::filesystem::path>(include_dirs_.begin(), include_dirs_.end()),
-                                options_.defines);
+                                options_.defines, lint);
     }
     std::string text;
     if (format_ == "json") text = kiln::format_lint_json(report);
@@ -74,14 +81,15 @@ class LintVerb final : public Verb {
       (format_ == "text" ? std::cerr : std::cout) << text;
     }
     if (format_ == "text")
-      std::cerr << "kiln lint: " << report.errors() << " error(s), " << report.warnings() << " warning(s)\n";
+      std::cerr << "kiln lint: " << report.errors() << " error(s), " << report.warnings() << " warning(s)"
+                << (report.suppressed() > 0 ? ", " + std::to_string(report.suppressed()) + " suppressed" : std::string()) << "\n";
     return report.errors() > 0 || (werror_ && report.warnings() > 0) ? 1 : 0;
   }
 
  private:
   kiln::BuildOptions options_;
   PlanArguments plan_;
-  std::vector<std::string> inputs_, include_dirs_;
+  std::vector<std::string> inputs_, include_dirs_, disabled_;
   std::string cache_dir_, format_ = "text", output_, sarif_root_;
   bool no_cache_ = false, werror_ = false;
 };

@@ -457,6 +457,150 @@ TEST_F(Lint, SarifResultsHaveRegionsAndRootRelativePercentEncodedUris) {
             "file://" + dir.path().string() + "/my%20shaders/S.hlsl");
 }
 
+// A folded group is one module for all its values: its variants are identical by design, not unused. A folded
+// keyword that no code tests as a value (only `#if defined(K)`, true for every value folded) still is.
+TEST_F(Lint, FoldedKeywordsTestedAsValuesAreNotUnused) {
+  pack(R"(, "keyword_kinds": {"SOFT": "specialization_constant", "FOG_A": "specialization_constant_int",
+                              "FOG_B": "specialization_constant_int", "ONLY_IF": "specialization_constant"})");
+  dir.write("S.hlsl", std::string("#pragma multi_compile_fragment _ SOFT\n#pragma multi_compile_fragment _ FOG_A FOG_B\n"
+                                  "#pragma multi_compile_fragment _ ONLY_IF\n") +
+                          kVertex +
+                          "float4 F() : SV_Target {\n"
+                          "  float4 c = 1.0;\n"
+                          "#if defined(KILN_FOLDED_SOFT)\n  if (SOFT) c *= 0.5;\n#elif defined(SOFT)\n  c *= 0.5;\n#endif\n"
+                          "#if defined(KILN_FOLDED_FOG_A)\n  if (FOG_A) c *= 0.25;\n  if (FOG_B) c *= 0.125;\n#endif\n"
+                          "#if defined(ONLY_IF)\n  c *= 0.75;\n#endif\n"
+                          "  return c;\n}\n");
+  json report;
+  rules({"p.pack.json"}, &report);
+  std::vector<std::string> unused;
+  for (const json& f : report["findings"])
+    if (f["rule"] == "unused-keyword") unused.push_back(f["message"]);
+  EXPECT_EQ(unused, std::vector<std::string>{"folded keyword 'ONLY_IF' (specialization_constant) of pass 'P' is tested by "
+                                             "no code as a value: its one module is the same for every value"})
+      << report.dump(2);
+}
+
+// debug.pack.json's case: a shared header of the library (shaderlib/Common.hlsl) tests an option that this pack's
+// one pass does not declare but another shader of the library does. A name no shader declares is still a typo.
+TEST_F(Lint, ASharedHeaderMayTestAKeywordAnotherShaderOfItsLibraryDeclares) {
+  dir.write("p.pack.json", R"({"name": "p", "include_dirs": ["lib"],
+  "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  dir.write("lib/Common.hlsl", "#if defined(_HALF_PRECISION)\n#define REAL half\n#else\n#define REAL float\n#endif\n"
+                               "#if defined(_HALF_PRECISON)\n#endif\n");
+  dir.write("lib/passes/Other.hlsl", "#pragma shader_feature_local _ _HALF_PRECISION\n");
+  dir.write("S.hlsl", std::string("#include \"Common.hlsl\"\n") + kVertex + "float4 F() : SV_Target { return (REAL)1.0; }\n");
+  json report;
+  rules({"p.pack.json"}, &report);
+  ASSERT_EQ(report["findings"].size(), 1u) << report.dump(2);
+  EXPECT_EQ(report["findings"][0]["rule"], "undeclared-keyword");
+  EXPECT_EQ(report["findings"][0]["line"], 6);
+  EXPECT_EQ(report["findings"][0]["notes"], json::array({"did you mean '_HALF_PRECISION'?"}));
+}
+
+// A keyword one pass declares is known to every pass of the pack (a header they share tests it).
+TEST_F(Lint, AKeywordAnotherPassOfThePackDeclaresIsNotUndeclared) {
+  dir.write("p.pack.json", R"({"name": "p",
+  "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}},
+             {"name": "Q", "source": "T.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  dir.write("Shared.hlsl", "#if defined(_OPTION)\n#define VALUE 0.5\n#else\n#define VALUE 1.0\n#endif\n");
+  dir.write("S.hlsl", std::string("#include \"Shared.hlsl\"\n") + kVertex + "float4 F() : SV_Target { return VALUE; }\n");
+  dir.write("T.hlsl", std::string("#pragma multi_compile_fragment _ _OPTION\n#include \"Shared.hlsl\"\n") + kVertex +
+                          "float4 F() : SV_Target { return VALUE; }\n");
+  json report;
+  EXPECT_FALSE(has(rules({"p.pack.json"}, &report), "undeclared-keyword")) << report.dump(2);
+}
+
+// `// kiln-lint: ignore RULE` on the line, `ignore-next-line RULE` on the line before (clang-tidy's NOLINT and
+// NOLINTNEXTLINE); no list: every rule. Suppressed findings are listed apart, counted, and never fail --werror.
+TEST_F(Lint, ACommentSuppressesAFindingOnItsLineOrTheNext) {
+  dir.write("S.hlsl",
+            "#ifdef _TYPO_A  // kiln-lint: ignore undeclared-keyword -- a library option\n"
+            "// kiln-lint: ignore-next-line undeclared-keyword,fp16-unguarded\n"
+            "#ifdef _TYPO_B\n"
+            "#endif\n"
+            "#endif\n"
+            "#ifdef _TYPO_C  // kiln-lint: ignore fp16-unguarded\n"
+            "#endif\n"
+            "#ifdef _TYPO_D  // kiln-lint: ignore\n"
+            "#endif\n"
+            "#ifdef _TYPO_E  // kiln-lint: ignore undeclared-keywrd\n"
+            "#endif\n");
+  json report;
+  rules({"S.hlsl"}, &report);
+  std::vector<std::string> active, suppressed;
+  for (const json& f : report["findings"]) active.push_back(f["rule"].get<std::string>() + ":" + std::to_string(f["line"].get<int>()));
+  for (const json& f : report["suppressed_findings"]) {
+    suppressed.push_back(f["rule"].get<std::string>() + ":" + std::to_string(f["line"].get<int>()));
+    EXPECT_EQ(f["suppression"], "inSource");
+  }
+  EXPECT_EQ(active, (std::vector<std::string>{"undeclared-keyword:6", "undeclared-keyword:10", "build-error:10"})) << report.dump(2);
+  EXPECT_EQ(suppressed, (std::vector<std::string>{"undeclared-keyword:1", "undeclared-keyword:3", "undeclared-keyword:8"}));
+  EXPECT_EQ(report["suppressed"], 3);
+  EXPECT_EQ(report["warnings"], 3);
+  EXPECT_EQ(report["suppressed_findings"][0]["justification"], "a library option");
+  EXPECT_EQ(report["findings"][2]["message"], "unknown lint rule 'undeclared-keywrd' in a kiln-lint comment");
+
+  json sarif = json::parse(lint_sarif({"S.hlsl"}).out);
+  int in_source = 0;
+  for (const json& result : sarif["runs"][0]["results"])
+    if (result.contains("suppressions")) {
+      ++in_source;
+      EXPECT_EQ(result["suppressions"][0]["kind"], "inSource");
+    }
+  EXPECT_EQ(in_source, 3);
+
+  dir.write("S.hlsl", "#ifdef _TYPO_A  // kiln-lint: ignore undeclared-keyword\n#endif\n");
+  auto r = testing::run_kiln({"lint", "S.hlsl", "--werror"}, dir.path());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "kiln lint: 0 error(s), 0 warning(s), 1 suppressed\n");
+}
+
+// --disable RULE[,RULE] and the pack's "lint": {"disable": [...]} turn rules off: SARIF kind "external".
+TEST_F(Lint, RulesAreDisabledOnTheCommandLineOrInThePack) {
+  dir.write("S.hlsl", "#ifdef _TYPO_A\n#endif\n");
+  json report;
+  rules({"S.hlsl", "--disable", "fp16-unguarded,undeclared-keyword"}, &report);
+  EXPECT_TRUE(report["findings"].empty()) << report.dump(2);
+  ASSERT_EQ(report["suppressed"], 1);
+  EXPECT_EQ(report["suppressed_findings"][0]["suppression"], "external");
+  json sarif = json::parse(lint_sarif({"S.hlsl", "--disable", "undeclared-keyword"}).out);
+  EXPECT_EQ(sarif["runs"][0]["results"][0]["suppressions"], json::parse(R"([{"kind": "external"}])"));
+  EXPECT_EQ(testing::run_kiln({"lint", "S.hlsl", "--werror", "--disable", "undeclared-keyword"}, dir.path()).exit_code, 0);
+  EXPECT_EQ(testing::run_kiln({"lint", "S.hlsl", "--werror"}, dir.path()).exit_code, 1);
+  auto unknown = testing::run_kiln({"lint", "S.hlsl", "--disable", "undeclared-keywords"}, dir.path());
+  EXPECT_NE(unknown.exit_code, 0);
+  EXPECT_NE(unknown.err.find("undeclared-keywords"), std::string::npos) << unknown.err;
+
+  pack(R"(, "lint": {"disable": ["unused-keyword"]})");
+  dir.write("S.hlsl", std::string("#pragma multi_compile_fragment _ NEVER_READ\n") + kVertex + "float4 F() : SV_Target { return 1.0; }\n");
+  rules({"p.pack.json"}, &report);
+  EXPECT_TRUE(report["findings"].empty()) << report.dump(2);
+  ASSERT_EQ(report["suppressed"], 1);
+  EXPECT_EQ(report["suppressed_findings"][0]["rule"], "unused-keyword");
+  EXPECT_EQ(report["suppressed_findings"][0]["suppression"], "external");
+  EXPECT_EQ(testing::run_kiln({"lint", "p.pack.json", "--werror"}, dir.path()).exit_code, 0);
+
+  pack(R"(, "lint": {"disable": ["unused-keywords"]})");
+  auto misspelt = testing::run_kiln({"lint", "p.pack.json"}, dir.path());
+  EXPECT_EQ(misspelt.exit_code, 1);
+  EXPECT_NE(misspelt.err.find("unknown lint rule 'unused-keywords' in \"lint\": \"disable\" (did you mean 'unused-keyword'?)"),
+            std::string::npos)
+      << misspelt.err;
+}
+
+// debug.pack.json and lit_specialized.pack.json lint clean under --werror (a cold build of each: seconds; the
+// default pack, over the golden cache, is pipeline.BundledLibrary.EveryBundledPackLintsCleanUnderWerror).
+TEST(LintBundledLibrary, TheSmallBundledPacksLintCleanUnderWerror) {
+  testing::TempDir scratch;
+  for (const char* pack : {"debug", "lit_specialized"}) {
+    auto r = testing::run_kiln({"lint", std::string(KILN_SOURCE_DIR) + "/variants/" + pack + ".pack.json", "--werror", "--cache",
+                                (scratch / "cache").string()},
+                               scratch.path());
+    EXPECT_EQ(r.exit_code, 0) << pack << ":\n" << r.err;
+  }
+}
+
 TEST(LintBundledLibrary, TheShaderLibraryIsLintClean) {
   testing::TempDir scratch;  // lint's cache goes to the user's cache directory: here, a scratch one
   ::setenv("XDG_CACHE_HOME", (scratch / "xdg").c_str(), 1);

@@ -8,6 +8,7 @@
 #include "definition/definition.hpp"
 #include "frontend/bindings.hpp"
 #include "kiln/command_line.hpp"
+#include "kiln/lint_rule_id.hpp"
 #include "test_support.hpp"
 
 namespace kiln {
@@ -55,6 +56,15 @@ TEST(Definition, SchemasListExactlyTheFieldsKilnAccepts) {
   EXPECT_EQ(listed(read_schema("scene.schema.json")), sorted(kiln.scene));
   EXPECT_EQ(listed(pack.at("$defs").at("bindings")), sorted(kiln.bindings));
   EXPECT_EQ(listed(pack.at("$defs").at("bindings").at("properties").at("shifts").at("items")), sorted(kiln.shift));
+  EXPECT_EQ(listed(pack.at("properties").at("lint")), sorted(kiln.lint));
+}
+
+// The schema's lint rules are kiln/lint_rules.def's, in its order: an editor completes and checks "disable".
+TEST(Definition, SchemaLintRulesAreTheRuleTable) {
+  const std::vector<std::string> table(kRuleIdTexts.begin(), kRuleIdTexts.end());
+  const json pack = read_schema("pack.schema.json");
+  EXPECT_EQ(pack.at("properties").at("lint").at("properties").at("disable").at("items").at("enum").get<std::vector<std::string>>(),
+            table);
 }
 
 // [[vk::binding]] is found by the declared name, through other attributes, template arguments and array sizes.

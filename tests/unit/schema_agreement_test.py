@@ -98,6 +98,10 @@ pack_cases = [
     ("global_uniform without binding", pack(bindings={"global_uniform": {"set": 1}})),
     ("define not an identifier", pack(defines={"2X": 1})),
     ("define with an array value", with_pass(defines={"X": [1]})),
+    ("lint disable", pack(lint={"disable": ["unused-keyword", "fp16-unguarded"]})),
+    ("unknown lint rule", pack(lint={"disable": ["unused-keywords"]})),
+    ("unknown lint field", pack(lint={"enable": ["unused-keyword"]})),
+    ("lint not an object", pack(lint=["unused-keyword"])),
 ]
 scene_cases = [
     ("keywords", {"name": "s", "keywords": ["A"]}),

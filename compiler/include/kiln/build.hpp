@@ -125,6 +125,10 @@ struct PlanListing {
   std::vector<std::pair<std::string, std::set<std::string>>> scenes;
   std::vector<SourceLocation> pass_locations;  // where each pass (as in pass_groups) is defined in the pack file
   size_t stage_sources = 0;  // distinct stage sources (pass, stage, keywords it sees): what a cold build preprocesses
+  // For lint: the pack's include roots (the library whose other shaders' keywords a shared header may test) and
+  // its "lint": {"disable": [...]} rules.
+  std::vector<std::filesystem::path> include_dirs;
+  std::vector<std::string> lint_disable;
 };
 
 // Per pass: what each constraint removes on its own (with its reason), then materials and scenes.

@@ -15,6 +15,11 @@
 
 namespace kiln {
 
+// How a finding was suppressed (SARIF 2.1.0 suppression.kind): by a `// kiln-lint: ignore RULE` comment in the
+// source (inSource), or by a rule list outside it: --disable, or the pack's "lint": {"disable": [...]} (external).
+// A suppressed finding is still reported (SARIF `suppressions`, JSON `suppressed_findings`), never counted.
+enum class Suppression : unsigned char { None, InSource, External };
+
 struct LintFinding {
   RuleId rule = RuleId::BuildError;
   Severity severity = Severity::Warning;
@@ -23,23 +28,34 @@ struct LintFinding {
   std::vector<std::string> notes;
   // Other places the finding involves (the second declaration of a binding clash): a build's note diagnostics.
   std::vector<std::pair<SourceLocation, std::string>> related;
+  Suppression suppression = Suppression::None;
+  std::string justification;  // a suppression comment's text after `--`
 };
 
 struct LintReport {
   std::vector<LintFinding> findings;
+  // Findings that are not suppressed, by severity; and the suppressed ones (which never fail --werror).
   int errors() const;
   int warnings() const;
+  int suppressed() const;
+};
+
+// What lint leaves out: rules off for this run (--disable), on top of the pack's "lint": {"disable": [...]} and
+// the sources' `// kiln-lint: ignore` comments.
+struct LintOptions {
+  std::vector<RuleId> disabled;
 };
 
 // Lints a pack definition: builds it into options.output_dir (a scratch directory), observes the build's plan
 // and its outputs, and runs every rule.
-LintReport lint_pack(BuildOptions options);
+LintReport lint_pack(BuildOptions options, const LintOptions& lint = {});
 // Lints loose HLSL files with the source rules (undeclared keywords, fp16 guards). Each file's includes are
 // read (next to the including file, then in `include_dirs`, confined to those roots), so keywords declared and
 // names defined in included headers are known; the included files are linted too. `defines` (-D) are defined, as
 // in a build.
 LintReport lint_files(const std::vector<std::filesystem::path>& files,
-                      const std::vector<std::filesystem::path>& include_dirs = {}, const std::vector<Define>& defines = {});
+                      const std::vector<std::filesystem::path>& include_dirs = {}, const std::vector<Define>& defines = {},
+                      const LintOptions& lint = {});
 
 // `colour`: the build's diagnostic colours (ANSI), for a terminal (--color).
 std::string format_lint_text(const LintReport& report, bool colour = false);

@@ -138,6 +138,9 @@ struct PackDefinition {
     SourceLocation defined_at;
   };
   std::map<std::string, KindOverride> keyword_kinds;
+  // "lint": {"disable": ["rule-id", ...]}: kiln lint's rules that are off for this pack (docs/lint.md); checked
+  // against kiln/lint_rules.def when read.
+  std::vector<std::string> lint_disable;
 };
 
 // The keyword values one scene can request; everything else is stripped. A profile states what the scene

@@ -1,6 +1,7 @@
 #include "definition/definition.hpp"
 
 #include "kiln/bounded_json.hpp"
+#include "kiln/lint_rule_id.hpp"
 #include "kiln/pack_format.hpp"
 
 #include <nlohmann/json.hpp>
@@ -103,13 +104,14 @@ std::vector<Define> read_defines(FieldReader& fields, const json& object, const 
 const DefinitionFields& definition_fields() {
   static const DefinitionFields fields{
       {"$schema", "name", "description", "shader", "include_dirs", "targets", "budget", "passes", "constraints",
-       "materials", "scene_features", "bindings", "defines", "keyword_kinds"},
+       "materials", "scene_features", "bindings", "defines", "keyword_kinds", "lint"},
       {"name", "description", "source", "stages", "targets", "bindings", "defines"},
       {"keyword", "requires", "requires_any", "excludes", "reason"},
       {"name", "description", "keywords"},
       {"$schema", "name", "description", "uses", "materials", "keywords"},
       {"shifts", "auto_bind", "combined_image_samplers", "global_uniform"},
       {"register", "shift", "space"},
+      {"disable"},
   };
   return fields;
 }
@@ -380,6 +382,27 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
                                    "\"specialization_constant_int\"");
         if (!is_identifier(keyword)) fields.fail(keyword, "'" + keyword + "' is not a valid keyword name");
         pack.keyword_kinds[keyword] = entry;
+      }
+    }
+  }
+  if (auto lint = root->find("lint"); lint != root->end()) {
+    if (!lint->is_object()) {
+      fields.fail("lint", "\"lint\" must be an object: {\"disable\": [\"rule-id\", ...]}");
+    } else {
+      fields.only(*lint, definition_fields().lint, "\"lint\"");
+      std::vector<std::string> rule_ids(kRuleIdTexts.begin(), kRuleIdTexts.end());
+      for (const std::string& rule : fields.strings(*lint, "disable")) {
+        if (parse_rule_id(rule)) {
+          pack.lint_disable.push_back(rule);
+          continue;
+        }
+        // A misspelt rule would silently disable nothing.
+        const std::optional<std::string> suggestion = closest_match(rule, rule_ids);
+        const bool printable = rule.size() <= 64 && std::all_of(rule.begin(), rule.end(), [](char c) {
+          return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' || c == '_';
+        });  // a name from the file is quoted only when it cannot carry a control sequence
+        fields.fail(rule, "unknown lint rule" + (printable ? " '" + rule + "'" : std::string()) + " in \"lint\": \"disable\"" +
+                              (suggestion ? " (did you mean '" + *suggestion + "'?)" : " (the rules are in docs/lint.md)"));
       }
     }
   }

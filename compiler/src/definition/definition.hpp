@@ -16,7 +16,7 @@ namespace kiln {
 // misspelled "budjet" must not silently mean the default budget). variants/schema/ lists the same fields
 // (checked by unit.Definition tests).
 struct DefinitionFields {
-  std::vector<std::string_view> pack, pass, constraint, material, scene, bindings, shift;
+  std::vector<std::string_view> pack, pass, constraint, material, scene, bindings, shift, lint;
 };
 const DefinitionFields& definition_fields();
 

@@ -218,6 +218,8 @@ PlanListing make_listing(const Plan* plan) {
   for (const SceneProfile& scene : plan->scenes) listing.scenes.emplace_back(scene.name, scene.keywords);
   for (const PassDefinition& pass : plan->pack.passes) listing.pass_settings.push_back({pass.name, pass.bindings, pass.defines});
   for (size_t p = 0; p < plan->passes.size(); ++p) listing.pass_locations.push_back(plan->pack.passes[p].defined_at);
+  listing.include_dirs = plan->pack.include_dirs;
+  listing.lint_disable = plan->pack.lint_disable;
   for (size_t p = 0; p < plan->passes.size(); ++p) {
     const auto& groups = plan->passes[p].groups;
     for (const Variant& v : plan->expansions[p].variants) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <map>
 #include <regex>
 #include <set>
 
@@ -60,13 +61,121 @@ void locate_pass_level_findings(const LintContext& context, LintReport& report) 
   }
 }
 
+// `// kiln-lint: ignore[-next-line] [RULE[,RULE...]] [-- why]` (clang-tidy's NOLINT and NOLINTNEXTLINE): the
+// findings of those rules (of every rule, with no list) on that line, or on the next one.
+struct SuppressionComment {
+  bool every_rule = false;  // no list
+  std::set<RuleId> rules;
+  std::string justification;
+};
+
+void read_suppression_comments(const LintContext& context, std::map<std::pair<std::string, int>, SuppressionComment>& at,
+                               LintReport& report) {
+  static const std::regex comment_re(
+      R"(//\s*kiln-lint:\s*(ignore-next-line|ignore)\b(?:[ \t]+([a-z0-9][a-z0-9-]*(?:[ \t]*,[ \t]*[a-z0-9][a-z0-9-]*)*))?(?:[ \t]+(?:--[ \t]*)?(.*?))?\s*$)");
+  static const std::regex rule_re(R"([a-z0-9][a-z0-9-]*)");
+  const std::vector<std::string> rule_ids(kRuleIdTexts.begin(), kRuleIdTexts.end());
+  for (const auto& [path, text] : context.sources) {
+    if (text.find("kiln-lint:") == std::string::npos) continue;
+    const std::vector<std::string> lines = raw_lines(text);
+    for (size_t i = 0; i < lines.size(); ++i) {
+      std::smatch m;
+      if (lines[i].find("kiln-lint:") == std::string::npos || !std::regex_search(lines[i], m, comment_re)) continue;
+      const int line = static_cast<int>(i + 1) + (m.str(1) == "ignore-next-line" ? 1 : 0);
+      SuppressionComment& comment = at[{path, line}];
+      comment.justification = m.str(3);
+      const std::string list = m.str(2);
+      comment.every_rule = list.empty();
+      for (auto it = std::sregex_iterator(list.begin(), list.end(), rule_re); it != std::sregex_iterator(); ++it) {
+        if (std::optional<RuleId> rule = parse_rule_id(it->str())) {
+          comment.rules.insert(*rule);
+          continue;
+        }
+        // A misspelt rule would suppress nothing, silently.
+        std::vector<std::string> notes;
+        if (auto suggestion = closest_match(it->str(), rule_ids)) notes.push_back("did you mean '" + *suggestion + "'?");
+        report.findings.push_back({RuleId::BuildError, Severity::Warning,
+                                   SourceLocation{path, static_cast<int>(i + 1), static_cast<int>(m.position(2) + it->position()) + 1},
+                                   "unknown lint rule '" + it->str() + "' in a kiln-lint comment", notes});
+      }
+    }
+  }
+}
+
+// Marks the findings a rule list (--disable, the pack's "lint") or a comment suppresses; they stay in the report.
+void apply_suppressions(const LintContext& context, const std::vector<RuleId>& disabled, LintReport& report) {
+  std::map<std::pair<std::string, int>, SuppressionComment> comments;
+  read_suppression_comments(context, comments, report);
+  for (LintFinding& f : report.findings) {
+    if (std::find(disabled.begin(), disabled.end(), f.rule) != disabled.end()) {
+      f.suppression = Suppression::External;
+      continue;
+    }
+    auto comment = comments.find({f.location.path, f.location.line});
+    if (f.location.line <= 0 || comment == comments.end()) continue;
+    if (comment->second.every_rule || comment->second.rules.count(f.rule)) {
+      f.suppression = Suppression::InSource;
+      f.justification = comment->second.justification;
+    }
+  }
+}
+
+// Keywords a pragma declares in the shaders under the pack's include roots that the build did not read: the
+// library a shared header belongs to. Its header may test an option that another of its shaders declares
+// (shaderlib/Common.hlsl's _HALF_PRECISION in variants/debug.pack.json); a name no shader declares is still a
+// typo. Bounded: shader files only, no links followed, at most kMaxLibraryFiles files of the read limit each.
+std::vector<std::string> library_keywords(const std::vector<std::filesystem::path>& roots, const LintContext& context) {
+  constexpr size_t kMaxLibraryFiles = 4096;
+  constexpr int kMaxLibraryDepth = 16;
+  static const std::regex pragma_re(R"(^(\s*#\s*pragma)(.*)$)");
+  const ReadLimits limits{};
+  std::set<std::string> seen, keywords;
+  size_t files = 0;
+  for (const std::filesystem::path& root : roots) {
+    std::error_code ec;
+    auto it = std::filesystem::recursive_directory_iterator(root, std::filesystem::directory_options::skip_permission_denied, ec);
+    for (; !ec && it != std::filesystem::recursive_directory_iterator() && files < kMaxLibraryFiles; it.increment(ec)) {
+      if (it.depth() >= kMaxLibraryDepth) it.disable_recursion_pending();
+      const std::filesystem::path& path = it->path();
+      const std::string extension = path.extension().string();
+      if (!it->is_regular_file(ec) || it->is_symlink(ec) ||
+          (extension != ".hlsl" && extension != ".hlsli" && extension != ".fx" && extension != ".fxh" && extension != ".cginc"))
+        continue;
+      std::error_code canonical_ec;
+      const std::filesystem::path canonical = std::filesystem::weakly_canonical(path, canonical_ec);
+      if (!seen.insert(canonical_ec ? path.string() : canonical.string()).second) continue;
+      ++files;
+      DiagnosticSink quiet;  // a library file that cannot be read declares nothing; it is not this pack's finding
+      std::optional<std::string> text = read_text_file(path, limits, quiet, SourceLocation{});
+      if (!text || text->find("pragma") == std::string::npos) continue;
+      const std::vector<std::string> lines = code_lines(*text);
+      for (size_t i = 0; i < lines.size(); ++i) {
+        std::smatch m;
+        if (!std::regex_match(lines[i], m, pragma_re)) continue;
+        if (auto parsed = parse_keyword_pragma(m.str(2), SourceLocation{path.string(), static_cast<int>(i + 1), 1}, 1); parsed && *parsed)
+          for (const std::string& value : (*parsed)->values)
+            if (!value.empty()) keywords.insert(value);
+      }
+    }
+  }
+  for (const std::string& keyword : context.declared) keywords.erase(keyword);
+  return {keywords.begin(), keywords.end()};
+}
+
 }  // namespace
 
 int LintReport::errors() const {
-  return static_cast<int>(std::count_if(findings.begin(), findings.end(), [](const LintFinding& f) { return f.severity == Severity::Error; }));
+  return static_cast<int>(std::count_if(findings.begin(), findings.end(), [](const LintFinding& f) {
+    return f.suppression == Suppression::None && f.severity == Severity::Error;
+  }));
 }
 int LintReport::warnings() const {
-  return static_cast<int>(std::count_if(findings.begin(), findings.end(), [](const LintFinding& f) { return f.severity == Severity::Warning; }));
+  return static_cast<int>(std::count_if(findings.begin(), findings.end(), [](const LintFinding& f) {
+    return f.suppression == Suppression::None && f.severity == Severity::Warning;
+  }));
+}
+int LintReport::suppressed() const {
+  return static_cast<int>(std::count_if(findings.begin(), findings.end(), [](const LintFinding& f) { return f.suppression != Suppression::None; }));
 }
 
 RuleId rule_for_diagnostic(DiagId id) {
@@ -79,7 +188,7 @@ void run_lint_rules(const LintContext& context, LintReport& report) {
   for (LintInput need : {LintInput::Sources, LintInput::Plan, LintInput::BuiltPack}) run_rules_needing(context, need, report);
 }
 
-LintReport lint_pack(BuildOptions options) {
+LintReport lint_pack(BuildOptions options, const LintOptions& lint) {
   LintReport report;
   DiagnosticSink sink;
   options.keep_plan = true;  // the rules observe this build's plan: nothing is planned twice
@@ -96,14 +205,21 @@ LintReport lint_pack(BuildOptions options) {
     report.findings.push_back({rule_for_diagnostic(d.id), d.severity == Severity::Error ? Severity::Error : Severity::Warning,
                                d.location, d.message, d.notes});
   }
-  if (!build.plan) return report;
+  std::vector<RuleId> disabled = lint.disabled;
   LintContext context;
+  if (!build.plan) {
+    apply_suppressions(context, disabled, report);
+    return report;
+  }
+  for (const std::string& rule : build.plan->lint_disable)  // checked when the pack was read
+    if (std::optional<RuleId> id = parse_rule_id(rule)) disabled.push_back(*id);
   context.plan = &*build.plan;
   context.sources = build.plan->sources;
   context.declared = declared_keywords(build.plan->pass_groups);
   for (const PassSettings& pass : build.plan->pass_settings)  // with the command line's -D applied
     for (const Define& define : pass.defines) context.defined.push_back(define.name);
   context.pack_file = display_path(options.pack_file);
+  context.library_declared = library_keywords(build.plan->include_dirs, context);
   run_rules_needing(context, LintInput::Sources, report);
   run_rules_needing(context, LintInput::Plan, report);
   if (build.ok) {
@@ -118,11 +234,12 @@ LintReport lint_pack(BuildOptions options) {
     }
   }
   locate_pass_level_findings(context, report);
+  apply_suppressions(context, disabled, report);
   return report;
 }
 
 LintReport lint_files(const std::vector<std::filesystem::path>& files, const std::vector<std::filesystem::path>& include_dirs,
-                      const std::vector<Define>& defines) {
+                      const std::vector<Define>& defines, const LintOptions& lint) {
   LintReport report;
   DiagnosticSink sink;
   const ReadLimits limits{};
@@ -178,6 +295,7 @@ LintReport lint_files(const std::vector<std::filesystem::path>& files, const std
   std::sort(context.declared.begin(), context.declared.end());
   context.declared.erase(std::unique(context.declared.begin(), context.declared.end()), context.declared.end());
   run_lint_rules(context, report);
+  apply_suppressions(context, lint.disabled, report);
   return report;
 }
 
@@ -207,6 +325,7 @@ std::string format_lint_text(const LintReport& report, bool colour) {
   const std::string note = colour ? "\x1b[1;36mnote:\x1b[0m" : "note:";
   std::string out;
   for (const LintFinding& f : report.findings) {
+    if (f.suppression != Suppression::None) continue;  // counted in the summary line
     const bool error = f.severity == Severity::Error;
     out += bold + format_location(f.location) + ": " + (colour ? (error ? "\x1b[1;31m" : "\x1b[1;35m") : "") +
            (error ? "error" : "warning") + "[" + std::string(rule_id_text(f.rule)) + "]:" + reset + bold + " " + f.message + reset + "\n";
@@ -217,21 +336,34 @@ std::string format_lint_text(const LintReport& report, bool colour) {
 }
 
 std::string format_lint_json(const LintReport& report) {
-  json findings = json::array();
+  // Suppressed findings are listed apart: a consumer that reads "findings" sees what counts.
+  json findings = json::array(), suppressed = json::array();
   for (const LintFinding& f : report.findings) {
     json related = json::array();
     for (const auto& [place, message] : f.related)
       related.push_back({{"path", place.path}, {"line", place.line}, {"column", place.column}, {"message", message}});
-    findings.push_back({{"rule", rule_id_text(f.rule)},
-                        {"severity", f.severity == Severity::Error ? "error" : "warning"},
-                        {"path", f.location.path},
-                        {"line", f.location.line},
-                        {"column", f.location.column},
-                        {"message", f.message},
-                        {"notes", f.notes},
-                        {"related", related}});
+    json finding{{"rule", rule_id_text(f.rule)},
+                 {"severity", f.severity == Severity::Error ? "error" : "warning"},
+                 {"path", f.location.path},
+                 {"line", f.location.line},
+                 {"column", f.location.column},
+                 {"message", f.message},
+                 {"notes", f.notes},
+                 {"related", related}};
+    if (f.suppression == Suppression::None) {
+      findings.push_back(std::move(finding));
+      continue;
+    }
+    finding["suppression"] = f.suppression == Suppression::InSource ? "inSource" : "external";
+    if (!f.justification.empty()) finding["justification"] = f.justification;
+    suppressed.push_back(std::move(finding));
   }
-  return json{{"findings", findings}, {"errors", report.errors()}, {"warnings", report.warnings()}}.dump(2) + "\n";
+  return json{{"findings", findings},
+              {"errors", report.errors()},
+              {"warnings", report.warnings()},
+              {"suppressed", report.suppressed()},
+              {"suppressed_findings", suppressed}}
+             .dump(2) + "\n";
 }
 
 }  // namespace kiln

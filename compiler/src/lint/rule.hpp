@@ -22,6 +22,9 @@ namespace kiln {
 struct LintContext {
   std::vector<std::pair<std::string, std::string>> sources;  // display path -> text, every file read
   std::vector<std::string> declared;                          // every declared keyword, sorted, unique
+  // Pack mode: keywords that shaders under the pack's include roots declare but no file of this build does (the
+  // library a shared header belongs to), sorted, unique.
+  std::vector<std::string> library_declared;
   std::vector<std::string> defined;  // names the build defines: the pack's and passes' "defines" and -D
   const PlanListing* plan = nullptr;
   const PackView* pack = nullptr;

@@ -128,6 +128,12 @@ std::string format_lint_sarif(const LintReport& report, const SarifOptions& opti
                          {"message", {{"text", text}}}});
     }
     if (!related.empty()) result["relatedLocations"] = related;
+    // SARIF 2.1.0 §3.35: a suppressed result is still a result, so that a viewer can show what was silenced.
+    if (f.suppression != Suppression::None) {
+      json suppression{{"kind", f.suppression == Suppression::InSource ? "inSource" : "external"}};
+      if (!f.justification.empty()) suppression["justification"] = f.justification;
+      result["suppressions"] = json::array({suppression});
+    }
     results.push_back(result);
   }
   json run{{"tool", {{"driver", {{"name", "kiln"},

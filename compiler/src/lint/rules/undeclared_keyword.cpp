@@ -16,7 +16,9 @@ void check_undeclared_keyword(const LintContext& context, LintReport& report) {
   static const std::regex name_re(R"([A-Za-z_][A-Za-z0-9_]*)");
   // Keyword-shaped: upper case, digits and underscores, at least 3 characters (Unity's convention).
   static const std::regex keyword_shape(R"(^_?[A-Z][A-Z0-9_]{2,}$)");
-  const std::vector<std::string>& declared = context.declared;
+  // A shared header may test an option another shader of its library declares (an option this pack leaves off).
+  std::vector<std::string> declared = context.declared;
+  declared.insert(declared.end(), context.library_declared.begin(), context.library_declared.end());
   std::set<std::string> defined(declared.begin(), declared.end());
   defined.insert(context.defined.begin(), context.defined.end());  // the build's own defines (pack, pass, -D)
   // KILN_FOLDED_<K> and KILN_GROUP_OF_<K>: what kiln defines where a declared keyword K is folded
@@ -57,7 +59,8 @@ constinit const LintRule undeclared_keyword{
     "A keyword-like name tested by #if/#ifdef is never declared or defined (typo?).",
     "A name shaped like a keyword (_?[A-Z][A-Z0-9_]{2,}) tested by #if, #ifdef, #ifndef or #elif that no keyword "
     "pragma declares, no #define in any file read defines and no define of the build sets (the pack's and its "
-    "passes' \"defines\", -D) is never true: usually a misspelt keyword. The "
+    "passes' \"defines\", -D) is never true: usually a misspelt keyword. In pack mode a keyword that a shader under the "
+    "pack's include directories declares is known too (a shared header tests an option of its library). The "
     "closest declared keyword is suggested. In file mode, pass the include roots with -I so that names defined "
     "in included headers are known.",
     Severity::Warning, LintInput::Sources, check_undeclared_keyword};
