@@ -99,6 +99,20 @@ TEST(HlslCompat, APushConstantAttributeIsSeenHoweverItIsFormattedAndWhateverTheV
       }
     }
   }
+  // A struct declared with its variable, named or not: declared first, then the variable (glslang 12: $Global too).
+  PackReader reference = build_source(dir, "reference_inline", structure + "[[vk::push_constant]] ConstantBuffer<PushData>" + body("pc"));
+  PackReader named = build_source(dir, "inline_named", "[[vk::push_constant]]\nstruct PushData { float4x4 mvp; float4 tint; }" + body("pc"));
+  PackReader unnamed = build_source(dir, "inline_unnamed", "[[vk::push_constant]] struct { float4x4 mvp; float4 tint; }" + body("pc"));
+  const SelectedVariant expected = reference.select("P", {}), a = named.select("P", {}), b = unnamed.select("P", {});
+  for (const char* stage : {"vertex", "fragment"}) {
+    ASSERT_TRUE(a.stage(stage) && b.stage(stage) && expected.stage(stage));
+    EXPECT_EQ(a.stage(stage)->spirv, expected.stage(stage)->spirv) << stage;
+    for (const StageView* view : {a.stage(stage), b.stage(stage)}) {
+      ASSERT_EQ(view->reflection->push_constants.size(), 1u) << stage;
+      EXPECT_EQ(view->reflection->push_constants[0].size, 80u) << stage;
+      EXPECT_TRUE(view->reflection->resources.empty()) << stage << ": a $Global buffer";
+    }
+  }
 }
 
 TEST(HlslCompat, AttributeListsBecomeOneGroupPerAttribute) {
@@ -128,6 +142,11 @@ TEST(HlslCompat, ThePushConstantRewriteTouchesOnlyThatDeclaration) {
   EXPECT_EQ(rewrite_push_constants("[[vk::binding(1), vk::push_constant]] P pc;"), "[[vk::binding(1), vk::push_constant]] ConstantBuffer<P> pc;");
   EXPECT_EQ(rewrite_push_constants("[[vk::push_constant, vk::something]] [[other]] P pc;"),
             "[[vk::push_constant, vk::something]] [[other]] ConstantBuffer<P> pc;");
+  EXPECT_EQ(rewrite_push_constants("[[vk::push_constant]]\nstruct P { float4 t; } pc;\n"),
+            "[[vk::push_constant]]\nstruct P { float4 t; }; [[vk::push_constant]] ConstantBuffer<P> pc;\n");
+  EXPECT_EQ(rewrite_push_constants("[[vk::push_constant]] struct { float4 t; } pc;"),
+            "[[vk::push_constant]] struct kiln_push_constant_pc { float4 t; }; [[vk::push_constant]] ConstantBuffer<kiln_push_constant_pc> pc;");
+  EXPECT_FALSE(rewrite_push_constants("[[vk::push_constant]] struct P { float4 t; };"));
   // Lines are kept: a diagnostic after the rewrite points at the same line.
   const std::string text = "a\n[[vk::push_constant]] P p;\nb\n";
   const std::string rewritten = *rewrite_push_constants(text);

@@ -90,8 +90,34 @@ std::optional<std::string> rewrite_push_constants(std::string_view text) {
     const size_t type_at = skip_space(text, end), type_end = word_end(text, type_at);
     if (type_end == type_at) continue;
     const std::string_view type = text.substr(type_at, type_end - type_at);
-    if (type == "ConstantBuffer" || type == "cbuffer" || type == "struct" || type == "const" || type == "static" ||
-        type == "uniform")
+    if (type == "struct") {
+      // `[[vk::push_constant]] struct [T] { ... } name;` (glslang 12: $Global too) becomes
+      // `[[vk::push_constant]] struct T { ... }; [[vk::push_constant]] ConstantBuffer<T> name;` on the same lines,
+      // an unnamed struct named after its variable.
+      const size_t tag_at = skip_space(text, type_end), tag_end = word_end(text, tag_at);
+      const size_t open = skip_space(text, tag_end);
+      if (open >= text.size() || text[open] != '{') continue;
+      size_t close = open;
+      for (int depth = 0; close < text.size(); ++close) {
+        depth += text[close] == '{' ? 1 : text[close] == '}' ? -1 : 0;
+        if (depth == 0) break;
+      }
+      if (close >= text.size()) continue;
+      const size_t name_at = skip_space(text, close + 1), name_end = word_end(text, name_at);
+      if (name_end == name_at) continue;
+      const size_t after = skip_space(text, name_end);
+      if (after >= text.size() || (text[after] != ';' && text[after] != ':' && text[after] != '[')) continue;
+      const std::string tag = tag_end != tag_at ? std::string(text.substr(tag_at, tag_end - tag_at))
+                                                : "kiln_push_constant_" + std::string(text.substr(name_at, name_end - name_at));
+      if (!out) out.emplace();
+      out->append(text.substr(copied, type_end - copied));
+      if (tag_end == tag_at) out->append(" ").append(tag);
+      out->append(text.substr(type_end, close + 1 - type_end));
+      out->append("; [[vk::push_constant]] ConstantBuffer<").append(tag).append(">");
+      copied = close + 1;
+      continue;
+    }
+    if (type == "ConstantBuffer" || type == "cbuffer" || type == "const" || type == "static" || type == "uniform")
       continue;
     const size_t name_at = skip_space(text, type_end), name_end = word_end(text, name_at);
     if (name_end == name_at) continue;

@@ -15,7 +15,8 @@ namespace kiln {
 // buffer at set 0, binding 0 (silently); DXC makes it a push-constant block. Rewritten to
 // `[[vk::push_constant]] ConstantBuffer<T> name;`, which glslang makes a push-constant block. The attribute may
 // stand on a line of its own, among others in its group or beside other groups (`[[vk::push_constant]]
-// [[vk::binding(0)]]`), with comments between. Nothing when the text has no such declaration.
+// [[vk::binding(0)]]`), with comments between. A struct declared with its variable (`[[vk::push_constant]] struct
+// { ... } pc;`) is declared first and its variable made the same way. Nothing when the text has no such declaration.
 std::optional<std::string> rewrite_push_constants(std::string_view text);
 
 // Attribute lists (`[[vk::binding(0), vk::push_constant]]`), which DXC takes and glslang 12's grammar refuses
