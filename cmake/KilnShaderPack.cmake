@@ -5,8 +5,11 @@
 #                      [REMOTE <url>] [REMOTE_UPLOAD])
 #
 # Adds a custom target <target> (built by ALL unless EXCLUDE_FROM_ALL) whose output is the variant pack of
-# <pack.json>. kiln writes a depfile listing every HLSL file it read, so editing any included file rebuilds the
-# pack (and nothing else), and a build with no change does no work, with Ninja and with Unix Makefiles.
+# <pack.json>, and <target>_watch, never built by ALL, which runs `kiln watch` on the same inputs into the same
+# directory until Ctrl-C (docs/development-loop.md; OPTIONS reach it too, so give only options kiln watch takes
+# there, the remote cache's aside). kiln writes a depfile listing every HLSL file it read, so editing any included
+# file rebuilds the pack (and nothing else), and a build with no change does no work, with Ninja and with Unix
+# Makefiles.
 #   OPTIONS   extra arguments for `kiln build` (e.g. --frontend glslang, --worker-timeout 300, -j 4)
 #   DEFINES   passed as `kiln build -D` (they win over the pack definition's "defines"; docs/bindings.md);
 #             changing them rebuilds
@@ -169,6 +172,18 @@ function(kiln_add_shader_pack target)
     COMMAND_EXPAND_LISTS
     VERBATIM)
   add_custom_target(${target} ${all} DEPENDS "${manifest}")
+  # The development loop (docs/development-loop.md): `cmake --build . --target <target>_watch` runs kiln watch on the
+  # same inputs into the same directory until Ctrl-C, rebuilding on each edit (the USAGE logs' variants first). Never
+  # part of ALL: it does not end. The terminal is its own (USES_TERMINAL: Ninja's console pool), for its status lines
+  # and Ctrl-C.
+  add_custom_target(${target}_watch
+    COMMAND "${kiln}" watch "${pack}" -o "${output_dir}" --cache "${cache_dir}"
+            ${scene_args} ${usage_args} ${target_args} ${define_args} ${ARG_OPTIONS}
+    DEPENDS ${ARG_DEPENDS}
+    USES_TERMINAL
+    COMMENT "kiln: watching shader pack '${pack_name}' (Ctrl-C ends)"
+    COMMAND_EXPAND_LISTS
+    VERBATIM)
   set_target_properties(${target} PROPERTIES
     KILN_PACK_DIR "${output_dir}"
     KILN_PACK_NAME "${pack_name}"

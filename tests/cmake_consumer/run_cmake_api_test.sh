@@ -37,6 +37,12 @@ cmake -S "$source/tests/cmake_consumer" -B "$work/build" -G "$generator" -DCMAKE
   -DKILN_SOURCE_DIR="$source" -DCMAKE_PREFIX_PATH="$work/prefix" \
   -DKILN_CONSUMER_SCENES="$source/variants/scenes/mobile.json" > "$work/configure.log"
 cmake --build "$work/build" -j 2 > "$work/build.log"
+# Each pack has its development-loop target (kiln watch until Ctrl-C: listed, never run here, never part of ALL).
+cmake --build "$work/build" --target help > "$work/targets.log"
+for watch_target in lit_pack_watch extra_pack_watch; do
+  grep -qE "(^|[ .])$watch_target(:| |$)" "$work/targets.log" || { cat "$work/targets.log"; fail "no $watch_target target"; }
+done
+! grep -q "kiln: watching" "$work/build.log" || fail "the default build ran a _watch target"
 extra="$work/build/extra/release/lit.manifest.json"
 [ ! -e "$extra" ] || fail "EXCLUDE_FROM_ALL: extra_pack was built by the default build"
 [ ! -e "$work/build/prerequisite.stamp" ] || fail "the prerequisite ran without extra_pack"

@@ -1,5 +1,6 @@
 #include "render/backend.hpp"
 
+#include <optional>
 #include <stdexcept>
 
 #include "render/gl_renderer.hpp"
@@ -32,19 +33,38 @@ class ContextBackend final : public Backend {
  public:
   ContextBackend(std::unique_ptr<Context> context, const PackReader& pack, const Scene& scene, uint32_t width,
                  uint32_t height, std::string device)
-      : context_(std::move(context)), renderer_(*context_, pack, scene, width, height), device_(std::move(device)) {}
-  Image render(const SelectedVariant& variant) override { return renderer_.render(variant); }
+      : context_(std::move(context)), pack_(pack), scene_(scene), width_(width), height_(height), device_(std::move(device)) {
+    renderer_.emplace(*context_, pack_, scene_, width_, height_);
+  }
+  Image render(const SelectedVariant& variant) override { return renderer().render(variant); }
   std::string device() const override { return device_; }
-  uint32_t width() const override { return renderer_.width(); }
-  uint32_t height() const override { return renderer_.height(); }
-  size_t pipelines_created() const override { return renderer_.pipelines_created(); }
-  size_t pipelines_reused() const override { return renderer_.pipelines_reused(); }
-  void record_coverage(CoverageRecorder* recorder) override { renderer_.record_coverage(recorder); }
+  uint32_t width() const override { return renderer().width(); }
+  uint32_t height() const override { return renderer().height(); }
+  size_t pipelines_created() const override { return renderer().pipelines_created(); }
+  size_t pipelines_reused() const override { return renderer().pipelines_reused(); }
+  void record_coverage(CoverageRecorder* recorder) override {
+    coverage_ = recorder;
+    renderer().record_coverage(recorder);
+  }
+  void reload() override {
+    renderer_.reset();  // first: its objects belong to the device, which stays
+    renderer_.emplace(*context_, pack_, scene_, width_, height_);
+    renderer_->record_coverage(coverage_);
+  }
 
  private:
+  // Empty only after a reload() that threw (a new pack this renderer cannot use); the next reload() tries again.
+  Renderer& renderer() const {
+    if (!renderer_) fail(DiagId::PackUnusable, {}, "the renderer could not be set up from the pack served now");
+    return *renderer_;
+  }
   std::unique_ptr<Context> context_;
-  Renderer renderer_;
+  const PackReader& pack_;
+  Scene scene_;
+  uint32_t width_, height_;
   std::string device_;
+  CoverageRecorder* coverage_ = nullptr;
+  mutable std::optional<Renderer> renderer_;  // destroyed before context_ (declared after it)
 };
 
 }  // namespace

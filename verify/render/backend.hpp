@@ -34,6 +34,10 @@ class Backend {
   virtual size_t pipelines_reused() const = 0;
   // Each later draw's shader code coverage (a --coverage pack's) goes to `recorder` (nullptr: nowhere).
   virtual void record_coverage(CoverageRecorder* recorder) = 0;
+  // The pack it was opened with has switched to a new version (PackReader::poll_update): its pipelines and what was
+  // laid out from the old version's reflection point into a version the next poll frees, so the renderer is made
+  // again from the pack served now, on the same device (kiln render --watch). Call it before the next render.
+  virtual void reload() = 0;
 };
 
 }  // namespace kiln::render

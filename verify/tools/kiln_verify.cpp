@@ -5,7 +5,9 @@
 #include <malloc.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
@@ -24,6 +26,7 @@
 #include "scene/image.hpp"
 #include "scene/verify_error.hpp"
 #include "tools/draw_cost.hpp"
+#include "tools/render_watch.hpp"
 
 namespace {
 
@@ -43,39 +46,59 @@ std::vector<std::string> split_words(const std::string& text) {
 
 int run_render(const std::string& pack_dir, const std::string& pass, const std::string& keywords,
                const std::string& scene_file, const std::string& png_out, const std::string& exr_out,
-               const std::string& size_text, const std::string& api, const std::string& coverage_out) {
+               const std::string& size_text, const std::string& api, const std::string& coverage_out, bool watch) {
   return kiln::render::reporting_errors([&] {
     uint32_t width = 0, height = 0;
     if (!size_text.empty() && std::sscanf(size_text.c_str(), "%ux%u", &width, &height) != 2)
       kiln::render::fail(kiln::DiagId::VerifyArgument, {}, "--size wants WxH, e.g. 256x256 (got '" + size_text + "')");
+    if (watch && !coverage_out.empty())
+      kiln::render::fail(kiln::DiagId::VerifyArgument, {}, "--watch and --coverage do not go together (a tracefile is one run's)");
+    // Before the device starts its threads: they inherit the mask, so SIGINT and SIGTERM reach only the signalfd.
+    const int signal_fd = watch ? kiln::render::block_stop_signals() : -1;
+    if (watch && signal_fd < 0) {
+      std::cerr << "kiln: error: cannot wait for signals: signalfd: " << std::strerror(errno) << "\n";
+      return 3;
+    }
     kiln::PackReader pack = kiln::PackReader::open(pack_dir);
     kiln::render::Scene scene = kiln::render::load_scene(scene_file);
     auto renderer = kiln::render::Backend::open(kiln::render::parse_api(api), pack, scene, width, height);
-    kiln::SelectedVariant variant = pack.select(pass, split_words(keywords));
     std::unique_ptr<kiln::render::CoverageRecorder> coverage;
-    if (!coverage_out.empty()) {
-      coverage = std::make_unique<kiln::render::CoverageRecorder>(pack, pack_dir);
-      coverage->set_witness(scene.name + " " + pass + " " + kiln::render::variant_name(variant.keywords));
-      renderer->record_coverage(coverage.get());
-    }
-    auto start = std::chrono::steady_clock::now();
-    kiln::render::Image image = renderer->render(variant);
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    bool linear = std::find(variant.keywords.begin(), variant.keywords.end(), "_LINEAR_OUTPUT") != variant.keywords.end();
-    kiln::render::write_png(png_out, image.width, image.height, kiln::render::encode_srgb8(image, linear));
-    if (!exr_out.empty()) {
-      // .kimg: kiln's raw float image (scene/image.hpp), read by tests without an EXR library.
-      if (exr_out.ends_with(".kimg")) kiln::render::write_kimg(exr_out, image);
-      else kiln::render::write_exr(exr_out, image);
-    }
+    // Selects the variant from the pack served now, draws it and writes the images (each atomically: a viewer or a
+    // test never reads half a frame).
+    auto draw = [&](double& ms) {
+      kiln::SelectedVariant variant = pack.select(pass, split_words(keywords));
+      if (!coverage_out.empty() && !coverage) {
+        coverage = std::make_unique<kiln::render::CoverageRecorder>(pack, pack_dir);
+        coverage->set_witness(scene.name + " " + pass + " " + kiln::render::variant_name(variant.keywords));
+        renderer->record_coverage(coverage.get());
+      }
+      auto start = std::chrono::steady_clock::now();
+      kiln::render::Image image = renderer->render(variant);
+      ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+      bool linear = std::find(variant.keywords.begin(), variant.keywords.end(), "_LINEAR_OUTPUT") != variant.keywords.end();
+      kiln::render::write_png(png_out, image.width, image.height, kiln::render::encode_srgb8(image, linear));
+      if (!exr_out.empty()) {
+        // .kimg: kiln's raw float image (scene/image.hpp), read by tests without an EXR library.
+        if (exr_out.ends_with(".kimg")) kiln::render::write_kimg(exr_out, image);
+        else kiln::render::write_exr(exr_out, image);
+      }
+      return std::make_pair(std::move(variant.keywords), std::move(image));
+    };
+    double ms = 0;
+    auto [drawn, image] = draw(ms);
     std::cout << "kiln render: " << png_out << " (" << image.width << "x" << image.height << ", variant "
-              << kiln::render::variant_name(variant.keywords) << ", " << renderer->device() << ", " << format_ms(ms)
+              << kiln::render::variant_name(drawn) << ", " << renderer->device() << ", " << format_ms(ms)
               << " including shader compilation)\n";
     if (coverage) {
       coverage->write_lcov(coverage_out, scene.name);
       std::cout << "kiln render: " << coverage->summary() << "; lcov tracefile " << coverage_out << "\n";
     }
-    return 0;
+    if (!watch) return 0;
+    kiln::render::WatchedFrame frame{pass, split_words(keywords), drawn, png_out};
+    return kiln::render::redraw_on_update(pack, *renderer, signal_fd, std::move(frame), [&] {
+      double redraw_ms = 0;
+      return draw(redraw_ms).first;
+    }, std::cout);
   });
 }
 
@@ -141,6 +164,9 @@ int run(int argc, char** argv) {
                                      "material and object constants (DepthOnly, DepthNormals)");
   render->add_option("--coverage", render_coverage, "Write the HLSL lines the render executed as an lcov tracefile (a pack built with "
                                                     "kiln build --coverage: docs/coverage.md)");
+  bool render_watch = false;
+  render->add_flag("--watch", render_watch, "Keep running: draw the image again each time the pack is replaced (kiln watch, "
+                                            "kiln build), one line each, until SIGINT or SIGTERM (docs/development-loop.md)");
 
   CLI::App* test = app.add_subcommand("test", "Render every Forward variant and compare it with its CPU-reference golden");
   test->add_option("pack_dir", pack_dir, "Directory holding a pack (or its manifest)")->required();
@@ -187,7 +213,8 @@ int run(int argc, char** argv) {
   kiln::testing::inject_fault(*render ? "render" : "test");
 #endif
   if (*draw_cost) return kiln::render::run_draw_cost(draw_config, draw_out);
-  if (*render) return run_render(pack_dir, pass, variant_keywords, scene_file, png_out, exr_out, size_text, api, render_coverage);
+  if (*render) return run_render(pack_dir, pass, variant_keywords, scene_file, png_out, exr_out, size_text, api, render_coverage,
+                                  render_watch);
   return run_test(pack_dir, scene_file, golden_dir, tolerances, report_dir, filter, shard, api, against, cover, usage_log,
                   coverage, coverage_json);
 }
