@@ -51,6 +51,9 @@ class Verb {
  public:
   virtual ~Verb() = default;
   virtual CLI::App* add_to(CLI::App& app) = 0;
+  // Before parsing: other tools' spellings of this verb's options (glslc's, DXC's) rewritten in `arguments` (those
+  // after the verb) into kiln's; an exit status when one is refused, its hint printed.
+  virtual std::optional<int> rewrite_habits(std::vector<std::string>& /*arguments*/) { return std::nullopt; }
   virtual int run() = 0;
 };
 

@@ -48,8 +48,27 @@ int run(int argc, char** argv) {
               << (suggestion ? "; did you mean '" + *suggestion + "'?" : std::string()) << "\nRun with --help for more information.\n";
     return 1;
   }
+  // The verb (the first word that is no option, --color's value aside) may rewrite habits of other tools first.
+  std::vector<std::string> arguments(argv, argv + argc);
+  for (size_t i = 1; i < arguments.size(); ++i) {
+    if (arguments[i] == "--color") {
+      ++i;
+      continue;
+    }
+    if (arguments[i].starts_with('-')) continue;
+    for (auto& [command, verb] : verbs) {
+      if (command->get_name() != arguments[i]) continue;
+      std::vector<std::string> rest(arguments.begin() + static_cast<std::ptrdiff_t>(i) + 1, arguments.end());
+      if (std::optional<int> refused = verb->rewrite_habits(rest)) return *refused;
+      arguments.resize(i + 1);
+      arguments.insert(arguments.end(), rest.begin(), rest.end());
+    }
+    break;
+  }
+  std::vector<char*> rewritten;
+  for (std::string& argument : arguments) rewritten.push_back(argument.data());
   try {
-    app.parse(argc, argv);
+    app.parse(static_cast<int>(rewritten.size()), rewritten.data());
   } catch (const CLI::ParseError& error) {
     // --help and --version end here with 0; any other argument error is the user's: exit code 1, not CLI11's 100+.
     return app.exit(error) == 0 ? 0 : 1;

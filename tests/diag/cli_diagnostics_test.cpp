@@ -1773,6 +1773,126 @@ TEST_F(Cli, CompileBuildsOneFileForOneStageAsGlslcDoes) {
   EXPECT_EQ(werror.exit_code, 1) << werror.err;
 }
 
+// kiln compile reads the glslc and DXC spellings users type by habit: each that means what kiln's option means
+// gives the bytes kiln's spelling gives (the output, and the depfile where there is one); each that does not is
+// refused, exit 1, with kiln's spelling in the error.
+TEST_F(Cli, CompileReadsGlslcAndDxcSpellingsAsKilnsOrRefusesThemWithKilnsSpelling) {
+  dir.write("x.hlsl", "Texture2D tex : register(t0);\nSamplerState smp : register(s1);\n"
+                      "cbuffer Tint : register(b2) { float4 tint; };\n"
+                      "float4 F(float2 uv : TEXCOORD0) : SV_Target { return tex.Sample(smp, uv) * tint; }\n"
+                      "float4 main(float4 p : POSITION) : SV_Position { return p * tint; }\n");
+  dir.write("warn.hlsl", "[[vk::unknown_attribute]] float4 main() : SV_Target { return 1.0; }\n");
+  struct Same {
+    std::vector<std::string> habit, kiln;  // after "compile"; each writes o.spv (and o.d where a depfile is asked for)
+  };
+  const std::vector<Same> accepted = {
+      {{"x.hlsl", "-fshader-stage=frag", "-E", "F", "-o", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "frag", "-fentry-point=F", "-o", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "frag", "-e", "F", "-o", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "-o", "o.spv"}},
+      {{"x.hlsl", "-T", "ps_6_0", "-E", "F", "-o", "o.spv"}, {"x.hlsl", "-S", "fragment", "-E", "F", "-o", "o.spv"}},
+      {{"x.hlsl", "-Tps_6_6", "-E", "F", "-o", "o.spv"}, {"x.hlsl", "-S", "fragment", "-E", "F", "-o", "o.spv"}},
+      {{"x.hlsl", "-T", "vs_6_0", "-o", "o.spv"}, {"x.hlsl", "-S", "vertex", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "frag", "-E", "F", "-Fo", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "frag", "-E", "F", "-spirv", "-o", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "--target", "spirv", "-o", "o.spv"}},
+      {{"x.hlsl", "-x", "hlsl", "-S", "frag", "-E", "F", "-o", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "-o", "o.spv"}},
+      {{"warn.hlsl", "-S", "frag", "-Werror", "-o", "o.spv"}, {"warn.hlsl", "-S", "frag", "--werror", "-o", "o.spv"}},
+      {{"warn.hlsl", "-S", "frag", "-WX", "-o", "o.spv"}, {"warn.hlsl", "-S", "frag", "--werror", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "frag", "-E", "F", "-MD", "-MF", "o.d", "-o", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "--depfile", "o.d", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "frag", "-E", "F", "-MD", "-o", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "--depfile", "o.spv.d", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "frag", "-E", "F", "-fvk-t-shift", "16", "0", "-o", "o.spv"},
+       {"x.hlsl", "-S", "frag", "-E", "F", "--fvk-t-shift", "16", "0", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "frag", "-E", "F", "-fvk-s-shift", "8", "all", "-fvk-b-shift", "4", "0", "-o", "o.spv"},
+       {"x.hlsl", "-S", "frag", "-E", "F", "--fvk-s-shift", "8", "all", "--fvk-b-shift", "4", "0", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "frag", "-E", "F", "-O", "-o", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "-O", "s", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "frag", "-E", "F", "-O3", "-o", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "-O", "s", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "frag", "-E", "F", "-Od", "-o", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "-O", "0", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "pixel", "-E", "F", "-o", "o.spv"}, {"x.hlsl", "-S", "fragment", "-E", "F", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "ps", "-E", "F", "-o", "o.spv"}, {"x.hlsl", "-S", "fragment", "-E", "F", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "vs", "-o", "o.spv"}, {"x.hlsl", "-S", "vertex", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "vert", "-o", "o.spv"}, {"x.hlsl", "-S", "vertex", "-o", "o.spv"}},
+  };
+  auto run = [&](std::vector<std::string> args) {
+    std::filesystem::remove(dir / "o.spv");
+    std::filesystem::remove(dir / "o.d");
+    std::filesystem::remove(dir / "o.spv.d");
+    args.insert(args.begin(), "compile");
+    testing::RunResult r = testing::run_kiln(args, dir.path());
+    std::string written;
+    for (const char* name : {"o.spv", "o.d", "o.spv.d"})
+      if (std::filesystem::exists(dir / name)) written += std::string(name) + ":" + testing::read_file(dir / name) + "\n";
+    return std::make_tuple(r.exit_code, r.err, written);
+  };
+  for (const Same& same : accepted) {
+    const auto kiln = run(same.kiln);
+    const auto habit = run(same.habit);
+    const std::string what = same.habit[1] + " " + same.habit[2] + " " + same.habit[3];
+    EXPECT_EQ(habit, kiln) << what;
+    if (same.habit[0] == "x.hlsl") EXPECT_EQ(std::get<0>(kiln), 0) << what << ": " << std::get<1>(kiln);
+    else EXPECT_EQ(std::get<0>(kiln), 1) << what;  // a warning with -Werror is an error
+  }
+
+  struct Refused {
+    std::vector<std::string> habit;
+    std::string hint;  // the whole error
+  };
+  const std::vector<Refused> refused = {
+      {{"-T", "lib_6_3"}, "-T 'lib_6_3' is a library profile, every entry point of the file at once; kiln compile builds one stage: "
+                          "use '-S STAGE -E ENTRY' once for each entry point (or a pack, kiln build)"},
+      {{"-T", "ms_6_5"}, "-T 'ms_6_5': glslang 12, kiln's HLSL front end, has no mesh or amplification shaders (DXC -T ms_6_5/as_6_5 builds them)"},
+      {{"-T", "ps_5_0"}, "-T 'ps_5_0' is no DXC profile kiln reads (expected vs, ps, cs, gs, hs or ds, then _6_0 to _6_8): use '-S STAGE'"},
+      {{"-S", "mesh"}, "-S 'mesh': glslang 12, kiln's HLSL front end, has no mesh or amplification shaders (DXC -T ms_6_5/as_6_5 builds them)"},
+      {{"-x", "glsl"}, "-x 'glsl': kiln compiles HLSL only; for HLSL, use '-x hlsl' or nothing"},
+      {{"-Zi"}, "DXC's '-Zi' is not kiln's: kiln's -g also turns the optimizer off, as -Zi -Od does: use '-g'"},
+      {{"-M"}, "glslc's '-M' is not kiln's: it writes the dependencies instead of compiling; kiln compile writes them beside the "
+               "output: use '--depfile FILE'"},
+      {{"-MD", "-o", "-"}, "-MD with -o -: no output file to name the depfile after: use '--depfile FILE'"},
+  };
+  for (const Refused& r : refused) {
+    std::vector<std::string> args{"compile", "x.hlsl", "-E", "F"};
+    if (r.habit[0] != "-T" && r.habit[0] != "-S") args.insert(args.end(), {"-S", "frag"});
+    if (r.habit.back() != "-") args.insert(args.end(), {"-o", "o.spv"});
+    args.insert(args.end(), r.habit.begin(), r.habit.end());
+    std::filesystem::remove(dir / "o.spv");
+    auto result = testing::run_kiln(args, dir.path());
+    EXPECT_EQ(result.exit_code, 1) << r.habit[0];
+    EXPECT_EQ(result.err, "<command line>: error[K1014]: " + r.hint + "\n") << r.habit[0];
+    EXPECT_FALSE(std::filesystem::exists(dir / "o.spv")) << r.habit[0];
+  }
+}
+
+// kiln compile's messages speak of the file, the stage and its -D keywords, not of the one-pass pack it builds
+// ("pass 'main'", "in 1 variant", "the pack definition").
+TEST_F(Cli, CompileMessagesSpeakOfTheFileAndTheStage) {
+  dir.write("fog.hlsl", "#pragma multi_compile _ FOG\nfloat4 main() : SV_Target {\n#ifdef FOG\n  return undefined_fog;\n#endif\n"
+                        "  return 1;\n}\n");
+  auto fog = testing::run_kiln({"compile", "fog.hlsl", "-S", "frag", "-o", "o.spv"}, dir.path());
+  EXPECT_EQ(fog.exit_code, 1);
+  EXPECT_EQ(fog.err, "fog.hlsl:4:10: error[K1401]: 'undefined_fog' : unknown variable\n"
+                     "      return undefined_fog;\n"
+                     "             ^\n"
+                     "  note: in the fragment stage of fog.hlsl with -D FOG\n");
+  dir.write("clash.hlsl", "Texture2D tex : register(t0);\nSamplerState smp : register(s1);\n"
+                          "cbuffer C : register(b0) { float4 tint; };\n"
+                          "float4 main(float2 uv : TEXCOORD0) : SV_Target { return tex.Sample(smp, uv) * tint; }\n");
+  auto clash = testing::run_kiln({"compile", "clash.hlsl", "-S", "pixel", "-o", "o.spv"}, dir.path());
+  EXPECT_EQ(clash.exit_code, 1);
+  EXPECT_TRUE(clash.err.starts_with("clash.hlsl:3:9: error[K1406]: set 0 binding 0 holds both 'C' (uniform_buffer) and 'tex' "
+                                    "(texture) in the fragment stage\n"))
+      << clash.err;
+  EXPECT_NE(clash.err.find("  note: registers of different classes share a number: shift one class, e.g. --fvk-t-shift 16 0 "
+                           "(DXC's -fvk-t-shift), or give one of them [[vk::binding(N, 0)]]\n"),
+            std::string::npos)
+      << clash.err;
+  auto missing = testing::run_kiln({"compile", "clash.hlsl", "-S", "frag", "-E", "PSMain", "-o", "o.spv"}, dir.path());
+  EXPECT_EQ(missing.err, "<command line>: error[K1402]: entry point 'PSMain' of the fragment stage is not defined in 'clash.hlsl'\n"
+                         "  note: in the fragment stage of clash.hlsl\n");
+  for (const std::string& err : {fog.err, clash.err, missing.err}) {
+    EXPECT_EQ(err.find("pass '"), std::string::npos) << err;
+    EXPECT_EQ(err.find(" variant"), std::string::npos) << err;
+    EXPECT_EQ(err.find("pack definition"), std::string::npos) << err;
+  }
+}
+
 // kiln compile -g: the module carries the HLSL source (the entry file and its includes, preprocessed) and line
 // numbers, on every variant the file's keywords make; without -g, neither. glslang 12 read a debug scope it never
 // pushed at each lexical block and crashed under kiln's allocator (frontend/glslang_shader.hpp): the shader has
