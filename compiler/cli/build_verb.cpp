@@ -53,12 +53,7 @@ class BuildVerb final : public Verb {
     verb->add_option("pack", pack_file_, "Pack definition (variants/*.pack.json)")->required();
     verb->add_option("-o,--output", output_, "Output directory for <name>.manifest.json and its archive")->required();
     plan_.add_to(verb);
-    verb->add_option("-j,--jobs", options_.jobs, "Compiler worker processes (default, or 0: one per core)");
-    auto* cache_opt = verb->add_option("--cache", cache_dir_, "Cache directory (default: ./.kiln-cache)");
-    verb->add_flag("--no-cache", no_cache_, "Do not read or write the cache")->excludes(cache_opt);
-    verb->add_option("--cache-max-mb", options_.cache_max_mb,
-                      "Cache size limit: least recently used entries go first (default: " + std::to_string(kiln::defaults::kCacheMaxMb) + ")")
-        ->check(CLI::PositiveNumber);
+    add_worker_and_cache_options(verb, options_, cache_dir_, no_cache_);
     verb->add_option("--emit", emit_, "Dump a stage: " + kiln::emit_stage_list() + " (repeatable)")
         ->check(CLI::IsMember(kiln::emit_stage_names()))
         ->delimiter(',');

@@ -46,6 +46,10 @@ class PlanArguments {
   bool auto_bind_ = false, no_auto_bind_ = false, combined_ = false, separate_ = false;
 };
 
+// -j, --cache, --no-cache and --cache-max-mb, as build and watch take them (the cache directory and the switch into
+// `cache_dir` and `no_cache`, the rest into `options`).
+void add_worker_and_cache_options(CLI::App* verb, BuildOptions& options, std::string& cache_dir, bool& no_cache);
+
 // One verb: its options, registered on the app, and what it does once they are parsed.
 class Verb {
  public:

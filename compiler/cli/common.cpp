@@ -33,6 +33,15 @@ std::string seconds_text(std::chrono::milliseconds duration) {
   return out.str();
 }
 
+void add_worker_and_cache_options(CLI::App* verb, BuildOptions& options, std::string& cache_dir, bool& no_cache) {
+  verb->add_option("-j,--jobs", options.jobs, "Compiler worker processes (default, or 0: one per core)");
+  auto* cache = verb->add_option("--cache", cache_dir, "Cache directory (default: ./.kiln-cache)");
+  verb->add_flag("--no-cache", no_cache, "Do not read or write the cache")->excludes(cache);
+  verb->add_option("--cache-max-mb", options.cache_max_mb,
+                   "Cache size limit: least recently used entries go first (default: " + std::to_string(defaults::kCacheMaxMb) + ")")
+      ->check(CLI::PositiveNumber);
+}
+
 void PlanArguments::add_to(CLI::App* verb, bool scenes) {
   if (scenes)
     verb->add_option("--scene", scenes_, "Scene profile (JSON); keep only variants some scene can request")->check(CLI::ExistingFile);

@@ -8,17 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "checks.h"
 #include "kiln/kiln_reader.h"
-
-static int failures = 0;
-
-#define CHECK(condition)                                                   \
-  do {                                                                     \
-    if (!(condition)) {                                                    \
-      fprintf(stderr, "%s:%d: check failed: %s\n", __FILE__, __LINE__, #condition); \
-      ++failures;                                                          \
-    }                                                                      \
-  } while (0)
 
 static void check_error(int line, kiln_result got, const kiln_error* error, kiln_result code, const char* message) {
   if (got != code || error->code != code) {

@@ -12,17 +12,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "checks.h"
 #include "kiln/kiln_reader.h"
-
-static int failures = 0;
-
-#define CHECK(condition)                                                                  \
-  do {                                                                                    \
-    if (!(condition)) {                                                                   \
-      fprintf(stderr, "%s:%d: check failed: %s\n", __FILE__, __LINE__, #condition);     \
-      ++failures;                                                                         \
-    }                                                                                     \
-  } while (0)
 
 /* The whole file, NUL-terminated (*size without the NUL); NULL when it cannot be read. */
 static char* read_file(const char* path, size_t* size) {
