@@ -65,14 +65,20 @@ echo '{"name": "cov", "targets": ["spirv"], "passes": [{"name": "Forward", "sour
 # The archive's blob table (kiln/pack_format.hpp): offset, stored size, raw size per blob; a stored size below the
 # raw size is a zstd frame. Each SPIR-V module is a seed, named by what it is.
 python3 - "$work/cov/cov.manifest.json" "$corpus/coverage_map" <<'PY'
-import json, os, struct, subprocess, sys
+import ctypes, json, os, struct, sys
+# libzstd itself (kiln's own dependency), not the zstd program, which the machines need not have.
+zstd = ctypes.CDLL("libzstd.so.1")
+zstd.ZSTD_decompress.restype = ctypes.c_size_t
+zstd.ZSTD_decompress.argtypes = [ctypes.c_char_p, ctypes.c_size_t, ctypes.c_char_p, ctypes.c_size_t]
 manifest = json.load(open(sys.argv[1]))
 archive = open(os.path.join(os.path.dirname(sys.argv[1]), manifest["archive"]["file"]), "rb").read()
 for n, binary in enumerate(manifest["binaries"]):
     offset, stored, raw = struct.unpack_from("<QQQ", archive, 64 + 32 * binary["blobs"]["spirv"])
     blob = archive[offset:offset + stored]
     if stored < raw:
-        blob = subprocess.run(["zstd", "-d", "-c"], input=blob, stdout=subprocess.PIPE, check=True).stdout
+        out = ctypes.create_string_buffer(raw)
+        assert zstd.ZSTD_decompress(out, raw, blob, stored) == raw
+        blob = out.raw
     open(os.path.join(sys.argv[2], "cov-%s-%d" % (binary["stage"], n)), "wb").write(blob)
 PY
 # And two hand-made modules (as unit.Coverage.* makes them): a block of 50 lines and 50 stores, and a small one that

@@ -166,6 +166,10 @@ def blank_quotes(text, names):
                 if text[j] == "\\":
                     j += 2
                     continue
+                if text.startswith("$((", j):  # arithmetic: numbers and variables, no command
+                    end = text.find("))", j)
+                    j = len(text) if end < 0 else end + 2
+                    continue
                 if text.startswith("$(", j):  # a command substitution: its text is a command line of its own
                     depth, k = 1, j + 2
                     while k < len(text) and depth:
