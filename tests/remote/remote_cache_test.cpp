@@ -3,11 +3,16 @@
 // No test depends on timing: a timeout is a server that never answers, and the outcome is asserted, not the time.
 #include <gtest/gtest.h>
 #include <fcntl.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <map>
 
 #include <nlohmann/json.hpp>
@@ -827,7 +832,9 @@ struct TamperedShards : Remote {
       RemoteKey digest;
       std::copy(bytes.begin() + 88, bytes.begin() + 120, digest.bytes.begin());
       const std::filesystem::path bundle = server.data() / "cas" / digest.hex();
-      if (static_cast<unsigned char>(testing::read_file(bundle)[12]) == index) return {record, bundle};
+      char head[16] = {};  // the bundle's magic, format and share index (not the whole bundle: some are forged 1.5 GiB)
+      std::ifstream(bundle, std::ios::binary).read(head, sizeof head);
+      if (static_cast<unsigned char>(head[12]) == index) return {record, bundle};
     }
     ADD_FAILURE() << "no record of shard " << index;
     return {};
@@ -835,17 +842,22 @@ struct TamperedShards : Remote {
   // Puts `bytes` as the bundle of shard `index`'s record, resealed: it passes every check of the transport. Returns
   // the warning a merge gives for it, saying `why`.
   std::string forge(unsigned index, const std::string& bytes, const std::string& why) {
-    const ShardEntry entry = shard_entry(index);
     const RemoteKey digest = sha256(bytes);
     overwrite(server.data() / "cas" / digest.hex(), bytes);
+    const ShardEntry entry = name_bundle(index, digest, bytes.size());
+    return server.url() + ": warning[K1705]: a remote cache entry failed verification: " + why + "\n  note: at the bundle of shard " +
+           std::to_string(index) + "/3, ac/" + entry.record.filename().string() + "\n" + kNeverFails;
+  }
+  // Makes shard `index`'s record name the bundle `digest` of `size` bytes, resealed.
+  ShardEntry name_bundle(unsigned index, const RemoteKey& digest, uint64_t size) {
+    const ShardEntry entry = shard_entry(index);
     std::string record = testing::read_file(entry.record);
     record.replace(88, 32, reinterpret_cast<const char*>(digest.bytes.data()), 32);
-    for (int i = 0; i < 8; ++i) record[120 + i] = static_cast<char>(uint64_t{bytes.size()} >> (8 * i));
+    for (int i = 0; i < 8; ++i) record[120 + i] = static_cast<char>(size >> (8 * i));
     const RemoteKey resealed = sha256(std::string_view(record).substr(88));
     record.replace(56, 32, reinterpret_cast<const char*>(resealed.bytes.data()), 32);
     overwrite(entry.record, record);
-    return server.url() + ": warning[K1705]: a remote cache entry failed verification: " + why + "\n  note: at the bundle of shard " +
-           std::to_string(index) + "/3, ac/" + entry.record.filename().string() + "\n" + kNeverFails;
+    return entry;
   }
   // The merge survives with `expected` said once, takes the other two bundles and compiles nothing.
   void expect_merged(const std::string& expected) {
@@ -902,13 +914,10 @@ TEST_F(TamperedShards, AResealedBundleWithABlobThatDoesNotUnpackToItsHash) {
 // and every share comes from the per-source entries.
 TEST_F(TamperedShards, RecordsWhoseBundlesTogetherAreOverAnArchivesLimit) {
   for (unsigned index : {0u, 1u}) {
-    const ShardEntry entry = shard_entry(index);
-    std::string record = testing::read_file(entry.record);
-    const uint64_t size = uint64_t{3} << 30;
-    for (int i = 0; i < 8; ++i) record[120 + i] = static_cast<char>(size >> (8 * i));
-    const RemoteKey resealed = sha256(std::string_view(record).substr(88));
-    record.replace(56, 32, reinterpret_cast<const char*>(resealed.bytes.data()), 32);
-    overwrite(entry.record, record);
+    std::string record = testing::read_file(shard_entry(index).record);
+    RemoteKey digest;
+    std::copy(record.begin() + 88, record.begin() + 120, digest.bytes.begin());
+    name_bundle(index, digest, uint64_t{3} << 30);
   }
   DiagnosticSink sink;
   BuildReport merge = build(serial(server.url()), sink);
@@ -921,6 +930,49 @@ TEST_F(TamperedShards, RecordsWhoseBundlesTogetherAreOverAnArchivesLimit) {
   EXPECT_EQ(merge.compiled, 0u);
   EXPECT_LT(merge.remote.bytes_down, uint64_t{1} << 20);
   EXPECT_TRUE(pack_bytes(last_output) == wanted);
+}
+
+// Records that announce two bundles of 1.5 GiB each (together within an archive's limit), served whole by the
+// server (sparse files), to a merge whose address space cannot hold one: each is a fallback to the per-source
+// entries, never a failed build. The merge runs in a child process under the lowered limit (RLIMIT_AS, 1 GiB over
+// what the child already maps) so that the limit is this test's alone; no other thread runs when it forks.
+TEST_F(TamperedShards, BundlesTooLargeToHoldInMemoryAreAFallback) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "ASan reserves terabytes of shadow memory: no address-space limit there";
+#endif
+  const uint64_t size = uint64_t{3} << 29;
+  for (unsigned index : {0u, 1u}) {
+    const RemoteKey digest = sha256("a forged bundle of shard " + std::to_string(index));
+    const std::filesystem::path bundle = server.data() / "cas" / digest.hex();
+    overwrite(bundle, "");
+    std::filesystem::resize_file(bundle, size);
+    name_bundle(index, digest, size);
+  }
+  const std::filesystem::path out = dir / ("build" + std::to_string(builds) + "/out");
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    ::alarm(120);
+    uint64_t mapped_kb = 0;
+    std::ifstream status("/proc/self/status");
+    for (std::string line; std::getline(status, line);)
+      if (line.starts_with("VmSize:")) mapped_kb = std::strtoull(line.c_str() + 7, nullptr, 10);
+    const rlimit limit{(mapped_kb << 10) + (uint64_t{1} << 30), RLIM_INFINITY};
+    if (mapped_kb == 0 || ::setrlimit(RLIMIT_AS, &limit) != 0) std::_Exit(3);
+    DiagnosticSink sink;
+    const BuildReport merge = build(serial(server.url()), sink);
+    const std::string text = text_of(sink);
+    std::fprintf(stderr, "%s", text.c_str());
+    const bool fell_back = merge.ok && merge.compiled == 0 && merge.remote.shard_bundles == 1 && merge.remote.hits == 4 &&
+                           text.find("warning[K1705]: a remote cache download was larger than this process could hold "
+                                     "in memory") != std::string::npos;
+    std::_Exit(fell_back ? 0 : 1);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status)) << "the merge was killed by signal " << WTERMSIG(status);
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "the merge failed, or did not fall back (its messages are above)";
+  EXPECT_TRUE(pack_bytes(out) == wanted);
 }
 
 // Shard 0's bundle under shard 1's record: well-formed, but its sources are another share's.

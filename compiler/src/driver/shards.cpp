@@ -1,6 +1,7 @@
 #include "driver/shards.hpp"
 
 #include <algorithm>
+#include <new>
 
 #include "common/files.hpp"
 #include "driver/compile.hpp"
@@ -75,42 +76,48 @@ std::map<Hash128, ShardResult> use_shard_bundles(RemoteCache& remote, const Remo
   const uint32_t holding = static_cast<uint32_t>(std::min<size_t>(*count, sources.list.size()));
   std::vector<RemoteKey> keys;
   for (uint32_t i = 0; i < holding; ++i) keys.push_back(remote_shard_key(remote, pack_key, plan, Shard{i, *count}));
-  std::vector<std::optional<std::string>> bundles = remote.fetch_shards(keys);
   const std::vector<uint32_t> shares = source_shares(sources, *count);
   size_t used = 0, used_bundles = 0;
-  for (uint32_t i = 0; i < holding; ++i) {
-    if (!bundles[i]) continue;
-    Result<ShardBundle> decoded = decode_shard_bundle(*bundles[i], threads);
-    std::string().swap(*bundles[i]);
-    std::string problem = decoded ? "" : decoded.error().message;
-    if (decoded && (decoded->index != i || decoded->count != *count || decoded->source_count != sources.list.size()))
-      problem = "a shard bundle is of another share or another plan";
-    // Every source of the share, once, the same source as this plan's: else the bundle is of something else.
-    std::vector<char> seen(sources.list.size(), 0);
-    size_t share_size = 0;
-    for (uint32_t share : shares) share_size += share == i;
-    if (problem.empty()) {
-      for (const ShardBundle::Source& entry : decoded->sources)
-        if (shares[entry.source] != i || seen[entry.source]++ || source_identity(sources.list[entry.source]) != entry.identity)
-          problem = "a shard bundle's sources are not its share of this plan";
-      if (problem.empty() && decoded->sources.size() != share_size) problem = "a shard bundle does not hold its whole share";
+  // One bundle at a time as the batches arrive: decoded, checked, its results kept, its bytes freed.
+  remote.fetch_shards(keys, [&](size_t i, std::string&& bytes) {
+    std::string problem;
+    try {
+      Result<ShardBundle> decoded = decode_shard_bundle(bytes, threads);
+      std::string().swap(bytes);
+      problem = decoded ? "" : decoded.error().message;
+      if (decoded && (decoded->index != i || decoded->count != *count || decoded->source_count != sources.list.size()))
+        problem = "a shard bundle is of another share or another plan";
+      // Every source of the share, once, the same source as this plan's: else the bundle is of something else.
+      std::vector<char> seen(sources.list.size(), 0);
+      size_t share_size = 0;
+      for (uint32_t share : shares) share_size += share == i;
+      if (problem.empty()) {
+        for (const ShardBundle::Source& entry : decoded->sources)
+          if (shares[entry.source] != i || seen[entry.source]++ || source_identity(sources.list[entry.source]) != entry.identity)
+            problem = "a shard bundle's sources are not its share of this plan";
+        if (problem.empty() && decoded->sources.size() != share_size) problem = "a shard bundle does not hold its whole share";
+      }
+      if (problem.empty()) {
+        ++used_bundles;
+        std::vector<std::shared_ptr<const JobOutput>> outputs;
+        for (JobOutput& output : decoded->outputs) outputs.push_back(std::make_shared<const JobOutput>(std::move(output)));
+        for (ShardBundle::Source& entry : decoded->sources) {
+          StageSource& s = sources.list[entry.source];
+          if (s.key && *s.key != entry.key) continue;  // a local memo, checked against the files, says otherwise
+          s.ok = true;
+          s.key = entry.key;
+          results.emplace(entry.key, ShardResult{entry.module, outputs[entry.output], std::move(entry.messages)});
+          ++used;
+        }
+      }
+    } catch (const std::bad_alloc&) {
+      // A bundle this process cannot decode in memory (a hostile remote's, or a machine short of memory): its share
+      // is looked up source by source. Results already kept are whole; the sources not reached are compiled.
+      problem = "a shard bundle was larger than this process could decode in memory";
     }
-    if (!problem.empty()) {
+    if (!problem.empty())
       remote.entry_rejected(problem, "the bundle of shard " + std::to_string(i) + "/" + std::to_string(*count) + ", ac/" + keys[i].hex());
-      continue;
-    }
-    ++used_bundles;
-    std::vector<std::shared_ptr<const JobOutput>> outputs;
-    for (JobOutput& output : decoded->outputs) outputs.push_back(std::make_shared<const JobOutput>(std::move(output)));
-    for (ShardBundle::Source& entry : decoded->sources) {
-      StageSource& s = sources.list[entry.source];
-      if (s.key && *s.key != entry.key) continue;  // a local memo, checked against the files, says otherwise
-      s.ok = true;
-      s.key = entry.key;
-      results.emplace(entry.key, ShardResult{entry.module, outputs[entry.output], std::move(entry.messages)});
-      ++used;
-    }
-  }
+  });
   remote.count_shard_bundles(used_bundles, used);
   return results;
 }

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstring>
 #include <mutex>
+#include <new>
 #include <stdexcept>
 #include <thread>
 
@@ -89,12 +90,20 @@ HttpClient::HttpClient(HttpSettings settings) : settings_(std::move(settings)) {
       return 0;  // stops the transfer
     }
     // The body's announced length, within the limit, is allocated once (a bundle of megabytes is not regrown).
-    curl_off_t announced = -1;
-    if (self->download_->empty() &&
-        curl_easy_getinfo(handle(self->curl_), CURLINFO_CONTENT_LENGTH_DOWNLOAD_T, &announced) == CURLE_OK &&
-        announced > 0 && static_cast<uint64_t>(announced) <= self->download_limit_)
-      self->download_->reserve(static_cast<size_t>(announced));
-    self->download_->append(data, bytes);
+    // A body this process cannot hold stops the transfer (an exception must not cross libcurl's C frames): the
+    // caller sees Failure::OutOfMemory, a fallback, not a failed build.
+    try {
+      curl_off_t announced = -1;
+      if (self->download_->empty() &&
+          curl_easy_getinfo(handle(self->curl_), CURLINFO_CONTENT_LENGTH_DOWNLOAD_T, &announced) == CURLE_OK &&
+          announced > 0 && static_cast<uint64_t>(announced) <= self->download_limit_)
+        self->download_->reserve(static_cast<size_t>(announced));
+      self->download_->append(data, bytes);
+    } catch (const std::bad_alloc&) {
+      std::string().swap(*self->download_);
+      self->out_of_memory_ = true;
+      return 0;
+    }
     return bytes;
   });
   curl_easy_setopt(c, CURLOPT_WRITEDATA, this);
@@ -130,6 +139,7 @@ void HttpClient::reset_request() {
   download_ = nullptr;
   download_limit_ = 0;
   over_limit_ = false;
+  out_of_memory_ = false;
   upload_ = nullptr;
   upload_part_ = upload_offset_ = 0;
 }
@@ -147,11 +157,12 @@ void HttpClient::perform(HttpResult& result) {
   else if (code == CURLE_OPERATION_TIMEDOUT && !message.starts_with("Operation timed out"))
     result.failure = HttpResult::Failure::ConnectTimeout;
   if (over_limit_) result.failure = HttpResult::Failure::TooLarge;
+  if (out_of_memory_) result.failure = HttpResult::Failure::OutOfMemory;
   if (result.failure == HttpResult::Failure::None) {
     curl_easy_getinfo(c, CURLINFO_RESPONSE_CODE, &result.status);
   } else {
     result.detail = curl_easy_strerror(code);
-    result.body.clear();
+    std::string().swap(result.body);
   }
 }
 

@@ -29,7 +29,8 @@ struct HttpResult {
   // than the operation timeout. Cut: the transfer ended early (short body, reset, nothing sent).
   // TooLarge: the body is over the caller's bound (the download was stopped there).
   // TooSlow: fewer than defaults::kRemoteLowSpeedBytesPerSecond for defaults::kRemoteLowSpeedTime.
-  enum class Failure { None, Connect, ConnectTimeout, Timeout, TooSlow, Cut, TooLarge, Other };
+  // OutOfMemory: the body (its announced length, or what arrived) could not be held; the transfer was stopped.
+  enum class Failure { None, Connect, ConnectTimeout, Timeout, TooSlow, Cut, TooLarge, OutOfMemory, Other };
   Failure failure = Failure::None;
   long status = 0;     // HTTP status when answered
   std::string body;    // GET
@@ -66,6 +67,7 @@ class HttpClient {
   std::string* download_ = nullptr;
   uint64_t download_limit_ = 0;
   bool over_limit_ = false;
+  bool out_of_memory_ = false;
   char error_[256] = {};  // CURLOPT_ERRORBUFFER
 };
 

@@ -289,6 +289,9 @@ bool RemoteCache::answered(const HttpResult& result, const std::string& what) {
     case HttpResult::Failure::TooLarge:
       problem(DiagId::RemoteEntryRejected, "a remote cache " + what + " was over its size limit");
       return false;
+    case HttpResult::Failure::OutOfMemory:
+      problem(DiagId::RemoteEntryRejected, "a remote cache " + what + " was larger than this process could hold in memory");
+      return false;
     case HttpResult::Failure::Cut:
     case HttpResult::Failure::Other:
       problem(DiagId::RemoteTransferCut, "a " + what + " from the remote cache was cut short: " + result.detail);
@@ -747,9 +750,9 @@ std::vector<bool> RemoteCache::have_records(const std::vector<RemoteKey>& keys) 
   return std::vector<bool>(there.begin(), there.end());
 }
 
-std::vector<std::optional<std::string>> RemoteCache::fetch_shards(const std::vector<RemoteKey>& keys) {
-  // The records first: the sizes they give are the server's word, and the bundles are held together, so their sum
-  // is bounded (by what one pack's archive may be) before anything is downloaded.
+void RemoteCache::fetch_shards(const std::vector<RemoteKey>& keys, const std::function<void(size_t, std::string&&)>& use) {
+  // The records first: the sizes they give are the server's word, and their sum is bounded (by what one pack's
+  // archive may be) before anything is downloaded.
   std::vector<std::optional<std::pair<RemoteKey, uint64_t>>> named(keys.size());
   const unsigned threads = std::max(1u, options_.parallel_transfers);
   parallel_for(keys.size(), threads, [&](size_t k) {
@@ -766,21 +769,34 @@ std::vector<std::optional<std::string>> RemoteCache::fetch_shards(const std::vec
   });
   uint64_t total = 0;
   for (const auto& bundle : named) total += bundle ? bundle->second : 0;
-  std::vector<std::optional<std::string>> bundles(keys.size());
   if (total > kMaxArchiveBytes) {
     problem(DiagId::RemoteEntryRejected,
             "a remote cache entry failed verification: the shards' bundles would be " + std::to_string(total) +
                 " bytes, more than a pack's archive may be (" + std::to_string(kMaxArchiveBytes) + ")",
             "at the shard records of this build's inputs");
-    return bundles;
+    return;
   }
-  parallel_for(keys.size(), threads, [&](size_t k) {
-    if (switched_off_ || !named[k]) return;
-    std::unique_ptr<HttpClient> client = take_client();
-    bundles[k] = get_blob(*client, named[k]->first, named[k]->second);
-    give_back(std::move(client));
-  });
-  return bundles;
+  // Batches in order of the keys: [first, last) holds at most kShardBatchBytes, or one bundle larger than that.
+  for (size_t first = 0; first < keys.size() && !switched_off_;) {
+    auto size = [&](size_t k) { return named[k] ? named[k]->second : 0; };
+    size_t last = first + 1;
+    for (uint64_t batch = size(first); last < keys.size() && batch + size(last) <= kShardBatchBytes; ++last)
+      batch += size(last);
+    std::vector<std::optional<std::string>> bundles(last - first);
+    parallel_for(last - first, threads, [&](size_t i) {
+      if (switched_off_ || !named[first + i]) return;
+      std::unique_ptr<HttpClient> client = take_client();
+      bundles[i] = get_blob(*client, named[first + i]->first, named[first + i]->second);
+      give_back(std::move(client));
+    });
+    for (size_t i = 0; i < bundles.size(); ++i) {
+      if (!bundles[i]) continue;
+      std::string bundle = std::move(*bundles[i]);
+      bundles[i].reset();
+      use(first + i, std::move(bundle));
+    }
+    first = last;
+  }
 }
 
 void RemoteCache::entry_rejected(const std::string& why, const std::string& where) {

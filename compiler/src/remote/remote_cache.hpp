@@ -17,6 +17,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <deque>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -118,9 +119,13 @@ class RemoteCache {
   std::optional<uint32_t> fetch_shard_count(const RemoteKey& key);
   // Whether each record is on the server (HEAD requests, in parallel): has every other shard finished?
   std::vector<bool> have_records(const std::vector<RemoteKey>& keys);
-  // Each shard's bundle, its record checked and its bytes matching the record's size and SHA-256 (in parallel);
-  // nothing for a shard whose record or bundle is missing or damaged (the merge looks its sources up one by one).
-  std::vector<std::optional<std::string>> fetch_shards(const std::vector<RemoteKey>& keys);
+  // Each shard's bundle, its record checked and its bytes matching the record's size and SHA-256, handed to `use`
+  // with its index in `keys`, in that order; never for a shard whose record or bundle is missing or damaged (the
+  // merge looks its sources up one by one). Bundles are downloaded in parallel in batches of at most
+  // kShardBatchBytes as their records announce them (a larger bundle alone), and each batch is handed over and
+  // freed before the next is fetched: what a merge holds is bounded by the batch, not by what the remote announces.
+  static constexpr uint64_t kShardBatchBytes = uint64_t{512} << 20;
+  void fetch_shards(const std::vector<RemoteKey>& keys, const std::function<void(size_t, std::string&&)>& use);
 
   // An entry whose bytes arrived whole but whose content the caller found wrong (a shard bundle): K1705, as for the
   // remote's own checks. `where` names the object.
