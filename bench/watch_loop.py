@@ -28,14 +28,16 @@ import sys
 import tempfile
 
 SOURCE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-# (name, file under shaderlib/, text, replacement): each changes what its name says and nothing else.
+# (name, file under shaderlib/, text, replacement for round r): each changes what its name says and nothing else, and
+# differently in every round, so that no round finds its edit in the cache from an earlier one (as an author's new
+# edit would not). The fog edit is in the FOG_EXP branch the default pack compiles (not the folded one).
 EDITS = [
-    ("comment", "BRDF.hlsl", "// Burley 2012, \"Physically-Based Shading at Disney\"",
-     "// Burley 2012 (edited comment), \"Physically-Based Shading at Disney\""),
-    ("fog", "Fog.hlsl", "return saturate(exp2(-fogParams.x * distance * 1.44269504));",
-     "return saturate(exp2(-fogParams.x * distance * 1.44269505));"),
+    ("comment", "BRDF.hlsl", "// Burley 2012, \"Physically-Based Shading at Disney\". Takes",
+     lambda r: "// Burley 2012 (edited comment %d), \"Physically-Based Shading at Disney\". Takes" % r),
+    ("fog", "Fog.hlsl", "return saturate(exp2(-fogParams.x * distance * 1.44269504));  // exp(-d x)",
+     lambda r: "return saturate(exp2(-fogParams.x * distance * (1.44269504 + %d.0e-6)));  // exp(-d x)" % (r + 1)),
     ("brdf", "BRDF.hlsl", "return saturateMediump(k * k * (real)INV_PI);",
-     "return saturateMediump(k * k * (real)(INV_PI * 1.0001));"),
+     lambda r: "return saturateMediump(k * k * (real)(INV_PI * (1.0 + %d.0e-4)));" % (r + 1)),
 ]
 STATUS = re.compile(r"round (\d+): (.*)")
 SECONDS = re.compile(r"([\d.]+) s\b")
@@ -107,7 +109,7 @@ def main():
                     path = os.path.join(work, "shaderlib", file)
                     original = open(path).read()
                     assert original.count(text) == 1, (file, text)
-                    for kind, content in (("edit", original.replace(text, replacement)), ("revert", original)):
+                    for kind, content in (("edit", original.replace(text, replacement(r))), ("revert", original)):
                         with open(path + ".tmp", "w") as f:  # as an editor saves: a new file renamed over the old
                             f.write(content)
                         os.rename(path + ".tmp", path)
