@@ -1,0 +1,186 @@
+#include "watch/development_server.hpp"
+
+#include <arpa/inet.h>
+#include <microhttpd.h>
+#include <netinet/in.h>
+
+#include <algorithm>
+#include <cstring>
+#include <set>
+
+#include <nlohmann/json.hpp>
+
+#include "kiln/bounded_json.hpp"
+
+namespace kiln::development {
+namespace {
+
+
+
+
+
+
+// A slow or stalled client (one byte a minute) is dropped after this long without progress; the loop never waits on it.
+constexpr unsigned kConnectionTimeoutSeconds = 10;
+constexpr unsigned kMaxConnections = 32;
+constexpr size_t kConnectionMemory = 64 * 1024;  // each connection's headers and buffers: more is 431 or a close
+
+struct Connection {
+  std::string body;
+  bool too_large = false;
+  bool answered = false;
+};
+
+bool is_name(const std::string& text) {
+  if (text.empty() || text.size() > kMaxNameBytes) return false;
+  return std::all_of(text.begin(), text.end(), [](char c) { return c > ' ' && c < 0x7f && c != '"' && c != '\\'; });
+}
+
+MHD_Result send(MHD_Connection* connection, const Answer& answer) {
+  MHD_Response* response =
+      MHD_create_response_from_buffer(answer.body.size(), const_cast<char*>(answer.body.data()), MHD_RESPMEM_MUST_COPY);
+  if (!response) return MHD_NO;
+  MHD_add_response_header(response, MHD_HTTP_HEADER_CONTENT_TYPE, "application/json");
+  const MHD_Result queued = MHD_queue_response(connection, answer.status, response);
+  MHD_destroy_response(response);
+  return queued;
+}
+
+MHD_Result on_request(void* self, MHD_Connection* connection, const char* url, const char* method, const char*,
+                      const char* upload_data, size_t* upload_data_size, void** state) {
+  auto& server = *static_cast<DevelopmentServer*>(self);
+  auto* request = static_cast<Connection*>(*state);
+  if (!request) {  // the headers are in: say no now to what cannot be a request, before any body is read
+    request = new Connection;
+    *state = request;
+    server.opened();
+    if (std::strcmp(url, development::kVariantPath) != 0) {
+      request->answered = true;
+      return send(connection, error_answer(404, std::string("no such path: the endpoint serves POST ") + development::kVariantPath));
+    }
+    if (std::strcmp(method, MHD_HTTP_METHOD_POST) != 0) {
+      request->answered = true;
+      return send(connection, error_answer(405, "only POST is served"));
+    }
+    const char* length = MHD_lookup_connection_value(connection, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+    if (length && (std::strlen(length) > 9 || std::strtoull(length, nullptr, 10) > kMaxRequestBytes)) {
+      request->answered = true;
+      return send(connection, error_answer(413, "a request is at most " + std::to_string(kMaxRequestBytes) + " bytes"));
+    }
+    return MHD_YES;
+  }
+  if (request->answered) {  // the body of a request already refused: dropped as it comes
+    *upload_data_size = 0;
+    return MHD_YES;
+  }
+  if (*upload_data_size != 0) {  // more of the body (chunked bodies have no length to check first)
+    if (request->body.size() + *upload_data_size > kMaxRequestBytes) request->too_large = true;
+    else request->body.append(upload_data, *upload_data_size);
+    *upload_data_size = 0;
+    return MHD_YES;
+  }
+  request->answered = true;
+  if (request->too_large)
+    return send(connection, error_answer(413, "a request is at most " + std::to_string(kMaxRequestBytes) + " bytes"));
+  Result<VariantRequest, Answer> parsed = parse_variant_request(request->body);
+  if (!parsed) return send(connection, parsed.error());
+  Answer answer;
+  try {
+    answer = server.handle(*parsed);
+  } catch (const std::exception& error) {  // a bug in kiln, said to the client rather than ending watch
+    answer = error_answer(500, std::string("kiln watch failed to serve the request: ") + error.what());
+  }
+  return send(connection, answer);
+}
+
+void on_completed(void* self, MHD_Connection*, void** state, MHD_RequestTerminationCode) {
+  if (!*state) return;
+  delete static_cast<Connection*>(*state);
+  *state = nullptr;
+  static_cast<DevelopmentServer*>(self)->closed();
+}
+
+MHD_Result on_accept(void*, const sockaddr* address, socklen_t) {
+  if (address->sa_family != AF_INET) return MHD_NO;
+  const auto* in = reinterpret_cast<const sockaddr_in*>(address);
+  return (ntohl(in->sin_addr.s_addr) >> 24) == 127 ? MHD_YES : MHD_NO;  // loopback only, whatever the socket says
+}
+
+}  // namespace
+
+Answer error_answer(unsigned status, const std::string& message, const std::string& diagnostics) {
+  nlohmann::json body{{"version", 1}, {"error", message.substr(0, kMaxAnswerBytes / 4)}};
+  if (!diagnostics.empty()) body["diagnostics"] = diagnostics.substr(0, kMaxAnswerBytes / 2);
+  return {status, body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)};
+}
+
+Result<VariantRequest, Answer> parse_variant_request(std::string_view body) {
+  nlohmann::json json;
+  try {
+    json = parse_json_bounded(body, {kMaxRequestBytes, 3});
+  } catch (const JsonDecodeError& error) {
+    return failure(error_answer(400, std::string("the request is not JSON: ") + error.what()));
+  }
+  if (!json.is_object()) return failure(error_answer(400, "the request must be a JSON object"));
+  for (const auto& [key, value] : json.items())
+    if (key != "pass" && key != "keywords") return failure(error_answer(400, "unknown field in the request (fields: pass, keywords)"));
+  if (!json.contains("pass") || !json["pass"].is_string() || !is_name(json["pass"].get<std::string>()))
+    return failure(error_answer(400, "\"pass\" must be a pass name (1 to " + std::to_string(kMaxNameBytes) +
+                                         " printable ASCII characters)"));
+  const nlohmann::json keywords = json.value("keywords", nlohmann::json::array());
+  if (!keywords.is_array()) return failure(error_answer(400, "\"keywords\" must be an array of keyword names"));
+  if (keywords.size() > kMaxKeywords)
+    return failure(error_answer(400, "at most " + std::to_string(kMaxKeywords) + " keywords in a request"));
+  std::set<std::string> names;
+  for (const nlohmann::json& keyword : keywords) {
+    if (!keyword.is_string() || !is_name(keyword.get<std::string>()))
+      return failure(error_answer(400, "\"keywords\" must be an array of keyword names (1 to " +
+                                           std::to_string(kMaxNameBytes) + " printable ASCII characters each)"));
+    names.insert(keyword.get<std::string>());
+  }
+  return VariantRequest{json["pass"].get<std::string>(), {names.begin(), names.end()}};
+}
+
+Result<std::unique_ptr<DevelopmentServer>> DevelopmentServer::start(const LoopbackEndpoint& endpoint, Handler handler) {
+  std::unique_ptr<DevelopmentServer> server(new DevelopmentServer);
+  server->handler_ = std::move(handler);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(endpoint.port);
+  if (::inet_pton(AF_INET, endpoint.host.c_str(), &address.sin_addr) != 1)
+    return failure("cannot listen on " + endpoint.text() + ": not an IPv4 address");
+  MHD_Daemon* daemon = MHD_start_daemon(
+      MHD_USE_EPOLL | MHD_USE_TURBO, endpoint.port, &on_accept, nullptr, &on_request, server.get(),
+      MHD_OPTION_SOCK_ADDR, reinterpret_cast<sockaddr*>(&address),
+      MHD_OPTION_CONNECTION_TIMEOUT, kConnectionTimeoutSeconds,
+      MHD_OPTION_CONNECTION_LIMIT, kMaxConnections,
+      MHD_OPTION_PER_IP_CONNECTION_LIMIT, kMaxConnections,
+      MHD_OPTION_CONNECTION_MEMORY_LIMIT, kConnectionMemory,
+      MHD_OPTION_NOTIFY_COMPLETED, &on_completed, server.get(),
+      MHD_OPTION_END);
+  if (!daemon) return failure("cannot listen on " + endpoint.text() + ": " + std::strerror(errno));
+  server->daemon_ = daemon;
+  server->endpoint_ = endpoint;
+  const MHD_DaemonInfo* port = MHD_get_daemon_info(daemon, MHD_DAEMON_INFO_BIND_PORT);
+  if (port) server->endpoint_.port = port->port;
+  return server;
+}
+
+DevelopmentServer::~DevelopmentServer() {
+  if (daemon_) MHD_stop_daemon(static_cast<MHD_Daemon*>(daemon_));
+}
+
+int DevelopmentServer::fd() const {
+  const MHD_DaemonInfo* info = MHD_get_daemon_info(static_cast<MHD_Daemon*>(daemon_), MHD_DAEMON_INFO_EPOLL_FD);
+  return info ? info->epoll_fd : -1;
+}
+
+int DevelopmentServer::timeout_ms() const {
+  MHD_UNSIGNED_LONG_LONG timeout = 0;
+  if (MHD_get_timeout(static_cast<MHD_Daemon*>(daemon_), &timeout) != MHD_YES) return -1;
+  return static_cast<int>(std::min<MHD_UNSIGNED_LONG_LONG>(timeout, 1000ull * 3600));
+}
+
+void DevelopmentServer::run() { MHD_run(static_cast<MHD_Daemon*>(daemon_)); }
+
+}  // namespace kiln::development

@@ -1,0 +1,67 @@
+// The development endpoint of kiln watch (docs/development-loop.md, "On-demand variants"): libmicrohttpd on a
+// loopback address, run from watch's own poll() loop (its epoll descriptor and timeout join watch's), so that one
+// thread serves requests, inotify and signals without a polling sleep. Everything a client sends is untrusted
+// (docs/threat-model.md): the method, the path, the headers (bounded by the connection's memory limit), the body
+// (bounded before it is kept) and the JSON in it are checked before the handler sees a request.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "kiln/result.hpp"
+#include "kiln/watch.hpp"
+
+namespace kiln::development {
+
+struct VariantRequest {
+  std::string pass;
+  std::vector<std::string> keywords;  // sorted, without repeats
+};
+
+// An HTTP answer: its status and its JSON body.
+struct Answer {
+  unsigned status = 200;
+  std::string body;
+};
+
+// {"error": message} with `status`, and `diagnostics` (cut to fit kMaxAnswerBytes) when there are any.
+Answer error_answer(unsigned status, const std::string& message, const std::string& diagnostics = {});
+
+// A request body, validated: a JSON object with exactly "pass" (a name) and "keywords" (an array of names), within
+// the protocol's bounds; a name is 1 to kMaxNameBytes printable ASCII characters without spaces or quotes.
+Result<VariantRequest, Answer> parse_variant_request(std::string_view body);
+
+class DevelopmentServer {
+ public:
+  using Handler = std::function<Answer(const VariantRequest&)>;
+  // Listens on `endpoint` (port 0: any). The error says why it cannot.
+  static Result<std::unique_ptr<DevelopmentServer>> start(const LoopbackEndpoint& endpoint, Handler handler);
+  ~DevelopmentServer();
+  DevelopmentServer(const DevelopmentServer&) = delete;
+  DevelopmentServer& operator=(const DevelopmentServer&) = delete;
+
+  LoopbackEndpoint endpoint() const { return endpoint_; }  // with the port it listens on
+  int fd() const;               // readable when run() has work
+  int timeout_ms() const;       // when run() must be called even if fd() stays quiet (a connection's timeout); -1: never
+  void run();                   // serves what is ready; never blocks but in the handler
+  size_t in_flight() const { return in_flight_; }  // connections with a request not yet answered and sent
+
+  // For libmicrohttpd's callbacks.
+  Answer handle(const VariantRequest& request) { return handler_(request); }
+  void opened() { ++in_flight_; }
+  void closed() { --in_flight_; }
+
+ private:
+  DevelopmentServer() = default;
+
+  void* daemon_ = nullptr;  // MHD_Daemon
+  Handler handler_;
+  LoopbackEndpoint endpoint_;
+  size_t in_flight_ = 0;
+};
+
+}  // namespace kiln::development
