@@ -2,6 +2,7 @@
 // gives the SPIR-V of the spelling glslang already reads as DXC does.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <map>
 #include <set>
@@ -262,6 +263,96 @@ std::vector<uint32_t> compacted(const std::vector<uint32_t>& words) {
   std::vector<uint32_t> out;
   EXPECT_TRUE(optimizer.Run(words.data(), words.size(), &out));
   return out;
+}
+
+// ---- enum and RWByteAddressBuffer atomics ------------------------------------------------------------------------
+
+// Enums as DXC users write them (unscoped with a value, `enum class` with a type, qualified and unqualified uses, a
+// case label, a cast, a parameter): the SPIR-V of the same shader written with int and uint constants.
+TEST(HlslCompat, EnumsGiveTheSpirvOfTheirConstants) {
+  testing::TempDir dir;
+  const std::string vertex = "float4 V(float4 p : POSITION) : SV_Position { return p; }\n";
+  PackReader enums = build_source(dir, "enums", vertex +
+      "enum Mode { Off, Fast = 3,\n  Best };\n"
+      "enum class Tone : uint { Linear, Aces = Linear + 4 };\n"
+      "cbuffer Params : register(b0) { int mode; uint tone; };\n"
+      "float Weight(Mode m) { return m == Mode::Best ? 2.0 : 1.0; }\n"
+      "float4 F() : SV_Target {\n"
+      "  switch ((Mode)mode) { case Fast: return 1; case Off: return 0; default: break; }\n"
+      "  Tone t = (Tone)tone;\n"
+      "  return Weight((Mode)mode) * (t == Tone::Aces ? 0.5 : 1.0) + Best;\n}\n");
+  PackReader constants = build_source(dir, "constants", vertex +
+      "static const int Off = 0; static const int Fast = 3;\n  static const int Best = 4;\n"
+      "\n"
+      "cbuffer Params : register(b0) { int mode; uint tone; };\n"
+      "float Weight(int m) { return m == Best ? 2.0 : 1.0; }\n"
+      "float4 F() : SV_Target {\n"
+      "  switch (mode) { case Fast: return 1; case Off: return 0; default: break; }\n"
+      "  uint t = tone;\n"
+      "  return Weight(mode) * (t == 4u ? 0.5 : 1.0) + Best;\n}\n");
+  const SelectedVariant a = enums.select("P", {}), b = constants.select("P", {});
+  const StageView* mine = a.stage("fragment");
+  const StageView* reference = b.stage("fragment");
+  ASSERT_TRUE(mine && reference);
+  EXPECT_EQ(compacted(facts_of(mine->spirv).without_nonuniform), compacted(facts_of(reference->spirv).without_nonuniform));
+  EXPECT_EQ(mine->glsl, reference->glsl);
+  EXPECT_EQ(mine->msl, reference->msl);
+}
+
+TEST(HlslCompat, TheEnumRewriteKeepsLinesAndLeavesOtherDeclarations) {
+  const std::string text = "enum E\n{\n  A = 2,\n  B,\n};\nint x = B;\n";
+  const std::string rewritten = *rewrite_enums(text);
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), std::count(rewritten.begin(), rewritten.end(), '\n'));
+  EXPECT_NE(rewritten.find("static const int B = (int)(E::A + 1);"), std::string::npos) << rewritten;
+  EXPECT_TRUE(rewritten.ends_with("\nint x = B;\n")) << rewritten;
+  // An anonymous enum gives plain constants; a scoped one only qualified names.
+  EXPECT_EQ(rewrite_enums("enum { Red, Green };"), " static const int Red = (int)(0); static const int Green = (int)(Red + 1);");
+  EXPECT_EQ(std::string(*rewrite_enums("enum class S : uint { X };")).find("static const uint X = S::X"), std::string::npos);
+  // Not enums, or not ones it can rewrite (a declarator after the body): glslang's message stays.
+  EXPECT_FALSE(rewrite_enums("int enumerate = 1; s.enum_value = 2;"));
+  EXPECT_FALSE(rewrite_enums("enum E { A } e;"));
+}
+
+const char* kAtomicsHead =
+    "RWByteAddressBuffer counters : register(u0);\n"
+    "[numthreads(64, 1, 1)] void C(uint3 id : SV_DispatchThreadID) {\n"
+    "  uint previous; int step = 2;\n";
+
+// Builds `source` as a compute pass (entry C) and opens the pack.
+PackReader build_compute(const testing::TempDir& dir, const std::string& name, const std::string& source) {
+  dir.write(name + "/S.hlsl", source);
+  dir.write(name + "/p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"compute": "C"}}]})");
+  BuildOptions options;
+  options.pack_file = dir / name / "p.pack.json";
+  options.output_dir = dir / name / "out";
+  options.worker_executable = KILN_WORKER_PATH;
+  DiagnosticSink sink;
+  EXPECT_TRUE(build_pack(options, sink).ok);
+  for (const Diagnostic& d : sink.diagnostics()) ADD_FAILURE() << format_diagnostic(d);
+  return PackReader::open(dir / name / "out");
+}
+
+// RWByteAddressBuffer's atomics with int arguments (`InterlockedAdd(0, 1)`), which DXC converts to uint: glslang 12
+// passed the int and its SPIR-V failed validation, with no line. The SPIR-V of the uint spelling.
+TEST(HlslCompat, ByteAddressAtomicsWithIntArgumentsGiveTheSpirvOfTheirUintSpelling) {
+  testing::TempDir dir;
+  PackReader ints = build_compute(dir, "ints", std::string(kAtomicsHead) +
+      "  counters.InterlockedAdd(0, 1, previous);\n  counters . InterlockedMax(4, step);\n"
+      "  counters.InterlockedCompareExchange(8, 0, 1, previous);\n  counters.InterlockedOr(12, previous);\n}\n");
+  PackReader uints = build_compute(dir, "uints", std::string(kAtomicsHead) +
+      "  counters.InterlockedAdd(0, 1u, previous);\n  counters . InterlockedMax(4, (uint)step);\n"
+      "  counters.InterlockedCompareExchange(8, 0u, 1u, previous);\n  counters.InterlockedOr(12, previous);\n}\n");
+  const SelectedVariant a = ints.select("P", {}), b = uints.select("P", {});
+  const StageView* mine = a.stage("compute");
+  const StageView* reference = b.stage("compute");
+  ASSERT_TRUE(mine && reference);
+  EXPECT_EQ(compacted(facts_of(mine->spirv).without_nonuniform), compacted(facts_of(reference->spirv).without_nonuniform));
+  EXPECT_EQ(mine->msl, reference->msl);
+  // The offset and the original-value output stay as written; RWStructuredBuffer's InterlockedAdd(b[i], 1) is a
+  // function, which glslang converts itself.
+  EXPECT_EQ(rewrite_byte_address_atomics("b.InterlockedCompareStore(o, 0, v); InterlockedAdd(s[0], 1);"),
+            "b.InterlockedCompareStore(o,(uint)( 0),(uint)( v)); InterlockedAdd(s[0], 1);");
+  EXPECT_FALSE(rewrite_byte_address_atomics("InterlockedAdd(s[0], 1); x.InterlockedAdd64(0, 1);"));
 }
 
 // The index's value is followed into a helper function and through a local variable, as DXC's inlining would:

@@ -236,6 +236,10 @@ class GlslangFrontend final : public Frontend {
       compatible = std::move(rewritten);
     if (auto rewritten = rewrite_literal_swizzles(compatible ? std::string_view(*compatible) : std::string_view(request.source)))
       compatible = std::move(rewritten);
+    if (auto rewritten = rewrite_enums(compatible ? std::string_view(*compatible) : std::string_view(request.source)))
+      compatible = std::move(rewritten);
+    if (auto rewritten = rewrite_byte_address_atomics(compatible ? std::string_view(*compatible) : std::string_view(request.source)))
+      compatible = std::move(rewritten);
     const auto nonuniform = rewrite_nonuniform_index(compatible ? std::string_view(*compatible) : std::string_view(request.source));
     if (nonuniform) compatible = *nonuniform;
     const std::string_view source = compatible ? std::string_view(*compatible) : std::string_view(request.source);

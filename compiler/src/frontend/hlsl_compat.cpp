@@ -1,5 +1,6 @@
 #include "frontend/hlsl_compat.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <vector>
 
@@ -327,6 +328,175 @@ std::optional<std::string> rewrite_literal_swizzles(std::string_view text) {
     out->append(text.substr(copied, at - copied)).append("(").append(number).append(").").append(text.substr(word, word_finish - word));
     copied = word_finish;
     at = word_finish - 1;
+  }
+  if (out) out->append(text.substr(copied));
+  return out;
+}
+
+namespace {
+
+std::string_view trimmed(std::string_view text) {
+  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.front()))) text.remove_prefix(1);
+  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.remove_suffix(1);
+  return text;
+}
+
+std::string newlines_in(std::string_view text) { return std::string(std::count(text.begin(), text.end(), '\n'), '\n'); }
+
+// `expression` with each whole word in `names` qualified as `scope::word` (an enumerator's initializer naming an
+// earlier one: glslang looks names up only qualified inside a namespace).
+std::string qualified(std::string_view expression, const std::vector<std::string>& names, std::string_view scope) {
+  std::string out;
+  for (size_t at = 0; at < expression.size();) {
+    const size_t end = word_end(expression, at);
+    if (end == at) {
+      out += expression[at++];
+      continue;
+    }
+    const std::string_view word = expression.substr(at, end - at);
+    const bool after_scope = at >= 2 && expression.substr(at - 2, 2) == "::";
+    const bool after_member = at >= 1 && expression[at - 1] == '.';
+    if (!scope.empty() && !after_scope && !after_member && std::find(names.begin(), names.end(), word) != names.end())
+      out.append(scope).append("::");
+    out.append(word);
+    at = end;
+  }
+  return out;
+}
+
+}  // namespace
+
+std::optional<std::string> rewrite_enums(std::string_view text) {
+  std::optional<std::string> out;
+  size_t copied = 0;
+  constexpr std::string_view kWord = "enum";
+  for (size_t at = text.find(kWord); at != std::string_view::npos; at = text.find(kWord, at + 1)) {
+    if (at < copied || (at > 0 && (is_token_char(text[at - 1]) || text[at - 1] == '.')) ||
+        word_end(text, at) != at + kWord.size())
+      continue;
+    // enum [class|struct] [Name] [: T] { ... } ;
+    size_t cursor = skip_space(text, at + kWord.size());
+    bool scoped = false;
+    for (std::string_view key : {"class", "struct"})
+      if (text.substr(cursor, key.size()) == key && word_end(text, cursor) == cursor + key.size()) {
+        scoped = true;
+        cursor = skip_space(text, cursor + key.size());
+      }
+    const size_t name_end = word_end(text, cursor);
+    const std::string name(text.substr(cursor, name_end - cursor));
+    if (scoped && name.empty()) continue;
+    cursor = skip_space(text, name_end);
+    std::string type = "int";
+    if (cursor < text.size() && text[cursor] == ':' && text.substr(cursor, 2) != "::") {
+      const size_t type_start = skip_space(text, cursor + 1);
+      size_t type_finish = type_start;
+      while (type_finish < text.size() && (is_token_char(text[type_finish]) || text[type_finish] == ' ')) ++type_finish;
+      type = std::string(trimmed(text.substr(type_start, type_finish - type_start)));
+      if (type.empty()) continue;
+      cursor = skip_space(text, type_finish);
+    }
+    if (cursor >= text.size() || text[cursor] != '{') continue;
+    const size_t open = cursor, close = text.find('}', open);
+    if (close == std::string_view::npos || text.substr(open + 1, close - open - 1).find('{') != std::string_view::npos) continue;
+    const size_t semicolon = skip_space(text, close + 1);
+    if (semicolon >= text.size() || text[semicolon] != ';') continue;  // `enum E { ... } e;`: glslang's error stays
+    // The enumerators: split at the commas outside parentheses.
+    std::vector<std::string_view> items;
+    int depth = 0;
+    size_t start = open + 1;
+    for (size_t i = open + 1; i <= close; ++i) {
+      const char c = text[i];
+      depth += c == '(' ? 1 : c == ')' ? -1 : 0;
+      if ((depth == 0 && c == ',') || i == close) {
+        items.push_back(text.substr(start, i - start));
+        start = i + 1;
+      }
+    }
+    std::string rewritten = newlines_in(text.substr(at, open - at));
+    if (!name.empty()) rewritten += "typedef " + type + " " + name + "; namespace " + name + " {";
+    std::vector<std::string> names;
+    bool valid = true;
+    for (std::string_view item : items) {
+      const std::string_view body = trimmed(item);
+      if (body.empty()) {
+        rewritten += newlines_in(item);
+        continue;
+      }
+      const size_t item_name_end = word_end(body, 0);
+      const std::string enumerator(body.substr(0, item_name_end));
+      const std::string_view rest = trimmed(body.substr(item_name_end));
+      if (enumerator.empty() || std::isdigit(static_cast<unsigned char>(enumerator[0])) || (!rest.empty() && rest[0] != '=')) {
+        valid = false;
+        break;
+      }
+      std::string value;
+      if (!rest.empty())
+        value = qualified(trimmed(rest.substr(1)), names, name);
+      else if (names.empty())
+        value = "0";
+      else
+        value = (name.empty() ? "" : name + "::") + names.back() + " + 1";
+      const size_t leading = item.find(body);
+      rewritten += newlines_in(item.substr(0, leading));
+      rewritten += " static const " + type + " " + enumerator + " = (" + type + ")(" + value + ");";
+      rewritten += newlines_in(item.substr(leading));
+      names.push_back(enumerator);
+    }
+    if (!valid || names.empty()) continue;
+    if (!name.empty()) rewritten += " }";
+    if (!scoped && !name.empty())
+      for (const std::string& enumerator : names)
+        rewritten += " static const " + type + " " + enumerator + " = " + name + "::" + enumerator + ";";
+    rewritten += newlines_in(text.substr(close, semicolon - close));
+    if (!out) out.emplace();
+    out->append(text.substr(copied, at - copied)).append(rewritten);
+    copied = semicolon + 1;
+    at = semicolon;
+  }
+  if (out) out->append(text.substr(copied));
+  return out;
+}
+
+std::optional<std::string> rewrite_byte_address_atomics(std::string_view text) {
+  // The methods and the positions of their value arguments (DXC's RWByteAddressBuffer, all uint).
+  struct Method {
+    std::string_view name;
+    size_t first_value, last_value;
+  };
+  static constexpr Method kMethods[] = {
+      {"InterlockedAdd", 1, 1},      {"InterlockedAnd", 1, 1}, {"InterlockedOr", 1, 1},
+      {"InterlockedXor", 1, 1},      {"InterlockedMin", 1, 1}, {"InterlockedMax", 1, 1},
+      {"InterlockedExchange", 1, 1}, {"InterlockedCompareExchange", 1, 2}, {"InterlockedCompareStore", 1, 2},
+  };
+  std::optional<std::string> out;
+  size_t copied = 0;
+  // The preprocessed text spaces its tokens (`raw . InterlockedAdd ( 0 , 1 )`): blanks may stand around the dot.
+  for (size_t name_at = text.find("Interlocked"); name_at != std::string_view::npos; name_at = text.find("Interlocked", name_at + 1)) {
+    if (name_at < copied || (name_at > 0 && is_token_char(text[name_at - 1]))) continue;
+    size_t dot = name_at;
+    while (dot > 0 && (text[dot - 1] == ' ' || text[dot - 1] == '\t')) --dot;
+    if (dot == 0 || text[dot - 1] != '.') continue;
+    const size_t name_end = word_end(text, name_at);
+    const std::string_view called = text.substr(name_at, name_end - name_at);
+    const Method* method = nullptr;
+    for (const Method& row : kMethods)
+      if (row.name == called) method = &row;
+    const size_t open = skip_space(text, name_end);
+    if (!method || open >= text.size() || text[open] != '(') continue;
+    size_t close = 0;
+    auto arguments = call_arguments(text, open, close);
+    if (!arguments || arguments->size() <= method->last_value) continue;
+    std::string call = "(";
+    for (size_t i = 0; i < arguments->size(); ++i) {
+      const std::string_view argument = (*arguments)[i];
+      if (i > 0) call += ",";
+      const bool value = i >= method->first_value && i <= method->last_value && !trimmed(argument).starts_with("(uint)(");
+      call += value ? "(uint)(" + std::string(argument) + ")" : std::string(argument);
+    }
+    call += ")";
+    if (!out) out.emplace();
+    out->append(text.substr(copied, open - copied)).append(call);
+    copied = close + 1;
   }
   if (out) out->append(text.substr(copied));
   return out;

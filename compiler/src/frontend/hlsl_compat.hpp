@@ -36,6 +36,18 @@ std::optional<std::string> rewrite_hlsl2021_intrinsics(std::string_view text);
 // has none.
 std::optional<std::string> rewrite_literal_swizzles(std::string_view text);
 
+// `enum Name [: T] { A, B = 3, C };` and `enum class`/`enum struct`, which glslang 12 refuses ("'enum' : Reserved
+// word"): rewritten to `typedef T Name; namespace Name { static const T A = ...; }` (T defaults to int, as in DXC),
+// and for an unscoped enum `static const T A = Name::A;` beside it, so that `Name`, `Name::A` and (unscoped) `A`
+// mean what DXC makes of them. Each enumerator is declared on its own line. Nothing when the text declares none.
+std::optional<std::string> rewrite_enums(std::string_view text);
+
+// RWByteAddressBuffer's atomic methods (`buffer.InterlockedAdd(offset, 1)`), whose value arguments DXC converts to
+// uint and glslang 12 passes as written: with an int argument its SPIR-V fails validation ("AtomicIAdd: expected
+// Value to be of type Result Type", no line). Each value argument (not the offset, not the original-value output)
+// becomes `(uint)(argument)`. Nothing when the text calls none.
+std::optional<std::string> rewrite_byte_address_atomics(std::string_view text);
+
 // `[[vk::...]]` attributes that change a shader's interface in DXC and that glslang 12 ignores with only a warning
 // ("'offset' : unrecognized attribute"): the interface kiln would build is not the one the author wrote, so each
 // is an error, saying what DXC does with it and what to write instead. `warning` is the front end's message text;
