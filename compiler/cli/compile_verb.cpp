@@ -230,7 +230,8 @@ class CompileVerb final : public Verb {
                      "Stage: vertex, fragment, compute, geometry, hull, domain (or glslc's vert, frag, comp, geom, tesc, tese, "
                      "tesscontrol, tesseval; DXC's pixel, ps, vs, cs, gs, hs, ds)")
         ->required();
-    verb->add_option("-E,--entry", entry_, "Entry point (default: main)");
+    entry_option_ = verb->add_option("-E,--entry", entry_, "Entry point (default: the one the file's '#pragma vertex NAME' or "
+                                                          "'#pragma fragment NAME' names for the stage, else main)");
     verb->add_option("-o,--output", output_, "Output file, or - for standard output")->required();
     verb->add_option("--target", target_text_,
                      target_name_list() + " (default: by the output's extension: " + extension_list() + "; else spirv)");
@@ -334,12 +335,14 @@ class CompileVerb final : public Verb {
     std::error_code ec;
     json include_dirs = json::array();
     for (const std::string& dir : include_dirs_) include_dirs.push_back(std::filesystem::absolute(dir, ec).string());
+    // Without -E the stage's entry point is the default, which a Unity stage pragma in the file overrides.
+    const json stage_entry = entry_option_->count() > 0 ? json(entry_) : json{{"source", std::filesystem::absolute(file_, ec).string()}};
     json pack{{"name", "compile"},
               {"include_dirs", include_dirs},
               {"targets", json::array({std::string(target_name(*target))})},
               {"passes", json::array({{{"name", "main"},
                                        {"source", std::filesystem::absolute(file_, ec).string()},
-                                       {"stages", {{std::string(stage_name(*stage)), entry_}}}}})}};
+                                       {"stages", {{std::string(stage_name(*stage)), stage_entry}}}}})}};
     const std::filesystem::path pack_file = scratch / "compile.pack.json";
     if (Result<void> written = write_output_file(pack_file, pack.dump(2) + "\n"); !written) {
       std::cerr << "kiln: error[K1601]: " << written.error().message << "\n";
@@ -424,6 +427,7 @@ class CompileVerb final : public Verb {
     }
   }
 
+  CLI::Option* entry_option_ = nullptr;
   std::string file_, stage_text_, entry_ = "main", output_, target_text_, depfile_, optimize_ = "s";
   std::vector<std::string> include_dirs_;
   PlanArguments plan_;

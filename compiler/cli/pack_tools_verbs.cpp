@@ -9,6 +9,7 @@
 #include "kiln/pack_format.hpp"
 #include "kiln/pack_reader.hpp"
 #include "kiln/pack_tools.hpp"
+#include "kiln/text.hpp"
 
 namespace kiln::cli {
 namespace {
@@ -128,9 +129,9 @@ class CheckUsageVerb final : public Verb {
         logs.push_back(std::move(log));
     }
     const kiln::UsageCheck check = kiln::check_usage(*pack, logs, sink);
-    std::cout << "kiln check-usage: " << logs.size() << " logs, " << check.sets << " keyword sets asked for ("
-              << check.requests << " selections): " << check.missed << " not in the pack (" << check.requests_missed
-              << " selections)\n";
+    std::cout << "kiln check-usage: " << kiln::counted(logs.size(), "log") << ", " << kiln::counted(check.sets, "keyword set")
+              << " asked for (" << kiln::counted(check.requests, "selection") << "): " << check.missed << " not in the pack ("
+              << kiln::counted(check.requests_missed, "selection") << ")\n";
     return sink.has_errors() ? 1 : 0;
   }
 
@@ -171,8 +172,9 @@ class MergeUsageVerb final : public Verb {
       return kiln::exit_status(kiln::ExitClass::Environment);
     }
     (output_ == "-" ? std::cerr : std::cout)
-        << "kiln merge-usage: " << logs.size() << " logs merged (" << left_out << " without the tags), " << merged->passes
-        << " passes, " << merged->sets << " keyword sets, " << merged->selections << " selections"
+        << "kiln merge-usage: " << kiln::counted(logs.size(), "log") << " merged (" << left_out << " without the tags), "
+        << kiln::counted(merged->passes, "pass", "passes") << ", " << kiln::counted(merged->sets, "keyword set") << ", "
+        << kiln::counted(merged->selections, "selection")
         << (output_ == "-" ? std::string() : " -> " + output_) << "\n";
     return 0;
   }

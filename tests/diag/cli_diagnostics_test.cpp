@@ -671,12 +671,12 @@ TEST_F(Cli, UsageLogsStripAPackToWhatTheRunsAskedForAndCheckUsageFindsWhatItLack
   }
   auto ok = testing::run_kiln({"check-usage", "narrow", "run1.json"}, dir.path());
   EXPECT_EQ(ok.exit_code, 0) << ok.err;
-  EXPECT_EQ(ok.out, "kiln check-usage: 1 logs, 2 keyword sets asked for (4 selections): 0 not in the pack (0 selections)\n");
+  EXPECT_EQ(ok.out, "kiln check-usage: 1 log, 2 keyword sets asked for (4 selections): 0 not in the pack (0 selections)\n");
   auto missed = testing::run_kiln({"check-usage", "narrow", "run1.json", "run2.json"}, dir.path());
   EXPECT_EQ(missed.exit_code, 1);
   EXPECT_EQ(missed.err, "run2.json: error[K1307]: pass 'P': [B], asked for 1 time, is not in pack 'p'; the nearest variant "
                         "the reader names is [A B]\n");
-  EXPECT_NE(missed.out.find(": 1 not in the pack (1 selections)"), std::string::npos) << missed.out;
+  EXPECT_NE(missed.out.find(": 1 not in the pack (1 selection)"), std::string::npos) << missed.out;
 
   // Both runs: every variant they asked for; a margin of one group keeps the neighbours too.
   r = testing::run_kiln({"build", "p.pack.json", "-o", "both", "--cache", "cache", "--usage", "run1.json", "--usage", "run2.json",
@@ -698,7 +698,7 @@ TEST_F(Cli, UsageLogsStripAPackToWhatTheRunsAskedForAndCheckUsageFindsWhatItLack
   auto merged = testing::run_kiln({"merge-usage", "run1.json", "run2.json", "run3.json", "--usage-tag", "scene=forest",
                                    "-o", "merged.json"}, dir.path());
   ASSERT_EQ(merged.exit_code, 0) << merged.err;
-  EXPECT_EQ(merged.out, "kiln merge-usage: 2 logs merged (1 without the tags), 1 passes, 3 keyword sets, 5 selections "
+  EXPECT_EQ(merged.out, "kiln merge-usage: 2 logs merged (1 without the tags), 1 pass, 3 keyword sets, 5 selections "
                         "-> merged.json\n");
   EXPECT_EQ(testing::read_file(dir / "merged.json"), R"({
   "format": "kiln-usage",
@@ -749,7 +749,7 @@ TEST_F(Cli, UsageLogsStripAPackToWhatTheRunsAskedForAndCheckUsageFindsWhatItLack
   }
   merged = testing::run_kiln({"merge-usage", "run1.json", "run3.json", "run4.json", "-o", "-"}, dir.path());
   ASSERT_EQ(merged.exit_code, 0) << merged.err;
-  EXPECT_EQ(merged.err, "kiln merge-usage: 3 logs merged (0 without the tags), 1 passes, 3 keyword sets, 6 selections\n");
+  EXPECT_EQ(merged.err, "kiln merge-usage: 3 logs merged (0 without the tags), 1 pass, 3 keyword sets, 6 selections\n");
   const nlohmann::json all = nlohmann::json::parse(merged.out);
   EXPECT_TRUE(all.at("tags").empty()) << all;
   EXPECT_EQ(all.at("passes")[0].at("served")[0], (nlohmann::json{{"keywords", {"A"}}, {"count", 4}})) << all;
@@ -781,6 +781,89 @@ TEST_F(Cli, UsageLogsStripAPackToWhatTheRunsAskedForAndCheckUsageFindsWhatItLack
   EXPECT_NE(r.err.find("broken.json:1:27: error[K1015]: usage log format version 2 is not supported (this kiln reads version 1)"),
             std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir / "x"));
+}
+
+// A shader written for Unity names its stages with `#pragma vertex` / `#pragma fragment`: a pass without "stages"
+// takes them; a pack whose stages disagree is told so. Unity's other pragmas are supported (multi_compile_instancing)
+// or a located note (target, exclude_renderers), once a line, never silence.
+TEST_F(Cli, UnityPragmasNameTheStagesAndTheOthersAreSupportedOrNoted) {
+  dir.write("S.hlsl", std::string("#pragma vertex V\n#pragma fragment F\n#pragma target 4.5\n#pragma multi_compile_instancing\n"
+                                  "#pragma exclude_renderers gles d3d11\n") + kEntries +
+                          "float4 G() : SV_Target { return 0.5; }\n");
+  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl"}, {"name": "Q", "source": "S.hlsl"}]})");
+  auto r = build();
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "S.hlsl:3:9: note[K1310]: '#pragma target' is Unity's: kiln does not act on it (kiln compiles for the "
+                   "targets the pack names, the SPIR-V for Vulkan 1.1 (SPIR-V 1.3))\n"
+                   "    #pragma target 4.5\n"
+                   "            ^\n"
+                   "S.hlsl:5:9: note[K1310]: '#pragma exclude_renderers' is Unity's: kiln does not act on it (every pass is "
+                   "built for the pack's targets: give the pass \"targets\" of its own)\n"
+                   "    #pragma exclude_renderers gles d3d11\n"
+                   "            ^\n");
+  {
+    PackReader pack = PackReader::open(dir / "out");
+    EXPECT_EQ(pack.variant_count("P"), 2u);  // INSTANCING_ON off and on
+    EXPECT_EQ(pack.select("P", {"INSTANCING_ON"}).keywords, std::vector<std::string>{"INSTANCING_ON"});
+    const ManifestPass& pass = pack.manifest().passes.front();
+    EXPECT_EQ(pass.entry_points.at(Stage::Vertex), "V");
+    EXPECT_EQ(pass.entry_points.at(Stage::Fragment), "F");
+  }
+  // The pack's stages win over the pragmas, with a warning at the pragma that disagrees.
+  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "G"}}]})");
+  r = build();
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("S.hlsl:2:18: warning[K1311]: '#pragma fragment F' disagrees with pass 'P' of the pack, whose fragment "
+                       "stage is 'G': the pack's stages are used"), std::string::npos) << r.err;
+  EXPECT_EQ(PackReader::open(dir / "out").manifest().passes.front().entry_points.at(Stage::Fragment), "G");
+  // kiln compile without -E takes the stage's entry point from its pragma (the file has no `main`), and says nothing
+  // of the vertex pragma of a stage it does not build.
+  auto compiled = testing::run_kiln({"compile", "S.hlsl", "-S", "frag", "-o", "f.spv"}, dir.path());
+  EXPECT_EQ(compiled.exit_code, 0) << compiled.err;
+  EXPECT_EQ(compiled.err.find("K1311"), std::string::npos) << compiled.err;
+  EXPECT_TRUE(std::filesystem::exists(dir / "f.spv"));
+  // Neither stages nor pragmas: an error at the pass.
+  dir.write("T.hlsl", kEntries);
+  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "T.hlsl"}]})");
+  r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("error[K1311]: pass 'P' has no \"stages\" and its source names none with '#pragma vertex NAME'"),
+            std::string::npos) << r.err;
+}
+
+// A run that asked for what the pack cannot keep (a set its constraints strip, a keyword it does not declare) is
+// said at `build --usage`, once a set, not only later by check-usage; the set with no keyword on is never "[]" alone.
+TEST_F(Cli, UsageBuildsSayWhichRequestedKeywordSetsThePackStrips) {
+  dir.write("S.hlsl", kTwoKeywords);  // variants [], [A], [B], [A B]
+  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}],
+  "constraints": [{"keyword": "B", "excludes": ["A"]}]})");
+  ASSERT_EQ(build().exit_code, 0);
+  auto log = [&](const std::string& file, const std::string& served) {
+    dir.write(file, "{\"format\": \"kiln-usage\", \"format_version\": 1, \"pack\": \"p\", \"tags\": {}, \"passes\": "
+                    "[{\"name\": \"P\", \"served\": [" + served + "], \"missing\": []}], \"missing_dropped\": 0}\n");
+  };
+  log("run1.json", R"({"keywords": ["A"], "count": 2}, {"keywords": ["A", "B"], "count": 1}, {"keywords": ["C"], "count": 1})");
+  log("run2.json", R"({"keywords": ["A", "B"], "count": 5}, {"keywords": [], "count": 1})");
+  auto r = testing::run_kiln({"build", "p.pack.json", "-o", "narrow", "--cache", "cache", "--usage", "run1.json", "--usage", "run2.json"},
+                             dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "run1.json: warning[K1309]: pass 'P': [A B], asked for 1 time, is stripped by this pack's constraints, "
+                   "materials or scenes: the pack built from this log lacks it, and a reader asking for it gets its nearest variant\n"
+                   "run1.json: warning[K1309]: pass 'P': [C], asked for 1 time, is a keyword set this pass cannot express (a "
+                   "keyword it does not declare, or two of one group): the pack built from this log lacks it, and a reader "
+                   "asking for it gets its nearest variant\n");
+  EXPECT_NE(r.out.find("P: usage log run1.json (2 keyword sets): 3 -> 1"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("P: usage (2 logs): 3 -> 2"), std::string::npos) << r.out;
+  // check-usage names the nearest variant; the one with no keyword on is [<none>], as every message names it.
+  auto check = testing::run_kiln({"check-usage", "narrow", "run2.json"}, dir.path());
+  EXPECT_EQ(check.exit_code, 1);
+  EXPECT_EQ(check.err, "run2.json: error[K1307]: pass 'P': [A B], asked for 5 times, is not in pack 'p'; the nearest variant "
+                       "the reader names is [A]\n");
+  log("run3.json", R"({"keywords": ["B"], "count": 1})");
+  check = testing::run_kiln({"check-usage", "narrow", "run3.json"}, dir.path());
+  EXPECT_NE(check.err.find("[B], asked for 1 time, is not in pack 'p'; the nearest variant the reader names is [<none>]"),
+            std::string::npos) << check.err;
+  EXPECT_EQ(check.out, "kiln check-usage: 1 log, 1 keyword set asked for (1 selection): 1 not in the pack (1 selection)\n");
 }
 
 // merge-usage wrote logs whose pack was "", "../lit" or "lit\u0000" (a name no other verb accepts); -D with a value

@@ -84,8 +84,16 @@ TEST(Declarations, InvalidKeywordNamesAndUnsupportedSuffixesAreErrors) {
   EXPECT_TRUE(malformed);
   EXPECT_TRUE(sink.contains(DiagId::InvalidKeywordName));
   malformed = false;
-  EXPECT_FALSE(parse(" multi_compile_instancing", sink, malformed));
+  // Unity's shortcut for its built-in forward keywords: not kiln's (they name Unity's lights), an error, not a guess.
+  EXPECT_FALSE(parse(" multi_compile_fwdbase", sink, malformed));
   EXPECT_TRUE(sink.contains(DiagId::PragmaSyntax));
+}
+
+TEST(Declarations, MultiCompileInstancingIsTheInstancingOnGroup) {
+  auto group = parse_keyword_pragma(" multi_compile_instancing", SourceLocation{"S.hlsl", 1, 1}, 8);
+  ASSERT_TRUE(group && *group);
+  EXPECT_EQ((*group)->values, (std::vector<std::string>{"", "INSTANCING_ON"}));
+  EXPECT_FALSE(parse_keyword_pragma(" multi_compile_instancing A", SourceLocation{"S.hlsl", 1, 1}, 8));  // takes no keywords
 }
 
 TEST(Declarations, ScanCollectsPragmasFromIncludedFilesButNotFromComments) {

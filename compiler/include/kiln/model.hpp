@@ -90,6 +90,7 @@ struct PassDefinition {
   std::filesystem::path source;                      // entry HLSL file of the pass (empty when every stage names its own)
   std::array<std::string, kStageCount> entry_points;  // empty: the pass has no such stage
   std::array<std::filesystem::path, kStageCount> stage_sources;  // each stage's file: its own, or `source`
+  StageMask default_entries = 0;  // stages whose entry point is the default "main", not named: a `#pragma vertex` names it
   std::vector<Target> targets;  // the pass's own "targets" (sorted, SPIR-V in); empty: the pack's
   SourceLocation defined_at;
   BindingOptions bindings;      // the pack's, with the pass's own overrides applied

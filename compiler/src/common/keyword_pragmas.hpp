@@ -3,6 +3,7 @@
 //   #pragma multi_compile[_local][_vertex|_fragment] A B   every value is built
 //   #pragma shader_feature[_local][_vertex|_fragment] A B  built only when a material (or scene) uses it
 //   #pragma multi_compile_fog                              _ FOG_LINEAR FOG_EXP FOG_EXP2
+//   #pragma multi_compile_instancing                       _ INSTANCING_ON
 //   #pragma dynamic_branch[_local][_vertex|_fragment] A B  one module; each keyword a uniform bool (Unity's)
 //   #pragma specialization_constant[_local][_vertex|_fragment] A B  one module; each keyword a specialization constant
 //   #pragma specialization_constant_int[_local][_vertex|_fragment] A B  one module; one int constant for the group
@@ -25,10 +26,13 @@ struct KeywordPragmaKind {
 };
 
 inline constexpr std::string_view kFogValues[] = {"", "FOG_LINEAR", "FOG_EXP", "FOG_EXP2"};
+// Unity's GPU instancing keyword: `#pragma multi_compile_instancing` is `multi_compile _ INSTANCING_ON`.
+inline constexpr std::string_view kInstancingValues[] = {"", "INSTANCING_ON"};
 // Exact names (implied values) first: multi_compile_fog is not multi_compile with a suffix; nor is
 // specialization_constant_int specialization_constant with one.
 inline constexpr KeywordPragmaKind kKeywordPragmaKinds[] = {
     {"multi_compile_fog", false, false, kFogValues},
+    {"multi_compile_instancing", false, false, kInstancingValues},
     {"multi_compile", false, true, {}},
     {"shader_feature", true, true, {}},
     {kDynamicBranchPragma, false, true, {}},

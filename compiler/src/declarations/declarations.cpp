@@ -60,6 +60,24 @@ std::vector<std::string> code_lines(std::string_view text) {
 
 namespace {
 
+// Unity's stage pragmas (ShaderLab's CGPROGRAM/HLSLPROGRAM blocks, and `kernel` in compute shaders).
+constexpr std::pair<std::string_view, Stage> kUnityStagePragmas[] = {
+    {"vertex", Stage::Vertex}, {"fragment", Stage::Fragment}, {"geometry", Stage::Geometry},
+    {"hull", Stage::Hull},     {"domain", Stage::Domain},     {"kernel", Stage::Compute}};
+// Unity pragmas that change how Unity builds a shader, and what kiln does instead.
+constexpr std::pair<std::string_view, std::string_view> kUnityIgnoredPragmas[] = {
+    {"target", "kiln compiles for the targets the pack names, the SPIR-V for Vulkan 1.1 (SPIR-V 1.3)"},
+    {"require", "kiln compiles for the targets the pack names; a feature the code uses is checked by spirv-val"},
+    {"exclude_renderers", "every pass is built for the pack's targets: give the pass \"targets\" of its own"},
+    {"only_renderers", "every pass is built for the pack's targets: give the pass \"targets\" of its own"},
+    {"skip_variants", "nothing is stripped by it: write the rule as a pack constraint"},
+    {"instancing_options", "instancing is the INSTANCING_ON keyword of #pragma multi_compile_instancing"},
+    {"surface", "surface shaders are Unity's code generator: write the vertex and fragment functions"},
+    {"enable_d3d11_debug_symbols", "use kiln build -g"},
+    {"hardware_tier_variants", "tiers are keywords: declare them with #pragma multi_compile"},
+    {"editor_sync_compilation", "kiln compiles every variant the pack keeps before the pack is written"},
+};
+
 struct Word {
   std::string_view text;
   int column;  // 1-based, in the original line
@@ -196,6 +214,8 @@ struct Scanner {
           ok = false;
         } else if (*parsed) {
           add_group(std::move(**parsed));
+        } else {
+          unity_pragma(*directive, at, file);
         }
       } else if (directive->name == "include") {
         include(*directive, at, file);
@@ -204,6 +224,31 @@ struct Scanner {
     for (const SourceLocation& at : open_conditionals)
       error(DiagId::PreprocessorError, at, "#if without #endif in this file (a conditional closes in the file that opens it)");
     chain.pop_back();
+  }
+
+  // Unity's pragmas that are not keyword pragmas: a stage's entry point is recorded (the first of each stage); the
+  // others that change how Unity builds a shader are a note, once a line, so that nothing is silently ignored.
+  void unity_pragma(const Directive& directive, const SourceLocation& at, const SourceFile& file) {
+    const std::vector<Word> words = split_words(directive.rest, directive.rest_column);
+    if (words.empty()) return;
+    const std::string_view pragma = words[0].text;
+    for (const auto& [name, stage] : kUnityStagePragmas) {
+      if (pragma != name) continue;
+      if (words.size() >= 2 && is_identifier(words[1].text) && !result.stage_pragmas[static_cast<size_t>(stage)])
+        result.stage_pragmas[static_cast<size_t>(stage)] =
+            PassDeclarations::StagePragma{std::string(words[1].text), SourceLocation{at.path, at.line, words[1].column}};
+      return;
+    }
+    for (const auto& [name, why] : kUnityIgnoredPragmas) {
+      if (pragma != name || !sources.noted.emplace(file.path, at.line).second) continue;
+      Diagnostic d;
+      d.id = DiagId::UnityPragma;
+      d.severity = Severity::Note;
+      d.location = SourceLocation{at.path, at.line, words[0].column};
+      d.message = "'#pragma " + std::string(pragma) + "' is Unity's: kiln does not act on it (" + std::string(why) + ")";
+      sink.report(std::move(d));
+      return;
+    }
   }
 
   void include(const Directive& directive, SourceLocation at, const SourceFile& from) {
@@ -355,6 +400,48 @@ std::optional<PassDeclarations> scan_pass_declarations(const PassDefinition& pas
     }
   }
   return merged;
+}
+
+bool apply_stage_pragmas(PassDefinition& pass, const IncludeRoots& roots, const ReadLimits& limits, SourceSet& sources,
+                         DiagnosticSink& sink) {
+  const bool named = std::any_of(pass.entry_points.begin(), pass.entry_points.end(), [](const std::string& e) { return !e.empty(); });
+  if (pass.source.empty()) return named;  // every stage names its own file: the definition checked it has stages
+  // The pass's own source (where Unity writes its pragmas); a stage of a file of its own keeps what the pack says.
+  std::optional<PassDeclarations> scanned = scan_declarations(pass.source, roots, limits, sources, sink);
+  if (!scanned) return false;
+  bool any = false;
+  for (Stage stage : kAllStages) {
+    const auto& pragma = scanned->stage_pragmas[static_cast<size_t>(stage)];
+    if (!pragma) continue;
+    any = true;
+    std::string& entry = pass.entry_points[static_cast<size_t>(stage)];
+    if (!named) {
+      entry = pragma->entry;
+      pass.stage_sources[static_cast<size_t>(stage)] = pass.source;
+    } else if ((pass.default_entries & stage_bit(stage)) && pass.stage_sources[static_cast<size_t>(stage)] == pass.source) {
+      entry = pragma->entry;  // the default "main" yields to the entry point the source names
+    } else if (!entry.empty() && pass.stage_sources[static_cast<size_t>(stage)] == pass.source && entry != pragma->entry) {
+      // (A stage the pack does not build is its choice: `kiln compile -S frag` of a file that names both.)
+      sink.report(DiagId::StagePragma, pragma->at,
+                  "'#pragma " + std::string(std::find_if(std::begin(kUnityStagePragmas), std::end(kUnityStagePragmas),
+                                                         [&](const auto& p) { return p.second == stage; })->first) +
+                      " " + pragma->entry + "' disagrees with pass '" + pass.name + "' of the pack, whose " +
+                      std::string(stage_name(stage)) + " stage is '" + entry + "': the pack's stages are used",
+                  {"remove the pass's \"stages\" to take the pragmas' entry points, or make them agree"});
+    }
+  }
+  if (!named && !any) {
+    Diagnostic d;
+    d.id = DiagId::StagePragma;
+    d.severity = Severity::Error;
+    d.location = pass.defined_at;
+    d.message = "pass '" + pass.name + "' has no \"stages\" and its source names none with '#pragma vertex NAME' / "
+                "'#pragma fragment NAME'";
+    d.notes = {"give the pass \"stages\": {\"vertex\": \"Entry\", \"fragment\": \"Entry\"}, or the pragmas in its source"};
+    sink.report(std::move(d));
+    return false;
+  }
+  return true;
 }
 
 }  // namespace kiln

@@ -31,6 +31,8 @@ struct SourceSet {
   std::map<std::filesystem::path, SourceFile> files;
   // Directories where a new file would shadow an include (ResolvedInclude::watch): the depfile lists them.
   std::set<std::filesystem::path> watched;
+  // Unity pragmas kiln reads but does not act on, already noted (file and line): a header of many passes says it once.
+  std::set<std::pair<std::filesystem::path, int>> noted;
   const SourceFile* find(const std::filesystem::path& canonical) const;
 };
 
@@ -40,6 +42,13 @@ struct PassDeclarations {
   std::vector<KeywordGroup> groups;            // in declaration order
   // Each stage's own entry file (canonical), for a pass whose stages have files of their own; `entry` otherwise.
   std::array<std::filesystem::path, kStageCount> stage_entry;
+  // Unity's stage pragmas (`#pragma vertex vert`, `fragment`, `geometry`, `hull`, `domain`, `kernel` for compute):
+  // the entry point each names, the first of each stage, and where. A pass without "stages" takes its stages from them.
+  struct StagePragma {
+    std::string entry;
+    SourceLocation at;
+  };
+  std::array<std::optional<StagePragma>, kStageCount> stage_pragmas;
 };
 
 // One pass's declarations from the files its stages name: a keyword declared in a stage's file applies to the
@@ -47,6 +56,12 @@ struct PassDeclarations {
 // files is one group.
 std::optional<PassDeclarations> scan_pass_declarations(const PassDefinition& pass, const IncludeRoots& roots,
                                                        const ReadLimits& limits, SourceSet& sources, DiagnosticSink& sink);
+
+// A pass written the Unity way names its entry points with `#pragma vertex` / `#pragma fragment` in its source and
+// none in the pack: gives it those stages (K1311 when its source names none). When the pack names stages too, each
+// pragma that names another entry point is a warning (K1311), and the pack's entry point is used.
+bool apply_stage_pragmas(PassDefinition& pass, const IncludeRoots& roots, const ReadLimits& limits, SourceSet& sources,
+                         DiagnosticSink& sink);
 
 inline constexpr int kMaxIncludeDepth = 64;
 

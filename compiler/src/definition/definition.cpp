@@ -272,22 +272,28 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
       auto source = fields.string(item, "source", false);
       if (source || default_source) pass.source = base / source.value_or(default_source.value_or(""));
       auto stages = item.find("stages");
-      if (stages == item.end() || !stages->is_object() || stages->empty()) {
-        fields.fail(pass.name, "pass '" + pass.name + "' needs \"stages\": {\"vertex\": \"Entry\", \"fragment\": \"Entry\"}");
+      // No "stages": the entry points come from the source's Unity pragmas (`#pragma vertex vert`), which the
+      // declaration scan reads (apply_stage_pragmas); a pass with neither is an error there.
+      if ((stages == item.end() && pass.source.empty()) || (stages != item.end() && (!stages->is_object() || stages->empty()))) {
+        fields.fail(pass.name, "pass '" + pass.name + "' needs \"stages\": {\"vertex\": \"Entry\", \"fragment\": \"Entry\"}" +
+                                   (pass.source.empty() ? std::string() : ", or no \"stages\" to take them from '#pragma vertex NAME' and '#pragma fragment NAME' in its source"));
         continue;
       }
       // A stage names its entry point in the pass's source ("vertex": "VSMain"), or a file of its own with its entry
       // point ("vertex": {"source": "Sky.vert.hlsl", "entry": "main"}), as stage-per-file projects write them.
       // A stage of its own file may have "bindings" of its own, over the pass's.
       std::array<std::optional<BindingOptions>, kStageCount> own_bindings;
-      for (auto& [stage_text, value] : stages->items()) {
+      const json no_stages = json::object();
+      for (auto& [stage_text, value] : (stages == item.end() ? no_stages : *stages).items()) {
         auto stage = parse_stage(stage_text);
         std::string entry;
         std::optional<std::string> own_source;
         if (value.is_object()) {
           fields.only(value, {"source", "entry", "bindings"}, "a stage");
           own_source = fields.string(value, "source", true);
-          entry = fields.string(value, "entry", false).value_or("main");
+          const std::optional<std::string> named = fields.string(value, "entry", false);
+          entry = named.value_or("main");
+          if (!named && stage) pass.default_entries |= stage_bit(*stage);
           if (stage && value.contains("bindings"))
             own_bindings[static_cast<size_t>(*stage)] = read_bindings(fields, value, "stage '" + stage_text + "' of pass '" + pass.name + "'");
         } else if (value.is_string()) {

@@ -61,7 +61,7 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, BuildContext& build
     }
     plan->roots = std::make_unique<IncludeRoots>(roots);
     bool ok = true;
-    for (const PassDefinition& pass : plan->pack.passes) {
+    for (PassDefinition& pass : plan->pack.passes) {
       bool exists = true;
       for (Stage stage : kAllStages) {
         const std::filesystem::path& file = pass.stage_sources[static_cast<size_t>(stage)];
@@ -75,6 +75,10 @@ std::unique_ptr<Plan> make_plan(const BuildOptions& options, BuildContext& build
         if (!own) break;  // once for the pass's own source
       }
       if (!exists) {
+        ok = false;
+        continue;
+      }
+      if (!apply_stage_pragmas(pass, *plan->roots, limits, plan->sources, sink)) {
         ok = false;
         continue;
       }

@@ -9,6 +9,7 @@
 #include "kiln/bounded_json.hpp"
 #include "kiln/defaults.hpp"
 #include "kiln/pack_format.hpp"
+#include "kiln/text.hpp"
 #include "kiln/usage_log.hpp"
 
 namespace kiln {
@@ -224,9 +225,41 @@ bool strip_by_usage(const PassKeywords& pass, const std::string& pass_name, Pass
       if (auto choice = choice_of(pass, request.keywords)) asked[l].push_back(std::move(*choice));
   }
   if (!mentioned) {
-    strip.push_back({pass_name, "usage (" + std::to_string(logs.size()) + " logs)", before + " -> " + before,
+    strip.push_back({pass_name, "usage (" + counted(logs.size(), "log") + ")", before + " -> " + before,
                      "no log records a request of this pass: kept whole"});
     return true;
+  }
+  // What a run asked for that this pack cannot keep, whatever the logs say: a set the pass cannot express (a keyword
+  // it does not declare, two of one group), or one its constraints, materials or scenes strip. A warning here, so the
+  // build says what it drops (check-usage says it again of the pack); at most kMaxLogProblemsShown a build.
+  {
+    std::set<std::vector<uint16_t>> expanded;
+    for (const Variant& variant : expansion.variants) expanded.insert(variant.choice);
+    std::set<std::vector<std::string>> said;  // a set several logs asked for is said once, at the first
+    size_t shown = 0, not_shown = 0;
+    for (const UsageLog& log : logs) {
+      auto it = log.passes.find(pass_name);
+      if (it == log.passes.end()) continue;
+      for (const UsageRequest& request : it->second) {
+        const std::optional<std::vector<uint16_t>> choice = choice_of(pass, request.keywords);
+        if ((choice && expanded.count(*choice)) || !said.insert(request.keywords).second) continue;
+        if (shown == kMaxLogProblemsShown) {
+          ++not_shown;
+          continue;
+        }
+        ++shown;
+        sink.report(DiagId::UsageStripped, SourceLocation{log.file.string(), 0, 0},
+                    "pass '" + pass_name + "': " + keyword_set_text(request.keywords) + ", asked for " +
+                        counted(request.count, "time") + (request.missing ? " (and missing from the pack the run used)" : "") +
+                        (choice ? ", is stripped by this pack's constraints, materials or scenes"
+                                : ", is a keyword set this pass cannot express (a keyword it does not declare, or two of one group)") +
+                        ": the pack built from this log lacks it, and a reader asking for it gets its nearest variant");
+      }
+    }
+    if (not_shown > 0)
+      sink.report(DiagId::UsageStripped, SourceLocation{logs.front().file.string(), 0, 0},
+                  "pass '" + pass_name + "': ... and " + counted(not_shown, "more keyword set") + " the pack lacks (the first " +
+                      std::to_string(kMaxLogProblemsShown) + " are shown)");
   }
   auto wanted_by = [&](const Variant& variant, size_t l) {
     return std::any_of(asked[l].begin(), asked[l].end(),
@@ -235,8 +268,8 @@ bool strip_by_usage(const PassKeywords& pass, const std::string& pass_name, Pass
   for (size_t l = 0; l < logs.size(); ++l) {
     const size_t alone = static_cast<size_t>(std::count_if(expansion.variants.begin(), expansion.variants.end(),
                                                            [&](const Variant& v) { return wanted_by(v, l); }));
-    strip.push_back({pass_name, "usage log " + logs[l].file.filename().string() + " (" + std::to_string(asked[l].size()) +
-                                    " keyword sets" + (margin ? ", margin " + std::to_string(margin) : "") + ")",
+    strip.push_back({pass_name, "usage log " + logs[l].file.filename().string() + " (" + counted(asked[l].size(), "keyword set") +
+                                    (margin ? ", margin " + std::to_string(margin) : "") + ")",
                      before + " -> " + std::to_string(alone), "variants this run did not ask for"});
   }
   std::vector<Variant> kept;
@@ -246,7 +279,7 @@ bool strip_by_usage(const PassKeywords& pass, const std::string& pass_name, Pass
     if (wanted) kept.push_back(variant);
   }
   if (logs.size() > 1)
-    strip.push_back({pass_name, "usage (" + std::to_string(logs.size()) + " logs)", before + " -> " + std::to_string(kept.size()),
+    strip.push_back({pass_name, "usage (" + counted(logs.size(), "log") + ")", before + " -> " + std::to_string(kept.size()),
                      "variants no run asked for"});
   if (kept.empty()) {
     sink.report(DiagId::NoVariants, SourceLocation{logs.front().file.string(), 0, 0},

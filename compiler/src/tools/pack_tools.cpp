@@ -9,6 +9,7 @@
 #include "common/keyword_pragmas.hpp"
 #include "definition/definition.hpp"
 #include "kiln/pack_format.hpp"
+#include "kiln/text.hpp"
 #include "permutations/permutations.hpp"
 
 namespace kiln {
@@ -122,8 +123,8 @@ UsageCheck check_usage(const PackReader& pack, const std::vector<UsageLog>& logs
     const SourceLocation at{log.file.string(), 0, 0};
     if (log.missing_dropped > 0)
       sink.report(DiagId::UsageIncomplete, at,
-                  "the recording dropped " + std::to_string(log.missing_dropped) +
-                      " missing selections (more distinct missing keyword sets than its bound): they are not checked");
+                  "the recording dropped " + counted(log.missing_dropped, "missing selection") +
+                      " (more distinct missing keyword sets than its bound): they are not checked");
     for (const auto& [pass, requests] : log.passes) {
       for (const UsageRequest& request : requests) {
         ++check.sets;
@@ -132,9 +133,8 @@ UsageCheck check_usage(const PackReader& pack, const std::vector<UsageLog>& logs
         if (selected) continue;
         ++check.missed;
         add(check.requests_missed, request.count);
-        std::string text = "pass '" + echoed(pass, kMaxNameLength) + "': [" + join_keywords(request.keywords) + "], asked for " +
-                           std::to_string(request.count) + (request.count == 1 ? " time" : " times") + ", is not in pack '" +
-                           pack.name() + "'";
+        std::string text = "pass '" + echoed(pass, kMaxNameLength) + "': " + keyword_set_text(request.keywords) + ", asked for " +
+                           counted(request.count, "time") + ", is not in pack '" + pack.name() + "'";
         std::vector<std::string> notes;
         const std::string& message = selected.message();
         if (const size_t nearest = message.find("nearest variants in the pack: ["); nearest != std::string::npos) {
