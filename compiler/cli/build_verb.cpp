@@ -1,5 +1,5 @@
 // kiln build: a variant pack from a pack definition (the pipeline, compiler/src/driver/pipeline.cpp), its summary and
-// --summary-json (kiln/build_summary.hpp), the remote cache's options and --shard.
+// --summary-json (kiln/build_summary.hpp), --trace (driver/build_trace.hpp), the remote cache's options and --shard.
 #include <cstdlib>
 #include <iostream>
 
@@ -87,6 +87,9 @@ class BuildVerb final : public Verb {
     verb->add_option("--summary-json", summary_file_, "Also write the build summary as JSON (funnel, cache and remote counts, "
                                                       "timings, diagnostics), whether the build succeeds or not; - for "
                                                       "standard output (the summary for people goes to standard error)");
+    verb->add_option("--trace", trace_file_, "Also write a trace of the build (Chrome Trace Event Format JSON, for Perfetto "
+                                             "or chrome://tracing): its stages, each worker's jobs and their steps, the "
+                                             "cache and remote lookups (docs/build-trace.md)");
     // The remote cache (docs/remote-cache.md). Credentials come from the environment or netrc, never from arguments.
     kiln::RemoteCacheOptions& remote = options_.remote;
     verb->add_option("--remote", remote.url, "Remote cache base URL, Bazel HTTP cache protocol (default: $KILN_REMOTE)");
@@ -115,6 +118,7 @@ class BuildVerb final : public Verb {
     options_.worker_timeout = std::chrono::milliseconds(static_cast<long>(timeout_s_ * 1000));
     // `-`: standard output, as for --summary-json (the writer writes a descriptor's link in place).
     if (!depfile_.empty()) options_.depfile = depfile_ == "-" ? "/dev/stdout" : depfile_;
+    if (!trace_file_.empty()) options_.trace_file = trace_file_ == "-" ? "/dev/stdout" : trace_file_;
     options_.emit.insert(emit_.begin(), emit_.end());
     for (const auto& name : target_names_) options_.targets.push_back(*kiln::parse_target(name));
     if (!plan_.apply(options_)) return 1;
@@ -155,7 +159,7 @@ class BuildVerb final : public Verb {
  private:
   kiln::BuildOptions options_;
   PlanArguments plan_;
-  std::string pack_file_, output_, cache_dir_, depfile_, summary_file_, shard_text_;
+  std::string pack_file_, output_, cache_dir_, depfile_, summary_file_, shard_text_, trace_file_;
   std::string recipe_name_{kiln::optimizer_recipe_name(kiln::OptimizerRecipe::Kiln)};
   std::vector<std::string> emit_, target_names_, usage_logs_, usage_tags_;
   bool no_cache_ = false, quiet_ = false;

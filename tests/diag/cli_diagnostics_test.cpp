@@ -518,16 +518,24 @@ TEST_F(Cli, WithoutATerminalABuildPrintsTheFunnelAndStageTimesOnceAndNoProgressL
                            "5 unique per stage -> 5 compiles -> 5 modules -> 5 unique binaries\n"
                            "  compiled 5 (back ends 5, full legalizations 0, cached back ends 0), cache hits 0 "
                            "(not preprocessed 0), workers 2\n"
-                           "  time: load ";
+                           "  time: ";
   EXPECT_EQ(r.out.substr(0, head.size()), head) << r.out;
-  // Every stage with its time, in pipeline order.
+  // The wall time first, then every stage with its time, in pipeline order.
   const std::string times = r.out.substr(r.out.find("  time: "));
+  const std::string time_line = times.substr(0, times.find('\n'));
+  EXPECT_TRUE(std::regex_search(time_line, std::regex("^  time: [0-9]+[.][0-9]+ m?s wall: load "))) << r.out;
   std::string stages;
   const std::regex stage_time("[:,] ([a-z+ ]+) [0-9]+[.][0-9]+ m?s");
-  for (std::sregex_iterator m(times.begin(), times.end(), stage_time), end; m != end; ++m) stages += (*m)[1].str() + ";";
-  EXPECT_EQ(stages, "load;declarations;expand+strip;preprocess;dedupe;compile;cache store;reflect;pack;total;") << r.out;
+  for (std::sregex_iterator m(time_line.begin(), time_line.end(), stage_time), end; m != end; ++m)
+    stages += (*m)[1].str() + ";";
+  EXPECT_EQ(stages, "load;declarations;expand+strip;preprocess;dedupe;compile;cache store;reflect;pack;") << r.out;
+  // Then the workers' busy time, summed over them (the overlapping stages' CPU, not their wall time).
+  EXPECT_TRUE(std::regex_search(times, std::regex("\n  workers: [0-9]+[.][0-9]+ m?s busy, summed over 2 workers: "
+                                                   "preprocess [0-9]+[.][0-9]+ m?s, compile [0-9]+[.][0-9]+ m?s; "
+                                                   "idle [0-9]+[.][0-9]+ m?s\n$")))
+      << r.out;
   EXPECT_EQ(r.out.back(), '\n');
-  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 4) << r.out;
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 5) << r.out;
 }
 
 // A diagnostic in colour is the same text with ANSI colours: location and message bold, the severity red,
@@ -1336,6 +1344,7 @@ TEST_F(Cli, EveryVerbThatWritesAFileExitsThreeWithK1601WhenItCannot) {
       {"build", "p.pack.json", "-o", "blocker/out", "--cache", "cache"},
       {"build", "p.pack.json", "-o", "out2", "--cache", "cache", "--summary-json", "blocker/summary.json"},
       {"build", "p.pack.json", "-o", "out3", "--cache", "cache", "--depfile", "blocker/pack.d"},
+      {"build", "p.pack.json", "-o", "out4", "--cache", "cache", "--trace", "blocker/trace.json"},
       {"compile", "S.hlsl", "-S", "fragment", "-E", "F", "-o", "blocker/f.spv"},
       {"compile", "S.hlsl", "-S", "fragment", "-E", "F", "-o", "f.spv", "--depfile", "blocker/f.d"},
       {"lint", "p.pack.json", "--format", "sarif", "-o", "blocker/lint.sarif"},
@@ -1379,6 +1388,7 @@ TEST_F(Cli, EveryVerbThatWritesAFileWritesADeviceInPlaceAndRefusesALink) {
         {"compile", "S.hlsl", "-S", "fragment", "-E", "F", "-o", "f.spv", "--depfile", to},
         {"build", "p.pack.json", "-o", "out2", "--cache", "cache", "-q", "--summary-json", to},
         {"build", "p.pack.json", "-o", "out3", "--cache", "cache", "-q", "--depfile", to},
+        {"build", "p.pack.json", "-o", "out4", "--cache", "cache", "-q", "--trace", to},
         {"lint", "p.pack.json", "--format", "sarif", "-o", to},
         {"lint", "S.hlsl", "--format", "json", "-o", to},
         {"merge-usage", "run.json", "-o", to},

@@ -66,6 +66,9 @@ struct BuildOptions {
   uint64_t cache_max_mb = defaults::kCacheMaxMb;    // least recently used segments go past this
   std::set<std::string> emit;                       // stages to dump under <output>/emit/
   std::optional<std::filesystem::path> depfile;
+  // --trace: the build's stages, worker jobs and their steps, and cache lookups as Chrome Trace Event Format JSON
+  // (docs/build-trace.md), written whether the build succeeds or not.
+  std::optional<std::filesystem::path> trace_file;
   std::filesystem::path worker_executable;          // empty: default_worker_executable()
   std::chrono::milliseconds worker_timeout = defaults::kWorkerTimeout;
   uint64_t worker_memory_limit_mb = defaults::kWorkerMemoryLimitMb;

@@ -15,7 +15,7 @@ std::vector<uint32_t> binary_to_words(const std::vector<uint8_t>& bytes) {
 
 }  // namespace
 
-std::vector<uint8_t> encode_output(const JobOutput& output) {
+std::vector<uint8_t> encode_output(const JobOutput& output, bool with_steps) {
   json j{{"ok", output.ok}, {"failed_step", std::string(step_name(output.failed_step))}};
   json messages = json::array();
   for (const FrontendMessage& m : output.messages)
@@ -34,6 +34,11 @@ std::vector<uint8_t> encode_output(const JobOutput& output) {
   if (!output.preprocessed.empty() || !output.files_read.empty()) {
     j["preprocessed"] = output.preprocessed;
     j["files_read"] = output.files_read;
+  }
+  if (with_steps && !output.steps.empty()) {
+    json steps = json::array();
+    for (const StepSpan& span : output.steps) steps.push_back({step_name(span.step), span.start_us, span.duration_us});
+    j["steps"] = std::move(steps);
   }
   return json::to_cbor(j);
 }
@@ -70,6 +75,24 @@ JobOutput decode_output(std::string_view bytes) {
   if (j.contains("preprocessed")) {
     out.preprocessed = j.at("preprocessed").get<std::string>();
     out.files_read = j.at("files_read").get<std::vector<std::string>>();
+  }
+  if (j.contains("steps")) {
+    // A worker's answer is untrusted: a bounded count of known steps, each within a day, in order, none overlapping.
+    constexpr uint64_t kMaxStepMicroseconds = uint64_t{86400} * 1000 * 1000;
+    const json& steps = j.at("steps");
+    if (!steps.is_array() || steps.size() > kMaxStepSpans) throw std::runtime_error("malformed step times");
+    uint64_t previous_end = 0;
+    for (const json& s : steps) {
+      if (!s.is_array() || s.size() != 3 || !s.at(1).is_number_unsigned() || !s.at(2).is_number_unsigned())
+        throw std::runtime_error("malformed step time");
+      const auto kind = parse_step(s.at(0).get<std::string>());
+      StepSpan span{kind.value_or(CompileStep::None), s.at(1).get<uint64_t>(), s.at(2).get<uint64_t>()};
+      if (!kind || *kind == CompileStep::None || span.start_us > kMaxStepMicroseconds ||
+          span.duration_us > kMaxStepMicroseconds || span.start_us < previous_end)
+        throw std::runtime_error("malformed step time");
+      previous_end = span.start_us + span.duration_us;
+      out.steps.push_back(span);
+    }
   }
   return out;
 }

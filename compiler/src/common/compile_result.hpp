@@ -27,6 +27,16 @@ struct FrontendMessage {
   int column = 0;  // when the front end says (glslang's HLSL parser does for "HLSL parsing failed")
 };
 
+// How long one step of a job took in the worker, counted from the job's arrival there (`kiln build --trace`). Only
+// the worker pipe carries them: the pool moves them off the output, so no cache entry ever holds a time.
+struct StepSpan {
+  CompileStep step = CompileStep::None;  // Preprocess, Frontend, Legalize, Optimize, Reflect or Cross<Target>
+  uint64_t start_us = 0;
+  uint64_t duration_us = 0;
+};
+// A job has at most a dozen steps; a worker's answer with more, or with steps out of order, is malformed.
+inline constexpr size_t kMaxStepSpans = 64;
+
 struct JobOutput {
   bool ok = false;
   CompileStep failed_step = CompileStep::None;  // where it failed (common/compile_step.hpp)
@@ -37,9 +47,11 @@ struct JobOutput {
   bool full_legalization = false;          // legalized by SPIRV-Tools' full recipe (the core one was not enough)
   std::string preprocessed;                // Preprocess: the text
   std::vector<std::string> files_read;     // Preprocess: the names of the files it read, the entry included
+  std::vector<StepSpan> steps;             // in the worker only, in order: encoded only `with_steps`
 };
 
-std::vector<uint8_t> encode_output(const JobOutput& output);
+// `with_steps`: the worker's answer (its step times); a cache entry never has them.
+std::vector<uint8_t> encode_output(const JobOutput& output, bool with_steps = false);
 JobOutput decode_output(const std::vector<uint8_t>& bytes);  // throws on malformed input
 JobOutput decode_output(std::string_view bytes);
 

@@ -16,6 +16,10 @@ namespace kiln {
 
 using StageClock = std::chrono::steady_clock;
 
+class BuildTrace;  // driver/build_trace.hpp
+// A stage's slice in the trace (driver/build_trace.cpp).
+void trace_stage(BuildTrace& trace, const std::string& stage, StageClock::time_point start, StageClock::time_point end);
+
 struct BuildContext {
   explicit BuildContext(DiagnosticSink& diagnostics, std::filesystem::path reproducer_dir = {},
                         std::function<void(size_t done, size_t total, size_t cache_hits)> on_progress = {})
@@ -28,12 +32,14 @@ struct BuildContext {
   std::function<void(size_t done, size_t total, size_t cache_hits)> progress;  // may be empty
   StageClock::time_point started = StageClock::now();  // stage times count from here
   std::vector<StageTiming> timings;
+  BuildTrace* trace = nullptr;  // --trace: every stage, job and lookup as a slice (driver/build_trace.hpp)
 
   double ms_since_start(StageClock::time_point at) const {
     return std::chrono::duration<double, std::milli>(at - started).count();
   }
   // A stage whose start and end are not one scope's (preprocessing streams into the compile stage).
   void record_stage(std::string stage, StageClock::time_point start, StageClock::time_point end) {
+    if (trace) trace_stage(*trace, stage, start, end);
     timings.push_back({std::move(stage), std::chrono::duration<double, std::milli>(end - start).count(),
                        ms_since_start(start), ms_since_start(end)});
   }

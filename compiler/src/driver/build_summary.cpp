@@ -1,6 +1,7 @@
 // The build summary (kiln/build_summary.hpp): what `kiln build` prints after a build, for people and as JSON.
 #include "kiln/build_summary.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <sstream>
 
@@ -18,6 +19,47 @@ std::string format_ms(double ms) {
   if (ms >= 1000) std::snprintf(text, sizeof text, "%.2f s", ms / 1000);
   else std::snprintf(text, sizeof text, "%.1f ms", ms);
   return text;
+}
+
+const StageTiming* find_stage(const BuildReport& r, std::string_view stage) {
+  for (const StageTiming& t : r.timings)
+    if (t.stage == stage) return &t;
+  return nullptr;
+}
+
+// The summary's times. Wall time first, the stages in order; the stages that stream together (each source compiles as
+// soon as it is preprocessed) overlap, and the line says by how much, so that their times are not read as a sum. Then
+// the workers' busy time (a job in flight, one job per process), summed over them: the CPU the compile took.
+std::string time_lines(const BuildReport& r) {
+  std::ostringstream out;
+  out << "  time:";
+  if (const StageTiming* total = find_stage(r, "total")) out << " " << format_ms(total->milliseconds) << " wall:";
+  bool first = true;
+  for (const StageTiming& t : r.timings) {
+    if (t.stage == "total") continue;
+    out << (first ? " " : ", ") << t.stage << " " << format_ms(t.milliseconds);
+    first = false;
+  }
+  const StageTiming* preprocess = find_stage(r, "preprocess");
+  const StageTiming* compile = find_stage(r, "compile");
+  if (preprocess && compile) {
+    const double overlap = std::min(preprocess->end_ms, compile->end_ms) - std::max(preprocess->start_ms, compile->start_ms);
+    if (overlap > 0)
+      out << " (preprocess and compile overlap by " << format_ms(overlap) << ": sources compile as they are preprocessed)";
+  }
+  out << "\n";
+  if (!r.worker_timeline.empty()) {
+    double preprocessing = 0, compiling = 0, idle = 0;
+    for (const WorkerTimeline& w : r.worker_timeline) {
+      preprocessing += w.preprocess_busy_ms;
+      compiling += w.compile_busy_ms;
+      idle += std::max(0.0, w.idle_ms);
+    }
+    out << "  workers: " << format_ms(preprocessing + compiling) << " busy, summed over " << r.worker_timeline.size()
+        << (r.worker_timeline.size() == 1 ? " worker" : " workers") << ": preprocess " << format_ms(preprocessing)
+        << ", compile " << format_ms(compiling) << "; idle " << format_ms(idle) << "\n";
+  }
+  return out.str();
 }
 
 }  // namespace
@@ -40,10 +82,7 @@ std::string build_summary_text(const BuildReport& r, const BuildOptions& options
     if (r.remote.configured)
       out << "  remote cache: hits " << r.remote.hits << ", uploads " << r.remote.uploads << " (" << r.remote.blobs_uploaded
           << " blobs), " << r.remote.bytes_up << " bytes up, errors " << r.remote.errors << "\n";
-    out << "  time:";
-    for (size_t i = 0; i < r.timings.size(); ++i)
-      out << (i ? ", " : " ") << r.timings[i].stage << " " << format_ms(r.timings[i].milliseconds);
-    out << "\n";
+    out << time_lines(r);
     return out.str();
   }
   const Funnel& f = r.funnel;
@@ -82,10 +121,7 @@ std::string build_summary_text(const BuildReport& r, const BuildOptions& options
       out << "    " << line.pass << ": " << line.what << ": " << line.count
           << (line.reason.empty() ? "" : " (" + line.reason + ")") << "\n";
   }
-  out << "  time:";
-  for (size_t i = 0; i < r.timings.size(); ++i)
-    out << (i ? ", " : " ") << r.timings[i].stage << " " << format_ms(r.timings[i].milliseconds);
-  out << "\n";
+  out << time_lines(r);
   return out.str();
 }
 

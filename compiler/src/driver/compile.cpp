@@ -8,6 +8,7 @@
 #include "common/files.hpp"
 #include "common/parallel.hpp"
 #include "driver/build_context.hpp"
+#include "driver/build_trace.hpp"
 #include "frontend/unsupported_hlsl.hpp"
 #include "kiln/folded_keywords.hpp"
 
@@ -107,7 +108,10 @@ class Scheduler {
     if (!inserted) return it->second;
     KeyResult& result = results_by_key_.emplace_back();
     result.source = source;
-    if (std::optional<StoredResult> found = services_.store.find(key)) {
+    const StageClock::time_point looked_from = StageClock::now();
+    std::optional<StoredResult> found = services_.store.find(key);
+    trace_lookup("cache lookups", "cache lookup", looked_from, found.has_value(), source);
+    if (found) {
       result.output = std::move(found->output);
       result.module = found->module;
       ++counts_.cache_hits;
@@ -125,11 +129,17 @@ class Scheduler {
     result.started = true;
     result.source = i;
     if (!services_.store.ask(index, sources_.list[i])) queue_front_end(index);
+    else if (build_.trace) asked_at_.emplace(index, StageClock::now());
   }
 
   // The store's answers so far: a found result settles its key, a miss queues its front end.
   void answered(std::vector<ResultStore::Answer> answers) {
     for (ResultStore::Answer& answer : answers) {
+      if (auto asked = asked_at_.find(answer.ticket); asked != asked_at_.end()) {
+        trace_lookup("remote lookups", "remote lookup", asked->second, answer.found.has_value(),
+                     results_by_key_[answer.ticket].source);
+        asked_at_.erase(asked);
+      }
       if (!answer.found) {
         queue_front_end(answer.ticket);
         continue;
@@ -192,6 +202,7 @@ class Scheduler {
       join_queued();
     };
     services_.runner.run(jobs, [&](size_t j, WorkerOutcome outcome) {
+      if (build_.trace && outcome.timing) trace_job(jobs[j], subjects[j], *outcome.timing);
       switch (jobs[j].kind) {
         case JobKind::Preprocess: preprocess_done(j, std::move(outcome)); break;
         case JobKind::FrontEnd: front_end_done(j, std::move(outcome)); break;
@@ -260,7 +271,10 @@ class Scheduler {
     if (inserted) {
       CompiledModule module;
       module.key = key;
-      if (std::optional<JobOutput> found = services_.store.find_module(key, s, spirv)) {
+      const StageClock::time_point looked_from = StageClock::now();
+      std::optional<JobOutput> found = services_.store.find_module(key, s, spirv);
+      trace_lookup("cache lookups", "cache lookup (module)", looked_from, found.has_value(), result.source);
+      if (found) {
         module.settled = true;
         module.output = std::make_shared<const JobOutput>(std::move(*found));
         ++counts_.back_end_hits;
@@ -288,6 +302,44 @@ class Scheduler {
     CompiledModule& module = results_.modules[it->second];
     if (module.settled) ++done_;
     else module.waiting.push_back(index);
+  }
+
+  // The trace's words for a stage source: its pass, stage and the keywords it sees (not the folded keywords' macros).
+  nlohmann::json trace_args(size_t source) const {
+    const StageSource& s = sources_.list[source];
+    std::vector<std::string> keywords;
+    for (const std::string& k : s.defines)
+      if (k.find('=') == std::string::npos && !k.starts_with("KILN_FOLDED_")) keywords.push_back(k);
+    return {{"pass", plan_.pack.passes[s.pass].name}, {"stage", stage_name(s.stage)}, {"keywords", keywords}};
+  }
+
+  void trace_lookup(const char* kind, const char* name, StageClock::time_point from, bool found, size_t source) {
+    if (!build_.trace) return;
+    nlohmann::json args = trace_args(source);
+    args["found"] = found;
+    build_.trace->driver_slice(kind, name, from, StageClock::now(), std::move(args));
+  }
+
+  // A job a worker ran, in the trace: which half of which stage source (a back end: of the first source whose front
+  // end made its module).
+  void trace_job(const CompileJob& job, size_t subject, const JobTiming& timing) {
+    std::optional<size_t> source;
+    const char* what = "compile";
+    switch (job.kind) {
+      case JobKind::Preprocess: what = "preprocess"; source = subject; break;
+      case JobKind::FrontEnd: what = "front end"; source = results_by_key_[subject].source; break;
+      case JobKind::BackEnd:
+      case JobKind::Full:
+        what = job.kind == JobKind::BackEnd ? "back end" : "compile";
+        if (const CompiledModule& module = results_.modules[subject]; !module.waiting.empty())
+          source = results_by_key_[module.waiting.front()].source;
+        break;
+    }
+    nlohmann::json args = source ? trace_args(*source) : nlohmann::json::object();
+    args["job"] = what;
+    std::string name = what;
+    if (source) name += ": " + variant_description(plan_, sources_.list[*source]);
+    build_.trace->worker_job(timing, std::move(name), std::move(args));
   }
 
   // Stage sources done out of those there will be: until every source is preprocessed, the keys known so far plus
@@ -471,6 +523,7 @@ class Scheduler {
   bool total_known_ = false;
   std::optional<StageClock::time_point> last_preprocessed_;
   std::optional<StageClock::time_point> first_front_end_;  // the compile stage starts here
+  std::map<size_t, StageClock::time_point> asked_at_;       // --trace: key results asked of the slower tiers, when
 };
 
 }  // namespace

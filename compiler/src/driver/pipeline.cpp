@@ -27,6 +27,7 @@
 #include "driver/shards.hpp"
 #include "driver/stage_sources.hpp"
 #include "driver/build_context.hpp"
+#include "driver/build_trace.hpp"
 #include "driver/write_pack.hpp"
 #include "kiln/build.hpp"
 #include "pack/pack_writer.hpp"
@@ -137,6 +138,7 @@ BuildReport assemble_as_last_shard(const BuildOptions& options, DiagnosticSink& 
   BuildOptions merge = options;
   merge.shard_index = 0;
   merge.shard_count = 1;
+  merge.trace_file.reset();  // the shard's own trace covers the assembly
   std::set<std::string> said;
   for (const Diagnostic& d : sink.diagnostics()) said.insert(format_diagnostic(d));
   DiagnosticSink assembling;
@@ -190,9 +192,10 @@ void finish_shard(const BuildOptions& options, BuildContext& build, const Plan& 
   report.ok = !sink.has_errors();
 }
 
-// The end of a build, whichever stage it ended at: the stage times, and whether a compiler worker died.
+// The end of a build, whichever stage it ended at: the stage times (and --trace), and whether a compiler worker died.
 BuildReport finished(BuildContext& build, BuildReport& report) {
   build.record_stage("total", build.started, StageClock::now());
+  if (build.trace && !build.trace->write(build.sink)) report.ok = false;
   report.started = build.started;
   report.timings = std::move(build.timings);
   report.internal_errors = build.sink.contains(DiagId::InternalCompilerError);
@@ -246,8 +249,12 @@ std::optional<PlanListing> list_variants(const BuildOptions& options, Diagnostic
 
 BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   BuildContext build(sink, options.output_dir / "kiln-ice", options.progress);
+  std::optional<BuildTrace> trace;
+  if (options.trace_file) build.trace = &trace.emplace(*options.trace_file, build.started);
   BuildReport report;
+  const StageClock::time_point plan_from = StageClock::now();
   auto plan = make_plan(options, build);  // stages 0-3
+  if (build.trace) build.trace->driver_slice("stages", "plan", plan_from, StageClock::now());  // the trace's parent of 0-3
   if (!plan) return finished(build, report);
   if (options.keep_plan) report.plan = make_listing(plan.get());  // lint observes the build's plan
   report.funnel = plan->funnel;
@@ -271,7 +278,11 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   if (remote && remote->usable() && options.emit.empty()) {
     pack_key = remote_pack_key(*remote, *settings, *plan);
     // The remote has the finished pack of these inputs (an unchanged checkout another machine built).
-    if (fetch_remote_pack(*remote, *pack_key, options.output_dir, *plan, inputs_hash, sink)) {
+    const StageClock::time_point looked_from = StageClock::now();
+    const bool fetched = fetch_remote_pack(*remote, *pack_key, options.output_dir, *plan, inputs_hash, sink);
+    if (build.trace)
+      build.trace->driver_slice("remote lookups", "remote pack lookup", looked_from, StageClock::now(), {{"found", fetched}});
+    if (fetched) {
       report_remote(*remote, sink, report);
       report.ok = !sink.has_errors();
       if (options.depfile) write_depfile(*options.depfile, report.manifest, report.dependencies, sink);

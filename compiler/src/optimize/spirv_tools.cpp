@@ -306,8 +306,10 @@ Step legalize_and_validate(const std::vector<uint32_t>& spirv, bool optimize) {
 
 }  // namespace
 
-static Step chain_step(std::vector<uint32_t> spirv, bool optimize, OptimizerRecipe recipe) {
+static Step chain_step(std::vector<uint32_t> spirv, bool optimize, OptimizerRecipe recipe,
+                       const std::function<void()>& legalized) {
   Step result = legalize_and_validate(spirv, optimize);
+  if (legalized) legalized();
   if (!result.ok || !optimize) return result;
   // Kiln's recipe leaves out work the core legalization recipe did; after the full one, -O as a whole.
   Step optimized = optimize_step(result.spirv, result.full_legalization ? OptimizerRecipe::Stock : recipe);
@@ -407,8 +409,9 @@ std::string disassemble_spirv(const std::vector<uint32_t>& spirv) {
 
 std::string spirv_tools_version() { return spvSoftwareVersionString(); }
 
-SpirvResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize, OptimizerRecipe recipe) {
-  return finished(chain_step(std::move(spirv), optimize, recipe));
+SpirvResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize, OptimizerRecipe recipe,
+                                       const std::function<void()>& legalized) {
+  return finished(chain_step(std::move(spirv), optimize, recipe, legalized));
 }
 SpirvResult legalize_spirv(const std::vector<uint32_t>& spirv) { return finished(legalize_step(spirv)); }
 SpirvResult legalize_spirv_core(const std::vector<uint32_t>& spirv) { return finished(legalize_core_step(spirv)); }

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 
 #include "common/compile_step.hpp"
@@ -39,7 +40,9 @@ using SpirvResult = Result<SpirvModule, SpirvFailure>;
 // recipe first and falls back to SPIRV-Tools' full one when the result does not validate; `recipe` says
 // which optimization recipe follows (kiln's runs only after the core legalization recipe: a module that
 // needed the full one gets -O).
-SpirvResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize, OptimizerRecipe recipe = OptimizerRecipe::Kiln);
+// `legalized`, when given, is called between legalization (validated) and optimization: the worker's step times.
+SpirvResult legalize_validate_optimize(std::vector<uint32_t> spirv, bool optimize, OptimizerRecipe recipe = OptimizerRecipe::Kiln,
+                                       const std::function<void()>& legalized = {});
 // Its steps alone (kiln-compile-steps times them): SPIRV-Tools' full legalization recipe (`spirv-opt
 // --legalize-hlsl`), kiln's core legalization recipe (its first sixteen passes), and an optimization recipe
 // (kiln's, or `spirv-opt -O`'s); none validates. Kiln's recipe expects the core legalization recipe's output.

@@ -11,6 +11,7 @@
 #include "kiln/bounded_json.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <set>
 #include <stdexcept>
 
@@ -20,7 +21,29 @@ using nlohmann::json;
 
 namespace {
 
-JobOutput run_front_end(Frontend& frontend, const CompileJob& job) {
+// The times of a job's steps, from its arrival in the worker (`kiln build --trace`).
+class StepTimes {
+ public:
+  using Clock = std::chrono::steady_clock;
+  // The step that began at `from` ends now; the next begins now.
+  Clock::time_point end(CompileStep step, Clock::time_point from) {
+    const Clock::time_point now = Clock::now();
+    spans_.push_back({step, microseconds(from), static_cast<uint64_t>(
+                                                    std::chrono::duration_cast<std::chrono::microseconds>(now - from).count())});
+    return now;
+  }
+  Clock::time_point now() const { return Clock::now(); }
+  std::vector<StepSpan> take() { return std::move(spans_); }
+
+ private:
+  uint64_t microseconds(Clock::time_point at) const {
+    return static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::microseconds>(at - arrived_).count());
+  }
+  Clock::time_point arrived_ = Clock::now();
+  std::vector<StepSpan> spans_;
+};
+
+JobOutput compile_front_end(Frontend& frontend, const CompileJob& job) {
   JobOutput out;
   if (job.stage == Stage::Compute) {
     // Thread-group sizes that glslang takes and then mistranslates (0, past 2^31) are the source's error, not a
@@ -75,8 +98,15 @@ JobOutput run_front_end(Frontend& frontend, const CompileJob& job) {
   return out;
 }
 
+JobOutput run_front_end(Frontend& frontend, const CompileJob& job, StepTimes& times) {
+  const auto started = times.now();
+  JobOutput out = compile_front_end(frontend, job);
+  times.end(CompileStep::Frontend, started);
+  return out;
+}
+
 // Legalize, validate, optimize, validate, reflect, cross-compile: everything after the front end.
-JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
+JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job, StepTimes& times) {
   JobOutput out;
   // The front end's note of each interface variable's HLSL semantic, off the module before anything reads it.
   const InterfaceSemantics semantics = detach_interface_semantics(module);
@@ -85,7 +115,12 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
     for (const std::string& message : failure.messages) out.messages.push_back({Severity::Error, "", 0, message});
     return out;
   };
-  SpirvResult legal = legalize_validate_optimize(std::move(module), job.optimize, job.optimizer_recipe);
+  auto step_from = times.now();
+  SpirvResult legal = legalize_validate_optimize(std::move(module), job.optimize, job.optimizer_recipe,
+                                                 [&] { step_from = times.end(CompileStep::Legalize, step_from); });
+  const bool optimized = legal || legal.error().step == CompileStep::Optimize ||
+                         legal.error().step == CompileStep::ValidateOptimized;  // else it stopped before -O
+  if (job.optimize && optimized) step_from = times.end(CompileStep::Optimize, step_from);
   if (!legal) return failed(legal.error());
   SpirvModule spirv = std::move(*legal);
   out.full_legalization = spirv.full_legalization;
@@ -103,6 +138,7 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
       return failed({CompileStep::Instrument, valid.error().messages});
     spirv.spirv = std::move(instrumented->spirv);
   }
+  step_from = times.now();
   try {
     out.reflection = reflect_spirv(spirv.spirv);
     for (std::vector<StageVariable>* variables : {&out.reflection.inputs, &out.reflection.outputs})
@@ -114,10 +150,12 @@ JobOutput run_back_end(std::vector<uint32_t> module, const CompileJob& job) {
     return out;
   }
   CrossModules modules(spirv.spirv);
+  step_from = times.end(CompileStep::Reflect, step_from);
   for (Target target : job.targets) {
     const TargetBackend* backend = target_backend(target);
     if (!backend) continue;  // SPIR-V: the optimized module itself
     Result<std::string> cross = cross_compile(*backend, modules, out.reflection);
+    step_from = times.end(cross_step(backend->target), step_from);
     if (!cross) {
       out.failed_step = cross_step(backend->target);
       out.messages.push_back({Severity::Error, "", 0, cross.error().message});
@@ -155,12 +193,14 @@ class JobIncludes final : public IncludeSource {
   mutable std::set<std::string> read_;
 };
 
-JobOutput run_preprocess(Frontend& frontend, const CompileJob& job) {
+JobOutput run_preprocess(Frontend& frontend, const CompileJob& job, StepTimes& times) {
   JobOutput out;
+  const auto started = times.now();
   if (!job.files || job.files->empty()) throw std::runtime_error("a preprocess job without its entry file");
   const IncludableFile& entry = job.files->front();
   JobIncludes includes(*job.files);
   PreprocessResult result = frontend.preprocess({job.stage, entry.name, entry.text, job.defines, &includes});
+  times.end(CompileStep::Preprocess, started);
   out.messages = std::move(result.messages);
   if (result.ok && result.text.size() > kMaxPreprocessedBytes) {
     result.ok = false;
@@ -182,12 +222,17 @@ JobOutput run_preprocess(Frontend& frontend, const CompileJob& job) {
 }  // namespace
 
 JobOutput run_compile_job(Frontend& frontend, const CompileJob& job) {
-  if (job.kind == JobKind::Preprocess) return run_preprocess(frontend, job);
-  if (job.kind == JobKind::BackEnd) return run_back_end(job.spirv, job);
-  JobOutput front = run_front_end(frontend, job);
-  if (job.kind == JobKind::FrontEnd || !front.ok) return front;
-  JobOutput out = run_back_end(std::move(front.spirv), job);
-  out.messages.insert(out.messages.begin(), front.messages.begin(), front.messages.end());
+  StepTimes times;
+  JobOutput out = [&] {
+    if (job.kind == JobKind::Preprocess) return run_preprocess(frontend, job, times);
+    if (job.kind == JobKind::BackEnd) return run_back_end(job.spirv, job, times);
+    JobOutput front = run_front_end(frontend, job, times);
+    if (job.kind == JobKind::FrontEnd || !front.ok) return front;
+    JobOutput back = run_back_end(std::move(front.spirv), job, times);
+    back.messages.insert(back.messages.begin(), front.messages.begin(), front.messages.end());
+    return back;
+  }();
+  out.steps = times.take();
   return out;
 }
 

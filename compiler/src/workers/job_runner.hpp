@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstddef>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -12,10 +13,21 @@
 
 namespace kiln {
 
+// Where and when a worker process ran a job (`kiln build --trace`): its slot, when it was handed out and when its
+// answer (or the worker's death) came, and the steps the worker timed, from the job's arrival there (validated:
+// bounded, known steps, in order; they may still end past `answered`, and a reader clamps them).
+struct JobTiming {
+  using Clock = std::chrono::steady_clock;
+  unsigned slot = 0;
+  Clock::time_point sent, answered;
+  std::vector<StepSpan> steps;
+};
+
 struct WorkerOutcome {
   enum class Kind { Done, Crashed, TimedOut, OutOfMemory, Failed } kind = Kind::Done;
-  JobOutput output;    // when Done
+  JobOutput output;    // when Done; its `steps` are moved to `timing`
   std::string detail;  // "killed by signal 11 (Segmentation fault)", ...
+  std::optional<JobTiming> timing;  // when a worker process ran it
 };
 
 // What one worker slot did (the build's timeline): when it started, when it was first given a front or back

@@ -193,7 +193,15 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
     take_appended();
   };
   auto external_pending = [&] { return external && external->pending(); };
+  auto timing_of = [&](const Worker& worker) {
+    JobTiming timing;
+    timing.slot = static_cast<unsigned>(std::find(workers_.begin(), workers_.end(), &worker) - workers_.begin());
+    timing.sent = worker.started;
+    timing.answered = std::chrono::steady_clock::now();
+    return timing;
+  };
   auto fail_job = [&](Worker& worker, WorkerOutcome::Kind kind, std::string detail, bool kill_now) {
+    JobTiming timing = timing_of(worker);
     ended_job(worker);
     size_t index = static_cast<size_t>(worker.job);
     worker.job = -1;
@@ -208,6 +216,7 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
     WorkerOutcome outcome;
     outcome.kind = kind;
     outcome.detail = std::move(detail);
+    outcome.timing = std::move(timing);
     finish(index, std::move(outcome));
   };
 
@@ -272,12 +281,16 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
           if (worker.buffer.size() >= 4 + length) {
             std::vector<uint8_t> payload(worker.buffer.begin() + 4, worker.buffer.begin() + 4 + static_cast<long>(length));
             worker.buffer.erase(worker.buffer.begin(), worker.buffer.begin() + 4 + static_cast<long>(length));
+            JobTiming timing = timing_of(worker);
             ended_job(worker);
             size_t index = static_cast<size_t>(worker.job);
             worker.job = -1;
             WorkerOutcome outcome;
             try {
               outcome.output = decode_output(payload);
+              timing.steps = std::move(outcome.output.steps);
+              outcome.output.steps.clear();
+              outcome.timing = std::move(timing);
               if (outcome.output.failed_step == CompileStep::OutOfMemory) {
                 outcome.kind = WorkerOutcome::Kind::OutOfMemory;
                 outcome.detail = "exceeded the memory limit of " + std::to_string(limits_.memory_limit_mb) + " MiB";
@@ -286,6 +299,7 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
             } catch (const std::exception& error) {
               outcome.kind = WorkerOutcome::Kind::Crashed;
               outcome.detail = std::string("sent a malformed result: ") + error.what();
+              outcome.timing = std::move(timing);
               stop(worker, true);
             }
             finish(index, std::move(outcome));
@@ -335,7 +349,7 @@ int worker_main(int argc, char** argv, void (*before_job)(CompileJob& job)) {
     }
     std::vector<uint8_t> encoded;
     try {
-      encoded = encode_output(output);
+      encoded = encode_output(output, /*with_steps=*/true);
     } catch (const std::bad_alloc&) {
       JobOutput oom;
       oom.failed_step = CompileStep::OutOfMemory;
