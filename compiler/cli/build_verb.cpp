@@ -27,8 +27,9 @@ int run_build(kiln::BuildOptions options, bool no_cache, const std::string& cach
   }
   kiln::BuildReport report = kiln::build_pack(options, sink);
   if (progress) progress->finish();
-  // With --summary-json - the JSON is standard output, and the summary for people goes to standard error.
-  if (report.ok && !quiet) (summary_file == "-" ? std::cerr : std::cout) << kiln::build_summary_text(report, options);
+  // With --summary-json - or --trace - the JSON is standard output, and the summary for people goes to standard error.
+  const bool json_on_stdout = summary_file == "-" || options.trace_file == std::filesystem::path("/dev/stdout");
+  if (report.ok && !quiet) (json_on_stdout ? std::cerr : std::cout) << kiln::build_summary_text(report, options);
   int code = kiln::exit_code(sink, report.internal_errors);
   int errors = sink.error_count();
   if (summary_file == "-")
@@ -119,6 +120,10 @@ class BuildVerb final : public Verb {
     // `-`: standard output, as for --summary-json (the writer writes a descriptor's link in place).
     if (!depfile_.empty()) options_.depfile = depfile_ == "-" ? "/dev/stdout" : depfile_;
     if (!trace_file_.empty()) options_.trace_file = trace_file_ == "-" ? "/dev/stdout" : trace_file_;
+    if (trace_file_ == "-" && summary_file_ == "-") {
+      std::cerr << "kiln: error: --trace - and --summary-json - would both write standard output: give one a file\n";
+      return 1;
+    }
     options_.emit.insert(emit_.begin(), emit_.end());
     for (const auto& name : target_names_) options_.targets.push_back(*kiln::parse_target(name));
     if (!plan_.apply(options_)) return 1;
