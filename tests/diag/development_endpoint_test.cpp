@@ -1,0 +1,326 @@
+// On-demand variants (docs/development-loop.md, "On-demand variants"; issue 61 item 3): kiln watch --serve and a
+// reader in development mode (kiln/development_reader.hpp). The endpoint is untrusted input: hostile requests are sent
+// as raw bytes on 127.0.0.1 and watch must answer each with a 4xx (or drop it) and keep serving. Every wait is on an
+// event (a status line, a socket's answer, the reader's update descriptor), never on time.
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+
+#include <nlohmann/json.hpp>
+
+#include "kiln/development_reader.hpp"
+#include "kiln/pack_reader.hpp"
+#include "test_support.hpp"
+
+namespace kiln {
+namespace {
+
+const char* kPack = R"({"name": "p", "include_dirs": ["lib"], "budget": 64,
+  "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})";
+const char* kShader =
+    "#pragma multi_compile _ A B\n#include \"Colour.hlsl\"\n"
+    "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+    "float4 F() : SV_Target {\n#if defined(A)\n  return colour() * 2.0;\n#elif defined(B)\n  return colour() * 3.0;\n"
+    "#else\n  return colour();\n#endif\n}\n";
+
+// A usage log in which the game selected the keyword sets given (one keyword each, "" for none).
+std::string usage_log(const std::vector<std::string>& keyword_sets) {
+  nlohmann::json served = nlohmann::json::array();
+  for (const std::string& keywords : keyword_sets)
+    served.push_back({{"keywords", keywords.empty() ? nlohmann::json::array() : nlohmann::json::array({keywords})}, {"count", 1}});
+  return nlohmann::json{{"format", "kiln-usage"}, {"format_version", 1}, {"pack", "p"}, {"tags", nlohmann::json::object()},
+                        {"passes", {{{"name", "P"}, {"served", served}, {"missing", nlohmann::json::array()}}}},
+                        {"missing_dropped", 0}}
+      .dump();
+}
+
+bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+// A connection to 127.0.0.1:port, closed when it goes.
+struct Socket {
+  int fd = -1;
+  explicit Socket(uint16_t port) {
+    fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_port = htons(port);
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) ADD_FAILURE() << "connect: " << errno;
+  }
+  ~Socket() { ::close(fd); }
+  bool send(std::string_view bytes) {
+    while (!bytes.empty()) {
+      const ssize_t n = ::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
+      if (n <= 0) return false;
+      bytes.remove_prefix(static_cast<size_t>(n));
+    }
+    return true;
+  }
+  // Everything until the server closes the connection (every request here says Connection: close).
+  std::string answer() {
+    std::string text;
+    char buffer[4096];
+    for (;;) {
+      const ssize_t n = ::recv(fd, buffer, sizeof buffer, 0);
+      if (n <= 0) return text;
+      text.append(buffer, static_cast<size_t>(n));
+    }
+  }
+};
+
+std::string post(const std::string& body, const std::string& path = "/v1/variant") {
+  return "POST " + path + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\nContent-Type: application/json\r\n"
+         "Content-Length: " + std::to_string(body.size()) + "\r\n\r\n" + body;
+}
+std::string status_of(const std::string& answer) { return answer.substr(0, answer.find("\r\n")); }
+
+struct DevelopmentEndpoint : ::testing::Test {
+  testing::TempDir dir;
+  std::unique_ptr<testing::BackgroundProcess> kiln;
+  uint16_t port = 0;
+
+  void SetUp() override {
+    ::unsetenv("KILN_DEVELOPMENT_ENDPOINT");
+    dir.write("p.pack.json", kPack);
+    dir.write("S.hlsl", kShader);
+    dir.write("lib/Colour.hlsl", "float4 colour() { return 0.25; }\n");
+    dir.write("usage/run.json", usage_log({"A"}));
+  }
+  // kiln watch serving the in-use pack (variant [A] only): returns once round 1 is published.
+  void start(std::vector<std::string> extra = {"--in-use-only"}) {
+    std::vector<std::string> args{KILN_CLI_PATH, "watch", "p.pack.json", "-o", "out", "--cache", "cache", "-j", "1",
+                                  "--usage", "usage/run.json", "--serve", "127.0.0.1:0"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    kiln = std::make_unique<testing::BackgroundProcess>(args, dir.path());
+    const std::string serving = status();
+    ASSERT_TRUE(contains(serving, "kiln watch: serving variants on http://127.0.0.1:")) << serving;
+    const std::string endpoint = testing::read_file(dir / "out/p.endpoint");
+    ASSERT_TRUE(contains(serving, endpoint.substr(0, endpoint.size() - 1))) << serving << " / " << endpoint;
+    port = static_cast<uint16_t>(std::stoul(endpoint.substr(endpoint.rfind(':') + 1)));
+    const std::string round = status();
+    ASSERT_TRUE(contains(round, "round 1: start; in use: 1 variant")) << round;
+  }
+  std::string status() {
+    std::optional<std::string> line = kiln->next_line();
+    EXPECT_TRUE(line) << "kiln watch ended or wrote nothing; its stderr:\n" << kiln->err();
+    return line.value_or("");
+  }
+  std::string request(const std::string& bytes) {
+    Socket socket(port);
+    socket.send(bytes);
+    return socket.answer();
+  }
+  std::filesystem::path manifest() const { return dir / "out/p.manifest.json"; }
+};
+
+// (a) Wait: the in-use pack lacks [B]; the reader asks watch, waits, switches to the pack that has it and selects it.
+TEST_F(DevelopmentEndpoint, AReaderThatWaitsGetsTheVariantThePackLacked) {
+  start();
+  PackReader reader = PackReader::open(manifest());
+  ASSERT_EQ(reader.try_select("P", {"B"}).code(), PackError::Code::Stripped);
+  PackResult<DevelopmentReader> development = DevelopmentReader::open(reader, manifest());
+  ASSERT_TRUE(development) << development.message();
+  PackResult<SelectedVariant> selected = development->select_or_wait("P", {"B"}, std::chrono::seconds(120));
+  ASSERT_TRUE(selected) << selected.message() << "\n" << kiln->err();
+  EXPECT_EQ(selected->keywords, std::vector<std::string>{"B"});
+  EXPECT_TRUE(contains(status(), "request P [B]: built into p.")) << kiln->err();
+  EXPECT_TRUE(reader.try_select("P", {"A"})) << "the in-use variants stay";
+  // Asked for again, it is in the pack: served without a build.
+  PackResult<std::string> again = development->request("P", {"B"}, std::chrono::seconds(120));
+  ASSERT_TRUE(again) << again.message();
+  EXPECT_TRUE(contains(status(), "request P [B]: in " + *again));
+  // A request stays in the in-use set: the next round's in-use pack has it.
+  dir.write("lib/Colour.hlsl", "float4 colour() { return 0.5; }\n");
+  EXPECT_TRUE(contains(status(), "in use: 2 variants")) << kiln->err();
+  EXPECT_EQ(kiln->end(SIGTERM), 0);
+  EXPECT_FALSE(std::filesystem::exists(dir / "out/p.endpoint")) << "the endpoint file goes with watch";
+}
+
+// (b) Nearest now: the reader gets the nearest variant at once, and a later poll_update() (woken by its update
+// descriptor) brings the real one.
+TEST_F(DevelopmentEndpoint, AReaderThatTakesTheNearestVariantGetsTheRealOneFromALaterPoll) {
+  start();
+  PackReader reader = PackReader::open(manifest());
+  PackResult<int> fd = reader.update_fd();
+  ASSERT_TRUE(fd) << fd.message();
+  PackResult<DevelopmentReader> development = DevelopmentReader::open(reader, manifest());
+  ASSERT_TRUE(development) << development.message();
+  PackResult<DevelopmentReader::Selection> now = development->select_or_nearest("P", {"B"});
+  ASSERT_TRUE(now) << now.message();
+  EXPECT_TRUE(now->nearest);
+  EXPECT_EQ(now->variant.keywords, std::vector<std::string>{"A"});  // the only variant of the in-use pack
+  bool added = false;
+  while (!added) {
+    pollfd entry{*fd, POLLIN, 0};
+    ASSERT_EQ(::poll(&entry, 1, 120000), 1) << "no pack switch; kiln watch's stderr:\n" << kiln->err();
+    PackResult<PackUpdate> update = reader.poll_update();
+    ASSERT_TRUE(update) << update.message();
+    for (const VariantChange& change : update->changes)
+      added = added || (change.kind == VariantChange::Kind::Added && change.keywords == std::vector<std::string>{"B"});
+  }
+  PackResult<DevelopmentReader::Selection> later = development->select_or_nearest("P", {"B"});
+  ASSERT_TRUE(later) << later.message();
+  EXPECT_FALSE(later->nearest);
+  EXPECT_EQ(later->variant.keywords, std::vector<std::string>{"B"});
+  EXPECT_EQ(kiln->end(SIGTERM), 0);
+}
+
+// Without --in-use-only the full pack follows the requests' in-use pack.
+TEST_F(DevelopmentEndpoint, TheFullPackFollowsARequest) {
+  start({});
+  // Round 1 built the full pack too: [B] is there, served without a build.
+  Socket socket(port);
+  socket.send(post(R"({"pass": "P", "keywords": ["B"]})"));
+  const std::string answer = socket.answer();
+  EXPECT_EQ(status_of(answer), "HTTP/1.1 200 OK") << answer;
+  EXPECT_TRUE(contains(answer, R"("compiled":false)")) << answer;
+  EXPECT_EQ(kiln->end(SIGTERM), 0);
+}
+
+// Hostile bytes: each is answered with a 4xx (or its connection dropped), and watch keeps serving, also while a
+// client that sends half a request and stops holds its connection open.
+TEST_F(DevelopmentEndpoint, HostileRequestsAreRefusedAndTheLoopKeepsServing) {
+  start();
+  Socket slow(port);  // slowloris: headers and half a body, never the rest
+  ASSERT_TRUE(slow.send("POST /v1/variant HTTP/1.1\r\nHost: x\r\nContent-Length: 100\r\n\r\n{\"pa"));
+  Socket half(port);  // half a request line
+  ASSERT_TRUE(half.send("POST /v1/var"));
+
+  const std::string garbage = request("\x01\x02garbage\xff\xfe\r\n\r\n");  // dropped, or a 400
+  EXPECT_TRUE(garbage.empty() || status_of(garbage).starts_with("HTTP/1.1 400")) << garbage;
+  EXPECT_EQ(status_of(request("GET /v1/variant HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")).substr(0, 12), "HTTP/1.1 405");
+  EXPECT_EQ(status_of(request(post("{}", "/v1/other"))).substr(0, 12), "HTTP/1.1 404");
+  EXPECT_EQ(status_of(request(post("{}", "/../../etc/passwd"))).substr(0, 12), "HTTP/1.1 404");
+  EXPECT_EQ(status_of(request(post("not json"))).substr(0, 12), "HTTP/1.1 400");
+  EXPECT_EQ(status_of(request(post("{\"pass\": \"P\xff\xfe\", \"keywords\": []}"))).substr(0, 12), "HTTP/1.1 400") << "invalid UTF-8";
+  EXPECT_EQ(status_of(request(post(std::string(10000, '[') + std::string(10000, ']')))).substr(0, 12), "HTTP/1.1 400") << "deep";
+  EXPECT_EQ(status_of(request(post(R"({"pass": "P", "keywords": ["A"], "then": 1})"))).substr(0, 12), "HTTP/1.1 400");
+  EXPECT_EQ(status_of(request(post(R"({"pass": "P", "keywords": "A"})"))).substr(0, 12), "HTTP/1.1 400");
+  EXPECT_EQ(status_of(request(post(R"({"pass": "P P", "keywords": []})"))).substr(0, 12), "HTTP/1.1 400");
+  EXPECT_EQ(status_of(request(post(R"({"pass": ")" + std::string(300, 'P') + R"(", "keywords": []})"))).substr(0, 12), "HTTP/1.1 400");
+  nlohmann::json many = nlohmann::json::array();
+  for (int i = 0; i < 1000; ++i) many.push_back("K" + std::to_string(i));
+  EXPECT_EQ(status_of(request(post(nlohmann::json{{"pass", "P"}, {"keywords", many}}.dump()))).substr(0, 12), "HTTP/1.1 400");
+  // 10 MiB said up front: refused before it is read.
+  EXPECT_EQ(status_of(request("POST /v1/variant HTTP/1.1\r\nHost: x\r\nConnection: close\r\nContent-Length: 10485760\r\n\r\n"))
+                .substr(0, 12), "HTTP/1.1 413");
+  {  // 10 MiB in chunks, which have no length to check first: read and dropped, then refused
+    Socket socket(port);
+    socket.send("POST /v1/variant HTTP/1.1\r\nHost: x\r\nConnection: close\r\nTransfer-Encoding: chunked\r\n\r\n");
+    const std::string chunk(1 << 20, 'x');
+    for (int i = 0; i < 10; ++i) socket.send("100000\r\n" + chunk + "\r\n");
+    socket.send("0\r\n\r\n");
+    EXPECT_EQ(status_of(socket.answer()).substr(0, 12), "HTTP/1.1 413");
+  }
+  // Headers over the connection's memory: refused by libmicrohttpd itself.
+  const std::string huge_header = "POST /v1/variant HTTP/1.1\r\nHost: x\r\nX-Pad: " + std::string(200000, 'a') + "\r\n\r\n";
+  Socket padded(port);
+  padded.send(huge_header);
+  EXPECT_FALSE(status_of(padded.answer()).starts_with("HTTP/1.1 200"));
+  // Requests for what the pack cannot have: refused with the reader's words.
+  std::string answer = request(post(R"({"pass": "Q", "keywords": []})"));
+  EXPECT_EQ(status_of(answer).substr(0, 12), "HTTP/1.1 404") << answer;
+  EXPECT_TRUE(contains(answer, "has no pass 'Q'")) << answer;
+  answer = request(post(R"({"pass": "P", "keywords": ["A", "B"]})"));
+  EXPECT_EQ(status_of(answer).substr(0, 12), "HTTP/1.1 400") << answer;
+
+  // Still serving, with the slow clients' connections open: a good request is answered.
+  answer = request(post(R"({"pass": "P", "keywords": ["A"]})"));
+  EXPECT_EQ(status_of(answer), "HTTP/1.1 200 OK") << answer;
+  EXPECT_TRUE(contains(answer, R"("archive":"p.)")) << answer;
+  EXPECT_EQ(kiln->end(SIGTERM), 0);
+}
+
+TEST_F(DevelopmentEndpoint, ServeRefusesAnAddressThatIsNotLoopback) {
+  for (const char* address : {"0.0.0.0:0", "10.1.2.3:8080", "example.com:80", "[::]:0", "127.0.0.1:99999", "127.0.0.1"}) {
+    testing::RunResult result = testing::run_kiln({"watch", "p.pack.json", "-o", "out", "--serve", address}, dir.path());
+    EXPECT_EQ(result.exit_code, 1) << address;
+    EXPECT_TRUE(contains(result.err, std::string("kiln: error: --serve '") + address + "': ")) << result.err;
+  }
+}
+
+// A client answer is untrusted too: a server that answers with garbage, a 10 MiB body or an archive path gives the
+// reader an error, never a crash or a switch.
+TEST_F(DevelopmentEndpoint, TheClientRefusesHostileAnswers) {
+  start();
+  PackReader reader = PackReader::open(manifest());
+  for (const std::string& body : {std::string("not json"), std::string(10 << 20, '{'),
+                                  std::string(R"({"archive": "../../etc/passwd"})"), std::string(R"([1, 2])")}) {
+    const int listener = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT_EQ(::bind(listener, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+    ASSERT_EQ(::listen(listener, 1), 0);
+    socklen_t size = sizeof address;
+    ::getsockname(listener, reinterpret_cast<sockaddr*>(&address), &size);
+    const pid_t server = ::fork();
+    if (server == 0) {  // one hostile answer to whatever comes
+      const int connection = ::accept(listener, nullptr, nullptr);
+      char buffer[4096];
+      (void)::recv(connection, buffer, sizeof buffer, 0);
+      const std::string answer = "HTTP/1.1 200 OK\r\nConnection: close\r\nContent-Length: " + std::to_string(body.size()) + "\r\n\r\n" + body;
+      (void)::send(connection, answer.data(), answer.size(), MSG_NOSIGNAL);
+      ::close(connection);
+      ::_exit(0);
+    }
+    ::close(listener);
+    DevelopmentReader::Options options;
+    options.endpoint = "127.0.0.1:" + std::to_string(ntohs(address.sin_port));
+    PackResult<DevelopmentReader> development = DevelopmentReader::open(reader, manifest(), options);
+    ASSERT_TRUE(development);
+    PackResult<SelectedVariant> selected = development->select_or_wait("P", {"B"}, std::chrono::seconds(120));
+    EXPECT_FALSE(selected) << body.substr(0, 40);
+    if (!selected) {
+      EXPECT_TRUE(contains(selected.message(), "development endpoint: ")) << selected.message();
+    }
+    int status = 0;
+    ::waitpid(server, &status, 0);
+  }
+  EXPECT_EQ(kiln->end(SIGTERM), 0);
+}
+
+// Release mode: a reader without a DevelopmentReader, or with from_environment() and the variable unset, connects to
+// nothing, even for a variant the pack lacks, and even when the variable names a listening socket.
+TEST_F(DevelopmentEndpoint, AReleaseReaderNeverConnects) {
+  start();
+  const int listener = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::bind(listener, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+  ASSERT_EQ(::listen(listener, 8), 0);
+  socklen_t size = sizeof address;
+  ::getsockname(listener, reinterpret_cast<sockaddr*>(&address), &size);
+  const std::string endpoint = "127.0.0.1:" + std::to_string(ntohs(address.sin_port));
+  dir.write("out/p.endpoint", endpoint + "\n");  // the endpoint file names the trap too
+
+  PackReader reader = PackReader::open(manifest());
+  EXPECT_FALSE(DevelopmentReader::from_environment(reader, manifest())) << "the variable is unset";
+  ::setenv("KILN_DEVELOPMENT_ENDPOINT", endpoint.c_str(), 1);
+  EXPECT_EQ(reader.try_select("P", {"B"}).code(), PackError::Code::Stripped);  // the release reader: no request
+  ::unsetenv("KILN_DEVELOPMENT_ENDPOINT");
+  pollfd entry{listener, POLLIN, 0};
+  EXPECT_EQ(::poll(&entry, 1, 0), 0) << "a connection is waiting on the trap";
+
+  // The same trap sees the development reader's request: the check above can fail.
+  ::setenv("KILN_DEVELOPMENT_ENDPOINT", endpoint.c_str(), 1);
+  auto development = DevelopmentReader::from_environment(reader, manifest());
+  ::unsetenv("KILN_DEVELOPMENT_ENDPOINT");
+  ASSERT_TRUE(development && *development);
+  (void)(*development)->select_or_nearest("P", {"B"});
+  EXPECT_EQ(::poll(&entry, 1, 120000), 1);
+  const int connection = ::accept(listener, nullptr, nullptr);
+  ::close(connection);  // the background request fails; the reader goes without waiting on it further
+  ::close(listener);
+  EXPECT_EQ(kiln->end(SIGTERM), 0);
+}
+
+}  // namespace
+}  // namespace kiln
