@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/compile_result.hpp"
+#include "driver/build_trace.hpp"
 #include "test_support.hpp"
 
 namespace kiln {
@@ -82,7 +83,7 @@ std::vector<std::string> steps_of(const std::vector<Slice>& track, const Slice& 
   return steps;
 }
 
-struct BuildTrace : ::testing::Test {
+struct BuildTraceFile : ::testing::Test {
   testing::TempDir dir;
   void SetUp() override {
     // Two stage sources per stage (each stage's own keyword): four preprocesses, four front ends, four back ends.
@@ -97,7 +98,7 @@ struct BuildTrace : ::testing::Test {
   }
 };
 
-TEST_F(BuildTrace, EveryStageSourceHasItsPreprocessAndFrontEndAndEveryBackEndItsStepsOnNestedWorkerTracks) {
+TEST_F(BuildTraceFile, EveryStageSourceHasItsPreprocessAndFrontEndAndEveryBackEndItsStepsOnNestedWorkerTracks) {
   auto r = testing::run_kiln({"build", "p.pack.json", "-o", "out", "--no-cache", "-j", "2", "--trace", "trace.json", "-q"},
                              dir.path());
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -150,7 +151,7 @@ TEST_F(BuildTrace, EveryStageSourceHasItsPreprocessAndFrontEndAndEveryBackEndIts
   EXPECT_EQ(back_ends, 4u);
 }
 
-TEST_F(BuildTrace, AWarmBuildIsOneCacheLookupPerStageSourceAndNoWorkerJob) {
+TEST_F(BuildTraceFile, AWarmBuildIsOneCacheLookupPerStageSourceAndNoWorkerJob) {
   auto cold = testing::run_kiln({"build", "p.pack.json", "-o", "cold", "--cache", "cache", "-q"}, dir.path());
   ASSERT_EQ(cold.exit_code, 0) << cold.err;
   auto warm = testing::run_kiln({"build", "p.pack.json", "-o", "warm", "--cache", "cache", "--trace", "trace.json", "-q"},
@@ -191,6 +192,51 @@ TEST(WorkerStepTimes, AreCheckedOnDecodeAndNeverCached) {
   rejected({{CompileStep::None, 0, 10}});                                      // not a step
   rejected({{CompileStep::Frontend, uint64_t{1} << 62, 1}});                  // past any build
   rejected(std::vector<StepSpan>(kMaxStepSpans + 1, StepSpan{CompileStep::Reflect, 0, 0}));  // too many
+}
+
+// The driver's slices go on as few tracks as nesting allows: a stage that overlaps another in part (compile streaming
+// after preprocess) takes a second track; one inside another stays on its track.
+TEST(TraceLayout, AStageOverlappingAnotherInPartGoesOnASecondTrackAndNestedOnesStay) {
+  const StageClock::time_point start = StageClock::now();
+  auto at = [&](int us) { return start + std::chrono::microseconds(us); };
+  kiln::BuildTrace trace("unused.json", start);
+  trace.driver_slice("stages", "total", at(0), at(100));
+  trace.driver_slice("stages", "preprocess", at(10), at(60));
+  trace.driver_slice("stages", "compile", at(30), at(100));
+  trace.driver_slice("stages", "dedupe", at(61), at(62));
+  std::map<std::string, int> tid;
+  const json document = json::parse(trace.to_json());
+  for (const json& event : document.at("traceEvents"))
+    if (event.at("ph") == "X") tid[event.at("name").get<std::string>()] = event.at("tid").get<int>();
+  EXPECT_EQ(tid, (std::map<std::string, int>{{"total", 0}, {"preprocess", 0}, {"dedupe", 0}, {"compile", 1}}));
+}
+
+// A worker's steps are placed from the job's send and clamped to its answer: a worker that claims a step longer than
+// the job (or one starting after it) cannot make a slice stick out of its job.
+TEST(TraceLayout, AWorkersStepsStayInsideItsJobWhateverItClaims) {
+  const StageClock::time_point start = StageClock::now();
+  JobTiming timing;
+  timing.slot = 3;
+  timing.sent = start + std::chrono::microseconds(1000);
+  timing.answered = start + std::chrono::microseconds(2000);
+  timing.steps = {{CompileStep::Frontend, 0, 400}, {CompileStep::Legalize, 400, 10'000'000}, {CompileStep::Optimize, 50'000, 1}};
+  kiln::BuildTrace trace("unused.json", start);
+  trace.worker_job(timing, "front end: x", json::object());
+  std::map<std::string, std::pair<int64_t, int64_t>> slices;
+  bool named = false;
+  const json document = json::parse(trace.to_json());
+  for (const json& event : document.at("traceEvents")) {
+    if (event.at("ph") == "M" && event.at("pid") == 2 && event.at("tid") == 3) named = event.at("args").at("name") == "worker 3";
+    if (event.at("ph") != "X") continue;
+    EXPECT_EQ(event.at("tid"), 3);
+    slices[event.at("name").get<std::string>()] = {event.at("ts").get<int64_t>(), event.at("dur").get<int64_t>()};
+  }
+  EXPECT_TRUE(named);
+  using Span = std::pair<int64_t, int64_t>;
+  EXPECT_EQ(slices.at("front end: x"), (Span{1000, 1000}));
+  EXPECT_EQ(slices.at("frontend"), (Span{1000, 400}));
+  EXPECT_EQ(slices.at("legalize"), (Span{1400, 600}));
+  EXPECT_EQ(slices.at("optimize"), (Span{2000, 0}));
 }
 
 }  // namespace
