@@ -171,15 +171,34 @@ TEST_F(DevelopmentEndpoint, AReaderThatTakesTheNearestVariantGetsTheRealOneFromA
   EXPECT_EQ(kiln->end(SIGTERM), 0);
 }
 
-// Without --in-use-only the full pack follows the requests' in-use pack.
-TEST_F(DevelopmentEndpoint, TheFullPackFollowsARequest) {
-  start({});
-  // Round 1 built the full pack too: [B] is there, served without a build.
-  Socket socket(port);
-  socket.send(post(R"({"pass": "P", "keywords": ["B"]})"));
-  const std::string answer = socket.answer();
-  EXPECT_EQ(status_of(answer), "HTTP/1.1 200 OK") << answer;
+// Without --in-use-only the full pack follows a request's in-use pack. [B] is broken, so the full pack fails and
+// the in-use one ([A]) stays published; a request for [] is built into an in-use pack, and the full pack is tried again.
+// A variant the published pack has is served without a build.
+TEST_F(DevelopmentEndpoint, AfterARequestTheFullPackFollows) {
+  std::string broken = kShader;
+  broken.replace(broken.find("return colour() * 3.0;"), 22, "return undefinedB;");
+  dir.write("S.hlsl", broken);
+  std::vector<std::string> args{KILN_CLI_PATH, "watch", "p.pack.json", "-o", "out", "--cache", "cache", "-j", "1",
+                                "--usage", "usage/run.json", "--serve", "127.0.0.1:0"};
+  kiln = std::make_unique<testing::BackgroundProcess>(args, dir.path());
+  ASSERT_TRUE(contains(status(), "serving variants on"));
+  const std::string round = status();
+  EXPECT_TRUE(contains(round, "; full: failed (1 error; the in-use pack stays)")) << round;
+  const std::string endpoint = testing::read_file(dir / "out/p.endpoint");
+  port = static_cast<uint16_t>(std::stoul(endpoint.substr(endpoint.rfind(':') + 1)));
+
+  std::string answer = request(post(R"({"pass": "P", "keywords": ["A"]})"));
   EXPECT_TRUE(contains(answer, R"("compiled":false)")) << answer;
+  EXPECT_TRUE(contains(status(), "request P [A]: in p.")) << kiln->err();
+  answer = request(post(R"({"pass": "P", "keywords": []})"));
+  EXPECT_EQ(status_of(answer), "HTTP/1.1 200 OK") << answer;
+  EXPECT_TRUE(contains(answer, R"("compiled":true)")) << answer;
+  EXPECT_TRUE(contains(status(), "request P []: built into p.")) << kiln->err();
+  const std::string after = status();
+  EXPECT_TRUE(contains(after, "kiln watch: after requests; full: failed (1 error; the in-use pack stays)")) << after;
+  PackReader reader = PackReader::open(manifest());
+  EXPECT_TRUE(reader.try_select("P", {}));
+  EXPECT_TRUE(reader.try_select("P", {"A"}));
   EXPECT_EQ(kiln->end(SIGTERM), 0);
 }
 

@@ -305,6 +305,7 @@ class Watcher {
       while (wake == Wake::FullPackOwed) {  // requests published in-use packs: the full pack follows
         full_pack_owed_ = false;
         Phase full;
+        full.in_use_published = true;  // the requests' in-use pack
         std::set<std::string> said;
         build(options_, Clock::now(), said, full);
         say("kiln watch: after requests; " + full.text("full"));
