@@ -355,6 +355,91 @@ TEST(HlslCompat, ByteAddressAtomicsWithIntArgumentsGiveTheSpirvOfTheirUintSpelli
   EXPECT_FALSE(rewrite_byte_address_atomics("InterlockedAdd(s[0], 1); x.InterlockedAdd64(0, 1);"));
 }
 
+// ---- [[vk::offset]] ---------------------------------------------------------------------------------------------
+
+// The (member name, Offset) pairs of every laid-out struct in a module, by the struct's OpName.
+std::map<std::string, std::vector<std::pair<std::string, uint32_t>>> member_offsets_of(std::string_view bytes) {
+  std::vector<uint32_t> words(bytes.size() / 4);
+  std::memcpy(words.data(), bytes.data(), words.size() * 4);
+  std::map<uint32_t, std::string> names;
+  std::map<uint32_t, std::map<uint32_t, std::string>> members;
+  std::map<uint32_t, std::map<uint32_t, uint32_t>> offsets;
+  auto text = [&](size_t at, size_t end) { return std::string(reinterpret_cast<const char*>(&words[at]), (end - at) * 4).c_str(); };
+  for (size_t at = 5; at < words.size(); at += words[at] >> 16) {
+    const uint32_t count = words[at] >> 16, op = words[at] & 0xffff;
+    if (op == 5) names[words[at + 1]] = text(at + 2, at + count);                     // OpName
+    if (op == 6) members[words[at + 1]][words[at + 2]] = text(at + 3, at + count);    // OpMemberName
+    if (op == 72 && words[at + 3] == 35) offsets[words[at + 1]][words[at + 2]] = words[at + 4];  // Offset
+  }
+  std::map<std::string, std::vector<std::pair<std::string, uint32_t>>> out;
+  for (const auto& [type, by_index] : offsets)
+    for (const auto& [index, offset] : by_index) out[names[type]].emplace_back(members[type][index], offset);
+  return out;
+}
+
+// [[vk::offset]] as DXC users write it: on a cbuffer's members (the SPIR-V of its packoffset spelling), on a first
+// member and where HLSL's packing gives the same offset (nothing to do: the SPIR-V of the plain spelling), and on a
+// struct's member that it moves by 16 bytes (the members after it move too, as in DXC).
+// GL and GL ES cannot state member offsets that std140 does not give (SPIRV-Cross: "cannot be expressed as neither
+// std430 nor std140"), whichever spelling states them: packoffset's too.
+constexpr const char* kExplicitOffsetTargets = R"(["spirv", "msl"])";
+
+TEST(HlslCompat, MemberOffsetsAreWrittenIntoTheLayout) {
+  testing::TempDir dir;
+  const std::string vertex = "float4 V(float4 p : POSITION) : SV_Position { return p; }\n";
+  const std::string use = "float4 F() : SV_Target { return x * y + tint; }\n";
+  PackReader attributed = build_source(dir, "attributed", vertex +
+      "cbuffer Material : register(b0) { [[vk::offset(0)]] float4 x; [[vk::offset(16)]] float4 tint;\n"
+      "  [[vk::offset(48)]] float y; };\n" + use, kExplicitOffsetTargets);
+  PackReader packoffset = build_source(dir, "packoffset", vertex +
+      "cbuffer Material : register(b0) { float4 x : packoffset(c0); float4 tint : packoffset(c1);\n"
+      "  float y : packoffset(c3); };\n" + use, kExplicitOffsetTargets);
+  PackReader same = build_source(dir, "same", vertex +
+      "cbuffer Material : register(b0) { [[vk::offset(0)]] float4 x; float4 tint; [[vk::offset(32)]] float y; };\n" + use);
+  PackReader plain = build_source(dir, "plain", vertex + "cbuffer Material : register(b0) { float4 x; float4 tint; float y; };\n" + use);
+  const SelectedVariant a = attributed.select("P", {}), b = packoffset.select("P", {}), c = same.select("P", {}), d = plain.select("P", {});
+  ASSERT_TRUE(a.stage("fragment") && b.stage("fragment") && c.stage("fragment") && d.stage("fragment"));
+  EXPECT_EQ(a.stage("fragment")->spirv, b.stage("fragment")->spirv) << "not the SPIR-V of the packoffset spelling";
+  EXPECT_EQ(c.stage("fragment")->spirv, d.stage("fragment")->spirv) << "offsets HLSL's packing gives changed the module";
+  EXPECT_EQ(member_offsets_of(a.stage("fragment")->spirv).at("Material"),
+            (std::vector<std::pair<std::string, uint32_t>>{{"x", 0}, {"tint", 16}, {"y", 48}}));
+  // A struct in a ConstantBuffer<T> (glslang names the block after the variable).
+  PackReader structure = build_source(dir, "struct", vertex +
+      "struct Light { float3 direction; [[vk::offset(32)]] float3 color; float intensity; };\n"
+      "ConstantBuffer<Light> light : register(b1);\n"
+      "float4 F() : SV_Target { return float4(light.color * light.intensity * light.direction, 1); }\n",
+      kExplicitOffsetTargets);
+  const SelectedVariant e = structure.select("P", {});
+  ASSERT_TRUE(e.stage("fragment"));
+  EXPECT_EQ(member_offsets_of(e.stage("fragment")->spirv).at("light"),
+            (std::vector<std::pair<std::string, uint32_t>>{{"direction", 0}, {"color", 32}, {"intensity", 44}}));
+}
+
+// An offset kiln cannot honour (inside the previous member, or a move that breaks alignment) is a located error,
+// never a build with another layout.
+TEST(HlslCompat, AnOffsetThatCannotBeHonouredIsALocatedError) {
+  testing::TempDir dir;
+  for (const auto& [name, member] : {std::pair{"overlap", "[[vk::offset(8)]] float y;"}, std::pair{"unaligned", "[[vk::offset(18)]] float y;"}}) {
+    dir.write(std::string(name) + "/S.hlsl", "cbuffer C : register(b0) { float4 x;\n  " + std::string(member) +
+                                                 " };\nfloat4 V(float4 p : POSITION) : SV_Position { return p * x * y; }\n"
+                                                 "float4 F() : SV_Target { return 1; }\n");
+    dir.write(std::string(name) + "/p.pack.json",
+              R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+    BuildOptions options;
+    options.pack_file = dir / name / "p.pack.json";
+    options.output_dir = dir / name / "out";
+    options.worker_executable = KILN_WORKER_PATH;
+    DiagnosticSink sink;
+    EXPECT_FALSE(build_pack(options, sink).ok) << name;
+    ASSERT_FALSE(sink.diagnostics().empty()) << name;
+    const Diagnostic error = sink.diagnostics().front();
+    EXPECT_EQ(error.id, DiagId::HlslError) << format_diagnostic(error);
+    EXPECT_EQ(error.location.line, 2) << format_diagnostic(error);
+    EXPECT_EQ(error.location.column, 9) << format_diagnostic(error);  // the word `offset`
+    EXPECT_NE(error.message.find("cannot be honoured: HLSL's packing puts it at 16"), std::string::npos) << format_diagnostic(error);
+  }
+}
+
 // The index's value is followed into a helper function and through a local variable, as DXC's inlining would:
 // every access it selects is decorated, and the rest of the module is the SPIR-V of the plain index. SPIR-V only:
 // GL and GL ES have no non-uniform qualifier outside Vulkan GLSL, Metal binds unbounded arrays through argument

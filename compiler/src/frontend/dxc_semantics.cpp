@@ -233,4 +233,101 @@ Result<void> restore_builtin_semantics(std::vector<uint32_t>& spirv, const std::
   return {};
 }
 
+namespace {
+
+// Whether a member of type `type` may start at `offset` in a block (Vulkan's relaxed block layout, which glslang's
+// HLSL layouts follow): scalars and vectors at a multiple of their component's size, a vector not across a 16-byte
+// boundary, matrices, arrays and structs at a multiple of 16.
+bool fits_at(const std::map<uint32_t, size_t>& definition, const std::vector<Instruction>& instructions, uint32_t type, uint32_t offset) {
+  auto defining = [&](uint32_t id) -> const Instruction* {
+    auto it = definition.find(id);
+    return it == definition.end() ? nullptr : &instructions[it->second];
+  };
+  const Instruction* in = defining(type);
+  if (!in) return false;
+  if (in->op() == spv::OpTypeInt || in->op() == spv::OpTypeFloat) return in->words.size() > 2 && offset % (in->words[2] / 8) == 0;
+  if (in->op() == spv::OpTypeVector && in->words.size() > 3) {
+    const Instruction* component = defining(in->words[2]);
+    if (!component || component->words.size() < 3) return false;
+    const uint32_t size = component->words[2] / 8, bytes = size * in->words[3];
+    return offset % size == 0 && (bytes > 16 || offset % 16 + bytes <= 16);
+  }
+  return offset % 16 == 0;
+}
+
+}  // namespace
+
+std::vector<UnhonouredOffset> write_member_offsets(std::vector<uint32_t>& spirv, const std::vector<StatedOffset>& stated) {
+  std::vector<UnhonouredOffset> unhonoured;
+  if (stated.empty()) return unhonoured;
+  std::optional<spirv_edit::Module> parsed = spirv_edit::Module::parse(spirv);
+  if (!parsed) {
+    for (size_t i = 0; i < stated.size(); ++i) unhonoured.push_back({i, "glslang's module does not parse"});
+    return unhonoured;
+  }
+  spirv_edit::Module& module = *parsed;
+  std::vector<Instruction>& instructions = module.instructions();
+  std::set<uint32_t> array_elements;
+  std::map<uint32_t, std::map<uint32_t, std::string>> member_names;  // struct -> member index -> name
+  std::map<uint32_t, std::map<uint32_t, size_t>> offsets;            // struct -> member index -> its decoration
+  for (size_t i = 0; i < instructions.size(); ++i) {
+    const Instruction& in = instructions[i];
+    if ((in.op() == spv::OpTypeArray || in.op() == spv::OpTypeRuntimeArray) && in.words.size() > 2) array_elements.insert(in.words[2]);
+    if (in.op() == spv::OpMemberName && in.words.size() > 3) member_names[in.words[1]][in.words[2]] = in.string_at(3);
+    if (in.op() == spv::OpMemberDecorate && in.words.size() > 4 && in.words[3] == spv::DecorationOffset) offsets[in.words[1]][in.words[2]] = i;
+  }
+  const std::map<uint32_t, size_t> definition = module.definitions();
+  // Whether member `index` of `type` can start at `wanted` and those after it (not yet moved) move by `delta`.
+  auto can_move = [&](uint32_t type, uint32_t index, uint32_t wanted, int64_t delta) {
+    const Instruction& structure = instructions[definition.at(type)];
+    for (auto it = offsets[type].find(index); it != offsets[type].end(); ++it) {
+      const int64_t moved = it->first == index ? wanted : static_cast<int64_t>(instructions[it->second].words[4]) + delta;
+      if (it->first + 2 >= structure.words.size() || moved < 0 ||
+          !fits_at(definition, instructions, structure.words[it->first + 2], static_cast<uint32_t>(moved)))
+        return false;
+    }
+    return true;
+  };
+  std::vector<bool> honoured(stated.size(), false);
+  std::vector<std::string> reasons(stated.size());
+  bool changed = false;
+  for (auto& [type, members] : offsets) {
+    std::vector<std::string> names;
+    for (const auto& [index, name] : member_names[type]) names.push_back(name);
+    auto matches = [&](const StatedOffset& offset) { return offset.record == module.name_of(type) || offset.members == names; };
+    int32_t delta = 0;
+    for (auto& [index, decoration] : members) {
+      uint32_t& offset = instructions[decoration].words[4];
+      offset = static_cast<uint32_t>(static_cast<int64_t>(offset) + delta);
+      const std::string& member = member_names[type][index];
+      for (size_t s = 0; s < stated.size(); ++s) {
+        if (!matches(stated[s]) || stated[s].member != member) continue;
+        const uint32_t wanted = stated[s].offset;
+        if (wanted == offset) {
+          honoured[s] = true;
+          continue;
+        }
+        if (wanted < offset) {
+          reasons[s] = "HLSL's packing puts it at " + std::to_string(offset) + ", after the members before it";
+        } else if (!can_move(type, index, wanted, delta + static_cast<int64_t>(wanted) - offset)) {
+          reasons[s] = "HLSL's packing puts it at " + std::to_string(offset) + ", and " + std::to_string(wanted - offset) +
+                       " bytes later it, or a member after it, would break its alignment";
+        } else if (array_elements.count(type)) {
+          reasons[s] = "HLSL's packing puts it at " + std::to_string(offset) + ", and '" + stated[s].record +
+                       "' is an array element, whose stride kiln does not change";
+        } else {
+          delta += static_cast<int32_t>(wanted - offset);
+          offset = wanted;
+          honoured[s] = true;
+          changed = true;
+        }
+      }
+    }
+  }
+  for (size_t s = 0; s < stated.size(); ++s)
+    if (!honoured[s] && !reasons[s].empty()) unhonoured.push_back({s, reasons[s]});
+  if (changed && unhonoured.empty()) spirv = module.words();
+  return unhonoured;
+}
+
 }  // namespace kiln

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "frontend/hlsl_compat.hpp"
 #include "kiln/result.hpp"
 
 namespace kiln {
@@ -34,5 +35,16 @@ std::vector<std::pair<std::string, uint32_t>> explicit_locations(std::string_vie
 // leaves those in `located` (explicit_locations) where the author put them.
 Result<void> make_arrays_unbounded(std::vector<uint32_t>& spirv, const std::vector<std::string>& names);
 Result<void> restore_builtin_semantics(std::vector<uint32_t>& spirv, const std::vector<std::pair<std::string, uint32_t>>& located);
+
+// `[[vk::offset(N)]]` (strip_member_offsets) written into the Offset decorations of the members it names, in every
+// laid-out struct of that name. A stated offset equal to HLSL's packing needs nothing; a later one moves the member
+// and those after it by the difference, when that is a multiple of 16 bytes (every member keeps its alignment) and
+// no array holds the struct (its stride would change). The rest are not honoured: for each, its index in `stated`
+// and why.
+struct UnhonouredOffset {
+  size_t stated = 0;
+  std::string reason;
+};
+std::vector<UnhonouredOffset> write_member_offsets(std::vector<uint32_t>& spirv, const std::vector<StatedOffset>& stated);
 
 }  // namespace kiln

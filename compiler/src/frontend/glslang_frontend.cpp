@@ -22,6 +22,7 @@
 #include "frontend/glslang_literals.hpp"
 #include "frontend/glslang_shader.hpp"
 #include "frontend/interface_semantics.hpp"
+#include "frontend/module_limits.hpp"
 
 namespace kiln {
 namespace {
@@ -232,6 +233,9 @@ class GlslangFrontend final : public Frontend {
     std::optional<std::string> compatible = rewrite_attribute_lists(request.source);
     if (auto rewritten = rewrite_push_constants(compatible ? std::string_view(*compatible) : std::string_view(request.source)))
       compatible = std::move(rewritten);
+    std::optional<MemberOffsets> member_offsets =
+        strip_member_offsets(compatible ? std::string_view(*compatible) : std::string_view(request.source));
+    if (member_offsets) compatible = member_offsets->text;
     if (auto rewritten = rewrite_hlsl2021_intrinsics(compatible ? std::string_view(*compatible) : std::string_view(request.source)))
       compatible = std::move(rewritten);
     if (auto rewritten = rewrite_literal_swizzles(compatible ? std::string_view(*compatible) : std::string_view(request.source)))
@@ -292,6 +296,18 @@ class GlslangFrontend final : public Frontend {
     glslang::GlslangToSpv(*program.getIntermediate(to_glslang(request.stage)), result.spirv, &logger, &options);
     // DXC's meanings that glslang 12 would change without a word (frontend/dxc_semantics.hpp, nonuniform.hpp).
     Result<void> edited = make_arrays_unbounded(result.spirv, unbounded_resource_arrays(source));
+    if (member_offsets) {
+      const std::vector<UnhonouredOffset> unhonoured = write_member_offsets(result.spirv, member_offsets->stated);
+      for (const UnhonouredOffset& refused : unhonoured) {
+        const StatedOffset& offset = member_offsets->stated[refused.stated];
+        // Quoting the word first, as glslang does, lets the driver find its column.
+        FrontendMessage& message = result.messages.emplace_back(located_in_source(source, offset.at, request.source_name,
+            "'offset' : [[vk::offset(" + std::to_string(offset.offset) + ")]] on '" + offset.record + "." + offset.member +
+            "' cannot be honoured: " + refused.reason + " (order and pad the members instead)"));
+        message.column = 0;  // the preprocessed text's spacing is not the file's: the driver finds the quoted word
+      }
+      if (!unhonoured.empty()) return result;
+    }
     if (edited && builtin_semantics) edited = restore_builtin_semantics(result.spirv, explicit_locations(source));
     if (edited)
       edited = attach_interface_semantics(result.spirv, interface_semantics(*program.getIntermediate(to_glslang(request.stage))));

@@ -50,9 +50,9 @@ size_t attribute_group_end(std::string_view text, size_t at) {
   return std::string_view::npos;
 }
 
-// Whether the word `push_constant` at `at` is the attribute `vk::push_constant` of a group (after `[[` or after a
+// Whether the word at `at` (`push_constant`, `offset`) is an attribute `vk::word` of a group (after `[[` or after a
 // comma of the group's list).
-bool is_push_constant_attribute(std::string_view text, size_t at) {
+bool is_vk_attribute(std::string_view text, size_t at) {
   auto previous = [&](size_t before) {  // the offset of the last non-blank character before `before`, or npos
     while (before > 0 && std::string_view(" \t\r\n").find(text[before - 1]) != std::string_view::npos) --before;
     return before == 0 ? std::string_view::npos : before - 1;
@@ -77,7 +77,7 @@ std::optional<std::string> rewrite_push_constants(std::string_view text) {
     // The whole word only: a variable named `push_constants` is no attribute (it was taken for one, and the
     // declaration rewritten twice).
     if ((at > 0 && is_token_char(text[at - 1])) || word_end(text, at) != at + kWord.size()) continue;
-    if (at < copied || !is_push_constant_attribute(text, at)) continue;
+    if (at < copied || !is_vk_attribute(text, at)) continue;
     size_t end = attribute_group_end(text, at + kWord.size());
     if (end == std::string_view::npos) continue;
     // Other attribute groups may follow (`[[vk::push_constant]] [[vk::binding(1)]]`), on this line or the next.
@@ -499,6 +499,109 @@ std::optional<std::string> rewrite_byte_address_atomics(std::string_view text) {
     copied = close + 1;
   }
   if (out) out->append(text.substr(copied));
+  return out;
+}
+
+namespace {
+
+// The data members of the struct whose body opens at `open` ('{'): the last word of each declaration before its
+// semantic, array size, initializer or end, past attribute groups; methods and nested bodies are left out.
+std::vector<std::string> record_members(std::string_view text, size_t open) {
+  std::vector<std::string> members;
+  std::string last;
+  bool method = false;
+  int depth = 0;
+  for (size_t at = open + 1; at < text.size() && at < open + 65536; ++at) {
+    const char c = text[at];
+    if (text.substr(at, 2) == "[[") {
+      const size_t end = attribute_group_end(text, at + 2);
+      if (end == std::string_view::npos) break;
+      at = end - 1;
+      continue;
+    }
+    if (c == '{') ++depth;
+    if (c == '}' && depth-- == 0) break;
+    if (depth > 0) continue;
+    if (c == '(') method = true;
+    if (c == ';') {
+      if (!method && !last.empty()) members.push_back(last);
+      last.clear();
+      method = false;
+    }
+    if (c == ':' || c == '[' || c == '=' || c == ',') {
+      if (c == ',' && !method && !last.empty()) members.push_back(last);  // `float a, b;`
+      if (c != ',') {
+        while (at < text.size() && text[at] != ';' && text[at] != ',') ++at;
+        --at;
+      }
+      if (c == ',') last.clear();
+      continue;
+    }
+    if (is_token_char(c) && !is_token_char(text[at - 1])) {
+      last = std::string(text.substr(at, word_end(text, at) - at));
+      at = word_end(text, at) - 1;
+    }
+  }
+  return members;
+}
+
+}  // namespace
+
+std::optional<MemberOffsets> strip_member_offsets(std::string_view text) {
+  std::optional<MemberOffsets> out;
+  constexpr std::string_view kWord = "offset";
+  for (size_t at = text.find(kWord); at != std::string_view::npos; at = text.find(kWord, at + 1)) {
+    if ((at > 0 && is_token_char(text[at - 1])) || word_end(text, at) != at + kWord.size() || !is_vk_attribute(text, at)) continue;
+    const size_t open = text.rfind("[[", at), end = attribute_group_end(text, at + kWord.size());
+    if (open == std::string_view::npos || end == std::string_view::npos) continue;
+    // `( N )`
+    size_t cursor = skip_space(text, at + kWord.size());
+    if (cursor >= text.size() || text[cursor] != '(') continue;
+    const size_t digits = skip_space(text, cursor + 1), digits_end = word_end(text, digits);
+    if (digits_end == digits || digits_end - digits > 9 ||
+        !std::all_of(text.begin() + digits, text.begin() + digits_end, [](char c) { return std::isdigit(static_cast<unsigned char>(c)); }))
+      continue;
+    cursor = skip_space(text, digits_end);
+    if (cursor >= text.size() || text[cursor] != ')' || skip_space(text, cursor + 1) + 2 != end) continue;
+    // The member: the last word before its end, its semantic, its array size or the next declarator.
+    std::string member;
+    for (size_t scan = end; scan < text.size() && scan < end + 4096; ++scan) {
+      const char c = text[scan];
+      if (c == ';' || c == ':' || c == '[' || c == ',' || c == '{' || c == '}' || c == '(') break;
+      if (c == '<') {  // template arguments (`vector<float, 4>`): not the name
+        const size_t close = text.find('>', scan);
+        if (close == std::string_view::npos) break;
+        scan = close;
+        continue;
+      }
+      if (is_token_char(c) && !is_token_char(text[scan - 1]) && !std::isdigit(static_cast<unsigned char>(c))) {
+        member = std::string(text.substr(scan, word_end(text, scan) - scan));
+        scan = word_end(text, scan) - 1;
+      }
+    }
+    // The record: the struct or cbuffer whose brace encloses the attribute.
+    size_t brace = open;
+    for (int depth = 0; brace > 0; --brace) {
+      const char c = text[brace - 1];
+      if (c == '}') ++depth;
+      if (c == '{' && depth-- == 0) break;
+    }
+    if (member.empty() || brace == 0) continue;
+    const size_t head_start = text.find_last_of(";{}", brace - 2) == std::string_view::npos ? 0 : text.find_last_of(";{}", brace - 2) + 1;
+    std::string record;
+    const std::string_view head = text.substr(head_start, brace - 1 - head_start);
+    for (std::string_view key : {"struct", "cbuffer", "tbuffer"}) {
+      for (size_t k = head.find(key); k != std::string_view::npos && record.empty(); k = head.find(key, k + 1)) {
+        if ((k > 0 && is_token_char(head[k - 1])) || word_end(head, k) != k + key.size()) continue;
+        const size_t name_at = skip_space(head, k + key.size());
+        record = std::string(head.substr(name_at, word_end(head, name_at) - name_at));
+      }
+    }
+    if (record.empty()) continue;
+    if (!out) out.emplace(MemberOffsets{std::string(text), {}});
+    std::fill(out->text.begin() + static_cast<long>(open), out->text.begin() + static_cast<long>(end), ' ');
+    out->stated.push_back({record, record_members(text, brace - 1), member, static_cast<uint32_t>(std::stoul(std::string(text.substr(digits, digits_end - digits)))), at});
+  }
   return out;
 }
 

@@ -3,6 +3,7 @@
 // spelling glslang reads as DXC does (docs/bindings.md lists them).
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <regex>
 #include <string>
@@ -47,6 +48,23 @@ std::optional<std::string> rewrite_enums(std::string_view text);
 // Value to be of type Result Type", no line). Each value argument (not the offset, not the original-value output)
 // becomes `(uint)(argument)`. Nothing when the text calls none.
 std::optional<std::string> rewrite_byte_address_atomics(std::string_view text);
+
+// `[[vk::offset(N)]]` on a member of a struct or cbuffer, which glslang 12 ignores (with a warning kiln made an
+// error): each attribute is blanked (columns kept) and recorded, and write_member_offsets (dxc_semantics.hpp) puts
+// the offsets into glslang's SPIR-V, or says why one cannot be. Nothing when the text states none on a member.
+struct StatedOffset {
+  std::string record;                // the struct or cbuffer
+  std::vector<std::string> members;  // the record's data members, in order (a ConstantBuffer<T> block is named
+                                     // after its variable: glslang's type is found by them)
+  std::string member;
+  uint32_t offset = 0;
+  size_t at = 0;  // of the word `offset` in the text
+};
+struct MemberOffsets {
+  std::string text;
+  std::vector<StatedOffset> stated;
+};
+std::optional<MemberOffsets> strip_member_offsets(std::string_view text);
 
 // `[[vk::...]]` attributes that change a shader's interface in DXC and that glslang 12 ignores with only a warning
 // ("'offset' : unrecognized attribute"): the interface kiln would build is not the one the author wrote, so each

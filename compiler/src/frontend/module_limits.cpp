@@ -56,6 +56,14 @@ FrontendMessage located(std::string_view text, size_t offset, const std::string&
   return FrontendMessage{Severity::Error, path, line, std::move(message), static_cast<int>(offset - line_start) + 1};
 }
 
+}  // namespace
+
+FrontendMessage located_in_source(std::string_view text, size_t offset, const std::string& source_name, std::string message) {
+  return located(text, offset, source_name, std::move(message));
+}
+
+namespace {
+
 std::optional<FrontendMessage> judge(uint64_t x, uint64_t y, uint64_t z, const std::function<FrontendMessage(std::string)>& at) {
   const std::string written = "numthreads(" + std::to_string(x) + ", " + std::to_string(y) + ", " + std::to_string(z) + ")";
   if (x == 0 || y == 0 || z == 0) return at(written + ": each dimension of a thread group must be at least 1");

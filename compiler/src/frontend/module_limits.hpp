@@ -18,6 +18,9 @@
 
 namespace kiln {
 
+// A message at byte `offset` of preprocessed `text`: the file and line its #line directives give, the column in it.
+FrontendMessage located_in_source(std::string_view text, size_t offset, const std::string& source_name, std::string message);
+
 // Before the front end: the literal numthreads(x, y, z) of `entry` in the preprocessed `source` (named
 // `source_name`, #line directives followed). Empty when they are within the limits or not literal integers.
 std::vector<FrontendMessage> check_numthreads_source(std::string_view source, const std::string& source_name,
