@@ -177,6 +177,7 @@ TEST(WorkerStepTimes, AreCheckedOnDecodeAndNeverCached) {
   JobOutput output;
   output.ok = true;
   output.steps = {{CompileStep::Frontend, 0, 10}, {CompileStep::Legalize, 10, 5}};
+  output.steps_elapsed_us = 20;
   const JobOutput back = decode_output(encode_output(output, /*with_steps=*/true));
   ASSERT_EQ(back.steps.size(), 2u);
   EXPECT_EQ(back.steps[1].step, CompileStep::Legalize);
@@ -192,6 +193,7 @@ TEST(WorkerStepTimes, AreCheckedOnDecodeAndNeverCached) {
   rejected({{CompileStep::None, 0, 10}});                                      // not a step
   rejected({{CompileStep::Frontend, uint64_t{1} << 62, 1}});                  // past any build
   rejected(std::vector<StepSpan>(kMaxStepSpans + 1, StepSpan{CompileStep::Reflect, 0, 0}));  // too many
+  rejected({{CompileStep::Frontend, 0, 30}});  // ends after the job did in the worker (20 us)
 }
 
 // The driver's slices go on as few tracks as nesting allows: a stage that overlaps another in part (compile streaming
@@ -211,8 +213,9 @@ TEST(TraceLayout, AStageOverlappingAnotherInPartGoesOnASecondTrackAndNestedOnesS
   EXPECT_EQ(tid, (std::map<std::string, int>{{"total", 0}, {"preprocess", 0}, {"dedupe", 0}, {"compile", 1}}));
 }
 
-// A worker's steps are placed from the job's send and clamped to its answer: a worker that claims a step longer than
-// the job (or one starting after it) cannot make a slice stick out of its job.
+// A worker's steps are placed from the job's arrival in the worker (the answer less the worker's time on it, never
+// before the send) and clamped to its answer: a worker that claims a step longer than the job (or one starting after
+// it) cannot make a slice stick out of its job.
 TEST(TraceLayout, AWorkersStepsStayInsideItsJobWhateverItClaims) {
   const StageClock::time_point start = StageClock::now();
   JobTiming timing;
@@ -220,15 +223,21 @@ TEST(TraceLayout, AWorkersStepsStayInsideItsJobWhateverItClaims) {
   timing.sent = start + std::chrono::microseconds(1000);
   timing.answered = start + std::chrono::microseconds(2000);
   timing.steps = {{CompileStep::Frontend, 0, 400}, {CompileStep::Legalize, 400, 10'000'000}, {CompileStep::Optimize, 50'000, 1}};
+  timing.steps_elapsed_us = 10'000'000;  // more than the job took: its steps start at the send
   kiln::BuildTrace trace("unused.json", start);
   trace.worker_job(timing, "front end: x", json::object());
+  // A first job that waited 600 us for its worker to start: its steps begin 600 us after the send.
+  JobTiming first = timing;
+  first.slot = 4;
+  first.steps = {{CompileStep::Preprocess, 0, 300}};
+  first.steps_elapsed_us = 400;
+  trace.worker_job(first, "preprocess: y", json::object());
   std::map<std::string, std::pair<int64_t, int64_t>> slices;
   bool named = false;
   const json document = json::parse(trace.to_json());
   for (const json& event : document.at("traceEvents")) {
     if (event.at("ph") == "M" && event.at("pid") == 2 && event.at("tid") == 3) named = event.at("args").at("name") == "worker 3";
     if (event.at("ph") != "X") continue;
-    EXPECT_EQ(event.at("tid"), 3);
     slices[event.at("name").get<std::string>()] = {event.at("ts").get<int64_t>(), event.at("dur").get<int64_t>()};
   }
   EXPECT_TRUE(named);
@@ -237,6 +246,8 @@ TEST(TraceLayout, AWorkersStepsStayInsideItsJobWhateverItClaims) {
   EXPECT_EQ(slices.at("frontend"), (Span{1000, 400}));
   EXPECT_EQ(slices.at("legalize"), (Span{1400, 600}));
   EXPECT_EQ(slices.at("optimize"), (Span{2000, 0}));
+  EXPECT_EQ(slices.at("preprocess: y"), (Span{1000, 1000}));
+  EXPECT_EQ(slices.at("preprocess"), (Span{1600, 300}));
 }
 
 }  // namespace

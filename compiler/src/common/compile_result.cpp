@@ -39,6 +39,7 @@ std::vector<uint8_t> encode_output(const JobOutput& output, bool with_steps) {
     json steps = json::array();
     for (const StepSpan& span : output.steps) steps.push_back({step_name(span.step), span.start_us, span.duration_us});
     j["steps"] = std::move(steps);
+    j["steps_elapsed_us"] = output.steps_elapsed_us;
   }
   return json::to_cbor(j);
 }
@@ -93,6 +94,11 @@ JobOutput decode_output(std::string_view bytes) {
       previous_end = span.start_us + span.duration_us;
       out.steps.push_back(span);
     }
+    const json& elapsed = j.at("steps_elapsed_us");
+    if (!elapsed.is_number_unsigned() || elapsed.get<uint64_t>() > kMaxStepMicroseconds ||
+        elapsed.get<uint64_t>() < previous_end)
+      throw std::runtime_error("malformed step times");
+    out.steps_elapsed_us = elapsed.get<uint64_t>();
   }
   return out;
 }

@@ -48,6 +48,7 @@ struct JobOutput {
   std::string preprocessed;                // Preprocess: the text
   std::vector<std::string> files_read;     // Preprocess: the names of the files it read, the entry included
   std::vector<StepSpan> steps;             // in the worker only, in order: encoded only `with_steps`
+  uint64_t steps_elapsed_us = 0;           // with `steps`: from the job's arrival in the worker to its end there
 };
 
 // `with_steps`: the worker's answer (its step times); a cache entry never has them.

@@ -80,11 +80,15 @@ void BuildTrace::worker_job(const JobTiming& timing, std::string name, json args
   WorkerJob job;
   job.slot = timing.slot;
   job.job = {std::move(name), us(timing.sent), std::max(us(timing.sent), us(timing.answered)), std::move(args)};
-  // The worker counts from the job's arrival, a little after it was sent: its steps are placed from the send and
-  // clamped to the answer (the protocol checked that they are in order and do not overlap).
+  // The worker counts from the job's arrival, after it was sent (the first job of a worker also waits for the process to
+  // start, 30-50 ms): its steps are placed from its arrival as the answer dates it (the answer, less the worker's time
+  // on the job), never before the send, and clamped to the answer (the protocol checked that they are in order and do
+  // not overlap).
+  const int64_t arrived = std::max(job.job.start_us, job.job.end_us - static_cast<int64_t>(std::min<uint64_t>(
+                                                                          timing.steps_elapsed_us, uint64_t{1} << 62)));
   for (const StepSpan& step : timing.steps) {
-    const int64_t length = job.job.end_us - job.job.start_us;
-    const int64_t from = job.job.start_us + static_cast<int64_t>(std::min<uint64_t>(step.start_us, static_cast<uint64_t>(length)));
+    const int64_t length = job.job.end_us - arrived;
+    const int64_t from = arrived + static_cast<int64_t>(std::min<uint64_t>(step.start_us, static_cast<uint64_t>(length)));
     const int64_t to = std::min(job.job.end_us, from + static_cast<int64_t>(std::min<uint64_t>(step.duration_us, static_cast<uint64_t>(length))));
     job.steps.push_back({std::string(step_name(step.step)), from, to, json::object()});
   }

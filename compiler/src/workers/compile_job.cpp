@@ -33,6 +33,7 @@ class StepTimes {
     return now;
   }
   Clock::time_point now() const { return Clock::now(); }
+  uint64_t elapsed_us() const { return microseconds(Clock::now()); }
   std::vector<StepSpan> take() { return std::move(spans_); }
 
  private:
@@ -233,6 +234,7 @@ JobOutput run_compile_job(Frontend& frontend, const CompileJob& job) {
     return back;
   }();
   out.steps = times.take();
+  out.steps_elapsed_us = times.elapsed_us();
   return out;
 }
 

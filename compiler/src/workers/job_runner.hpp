@@ -21,6 +21,7 @@ struct JobTiming {
   unsigned slot = 0;
   Clock::time_point sent, answered;
   std::vector<StepSpan> steps;
+  uint64_t steps_elapsed_us = 0;  // the job's time in the worker, from its arrival (the steps end by then)
 };
 
 struct WorkerOutcome {

@@ -289,6 +289,7 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
             try {
               outcome.output = decode_output(payload);
               timing.steps = std::move(outcome.output.steps);
+              timing.steps_elapsed_us = outcome.output.steps_elapsed_us;
               outcome.output.steps.clear();
               outcome.timing = std::move(timing);
               if (outcome.output.failed_step == CompileStep::OutOfMemory) {
