@@ -440,6 +440,48 @@ TEST(HlslCompat, AnOffsetThatCannotBeHonouredIsALocatedError) {
   }
 }
 
+// ---- names glslang reserves --------------------------------------------------------------------------------------
+
+// A module without its OpName and OpMemberName instructions.
+std::vector<uint32_t> without_names(std::string_view bytes) {
+  std::vector<uint32_t> words(bytes.size() / 4);
+  std::memcpy(words.data(), bytes.data(), words.size() * 4);
+  std::vector<uint32_t> out(words.begin(), words.begin() + 5);
+  for (size_t at = 5; at < words.size(); at += words[at] >> 16)
+    if ((words[at] & 0xffff) != 5 && (words[at] & 0xffff) != 6)
+      out.insert(out.end(), words.begin() + static_cast<long>(at), words.begin() + static_cast<long>(at + (words[at] >> 16)));
+  return out;
+}
+
+// `Texture2D texture; SamplerState sampler;`, which DXC takes and glslang 12 refused ("';' : Expected", no column):
+// the module of the same shader with other names, and the reflection keeps the author's.
+TEST(HlslCompat, ResourcesNamedWithWordsGlslangReservesKeepTheirNames) {
+  testing::TempDir dir;
+  const std::string vertex = "float4 V(float4 p : POSITION, inout float2 uv : TEXCOORD0) : SV_Position { return p; }\n";
+  auto shader = [&](const std::string& texture, const std::string& sampler) {
+    return vertex + "Texture2D " + texture + " : register(t0);\nSamplerState " + sampler + " : register(s1);\n"
+           "struct Material { float4 tint; };\n"
+           "float4 F(float2 uv : TEXCOORD0) : SV_Target { return " + texture + ".Sample(" + sampler + ", uv); }\n";
+  };
+  PackReader reserved = build_source(dir, "reserved", shader("texture", "sampler"));
+  PackReader plain = build_source(dir, "plain", shader("albedo", "linearSampler"));
+  const SelectedVariant a = reserved.select("P", {}), b = plain.select("P", {});
+  const StageView* mine = a.stage("fragment");
+  const StageView* reference = b.stage("fragment");
+  ASSERT_TRUE(mine && reference);
+  EXPECT_EQ(without_names(mine->spirv), without_names(reference->spirv));
+  ASSERT_EQ(mine->reflection->resources.size(), 2u);
+  std::set<std::string> names;
+  for (const auto& resource : mine->reflection->resources) names.insert(resource.name);
+  EXPECT_EQ(names, (std::set<std::string>{"texture", "sampler"}));
+  EXPECT_FALSE(mine->glsl.empty());
+  EXPECT_FALSE(mine->msl.empty());
+  // A word that is no declared name is left alone (`sampler` as DX9's type, a file named texture.hlsl).
+  EXPECT_FALSE(rewrite_reserved_names("#line 1 \"texture.hlsl\"\nsampler s; float4 x = tex2D(s, uv);"));
+  EXPECT_EQ(rewrite_reserved_names("#line 1 \"texture.hlsl\"\nTexture2D texture;\nx = texture.Sample(s, uv);"),
+            "#line 1 \"texture.hlsl\"\nTexture2D kiln_reserved_texture;\nx = kiln_reserved_texture.Sample(s, uv);");
+}
+
 // The index's value is followed into a helper function and through a local variable, as DXC's inlining would:
 // every access it selects is decorated, and the rest of the module is the SPIR-V of the plain index. SPIR-V only:
 // GL and GL ES have no non-uniform qualifier outside Vulkan GLSL, Metal binds unbounded arrays through argument

@@ -233,6 +233,22 @@ Result<void> restore_builtin_semantics(std::vector<uint32_t>& spirv, const std::
   return {};
 }
 
+void restore_reserved_names(std::vector<uint32_t>& spirv) {
+  std::optional<spirv_edit::Module> parsed = spirv_edit::Module::parse(spirv);
+  if (!parsed) return;
+  bool changed = false;
+  for (Instruction& in : parsed->instructions()) {
+    const size_t at = in.op() == spv::OpName ? 2 : in.op() == spv::OpMemberName ? 3 : 0;
+    if (at == 0 || in.words.size() <= at) continue;
+    const std::string name = in.string_at(at);
+    if (!name.starts_with(kReservedNamePrefix)) continue;
+    in = spirv_edit::make_with_string(in.op(), std::vector<uint32_t>(in.words.begin() + 1, in.words.begin() + static_cast<long>(at)),
+                          std::string_view(name).substr(kReservedNamePrefix.size()));
+    changed = true;
+  }
+  if (changed) spirv = parsed->words();
+}
+
 namespace {
 
 // Whether a member of type `type` may start at `offset` in a block (Vulkan's relaxed block layout, which glslang's

@@ -41,6 +41,10 @@ Result<void> restore_builtin_semantics(std::vector<uint32_t>& spirv, const std::
 // and those after it by the difference, when that is a multiple of 16 bytes (every member keeps its alignment) and
 // no array holds the struct (its stride would change). The rest are not honoured: for each, its index in `stated`
 // and why.
+// The names rewrite_reserved_names gave (`kiln_reserved_texture`) made the author's again (`texture`) in the
+// module's OpName and OpMemberName.
+void restore_reserved_names(std::vector<uint32_t>& spirv);
+
 struct UnhonouredOffset {
   size_t stated = 0;
   std::string reason;

@@ -244,6 +244,8 @@ class GlslangFrontend final : public Frontend {
       compatible = std::move(rewritten);
     if (auto rewritten = rewrite_byte_address_atomics(compatible ? std::string_view(*compatible) : std::string_view(request.source)))
       compatible = std::move(rewritten);
+    const auto reserved = rewrite_reserved_names(compatible ? std::string_view(*compatible) : std::string_view(request.source));
+    if (reserved) compatible = *reserved;
     const auto nonuniform = rewrite_nonuniform_index(compatible ? std::string_view(*compatible) : std::string_view(request.source));
     if (nonuniform) compatible = *nonuniform;
     const std::string_view source = compatible ? std::string_view(*compatible) : std::string_view(request.source);
@@ -316,6 +318,7 @@ class GlslangFrontend final : public Frontend {
       return result;
     }
     if (nonuniform) decorate_nonuniform(result.spirv);
+    if (reserved) restore_reserved_names(result.spirv);
     if (std::string messages = logger.getAllMessages(); !messages.empty()) {
       std::istringstream lines(messages);
       for (std::string line; std::getline(lines, line);)

@@ -605,6 +605,50 @@ std::optional<MemberOffsets> strip_member_offsets(std::string_view text) {
   return out;
 }
 
+std::optional<std::string> rewrite_reserved_names(std::string_view text) {
+  // The words glslang 12 refuses as names that DXC takes (glslangValidator on `Texture2D <word>;`); `line`, `point`
+  // and `triangle` are refused too, but they are also geometry-shader qualifiers a rename would break.
+  static constexpr std::string_view kWords[] = {"texture", "sampler", "sampler1D", "sampler2D", "sampler3D", "samplerCUBE", "sampler_state"};
+  auto declared = [&](std::string_view word) {  // `T word` followed by what ends a declarator
+    for (size_t at = text.find(word); at != std::string_view::npos; at = text.find(word, at + 1)) {
+      if ((at > 0 && is_token_char(text[at - 1])) || word_end(text, at) != at + word.size()) continue;
+      size_t before = at;
+      while (before > 0 && (text[before - 1] == ' ' || text[before - 1] == '\t')) --before;
+      if (before == at || before == 0 || (!is_token_char(text[before - 1]) && text[before - 1] != '>')) continue;
+      const size_t after = skip_space(text, at + word.size());
+      if (after < text.size() && std::string_view(":;[,)=").find(text[after]) != std::string_view::npos) return true;
+    }
+    return false;
+  };
+  std::vector<std::string_view> renamed;
+  for (std::string_view word : kWords)
+    if (declared(word)) renamed.push_back(word);
+  if (renamed.empty()) return std::nullopt;
+  std::string out;
+  out.reserve(text.size() + 64);
+  size_t line_start = 0;
+  bool directive = false;  // `#line 3 "texture.hlsl"`: left alone
+  for (size_t at = 0; at < text.size();) {
+    const char c = text[at];
+    if (c == '\n') {
+      line_start = at + 1;
+      directive = false;
+    }
+    if (c == '#' && skip_blanks(text, line_start) == at) directive = true;
+    const size_t end = is_token_char(c) && (at == 0 || !is_token_char(text[at - 1])) ? word_end(text, at) : at;
+    if (end == at) {
+      out += c;
+      ++at;
+      continue;
+    }
+    const std::string_view word = text.substr(at, end - at);
+    if (!directive && std::find(renamed.begin(), renamed.end(), word) != renamed.end()) out.append(kReservedNamePrefix);
+    out.append(word);
+    at = end;
+  }
+  return out;
+}
+
 std::vector<std::smatch> file_scope_matches(const std::string& text, const std::regex& declaration) {
   std::vector<std::smatch> out;
   size_t scanned = 0;

@@ -66,6 +66,13 @@ struct MemberOffsets {
 };
 std::optional<MemberOffsets> strip_member_offsets(std::string_view text);
 
+// Names DXC takes and glslang 12's HLSL scanner reserves (`Texture2D texture;`, `SamplerState sampler;`: glslang
+// said "';' : Expected", pointing at nothing): when the text declares one as a name, every use of the word becomes
+// `kiln_reserved_<word>`, and restore_reserved_names (dxc_semantics.hpp) gives the SPIR-V its own name back, so the
+// reflection and the targets see the author's. Nothing when the text declares none.
+inline constexpr std::string_view kReservedNamePrefix = "kiln_reserved_";
+std::optional<std::string> rewrite_reserved_names(std::string_view text);
+
 // `[[vk::...]]` attributes that change a shader's interface in DXC and that glslang 12 ignores with only a warning
 // ("'offset' : unrecognized attribute"): the interface kiln would build is not the one the author wrote, so each
 // is an error, saying what DXC does with it and what to write instead. `warning` is the front end's message text;
