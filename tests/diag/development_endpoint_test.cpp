@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "kiln/development_reader.hpp"
+#include "kiln/kiln_reader_dev.h"
 #include "kiln/pack_reader.hpp"
 #include "test_support.hpp"
 
@@ -168,6 +169,44 @@ TEST_F(DevelopmentEndpoint, AReaderThatTakesTheNearestVariantGetsTheRealOneFromA
   ASSERT_TRUE(later) << later.message();
   EXPECT_FALSE(later->nearest);
   EXPECT_EQ(later->variant.keywords, std::vector<std::string>{"B"});
+  EXPECT_EQ(kiln->end(SIGTERM), 0);
+}
+
+// The same two modes from C (kiln/kiln_reader_dev.h): the pack's id tables follow the switch.
+TEST_F(DevelopmentEndpoint, FromCBothModesServeTheMissingVariant) {
+  start();
+  kiln_pack* pack = nullptr;
+  kiln_error error{};
+  ASSERT_EQ(kiln_pack_open(manifest().c_str(), &pack, &error), KILN_OK) << error.message;
+  kiln_development* development = nullptr;
+  ASSERT_EQ(kiln_development_from_environment(pack, manifest().c_str(), &development, &error), KILN_OK);
+  EXPECT_EQ(development, nullptr) << "KILN_DEVELOPMENT_ENDPOINT is unset";
+  ::setenv("KILN_DEVELOPMENT_ENDPOINT", "auto", 1);
+  ASSERT_EQ(kiln_development_from_environment(pack, manifest().c_str(), &development, &error), KILN_OK) << error.message;
+  ::unsetenv("KILN_DEVELOPMENT_ENDPOINT");
+  ASSERT_NE(development, nullptr);
+
+  const char* b[] = {"B"};
+  uint32_t variant = 0;
+  ASSERT_EQ(kiln_development_select_or_wait(development, "P", b, 1, 120000, &variant, &error), KILN_OK) << error.message;
+  EXPECT_TRUE(contains(status(), "request P [B]: built into p."));
+  EXPECT_EQ(kiln_select_by_names(pack, "P", b, 1, 0, &variant, &error), KILN_OK) << error.message;
+
+  const char* none[] = {"A", "B"};  // two of one group: an error select gives, not a request
+  int nearest = -1;
+  EXPECT_EQ(kiln_development_select_or_nearest(development, "P", none, 2, &variant, &nearest, &error), KILN_ERROR_CONFLICTING_KEYWORDS);
+  ASSERT_EQ(kiln_development_select_or_nearest(development, "P", nullptr, 0, &variant, &nearest, &error), KILN_OK) << error.message;
+  EXPECT_EQ(nearest, 1);
+  int fd = -1;
+  ASSERT_EQ(kiln_pack_update_fd(pack, &fd, &error), KILN_OK) << error.message;
+  for (nearest = 1; nearest;) {
+    ASSERT_TRUE(contains(status(), "request P []: built into p.")) << kiln->err();
+    kiln_pack_update update;
+    ASSERT_EQ(kiln_pack_poll_update(pack, &update, &error), KILN_OK) << error.message;
+    ASSERT_EQ(kiln_development_select_or_nearest(development, "P", nullptr, 0, &variant, &nearest, &error), KILN_OK);
+  }
+  kiln_development_close(development);
+  kiln_pack_close(pack);
   EXPECT_EQ(kiln->end(SIGTERM), 0);
 }
 

@@ -83,6 +83,11 @@ struct kiln_pack {
   std::shared_ptr<struct PackUpdates> updates;   // kiln_pack_poll_update's (below), made by its first call
 };
 
+namespace kiln {
+// The C++ reader inside a C pack, for kiln/kiln_reader_dev.h (src/reader_dev/c_api.cpp), which is built apart.
+PackReader& pack_reader_of(kiln_pack& pack) { return pack.reader; }
+}  // namespace kiln
+
 namespace {
 
 void copy_text(char* to, size_t capacity, const char* from) {
