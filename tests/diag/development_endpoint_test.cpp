@@ -295,6 +295,25 @@ TEST_F(DevelopmentEndpoint, HostileRequestsAreRefusedAndTheLoopKeepsServing) {
   EXPECT_EQ(kiln->end(SIGTERM), 0);
 }
 
+// Bounded over time (STYLE rule 19): a hundred requests, good and hostile, leave watch with the descriptors it had
+// (a leaked connection or pack reader per request would be a hundred more).
+TEST_F(DevelopmentEndpoint, DescriptorsStayFlatOverAHundredRequests) {
+  start();
+  EXPECT_EQ(status_of(request(post(R"({"pass": "P", "keywords": ["B"]})"))), "HTTP/1.1 200 OK");
+  EXPECT_TRUE(contains(status(), "request P [B]: built into"));
+  const size_t after_first = kiln->open_descriptors();
+  for (int i = 0; i < 25; ++i) {
+    EXPECT_EQ(status_of(request(post(R"({"pass": "P", "keywords": ["B"]})"))), "HTTP/1.1 200 OK");
+    EXPECT_TRUE(contains(status(), "request P [B]: in p."));
+    EXPECT_EQ(status_of(request(post(R"({"pass": "Q", "keywords": []})"))).substr(0, 12), "HTTP/1.1 404");
+    EXPECT_TRUE(contains(status(), "request Q []: refused"));
+    (void)request("\x16\x03\x01 not http at all\r\n\r\n");
+    EXPECT_EQ(status_of(request(post("[[[[", "/v1/variant"))).substr(0, 12), "HTTP/1.1 400");
+  }
+  EXPECT_LE(kiln->open_descriptors(), after_first + 2) << "the last connections may still be closing";
+  EXPECT_EQ(kiln->end(SIGTERM), 0);
+}
+
 TEST_F(DevelopmentEndpoint, ServeRefusesAnAddressThatIsNotLoopback) {
   for (const char* address : {"0.0.0.0:0", "10.1.2.3:8080", "example.com:80", "[::]:0", "127.0.0.1:99999", "127.0.0.1"}) {
     testing::RunResult result = testing::run_kiln({"watch", "p.pack.json", "-o", "out", "--serve", address}, dir.path());
