@@ -207,6 +207,26 @@ TEST_F(Cli, MissingIncludeListsTheRootsSearched) {
                      "kiln: 1 error(s)\n");
 }
 
+// An include written as on Windows, where DXC users wrote it (another case, backslashes): the error names the file
+// it differs from only in that, as kiln's include names are case-sensitive and use '/'.
+TEST_F(Cli, AnIncludeThatDiffersOnlyInCaseOrSlashesNamesTheFile) {
+  dir.write("lib/Common/Lighting.hlsli", "static const float kAmbient = 0.1;\n");
+  dir.write("S.hlsl", std::string("#include \"common\\LIGHTING.hlsli\"\n") + kEntries);
+  expect_build_error("S.hlsl:1:10: error[K1201]: cannot find include file 'common\\LIGHTING.hlsli'\n"
+                     "    #include \"common\\LIGHTING.hlsli\"\n"
+                     "             ^\n"
+                     "  note: a file differs only in case or slash direction: #include \"Common/Lighting.hlsli\" (lib/Common/Lighting.hlsli)\n"
+                     "  note: searched: .\n"
+                     "  note: searched: lib\n"
+                     "  note: searched: .\n"
+                     "kiln: 1 error(s)\n");
+  // A file that differs in more than that gets no hint.
+  dir.write("S.hlsl", std::string("#include \"Common/Lights.hlsli\"\n") + kEntries);
+  auto r = build();
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err.find("differs only"), std::string::npos) << r.err;
+}
+
 TEST_F(Cli, IncludeCyclePrintsTheChain) {
   dir.write("lib/A.hlsl", "#include \"B.hlsl\"\n");
   dir.write("lib/B.hlsl", "#include \"A.hlsl\"\n");

@@ -1,5 +1,8 @@
 #include "common/include_resolver.hpp"
 
+#include <algorithm>
+#include <cctype>
+#include <optional>
 #include <system_error>
 
 namespace kiln {
@@ -12,6 +15,50 @@ bool is_below(const std::filesystem::path& path, const std::filesystem::path& ro
     if (p == path.end() || *p != *r) return false;
   }
   return true;
+}
+
+std::string lower(std::string text) {
+  for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return text;
+}
+
+// The file under `directory` that `name` names when case and slash direction are ignored (`Common\\lighting.HLSLI`
+// for `Common/Lighting.hlsli`), as the name to write; nothing when there is none, or more than one. Each component
+// lists one directory, bounded (a hint is not worth a scan of a huge folder).
+std::optional<std::string> differently_spelled(std::string_view name, const std::filesystem::path& directory, const IncludeRoots& roots) {
+  constexpr size_t kMaxEntries = 4096, kMaxComponents = 32;
+  std::string forward(name);
+  std::replace(forward.begin(), forward.end(), '\\', '/');
+  std::filesystem::path at = directory;
+  std::string spelled;
+  size_t components = 0;
+  for (const auto& component : std::filesystem::path(forward).lexically_normal()) {
+    if (++components > kMaxComponents) return std::nullopt;
+    const std::string part = component.string();
+    if (part.empty() || part == ".") continue;
+    std::filesystem::path next;
+    if (part == "..") {
+      next = at.parent_path();
+    } else {
+      std::error_code ec;
+      std::filesystem::directory_iterator entries(at, ec), end;
+      size_t seen = 0, matches = 0;
+      for (; !ec && entries != end && seen < kMaxEntries; entries.increment(ec), ++seen) {
+        const std::string entry = entries->path().filename().string();
+        if (lower(entry) == lower(part)) {
+          next = entries->path();
+          ++matches;
+        }
+      }
+      if (matches != 1) return std::nullopt;
+    }
+    spelled += (spelled.empty() ? "" : "/") + (part == ".." ? part : next.filename().string());
+    at = next;
+  }
+  std::error_code ec;
+  if (spelled.empty() || spelled == name || !std::filesystem::is_regular_file(at, ec) || !roots.contains(at.lexically_normal()))
+    return std::nullopt;
+  return spelled;
 }
 
 }  // namespace
@@ -78,6 +125,14 @@ Result<ResolvedInclude, Diagnostic> resolve_include(std::string_view name, const
     return result;
   }
   std::vector<std::string> searched;
+  for (const auto& directory : directories) {
+    if (auto spelled = differently_spelled(name, directory, roots)) {
+      // Include names are case-sensitive and use '/' here, as on every system but Windows (where DXC users wrote them).
+      searched.insert(searched.begin(), "a file differs only in case or slash direction: #include \"" + *spelled + "\" (" +
+                                            display_path(directory / *spelled) + ")");
+      break;
+    }
+  }
   for (const auto& directory : directories) searched.push_back("searched: " + display_path(directory));
   return refused(DiagId::IncludeNotFound, "cannot find include file '" + std::string(name) + "'", std::move(searched));
 }
