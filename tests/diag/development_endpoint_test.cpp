@@ -287,6 +287,9 @@ TEST_F(DevelopmentEndpoint, HostileRequestsAreRefusedAndTheLoopKeepsServing) {
   EXPECT_TRUE(contains(answer, "has no pass 'Q'")) << answer;
   answer = request(post(R"({"pass": "P", "keywords": ["A", "B"]})"));
   EXPECT_EQ(status_of(answer).substr(0, 12), "HTTP/1.1 400") << answer;
+  answer = request(post(R"({"pass": "P", "keywords": ["C"]})"));
+  EXPECT_EQ(status_of(answer).substr(0, 12), "HTTP/1.1 404") << answer;
+  EXPECT_TRUE(contains(answer, "does not declare keyword 'C'")) << answer;
 
   // Still serving, with the slow clients' connections open: a good request is answered.
   answer = request(post(R"({"pass": "P", "keywords": ["A"]})"));

@@ -405,8 +405,14 @@ class Watcher {
       say(what + "refused: " + found.error().what());
       return development::error_answer(400, found.error().what());
     }
-    constexpr size_t kMaxRequested = 4096;  // what any number of clients can add to the in-use set
     const auto key = std::make_pair(request.pass, request.keywords);
+    // A keyword the pass does not declare is in no pack of these inputs (a pack's index declares every keyword of
+    // each pass it has, used or not); what an in-use build refused this round is refused again without a build.
+    if (code == PackError::Code::UnknownKeyword || refused_.count(key)) {
+      say(what + "refused: " + found.error().what());
+      return development::error_answer(404, found.error().what());
+    }
+    constexpr size_t kMaxRequested = 4096;  // what any number of clients can add to the in-use set
     const bool added = requested_.insert(key).second;
     if (requested_.size() > kMaxRequested) {
       requested_.erase(key);
@@ -430,6 +436,7 @@ class Watcher {
     if (found) return served(*found, true);
     requested_.erase(key);  // no variant of the pack: kept out of later rounds
     write_requests_log();
+    if (refused_.size() < kMaxRequested) refused_.insert(key);
     say(what + "refused: " + found.error().what());
     return development::error_answer(404, found.error().what());
   }
@@ -439,6 +446,7 @@ class Watcher {
   bool build_round(unsigned round, Changes& changes) {
     const std::string what = round == 1 ? "start" : changes.text();
     const Clock::time_point since = changes.first_seen;
+    refused_.clear();  // the inputs changed: a pass or variant refused before may be there now
     Phase in_use, full;
     std::set<std::string> said;  // the in-use build's diagnostics, not printed again by the full one
     std::vector<fs::path> read;  // what the last build of the round read
@@ -562,6 +570,7 @@ class Watcher {
   std::vector<fs::path> last_good_inputs_;
   std::unique_ptr<development::DevelopmentServer> server_;
   std::set<std::pair<std::string, std::vector<std::string>>> requested_;  // by readers, kept for later rounds
+  std::set<std::pair<std::string, std::vector<std::string>>> refused_;    // built for and not there, this round
   bool full_pack_owed_ = false;
 };
 
