@@ -1,6 +1,7 @@
 // corpus: a histogram kernel that calls RWByteAddressBuffer's atomics with int literals and an int variable
 // (`bins.InterlockedAdd(offset, 1)`), as DXC takes them (it converts to uint); glslang 12 passed the ints and its
-// SPIR-V failed validation with no line ("AtomicIAdd: expected Value to be of type Result Type")
+// SPIR-V failed validation with no line ("AtomicIAdd: expected Value to be of type Result Type"); and
+// InterlockedCompareStore, which glslang 12 dropped with only a warning (kiln makes it a CompareExchange)
 // default: ok
 // layout: image texture 0.0, bins storage_buffer 0.1
 // stages: compute=Histogram
@@ -17,4 +18,5 @@ void Histogram(uint3 id : SV_DispatchThreadID)
     bins.InterlockedMax(1024, bin);
     bins.InterlockedCompareExchange(1028, 0, 1, previous);
     bins.InterlockedOr(1032, 1 << (bin & 31));
+    bins.InterlockedCompareStore(1036, 0, 1);
 }

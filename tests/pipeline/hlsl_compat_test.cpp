@@ -355,6 +355,51 @@ TEST(HlslCompat, ByteAddressAtomicsWithIntArgumentsGiveTheSpirvOfTheirUintSpelli
   EXPECT_FALSE(rewrite_byte_address_atomics("InterlockedAdd(s[0], 1); x.InterlockedAdd64(0, 1);"));
 }
 
+// InterlockedCompareStore, which glslang 12 dropped with only a warning ("unknown glslang aggregate": the shader
+// stored nothing): the SPIR-V of InterlockedCompareExchange with the original value unread.
+TEST(HlslCompat, CompareStoreGivesTheSpirvOfCompareExchange) {
+  testing::TempDir dir;
+  const std::string head = "RWByteAddressBuffer counters : register(u0);\nRWStructuredBuffer<uint> flags : register(u1);\n"
+                           "[numthreads(64, 1, 1)] void C(uint3 id : SV_DispatchThreadID) {\n";
+  PackReader store = build_compute(dir, "store", head +
+      "  counters.InterlockedCompareStore(8, 0, id.x);\n  InterlockedCompareStore(flags[id.x], 0u, 1u);\n}\n");
+  PackReader exchange = build_compute(dir, "exchange", "static uint kiln_compare_store_original;\n" + head +
+      "  counters.InterlockedCompareExchange(8, 0u, id.x, kiln_compare_store_original);\n"
+      "  InterlockedCompareExchange(flags[id.x], 0u, 1u, kiln_compare_store_original);\n}\n");
+  const SelectedVariant a = store.select("P", {}), b = exchange.select("P", {});
+  const StageView* mine = a.stage("compute");
+  const StageView* reference = b.stage("compute");
+  ASSERT_TRUE(mine && reference);
+  EXPECT_EQ(compacted(facts_of(mine->spirv).without_nonuniform), compacted(facts_of(reference->spirv).without_nonuniform));
+  EXPECT_NE(mine->msl.find("atomic_compare_exchange"), std::string::npos) << mine->msl;
+  EXPECT_EQ(rewrite_compare_store("InterlockedCompareStore(a[0], 1, f(2, 3));"),
+            "InterlockedCompareExchange(a[0], 1, f(2, 3), kiln_compare_store_original);");
+}
+
+// A texture and a sampler at one binding in different stages clash whether or not combined image samplers are on
+// (each stage has only one of them to pair): the advice suggests turning them on only when they are off.
+TEST(HlslCompat, AClashsAdviceNeverSuggestsCombinedSamplersWhenTheyAreOn) {
+  testing::TempDir dir;
+  dir.write("S.hlsl", "Texture2D heights : register(t0);\nTexture2D albedo : register(t1);\nSamplerState linearSampler : register(s0);\n"
+                      "float4 V(float4 p : POSITION) : SV_Position { return p + heights.Load(int3(0, 0, 0)); }\n"
+                      "float4 F(float4 p : SV_Position) : SV_Target { return albedo.Sample(linearSampler, p.xy); }\n");
+  for (const bool combined : {false, true}) {
+    dir.write("p.pack.json", std::string(R"({"name": "p", "bindings": {"combined_image_samplers": )") + (combined ? "true" : "false") +
+                                 R"(}, "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+    BuildOptions options;
+    options.pack_file = dir / "p.pack.json";
+    options.output_dir = dir / (combined ? "combined" : "separate");
+    options.worker_executable = KILN_WORKER_PATH;
+    DiagnosticSink sink;
+    EXPECT_FALSE(build_pack(options, sink).ok);
+    const std::vector<Diagnostic> diagnostics = sink.diagnostics();
+    ASSERT_FALSE(diagnostics.empty());
+    EXPECT_EQ(diagnostics.front().id, DiagId::LayoutMismatch) << format_diagnostic(diagnostics.front());
+    const std::string text = format_diagnostic(diagnostics.front());
+    EXPECT_EQ(text.find("\"combined_image_samplers\": true") != std::string::npos, !combined) << text;
+  }
+}
+
 // ---- [[vk::offset]] ---------------------------------------------------------------------------------------------
 
 // The (member name, Offset) pairs of every laid-out struct in a module, by the struct's OpName.

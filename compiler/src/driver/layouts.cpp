@@ -25,8 +25,11 @@ PassLayoutInput layout_input(const Plan& plan, const SourceLocator& locator, uin
       if (source < 0) continue;
       const int b = sources.list[static_cast<size_t>(source)].binary;
       auto [it, inserted] = index_of_binary.emplace(b, input.binaries.size());
-      if (inserted)
-        input.binaries.push_back({binaries[static_cast<size_t>(b)].stage, &binaries[static_cast<size_t>(b)].output->reflection, {}});
+      if (inserted) {
+        const Stage stage = binaries[static_cast<size_t>(b)].stage;
+        input.binaries.push_back({stage, &binaries[static_cast<size_t>(b)].output->reflection, {}});
+        input.combined_image_samplers = input.combined_image_samplers || plan.pack.passes[pass].bindings_for(stage).combines();
+      }
       input.binaries[it->second].variants.push_back(v);
     }
   }

@@ -244,6 +244,8 @@ class GlslangFrontend final : public Frontend {
       compatible = std::move(rewritten);
     if (auto rewritten = rewrite_byte_address_atomics(compatible ? std::string_view(*compatible) : std::string_view(request.source)))
       compatible = std::move(rewritten);
+    const auto compare_store = rewrite_compare_store(compatible ? std::string_view(*compatible) : std::string_view(request.source));
+    if (compare_store) compatible = *compare_store;
     const auto reserved = rewrite_reserved_names(compatible ? std::string_view(*compatible) : std::string_view(request.source));
     if (reserved) compatible = *reserved;
     const auto nonuniform = rewrite_nonuniform_index(compatible ? std::string_view(*compatible) : std::string_view(request.source));
@@ -259,7 +261,10 @@ class GlslangFrontend final : public Frontend {
     shader.setStringsWithLengthsAndNames(&text, &length, &name, 1);
     shader.setEntryPoint(request.entry_point.c_str());
     configure(shader, request.stage);
-    if (nonuniform) shader.setPreamble(kNonUniformMarkerDefinition.data());  // a string literal: terminated
+    std::string preamble;
+    if (nonuniform) preamble += kNonUniformMarkerDefinition;
+    if (compare_store) preamble += kCompareStoreOriginalDeclaration;
+    if (!preamble.empty()) shader.setPreamble(preamble.c_str());  // lives until the parse below
     if (request.debug_info) shader.setDebugInfo(true);
     const auto rules = request.debug_info ? static_cast<EShMessages>(kMessages | EShMsgDebugInfo) : kMessages;
     bool parsed = shader.parse(GetDefaultResources(), 100, false, rules);

@@ -649,6 +649,26 @@ std::optional<std::string> rewrite_reserved_names(std::string_view text) {
   return out;
 }
 
+std::optional<std::string> rewrite_compare_store(std::string_view text) {
+  constexpr std::string_view kName = "InterlockedCompareStore";
+  std::optional<std::string> out;
+  size_t copied = 0;
+  for (size_t at = text.find(kName); at != std::string_view::npos; at = text.find(kName, at + 1)) {
+    if (at < copied || (at > 0 && is_token_char(text[at - 1])) || word_end(text, at) != at + kName.size()) continue;
+    const size_t open = skip_space(text, at + kName.size());
+    size_t close = 0;
+    if (open >= text.size() || text[open] != '(') continue;
+    const auto arguments = call_arguments(text, open, close);
+    if (!arguments || (arguments->size() != 3)) continue;
+    if (!out) out.emplace();
+    out->append(text.substr(copied, at - copied)).append("InterlockedCompareExchange");
+    out->append(text.substr(at + kName.size(), close - at - kName.size())).append(", kiln_compare_store_original)");
+    copied = close + 1;
+  }
+  if (out) out->append(text.substr(copied));
+  return out;
+}
+
 std::vector<std::smatch> file_scope_matches(const std::string& text, const std::regex& declaration) {
   std::vector<std::smatch> out;
   size_t scanned = 0;

@@ -73,6 +73,13 @@ std::optional<MemberOffsets> strip_member_offsets(std::string_view text);
 inline constexpr std::string_view kReservedNamePrefix = "kiln_reserved_";
 std::optional<std::string> rewrite_reserved_names(std::string_view text);
 
+// `InterlockedCompareStore(dest, compare, value)` (and RWByteAddressBuffer's method), which glslang 12 drops with
+// only a warning ("Missing functionality: unknown glslang aggregate"): the shader stored nothing. Rewritten to
+// `InterlockedCompareExchange(dest, compare, value, kiln_compare_store_original)`, its DXC meaning with the original
+// value unread; the front end declares the variable (kCompareStoreOriginalDeclaration) in its preamble.
+inline constexpr std::string_view kCompareStoreOriginalDeclaration = "static uint kiln_compare_store_original;\n";
+std::optional<std::string> rewrite_compare_store(std::string_view text);
+
 // `[[vk::...]]` attributes that change a shader's interface in DXC and that glslang 12 ignores with only a warning
 // ("'offset' : unrecognized attribute"): the interface kiln would build is not the one the author wrote, so each
 // is an error, saying what DXC does with it and what to write instead. `warning` is the front end's message text;

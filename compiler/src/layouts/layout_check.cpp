@@ -198,7 +198,7 @@ class Checker {
     } else {
       fix = "give one of them another register, or [[vk::binding(N, " + std::to_string(a.set) + ")]]";
     }
-    if (texture_and_sampler)
+    if (texture_and_sampler && !in_.combined_image_samplers)
       fix += "; or, if the texture and the sampler are meant as one combined image sampler, set \"combined_image_samplers\": true "
              "(--combined-image-samplers)";
     return fix;

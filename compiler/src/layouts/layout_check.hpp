@@ -29,6 +29,8 @@ struct PassLayoutInput {
   std::function<SourceLocation(const std::string& name)> locate;
   // Where a stage's sources (its entry file first) declare an input or output variable (path 0 line when not found).
   std::function<SourceLocation(const std::string& name, Stage stage)> locate_stage_variable;
+  // Whether "combined_image_samplers" is on for a stage of the pass: a clash's advice never suggests what is in force.
+  bool combined_image_samplers = false;
 };
 
 // The pass's merged layout; nothing when it has clashes (each reported to `sink`).
