@@ -388,7 +388,9 @@ class Watcher {
       if (!reader) return failure(reader.error());
       PackResult<SelectedVariant> selected = reader->try_select(request.pass, request.keywords, true);
       if (!selected) return failure(selected.error());
-      return reader->manifest().archive.file;
+      PackResult<PackUpdate> served_now = reader->poll_update();  // names the archive without parsing the manifest
+      if (!served_now) return failure(served_now.error());
+      return served_now->archive;
     };
     auto served = [&](const std::string& archive, bool compiled) {
       const double seconds = std::chrono::duration<double>(Clock::now() - since).count();
