@@ -28,7 +28,7 @@ constexpr std::array kRows{
     // HLSL 2021's select/and/or are rewritten before glslang parses (frontend/hlsl_compat.hpp): glslang's own
     // message for a call with a wrong argument count is the right one.
     Row{Seen::Quoted, "template", "templates (HLSL 2021)", "write one function per type, or generate them with a macro"},
-    Row{Seen::Quoted, "enum", "`enum`", "use `static const uint` constants"},
+    Row{Seen::Quoted, "enum", "`enum`", "declare the enum apart from its variables (`enum Mode { A, B }; Mode mode;`), which kiln compiles, or use `static const uint` constants"},
     Row{Seen::Quoted, "using", "type aliases with `using`", "write `typedef float real;`"},
     Row{Seen::QuotedNamespaced, "", "types declared in a namespace",
         "declare the type at file scope (functions in a namespace work)"},
