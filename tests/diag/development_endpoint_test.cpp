@@ -298,6 +298,22 @@ TEST_F(DevelopmentEndpoint, HostileRequestsAreRefusedAndTheLoopKeepsServing) {
   EXPECT_EQ(kiln->end(SIGTERM), 0);
 }
 
+// A client that sends half a request and stops is dropped by watch on its own (libmicrohttpd's 10 s connection
+// timeout, which watch's poll() waits for as a deadline: with no other traffic, nothing else would wake it). The test
+// waits for the close itself, an event; the receive timeout only ends a test that would otherwise hang.
+TEST_F(DevelopmentEndpoint, AStalledClientIsDroppedWithoutAnyOtherTraffic) {
+  start();
+  Socket slow(port);
+  ASSERT_TRUE(slow.send("POST /v1/variant HTTP/1.1\r\nHost: x\r\nContent-Length: 100\r\n\r\n{\"pa"));
+  timeval limit{120, 0};
+  ::setsockopt(slow.fd, SOL_SOCKET, SO_RCVTIMEO, &limit, sizeof limit);
+  char byte = 0;
+  errno = 0;
+  const ssize_t n = ::recv(slow.fd, &byte, 1, 0);
+  EXPECT_EQ(n, 0) << "the stalled connection was not closed by watch (errno " << errno << ")";
+  EXPECT_EQ(kiln->end(SIGTERM), 0);
+}
+
 // Bounded over time (STYLE rule 19): a hundred requests, good and hostile, leave watch with the descriptors it had
 // (a leaked connection or pack reader per request would be a hundred more).
 TEST_F(DevelopmentEndpoint, DescriptorsStayFlatOverAHundredRequests) {
