@@ -400,6 +400,29 @@ TEST(HlslCompat, AClashsAdviceNeverSuggestsCombinedSamplersWhenTheyAreOn) {
   }
 }
 
+// Two stated locations that collide: spirv-val's "conflicting input location assignment", which named no line, is a
+// K1401 at the second declaration.
+TEST(HlslCompat, CollidingStatedLocationsAreALocatedError) {
+  testing::TempDir dir;
+  dir.write("S.hlsl", "float4 V(float4 p : POSITION, inout float4 a : TEXCOORD0, inout float4 b : TEXCOORD1) : SV_Position { return p; }\n"
+                      "float4 F([[vk::location(0)]] float4 a : TEXCOORD0,\n"
+                      "         [[vk::location(0)]] float4 b : TEXCOORD1) : SV_Target { return a + b; }\n");
+  dir.write("p.pack.json", R"({"name": "p", "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  BuildOptions options;
+  options.pack_file = dir / "p.pack.json";
+  options.output_dir = dir / "out";
+  options.worker_executable = KILN_WORKER_PATH;
+  DiagnosticSink sink;
+  EXPECT_FALSE(build_pack(options, sink).ok);
+  const std::vector<Diagnostic> diagnostics = sink.diagnostics();
+  ASSERT_FALSE(diagnostics.empty());
+  const Diagnostic error = diagnostics.front();
+  EXPECT_EQ(error.id, DiagId::HlslError) << format_diagnostic(error);
+  EXPECT_EQ(error.location.line, 3) << format_diagnostic(error);
+  EXPECT_EQ(error.location.column, 16) << format_diagnostic(error);  // the word `location`
+  EXPECT_NE(error.message.find("two inputs of this stage are at location 0"), std::string::npos) << format_diagnostic(error);
+}
+
 // ---- [[vk::offset]] ---------------------------------------------------------------------------------------------
 
 // The (member name, Offset) pairs of every laid-out struct in a module, by the struct's OpName.

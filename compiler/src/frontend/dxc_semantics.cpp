@@ -8,6 +8,7 @@
 #include <optional>
 #include <regex>
 #include <set>
+#include <tuple>
 
 #include "frontend/hlsl_compat.hpp"
 #include "frontend/spirv_module.hpp"
@@ -231,6 +232,37 @@ Result<void> restore_builtin_semantics(std::vector<uint32_t>& spirv, const std::
   }
   spirv = module.words();
   return {};
+}
+
+std::optional<std::string> conflicting_location(const std::vector<uint32_t>& spirv) {
+  std::optional<spirv_edit::Module> parsed = spirv_edit::Module::parse(spirv);
+  if (!parsed) return std::nullopt;
+  std::map<uint32_t, uint32_t> location, component;
+  std::map<uint32_t, uint32_t> storage;  // variable -> storage class
+  std::set<uint32_t> interface;
+  for (const Instruction& in : parsed->instructions()) {
+    if (in.op() == spv::OpDecorate && in.words.size() > 3 && in.words[2] == spv::DecorationLocation) location[in.words[1]] = in.words[3];
+    if (in.op() == spv::OpDecorate && in.words.size() > 3 && in.words[2] == spv::DecorationComponent) component[in.words[1]] = in.words[3];
+    if (in.op() == spv::OpVariable && in.words.size() > 3) storage[in.words[2]] = in.words[3];
+    if (in.op() == spv::OpEntryPoint && in.words.size() > 3) {
+      size_t at = 3;
+      while (at < in.words.size() && (in.words[at] & 0xff000000u) != 0 && (in.words[at] & 0xff) && (in.words[at] >> 8 & 0xff) &&
+             (in.words[at] >> 16 & 0xff))
+        ++at;  // the name's words: every byte set, until the one holding its terminating zero
+      for (++at; at < in.words.size(); ++at) interface.insert(in.words[at]);
+    }
+  }
+  std::set<std::tuple<uint32_t, uint32_t, uint32_t>> taken;  // storage class, location, component
+  for (uint32_t id : interface) {
+    if (!location.count(id) || !storage.count(id)) continue;
+    const uint32_t kind = storage[id];
+    if (kind != spv::StorageClassInput && kind != spv::StorageClassOutput) continue;
+    const uint32_t comp = component.count(id) ? component[id] : 0;
+    if (!taken.insert({kind, location[id], comp}).second)
+      return std::string("conflicting ") + (kind == spv::StorageClassInput ? "input" : "output") +
+             " location assignment at location " + std::to_string(location[id]);
+  }
+  return std::nullopt;
 }
 
 void restore_reserved_names(std::vector<uint32_t>& spirv) {

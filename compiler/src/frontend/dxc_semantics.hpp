@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -44,6 +45,11 @@ Result<void> restore_builtin_semantics(std::vector<uint32_t>& spirv, const std::
 // The names rewrite_reserved_names gave (`kiln_reserved_texture`) made the author's again (`texture`) in the
 // module's OpName and OpMemberName.
 void restore_reserved_names(std::vector<uint32_t>& spirv);
+
+// The first location two of the entry point's inputs (or outputs) share in the same component, as spirv-val's
+// words ("conflicting input location assignment at location N"), for locate_location_conflict
+// (module_limits.hpp); nothing when there is none.
+std::optional<std::string> conflicting_location(const std::vector<uint32_t>& spirv);
 
 struct UnhonouredOffset {
   size_t stated = 0;

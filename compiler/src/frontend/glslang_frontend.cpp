@@ -322,6 +322,12 @@ class GlslangFrontend final : public Frontend {
       result.messages.push_back({Severity::Error, request.source_name, 0, edited.error().message});
       return result;
     }
+    // spirv-val reports two stated locations that collide at the entry point, with no line: located here.
+    if (auto conflict = conflicting_location(result.spirv))
+      if (auto located = locate_location_conflict(*conflict, source, request.source_name)) {
+        result.messages.push_back(std::move(*located));
+        return result;
+      }
     if (nonuniform) decorate_nonuniform(result.spirv);
     if (reserved) restore_reserved_names(result.spirv);
     if (std::string messages = logger.getAllMessages(); !messages.empty()) {

@@ -62,6 +62,37 @@ FrontendMessage located_in_source(std::string_view text, size_t offset, const st
   return located(text, offset, source_name, std::move(message));
 }
 
+std::optional<FrontendMessage> locate_location_conflict(const std::string& message, std::string_view source,
+                                                        const std::string& source_name) {
+  static const std::regex conflict(R"(conflicting (input|output) location assignment at location (\d{1,9}))");
+  std::smatch found;
+  if (!std::regex_search(message, found, conflict)) return std::nullopt;
+  const std::string location = found[2];
+  // `vk :: location ( N )`, as the preprocessor spaces it or not; at most two wanted.
+  std::vector<size_t> stated;
+  for (size_t at = source.find("location"); at != std::string_view::npos && stated.size() < 2; at = source.find("location", at + 8)) {
+    size_t cursor = at + 8;
+    auto blanks = [&] { while (cursor < source.size() && (source[cursor] == ' ' || source[cursor] == '\t')) ++cursor; };
+    blanks();
+    if (cursor >= source.size() || source[cursor] != '(') continue;
+    ++cursor;
+    blanks();
+    if (source.substr(cursor, location.size()) != location) continue;
+    cursor += location.size();
+    blanks();
+    if (cursor >= source.size() || source[cursor] != ')') continue;
+    size_t before = at;
+    while (before > 0 && (source[before - 1] == ' ' || source[before - 1] == '\t')) --before;
+    if (before >= 2 && source.substr(before - 2, 2) == "::") stated.push_back(at);
+  }
+  if (stated.empty()) return std::nullopt;
+  FrontendMessage out = located(source, stated.back(), source_name,
+      "'location' : two " + std::string(found[1]) + "s of this stage are at location " + location +
+      ", which Vulkan forbids (spirv-val: \"conflicting " + std::string(found[1]) + " location assignment\"): give each its own [[vk::location]]" + (stated.size() == 1 ? ", or none to the others (glslang numbers them from 0)" : ""));
+  out.column = 0;  // the preprocessed text's spacing is not the file's: the driver finds the quoted word
+  return out;
+}
+
 namespace {
 
 std::optional<FrontendMessage> judge(uint64_t x, uint64_t y, uint64_t z, const std::function<FrontendMessage(std::string)>& at) {

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -20,6 +21,13 @@ namespace kiln {
 
 // A message at byte `offset` of preprocessed `text`: the file and line its #line directives give, the column in it.
 FrontendMessage located_in_source(std::string_view text, size_t offset, const std::string& source_name, std::string message);
+
+// spirv-val's "conflicting input (output) location assignment at location N" (`message`, its words or
+// conflicting_location's), which names no line: located at the second `[[vk::location(N)]]` of the preprocessed `source` (the first when the text
+// states N once: it collides with a location glslang assigned), with what to do. Nothing for other messages, or
+// when the text states no such location.
+std::optional<FrontendMessage> locate_location_conflict(const std::string& message, std::string_view source,
+                                                        const std::string& source_name);
 
 // Before the front end: the literal numthreads(x, y, z) of `entry` in the preprocessed `source` (named
 // `source_name`, #line directives followed). Empty when they are within the limits or not literal integers.
