@@ -110,7 +110,8 @@ class FoldCostVerb final : public Verb {
     std::optional<FoldPlan> plan = plan_folds(options, groups, sink);
     if (!plan) return exit_code(sink, false);
     json result = report_plan(*plan, out);
-    std::erase_if(plan->candidates, [](const FoldCandidate& c) { return !c.cannot_fold.empty(); });  // measured: the rest
+    // Measured: the groups that can be folded safely.
+    std::erase_if(plan->candidates, [](const FoldCandidate& c) { return !c.cannot_fold.empty() || !c.written_for_folding; });
     const std::filesystem::path scratch = make_scratch("kiln-fold-cost-");
     if ((reps_ > 0 || !render_scene_.empty()) && scratch.empty()) {
       std::cerr << "kiln: error[K1601]: no scratch directory for the builds (TMPDIR, /tmp, /var/tmp)\n";
@@ -121,6 +122,7 @@ class FoldCostVerb final : public Verb {
     if (code == 0 && !render_scene_.empty()) code = measure_draws(options, *plan, scratch, result, out, sink);
     std::error_code ec;
     if (!scratch.empty()) std::filesystem::remove_all(scratch, ec);
+    if (code == 0) recommend(*plan, result, out);
     if (json_file_ == "-") {
       std::cout << result.dump(2) << "\n";
     } else if (!json_file_.empty()) {
@@ -141,22 +143,26 @@ class FoldCostVerb final : public Verb {
       const double ratio = plan.stage_sources ? double(sources) / double(plan.stage_sources) - 1 : 0;
       return std::to_string(sources) + " (" + percent(ratio) + ")";
     };
-    size_t foldable = 0;
+    size_t foldable = 0, unsafe = 0;
     for (const FoldCandidate& c : plan.candidates) {
       out << "  " << joined(c.keywords) << " [" << joined(c.passes, ", ") << "]: ";
       if (!c.cannot_fold.empty()) {
         out << "cannot be folded: " << c.cannot_fold << "\n";
+      } else if (!c.written_for_folding) {
+        ++unsafe;
+        out << "unsafe to fold: no source tests KILN_FOLDED_" << c.keywords.front()
+            << " (or KILN_GROUP_OF_), so folded, its #if defined() would hold for every value; folded alone it would be "
+            << saved(c.stage_sources) << " stage sources\n";
       } else {
         ++foldable;
-        out << "folded alone, " << saved(c.stage_sources) << " stage sources"
-            << (c.written_for_folding ? "" : "; no source tests KILN_FOLDED_ of it, so folded its #if would always hold")
-            << "\n";
+        out << "folded alone, " << saved(c.stage_sources) << " stage sources\n";
       }
       candidates.push_back({{"keywords", c.keywords}, {"passes", c.passes}, {"pragma", c.pragma},
                             {"written_for_folding", c.written_for_folding}, {"stage_sources", c.stage_sources},
-                            {"cannot_fold", c.cannot_fold}});
+                            {"cannot_fold", c.cannot_fold}, {"safe", c.cannot_fold.empty() && c.written_for_folding}});
     }
-    out << "  all " << foldable << " that can be folded, folded: " << saved(plan.all_folded) << " stage sources\n";
+    out << "  all " << foldable << " that can be folded safely, folded: " << saved(plan.all_folded) << " stage sources"
+        << (unsafe ? " (" + std::to_string(unsafe) + " unsafe to fold left out)" : "") << "\n";
     return {{"pack", plan.pack}, {"variants", plan.variants}, {"stage_sources", plan.stage_sources},
             {"candidates", candidates}, {"all_folded_stage_sources", plan.all_folded}};
   }
@@ -298,11 +304,65 @@ class FoldCostVerb final : public Verb {
           recommendation = "variant (folded, its image differs by " + fixed(100 * difference, 1) +
                            "%: its code is not written for folding)";
       }
+      if (noise > kThreshold)
+        recommendation = "none: the measurement's own noise is " + percent(noise) + ", above the " + percent(kThreshold) +
+                         " a recommendation needs";
       row["recommendation"] = recommendation;
       out << line << " -> " << recommendation << "\n";
     }
+    if (noise > kThreshold)
+      out << "  the variant pack drawn against itself differed by " << percent(noise) << ", more than the " << percent(kThreshold)
+          << " a cost must exceed to count: nothing is recommended from these draws; run again on a quieter machine, "
+             "or with more --frames and --rounds\n";
     result["frames"] = frames;
     return 0;
+  }
+
+  // The "keyword_kinds" block to paste into the pack: each group that can be folded safely, with the kind its draws
+  // recommend (--render-scene), or without draws the kind that usually costs nothing (a bool constant; an int for a
+  // group of several keywords), said to be unmeasured. A group the draws keep a variant, or whose draws were too
+  // noisy to decide, is left out.
+  void recommend(const FoldPlan& plan, json& result, std::ostream& out) const {
+    const json* rows = result.contains("frames") ? &result["frames"]["rows"] : nullptr;
+    const bool noisy = rows && result["frames"].value("noise", 0.0) > kThreshold;
+    json kinds = json::object();
+    std::vector<std::string> why;
+    for (const FoldCandidate& c : plan.candidates) {
+      std::string kind = c.keywords.size() > 1 ? "specialization_constant_int" : "specialization_constant";
+      if (rows) {
+        // The first kind that every row of the group (and the row with all folded keywords off) accepts: within the
+        // bar and the image tolerance, as each row's own recommendation is made.
+        const double bar = std::max(kThreshold, result["frames"].value("noise", 0.0));
+        kind.clear();
+        for (KeywordKind candidate : kDrawnKinds) {
+          const std::string name(keyword_kind_name(candidate));
+          bool accepted = !noisy;
+          for (const json& row : *rows) {
+            const std::string row_name = row["name"].get<std::string>();
+            const bool ours = row_name == "all folded keywords off" ||
+                              std::any_of(c.keywords.begin(), c.keywords.end(), [&](const std::string& k) { return row_name == k + " on"; });
+            if (ours && (row["cost"][name].get<double>() > bar || row["largest_relative_difference"][name].get<double>() > kImageDifference))
+              accepted = false;
+          }
+          if (accepted) {
+            kind = name;
+            break;
+          }
+        }
+        if (kind.empty()) {
+          why.push_back(joined(c.keywords) + ": " + (noisy ? "not decided (the draws were too noisy)" : "kept a variant (every kind cost more)"));
+          continue;
+        }
+      }
+      for (const std::string& keyword : c.keywords) kinds[keyword] = kind;
+    }
+    result["recommended_keyword_kinds"] = kinds;
+    out << "recommended \"keyword_kinds\" (paste into the pack definition" << (rows ? "" : "; not measured at run time: "
+        "--render-scene draws each kind") << "):\n";
+    std::string block = "  \"keyword_kinds\": " + (kinds.empty() ? std::string("{}") : kinds.dump(2)) + (kinds.empty() ? "\n" : ",\n");
+    for (size_t at = 0; (at = block.find('\n', at)) != std::string::npos && at + 1 < block.size(); at += 3) block.insert(at + 1, "  ");
+    out << block;
+    for (const std::string& line : why) out << "  left out: " << line << "\n";
   }
 
   std::string pack_file_;

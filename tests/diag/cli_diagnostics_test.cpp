@@ -1172,8 +1172,15 @@ TEST_F(Cli, FoldCostPlansEachGroupFoldedAloneWithoutCompiling) {
   dir.write("S.hlsl", std::string("#pragma multi_compile_fragment _ A B\n#pragma multi_compile_fragment _ C\n") + kEntries);
   auto r = testing::run_kiln({"fold-cost", "p.pack.json", "--json", "-"}, dir.path());
   ASSERT_EQ(r.exit_code, 0) << r.err;
+  // Neither group's code tests KILN_FOLDED_: each is unsafe to fold, in those words, and the safe total leaves it out.
   EXPECT_NE(r.err.find("kiln fold-cost: pack 'p': 6 variants, 7 stage sources (planned: nothing preprocessed or compiled)\n"
-                       "  A B [P]: folded alone, 3 (-57.1%) stage sources; no source tests KILN_FOLDED_ of it"),
+                       "  A B [P]: unsafe to fold: no source tests KILN_FOLDED_A (or KILN_GROUP_OF_), so folded, its #if "
+                       "defined() would hold for every value; folded alone it would be 3 (-57.1%) stage sources\n"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("  all 0 that can be folded safely, folded: 7 (+0.0%) stage sources (2 unsafe to fold left out)\n"
+                       "recommended \"keyword_kinds\" (paste into the pack definition; not measured at run time: "
+                       "--render-scene draws each kind):\n  \"keyword_kinds\": {}\n"),
             std::string::npos)
       << r.err;
   const nlohmann::json plan = nlohmann::json::parse(r.out);
@@ -1181,8 +1188,37 @@ TEST_F(Cli, FoldCostPlansEachGroupFoldedAloneWithoutCompiling) {
   ASSERT_EQ(plan["candidates"].size(), 2u);
   EXPECT_EQ(plan["candidates"][1]["keywords"], nlohmann::json::array({"C"}));
   EXPECT_EQ(plan["candidates"][1]["stage_sources"], 4);
-  EXPECT_EQ(plan["all_folded_stage_sources"], 2);
+  EXPECT_EQ(plan["all_folded_stage_sources"], 7);
+  EXPECT_EQ(plan["candidates"][1]["safe"], false);
+  EXPECT_TRUE(plan["recommended_keyword_kinds"].empty());
   EXPECT_FALSE(std::filesystem::exists(dir / ".kiln-cache"));
+
+  // Written for folding: safe, in the total, and in the block to paste (a group of two keywords: one int constant).
+  dir.write("S.hlsl", std::string("#pragma multi_compile_fragment _ A B\n#pragma multi_compile_fragment _ C\n") +
+                          "#if defined(KILN_FOLDED_A)\n#endif\n" + kEntries);
+  r = testing::run_kiln({"fold-cost", "p.pack.json"}, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("  A B [P]: folded alone, 3 (-57.1%) stage sources\n"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("  all 1 that can be folded safely, folded: 3 (-57.1%) stage sources (1 unsafe to fold left out)\n"
+                       "recommended \"keyword_kinds\" (paste into the pack definition; not measured at run time: "
+                       "--render-scene draws each kind):\n"
+                       "  \"keyword_kinds\": {\n    \"A\": \"specialization_constant_int\",\n    \"B\": "
+                       "\"specialization_constant_int\"\n  },\n"),
+            std::string::npos)
+      << r.out;
+
+  // A shader_feature group the materials strip: folded, they would not, and the budget says no; the verb says why.
+  dir.write("S.hlsl", std::string("#pragma shader_feature_fragment _ M\n#pragma multi_compile_fragment _ A B\n") + kEntries);
+  dir.write("p.pack.json", R"({"name": "p", "budget": 3, "materials": [{"name": "plain"}],
+      "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  r = testing::run_kiln({"fold-cost", "p.pack.json", "--fold", "M"}, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("  M [P]: cannot be folded: folded, a shader_feature group is no longer stripped by the pack's materials "
+                       "(every material's variants keep each of its values), so pack 'p' has more than 3 variants after "
+                       "stripping"),
+            std::string::npos)
+      << r.out;
+  dir.write("p.pack.json", kPack);
   auto unknown = testing::run_kiln({"fold-cost", "p.pack.json", "--fold", "D"}, dir.path());
   EXPECT_EQ(unknown.exit_code, 1);
   EXPECT_EQ(unknown.err, "<command line>: error[K1014]: --fold 'D': no pass declares keyword 'D'\n");
@@ -1199,7 +1235,11 @@ TEST_F(Cli, FoldCostDrawsTheFoldedPacksOnLavapipeAndRecommendsAKindPerKeyword) {
                               "--frames", "3", "--rounds", "1", "-j", "2", "--json", "-"},
                              dir.path());
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.err.find("_LINEAR_OUTPUT is not drawn folded: no source tests KILN_FOLDED_ of it"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("_LINEAR_OUTPUT [Forward]: unsafe to fold: no source tests KILN_FOLDED__LINEAR_OUTPUT"), std::string::npos)
+      << r.err;
+  // The block to paste holds what the draws accepted (or nothing, when they were too noisy to decide), never the
+  // group that is unsafe to fold.
+  EXPECT_NE(r.err.find("recommended \"keyword_kinds\" (paste into the pack definition):\n"), std::string::npos) << r.err;
   const nlohmann::json result = nlohmann::json::parse(r.out);
   const nlohmann::json& rows = result["frames"]["rows"];
   ASSERT_EQ(rows.size(), 2u) << rows.dump(1);
@@ -1214,6 +1254,7 @@ TEST_F(Cli, FoldCostDrawsTheFoldedPacksOnLavapipeAndRecommendsAKindPerKeyword) {
     EXPECT_FALSE(row["recommendation"].get<std::string>().empty());
   }
   EXPECT_NE(r.err.find("_MULTISCATTER on: variant "), std::string::npos) << r.err;
+  EXPECT_FALSE(result["recommended_keyword_kinds"].contains("_LINEAR_OUTPUT")) << result["recommended_keyword_kinds"];
 }
 
 // Numbers outside the double range aborted build, lint and list (an uncaught nlohmann out_of_range, exit 134),

@@ -28,7 +28,7 @@ struct FoldPlan {
   size_t variants = 0;
   size_t stage_sources = 0;  // as the pack is
   std::vector<FoldCandidate> candidates;
-  size_t all_folded = 0;     // with every candidate folded
+  size_t all_folded = 0;     // with every candidate folded that can be folded safely (written for folding)
 };
 
 // `groups`: each names keywords of one group (one keyword is enough: a group folds whole). Empty: every group that

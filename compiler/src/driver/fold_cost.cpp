@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/files.hpp"
+#include "common/keyword_pragmas.hpp"
 
 namespace kiln {
 namespace {
@@ -91,12 +92,22 @@ std::optional<FoldPlan> plan_folds(const BuildOptions& options, const std::vecto
           candidate.written_for_folding = true;
     DiagnosticSink quiet;  // a group that cannot be folded is a finding, not the run's error
     auto folded = list_variants(folded_options(options, {candidate}, KeywordKind::SpecializationConstant), quiet);
-    if (folded) candidate.stage_sources = folded->stage_sources;
-    else if (const auto errors = quiet.diagnostics(); !errors.empty()) candidate.cannot_fold = errors.front().message;
+    if (folded) {
+      candidate.stage_sources = folded->stage_sources;
+    } else if (const auto errors = quiet.diagnostics(); !errors.empty()) {
+      candidate.cannot_fold = errors.front().message;
+      // Folding a shader_feature group changes no variant count but the materials': they strip its values as
+      // variants, and keep every value of it folded (its constant is set at run time). Say so: that is the cause.
+      if (errors.front().id == DiagId::BudgetExceeded && is_material_feature_pragma(candidate.pragma))
+        candidate.cannot_fold = "folded, a shader_feature group is no longer stripped by the pack's materials (every "
+                                "material's variants keep each of its values), so " + candidate.cannot_fold +
+                                "; fold it in a pack with a larger \"budget\", or keep it a variant";
+    }
   }
+  // "All folded" is every group that can be folded safely: one whose code does not test KILN_FOLDED_ would be wrong.
   std::vector<FoldCandidate> foldable;
   for (const FoldCandidate& candidate : plan.candidates)
-    if (candidate.cannot_fold.empty()) foldable.push_back(candidate);
+    if (candidate.cannot_fold.empty() && candidate.written_for_folding) foldable.push_back(candidate);
   auto all = list_variants(folded_options(options, foldable, KeywordKind::SpecializationConstant), sink);
   if (!all) return std::nullopt;
   plan.all_folded = all->stage_sources;
