@@ -20,7 +20,7 @@ class LintVerb final : public Verb {
     // No CLI11 existence check: a missing input is a finding in the chosen format (an empty SARIF file breaks
     // a CI upload step with a confusing message).
     verb->add_option("inputs", inputs_, "A pack definition (.json), or HLSL files")->required();
-    auto* cache_opt = verb->add_option("--cache", cache_dir_, "Cache directory for pack lint (default: $XDG_CACHE_HOME/kiln or ~/.cache/kiln)");
+    auto* cache_opt = verb->add_option("--cache", cache_dir_, "Cache directory for pack lint (default: ./.kiln-cache, the one kiln build uses)");
     verb->add_flag("--no-cache", no_cache_, "Do not read or write the cache")->excludes(cache_opt);
     plan_.add_to(verb);
     verb->add_option("-I,--include-dir", include_dirs_, "Include root for the files' #include (file mode; repeatable)");
@@ -54,7 +54,8 @@ class LintVerb final : public Verb {
       }
       options_.pack_file = inputs_[0];
       options_.output_dir = temp;
-      if (!no_cache_) options_.cache_dir = cache_dir_.empty() ? kiln::user_cache_directory() : std::filesystem::path(cache_dir_);
+      // build's default cache: a CI job that lints and then builds a pack compiles each module once.
+      if (!no_cache_) options_.cache_dir = cache_dir_.empty() ? std::filesystem::path(".kiln-cache") : std::filesystem::path(cache_dir_);
       report = kiln::lint_pack(options_, lint);
       // A finding that names a file in the scratch directory (an internal compiler error's reproducer) keeps it.
       const bool referenced = std::any_of(report.findings.begin(), report.findings.end(), [&](const kiln::LintFinding& f) {

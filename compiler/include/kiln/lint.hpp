@@ -72,8 +72,4 @@ std::string format_lint_sarif(const LintReport& report, const SarifOptions& opti
 // entry), else `directory` itself.
 std::filesystem::path default_sarif_root(const std::filesystem::path& directory);
 
-// Lint's default cache: the per-user XDG cache directory, $XDG_CACHE_HOME/kiln (when absolute), else
-// $HOME/.cache/kiln; nothing (no cache) when neither is set.
-std::optional<std::filesystem::path> user_cache_directory();
-
 }  // namespace kiln

@@ -299,14 +299,6 @@ LintReport lint_files(const std::vector<std::filesystem::path>& files, const std
   return report;
 }
 
-std::optional<std::filesystem::path> user_cache_directory() {
-  // XDG Base Directory: a relative $XDG_CACHE_HOME is invalid and ignored.
-  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg && std::filesystem::path(xdg).is_absolute())
-    return std::filesystem::path(xdg) / "kiln";
-  if (const char* home = std::getenv("HOME"); home && *home) return std::filesystem::path(home) / ".cache" / "kiln";
-  return std::nullopt;
-}
-
 namespace {
 
 std::string format_location(const SourceLocation& at) {
