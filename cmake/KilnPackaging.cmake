@@ -56,8 +56,9 @@ set(CPACK_DEBIAN_READER_PACKAGE_CONTROL_EXTRA ${PROJECT_BINARY_DIR}/debian/trigg
 
 set(CPACK_DEBIAN_DEV_PACKAGE_NAME libkiln-reader-dev)
 set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
-# A static link of libkiln_reader.a (pkg-config --static) needs xxHash's and zstd's development files.
-set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS "libxxhash-dev, libzstd-dev")
+# A static link of libkiln_reader.a (pkg-config --static) needs xxHash's and zstd's development files and the C++
+# runtime's (libstdc++.a: a C program has no g++ to bring it); kiln-reader.pc needs pkg-config itself.
+set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS "libxxhash-dev, libzstd-dev, libstdc++-12-dev | libstdc++-dev, pkgconf | pkg-config")
 set(CPACK_DEBIAN_DEV_DESCRIPTION "runtime reader for kiln shader variant packs (development files)
 ${kiln_about}
 This package holds what a game builds with: the reader's C and C++

@@ -63,7 +63,14 @@ expect_files kiln ./usr/bin/kiln ./usr/bin/kiln-worker \
   ./usr/share/man/man1/kiln.1.gz ./usr/share/bash-completion/completions/kiln ./usr/share/doc/kiln/lint.md \
   ./usr/share/doc/kiln/README.md ./usr/share/doc/kiln/examples/README.md \
   ./usr/share/doc/kiln/examples/vulkan_triangle/triangle.c ./usr/share/doc/kiln/examples/remote_cache/evict.sh
-expect_files kiln-verify ./usr/bin/kiln-verify
+expect_files kiln-verify ./usr/bin/kiln-verify ./usr/share/man/man1/kiln-verify.1.gz
+# find_package(kiln) with the kiln package alone (kiln-config.cmake), and every page the man page cites.
+expect_files kiln ./usr/lib/cmake/kiln/kiln-config.cmake ./usr/lib/cmake/kiln/kiln-config-version.cmake \
+  ./usr/share/man/man1/kiln-worker.1.gz ./usr/share/doc/kiln/changelog.gz \
+  $(grep -o 'docs/[a-z_-]*\.md' "$source/docs/man/kiln.1" | sort -u | sed 's|^docs/|./usr/share/doc/kiln/|')
+grep -q "pkgconf" <<< "$(dpkg-deb -f "$(deb libkiln-reader-dev)" Depends)" || fail "libkiln-reader-dev does not depend on pkgconf"
+grep -q "libstdc++" <<< "$(dpkg-deb -f "$(deb libkiln-reader-dev)" Depends)" ||
+  fail "libkiln-reader-dev does not depend on the C++ runtime's development files (pkg-config --static needs libstdc++.a)"
 for package in libkiln-reader0 libkiln-reader-dev kiln-verify; do
   ! dpkg-deb -c "$(deb $package)" | awk '{print $6}' | grep "^\./usr/bin/kiln$" > /dev/null || fail "$package holds kiln"
 done
