@@ -652,6 +652,17 @@ TEST(HlslCompat, TheDeclarationScansStayLinearOnHostileText) {
   EXPECT_TRUE(check_buffer_arrays_source("StructuredBuffer<" + std::string(2 << 20, 'a') + "> s[2];", "S.hlsl").empty());
   EXPECT_EQ(check_buffer_arrays_source(many, "S.hlsl").size(), 16u);  // a bounded number of errors
   EXPECT_TRUE(check_buffer_arrays_source("void f() { StructuredBuffer<float4> local[2]; }", "S.hlsl").empty());
+  // The enum, attribute and atomic rewrites: unclosed bodies, attributes outside any record, unfinished calls.
+  std::string enums, offsets, calls;
+  for (int i = 0; i < 100000; ++i) {
+    enums += "enum E" + std::to_string(i) + " { A,";
+    offsets += "[[vk::offset(0)]] float f" + std::to_string(i) + ";";
+    calls += "b.InterlockedAdd((1, InterlockedCompareStore((";
+  }
+  EXPECT_FALSE(rewrite_enums(enums));
+  EXPECT_FALSE(strip_member_offsets(offsets));
+  EXPECT_FALSE(rewrite_byte_address_atomics(calls));
+  EXPECT_FALSE(rewrite_compare_store(calls));
 }
 
 // SV_ViewID and SV_ShadingRate are built-ins, as in DXC: glslang 12 made them user inputs with locations, and

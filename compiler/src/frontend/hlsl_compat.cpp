@@ -167,7 +167,8 @@ std::optional<std::vector<std::string_view>> call_arguments(std::string_view tex
   std::vector<std::string_view> arguments;
   int depth = 0;
   size_t start = open + 1;
-  for (size_t at = open; at < text.size(); ++at) {
+  // Bounded: a call is far shorter, and unfinished calls by the thousand must not make each scan the rest of the text.
+  for (size_t at = open; at < text.size() && at - open < 4096; ++at) {
     const char c = text[at];
     if (c == '"' || c == ';' || c == '{' || c == '}') return std::nullopt;  // no call spans these
     if (c == '(' || c == '[') ++depth;
@@ -397,7 +398,8 @@ std::optional<std::string> rewrite_enums(std::string_view text) {
     }
     if (cursor >= text.size() || text[cursor] != '{') continue;
     const size_t open = cursor, close = text.find('}', open);
-    if (close == std::string_view::npos || text.substr(open + 1, close - open - 1).find('{') != std::string_view::npos) continue;
+    if (close == std::string_view::npos) break;  // no later enum closes either: one scan, not one per `enum`
+    if (text.substr(open + 1, close - open - 1).find('{') != std::string_view::npos) continue;
     const size_t semicolon = skip_space(text, close + 1);
     if (semicolon >= text.size() || text[semicolon] != ';') continue;  // `enum E { ... } e;`: glslang's error stays
     // The enumerators: split at the commas outside parentheses.
@@ -580,13 +582,14 @@ std::optional<MemberOffsets> strip_member_offsets(std::string_view text) {
       }
     }
     // The record: the struct or cbuffer whose brace encloses the attribute.
+    // Bounded (a record is far shorter): text of many attributes outside any brace stays linear.
     size_t brace = open;
-    for (int depth = 0; brace > 0; --brace) {
+    for (int depth = 0; brace > 0 && open - brace < 8192; --brace) {
       const char c = text[brace - 1];
       if (c == '}') ++depth;
       if (c == '{' && depth-- == 0) break;
     }
-    if (member.empty() || brace == 0) continue;
+    if (member.empty() || brace == 0 || text[brace - 1] != '{') continue;
     const size_t head_start = text.find_last_of(";{}", brace - 2) == std::string_view::npos ? 0 : text.find_last_of(";{}", brace - 2) + 1;
     std::string record;
     const std::string_view head = text.substr(head_start, brace - 1 - head_start);
