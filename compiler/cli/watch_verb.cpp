@@ -9,26 +9,13 @@
 #include <iostream>
 
 #include "cli.hpp"
+#include "kiln/files.hpp"
 #include "kiln/watch.hpp"
 
 namespace kiln::cli {
 namespace {
 
 namespace fs = std::filesystem;
-
-class Descriptor {
- public:
-  explicit Descriptor(int fd = -1) : fd_(fd) {}
-  Descriptor(const Descriptor&) = delete;
-  Descriptor& operator=(const Descriptor&) = delete;
-  ~Descriptor() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  int get() const { return fd_; }
-
- private:
-  int fd_;
-};
 
 class WatchVerb final : public Verb {
  public:

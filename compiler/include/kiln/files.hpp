@@ -2,6 +2,8 @@
 // use. Part of the compiler's public API (kiln::compiler).
 #pragma once
 
+#include <unistd.h>
+
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -19,5 +21,20 @@ std::filesystem::path make_scratch_directory(const std::filesystem::path& direct
 
 // A path as shown to users: relative to the working directory when below it.
 std::string display_path(const std::filesystem::path& path);
+
+// A file descriptor closed with its owner (an inotify, signalfd or eventfd of a long-running mode).
+class Descriptor {
+ public:
+  explicit Descriptor(int fd = -1) : fd_(fd) {}
+  Descriptor(const Descriptor&) = delete;
+  Descriptor& operator=(const Descriptor&) = delete;
+  ~Descriptor() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  int get() const { return fd_; }
+
+ private:
+  int fd_;
+};
 
 }  // namespace kiln
