@@ -21,23 +21,15 @@ import re
 import shutil
 import statistics
 import subprocess
+import sys
 import tempfile
 import urllib.request
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from watch_loop import usage_from_scene  # noqa: E402  (the same log from a scene profile)
+
 SOURCE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 REQUEST = re.compile(r"kiln watch: request (.*): (built into|in) (\S+), ([\d.]+) s$")
-
-
-def usage_from_scene(kiln, pack, scene, out):
-    listing = json.loads(subprocess.run([kiln, "list", pack, "--scene", scene, "--json"], capture_output=True,
-                                        text=True, check=True).stdout)
-    passes = {}
-    for variant in listing["variants"]:
-        passes.setdefault(variant["pass"], []).append({"keywords": sorted(variant["keywords"]), "count": 1})
-    with open(out, "w") as f:
-        json.dump({"format": "kiln-usage", "format_version": 1, "pack": listing["pack"], "tags": {},
-                   "passes": [{"name": name, "served": served, "missing": []} for name, served in passes.items()],
-                   "missing_dropped": 0}, f)
 
 
 def line_matching(watch, pattern):
