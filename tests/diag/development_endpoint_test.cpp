@@ -18,6 +18,7 @@
 #include "kiln/kiln_reader_dev.h"
 #include "kiln/pack_reader.hpp"
 #include "test_support.hpp"
+#include "usage_log_text.hpp"
 
 namespace kiln {
 namespace {
@@ -30,16 +31,7 @@ const char* kShader =
     "float4 F() : SV_Target {\n#if defined(A)\n  return colour() * 2.0;\n#elif defined(B)\n  return colour() * 3.0;\n"
     "#else\n  return colour();\n#endif\n}\n";
 
-// A usage log in which the game selected the keyword sets given (one keyword each, "" for none).
-std::string usage_log(const std::vector<std::string>& keyword_sets) {
-  nlohmann::json served = nlohmann::json::array();
-  for (const std::string& keywords : keyword_sets)
-    served.push_back({{"keywords", keywords.empty() ? nlohmann::json::array() : nlohmann::json::array({keywords})}, {"count", 1}});
-  return nlohmann::json{{"format", "kiln-usage"}, {"format_version", 1}, {"pack", "p"}, {"tags", nlohmann::json::object()},
-                        {"passes", {{{"name", "P"}, {"served", served}, {"missing", nlohmann::json::array()}}}},
-                        {"missing_dropped", 0}}
-      .dump();
-}
+using testing::usage_log;
 
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "test_support.hpp"
+#include "usage_log_text.hpp"
 
 namespace kiln {
 namespace {
@@ -26,15 +27,7 @@ std::string shader(const std::string& a_factor = "2.0", const std::string& b_cod
 }
 std::string colour(const std::string& value) { return "float4 colour() { return " + value + "; }\n"; }
 
-std::string usage_log(const std::vector<std::string>& keyword_sets) {
-  nlohmann::json served = nlohmann::json::array();
-  for (const std::string& keywords : keyword_sets)
-    served.push_back({{"keywords", keywords.empty() ? nlohmann::json::array() : nlohmann::json::array({keywords})}, {"count", 1}});
-  return nlohmann::json{{"format", "kiln-usage"}, {"format_version", 1}, {"pack", "p"}, {"tags", nlohmann::json::object()},
-                        {"passes", {{{"name", "P"}, {"served", served}, {"missing", nlohmann::json::array()}}}},
-                        {"missing_dropped", 0}}
-      .dump();
-}
+using testing::usage_log;
 
 struct Watch : ::testing::Test {
   testing::TempDir dir;
