@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """kiln's cold build against what a user would pick instead, 2-wide (issue 26 item 1).
 
-The naive chain of section 1 (glslangValidator, spirv-opt -O, spirv-val, spirv-cross x3 per variant and stage, from
-`kiln list --json`) run the ways a user runs it on N cores: under `xargs -P N`, and as a `build.ninja` with one edge
+The naive chain of bench/REPORT.md's "Build throughput against the naive chains" (glslangValidator, spirv-opt -O,
+spirv-val, spirv-cross x3 per variant and stage, from `kiln list --json`) run the ways a user runs it on N cores: under `xargs -P N`, and as a `build.ninja` with one edge
 per tool at `ninja -j N` (what a CMake user wires with add_custom_command); `glslc -O` (shaderc: HLSL legalization
 and -O in one process) in place of glslangValidator + spirv-opt under `xargs -P N`, when glslc is installed; and the
 serial loop (one core) as a row. Every configuration once per round, rounds interleaved; medians; wall time and the

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""What shader code coverage costs (bench/REPORT.md section 14): the same kiln test run on three builds of one pack,
-the shipped one (optimized), -g (debug information, no optimization) and --coverage (-g plus the probes), side by
+"""What shader code coverage costs (bench/REPORT.md, "Shader code coverage"): the same kiln test run on three
+builds of one pack, the shipped one (optimized), -g (debug information, no optimization) and --coverage (-g plus the probes), side by
 side: interleaved rounds, medians, ratios. Every run compiles its pipelines cold (MESA_SHADER_CACHE_DISABLE), as a
 first run does; `--coverage` runs also read the buffer back after each draw and write the tracefile.
 

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Golden margins and the mutation score (issue 23 items 5 and 6), as markdown for bench/REPORT.md section 10.
+"""Golden margins and the mutation score (issue 23 items 5 and 6), as markdown for
+bench/REPORT.md, "Golden tolerances and the mutation gate".
 
 Reads what a `ctest -L golden` run left: the ctest log (every `kiln test` line: the four measures of each
 comparison and the classes that set its limits) and the mutation gate's JSON files. For each tolerance class and

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Cold and warm `kiln test` shards side by side: the measurement behind bench/REPORT.md section 7.
+"""Cold and warm `kiln test` shards side by side: the measurement behind bench/REPORT.md, "Golden verification time".
 
 Runs one shard of the spheres golden test (default pack, as golden.setup leaves it) with each kiln-verify binary
 given, interleaved, ROUNDS times per API: first from an empty Mesa shader cache (cold), then again with the cache

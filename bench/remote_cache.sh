@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The remote cache on loopback (bench/REPORT.md, section 5): cold build; a second client warm from the remote
-# (per stage source, from a checkout whose pack definition differs by one byte; and the pack-level entry); the hit rate
+# The remote cache on loopback (bench/REPORT.md, "The remote cache on loopback"): cold build; a second client warm
+# from the remote (per stage source, from a checkout whose pack definition differs by one byte; and the pack-level entry); the hit rate
 # after an include edit; the cost of a remote that is down (connection refused) on a build that is warm locally.
 # Runs are interleaved, medians reported; writes bench/results/remote_cache.json (bench/report.py renders it).
 # Usage: bench/remote_cache.sh <kiln> <source dir> <rounds> [workdir]

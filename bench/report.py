@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
-"""Writes bench/REPORT.md and bench/plots/*.png from bench/results/*.json.
+"""Writes bench/results/REPORT.generated.md and bench/plots/*.png from bench/results/*.json.
 
 The results come from one run of bench/run_all.sh (build speed, keyword scaling, the stress gate's report,
-the shading cost-versus-error study); this script only formats them and draws the plots with gnuplot.
+the shading cost-versus-error study); this script only formats them and draws the plots with gnuplot. bench/REPORT.md
+is a reference ordered by topic, written by hand: its sections take their current figures from the generated file
+and keep the older ones in its History appendix, so this script does not overwrite it.
 """
 import json
 import os
@@ -684,12 +686,11 @@ def main():
     accuracy = load("accuracy.json")
     frame_cost = load("frame_cost.json")
     remote = load("remote_cache.json")
-    w("# kiln benchmarks and evidence")
+    w("# kiln benchmarks: generated tables")
     w("")
-    w("Regenerated from scratch by one command, `bash bench/run_all.sh` (about 95 minutes on 2 cores): it installs the")
-    w("Debian packages, builds, runs the instruments below and this script (`bench/report.py`, which keeps the sections")
-    w("it does not write: the corpus, the optimizer recipe, golden time, streaming and the scaling model, measured by")
-    w("the instruments their sections name). Every number below comes from a run on this machine, at the dates given.")
+    w("Written by `bench/report.py`, the last step of `bash bench/run_all.sh` (about 95 minutes on 2 cores), from")
+    w("`bench/results/*.json`. bench/REPORT.md, the reference ordered by topic, takes its current figures from here.")
+    w("Every number below comes from a run on this machine, at the dates given.")
     w("")
     if speed:
         w(f"- Machine: {speed['machine']['cpus']} cores, {speed['machine']['memory_gib']} GiB, {speed['machine']['platform']}.")
@@ -716,34 +717,8 @@ def main():
         frame_cost_section(w, frame_cost)
     if remote:
         remote_cache_section(w, remote)
-    # Sections this script does not write (measured by hand or by instruments it does not run: the corpus, the
-    # optimizer recipe, golden time, streaming, the scaling model) are kept from the current report, in place.
-    path = os.path.join(ROOT, "bench/REPORT.md")
-    generated = "\n".join(lines) + "\n"
-    if os.path.exists(path):
-        generated = keep_hand_sections(open(path).read(), generated)
-    open(path, "w").write(generated)
-
-
-def sections(text):
-    """(heading, body) of each `## ` section; the text before the first is the heading ''."""
-    parts = re.split(r"(?m)^(?=## )", text)
-    return [(p.splitlines()[0] if p.startswith("## ") else "", p) for p in parts]
-
-
-def keep_hand_sections(old, new):
-    """`new` with every section of `old` whose heading it lacks, each after the section that preceded it in `old`."""
-    new_sections = sections(new)
-    headings = [h for h, _ in new_sections]
-    out = [body for _, body in new_sections]
-    previous = ""
-    for heading, body in sections(old):
-        if heading and heading not in headings:
-            at = headings.index(previous) + 1 if previous in headings else len(headings)
-            headings.insert(at, heading)
-            out.insert(at, body)
-        previous = heading
-    return "".join(out)
+    os.makedirs(RESULTS, exist_ok=True)
+    open(os.path.join(RESULTS, "REPORT.generated.md"), "w").write("\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":

@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
-# Regenerates bench/REPORT.md and bench/plots/*.png from scratch: installs the Debian packages, builds,
-# then runs the instruments and the report. About 95 minutes on 2 cores; do not run other heavy jobs
-# meanwhile (the build benchmark edits shaderlib/Fog.hlsl temporarily and restores it).
+# Reruns the instruments behind bench/REPORT.md from scratch: installs the Debian packages, builds, runs the
+# instruments into bench/results/, then bench/report.py, which writes their tables to bench/results/REPORT.generated.md
+# and the plots to bench/plots/ (bench/REPORT.md's sections take their current figures from there). About 95
+# minutes on 2 cores; do not run other heavy jobs meanwhile (the build benchmark edits shaderlib/Fog.hlsl
+# temporarily and restores it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash .ci/install-deps
 cmake --preset ci
 cmake --build --preset ci
 mkdir -p bench/results
-# The same kiln on glibc's malloc, for the allocator comparison in section 1.
+# The same kiln on glibc's malloc, for the allocator comparison (bench/REPORT.md, "The cold build").
 cmake -S . -B build/glibc -G Ninja -DCMAKE_BUILD_TYPE=Release -DKILN_MIMALLOC=OFF -DKILN_BUILD_TESTS=OFF -DKILN_BUILD_BENCH=OFF
 cmake --build build/glibc --target kiln kiln-worker
 python3 bench/build_speed.py --kiln build/ci/compiler/kiln --kiln-glibc build/glibc/compiler/kiln \
@@ -33,4 +35,4 @@ python3 bench/remote_transfers.py --kiln build/ci/compiler/kiln --rounds 3 --del
 # kiln against the 2-wide anchors (xargs, build.ninja, glslc): the longest instrument, about 25 minutes.
 python3 bench/anchors.py --kiln build/ci/compiler/kiln --reps 3 --floor-tool build/ci/bench/kiln-compile-steps
 python3 bench/report.py
-echo "wrote bench/REPORT.md"
+echo "wrote bench/results/REPORT.generated.md"

@@ -407,7 +407,7 @@ TEST_F(Accuracy, LightFunctionsMatchTheDoubleReferenceInFp32AndFp16) {
 
 // Fog (shaderlib/Fog.hlsl), one probe per multi_compile_fog mode (tests/gpu/Probe.hlsl, PROBE_FOG). The fog is
 // evaluated in float in every variant, so fp16 variants are held to the fp32 bounds. Bounds: exp2 and the division
-// on llvmpipe are within a few fp32 ulps; 1e-5 leaves room over the measured maxima (REPORT section 4).
+// on llvmpipe are within a few fp32 ulps; 1e-5 leaves room over the measured maxima (bench/REPORT.md, "Accuracy gate").
 TermProbe fog_probe(const char* mode, std::function<double(const ProbeInput&)> factor) {
   return {"PROBE_FOG",
           false,

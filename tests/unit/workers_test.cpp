@@ -239,7 +239,7 @@ TEST(Workers, WorkerOverItsMemoryLimitIsAnInternalError) {
   EXPECT_TRUE(outcomes[2].output.ok);
 }
 
-// The compile workers are where the allocator matters (bench/REPORT.md section 1): they must be running on
+// The compile workers are where the allocator matters (bench/REPORT.md, "The cold build"): they must be running on
 // the one the build was configured with, and with mimalloc an allocation past the limit must still throw
 // (WorkerOverItsMemoryLimitIsAnInternalError above), not abort.
 TEST(Workers, WorkerRunsOnTheConfiguredAllocator) {

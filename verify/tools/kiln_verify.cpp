@@ -131,7 +131,7 @@ int run_test(const std::string& pack_dir, const std::string& scene_file, const s
 // buffers), and so does every image a test compares. glibc's defaults hand those blocks back to the kernel
 // (mmap above an adaptive threshold, heap trimming above 128 KiB free) and fault them in again, zeroed, on
 // the next variant: a quarter of a cold Vulkan kiln test went to page faults. Keep them in the heap; the
-// process lives for one test run. Measured in bench/REPORT.md, section 7.
+// process lives for one test run. Measured in bench/REPORT.md, "Golden verification time".
 void keep_freed_memory_in_the_heap() {
   mallopt(M_MMAP_THRESHOLD, 32 << 20);  // 64 and 256 MiB measured the same
   mallopt(M_TRIM_THRESHOLD, 512 << 20);

@@ -123,8 +123,8 @@ Result<InstrumentedModule> instrument_coverage(const std::vector<uint32_t>& word
   if (module.version() < 0x10300) module.add_extension("SPV_KHR_storage_buffer_storage_class");
   // A fragment shader that writes memory runs for every fragment, hidden or not, unless it asks for the depth test
   // first: with it, the probes count the fragments that pass the depth test (not those a nearer surface already
-  // hides), and hidden fragments cost nothing (bench/REPORT.md section 14). The image is the same: nothing in such a
-  // shader decides the depth test.
+  // hides), and hidden fragments cost nothing (bench/REPORT.md, "Shader code coverage"). The image is the same:
+  // nothing in such a shader decides the depth test.
   const bool early_already = std::any_of(code.begin(), code.end(), [](const Instruction& in) {
     return in.op() == spv::OpExecutionMode && in.words.size() > 2 && in.words[2] == spv::ExecutionModeEarlyFragmentTests;
   });
