@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """kiln's cold build against what a user would pick instead, 2-wide (issue 26 item 1).
 
 The naive chain of bench/REPORT.md's "Build throughput against the naive chains" (glslangValidator, spirv-opt -O,

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Build-speed benchmark: kiln against the naive command-line pipeline, on the same variant list.
 
 The naive pipeline is what a user's shell loop does for every (variant, stage):

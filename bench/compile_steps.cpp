@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Times the steps of compile jobs on preprocessed stage sources (from `kiln build --emit preprocessed`), in
 // the order a worker runs them: front end (glslang), legalize (kiln's core recipe), validate, optimize (kiln's recipe),
 // validate, reflect, the three cross-compilers. Linked with the same allocator as kiln-worker, so the numbers

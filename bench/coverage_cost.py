@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """What shader code coverage costs (bench/REPORT.md, "Shader code coverage"): the same kiln test run on three
 builds of one pack, the shipped one (optimized), -g (debug information, no optimization) and --coverage (-g plus the probes), side by
 side: interleaved rounds, medians, ratios. Every run compiles its pipelines cold (MESA_SHADER_CACHE_DISABLE), as a

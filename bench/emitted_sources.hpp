@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The preprocessed stage sources `kiln build --emit preprocessed` wrote for a pack, in a fixed order: what the
 // floor and per-pass benchmarks (compile_steps.cpp, optimizer_passes.cpp) run the libraries on.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Additional lights inside rendered frames: what the plain per-pixel loop, Forward+ tile lists and per-vertex
 // lighting cost and how far each is from the CPU reference, in the stress scene (night_city: 258 lights) and in
 // the golden scene (spheres: 3 lights), drawn on lavapipe with the default pack's Forward variants.

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Golden margins and the mutation score (issue 23 items 5 and 6), as markdown for
 bench/REPORT.md, "Golden tolerances and the mutation gate".
 

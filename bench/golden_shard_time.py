@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Cold and warm `kiln test` shards side by side: the measurement behind bench/REPORT.md, "Golden verification time".
 
 Runs one shard of the spheres golden test (default pack, as golden.setup leaves it) with each kiln-verify binary

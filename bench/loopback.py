@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Servers on 127.0.0.1 for the remote cache benchmarks (bench/remote_transfers.py, bench/remote_faults.py): a free
 port, waiting until something listens, and Debian's nginx with WebDAV PUT in a directory of the caller's, in the
 foreground, stopped by the caller through the returned process."""

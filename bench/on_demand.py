@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """The first use of an on-demand variant (issue 61 items 3 and 5, bench/REPORT.md "The development loop"): seconds
 from a development reader's request to the pack that serves it, for variants the in-use pack lacks, on the default
 pack with one scene's usage.

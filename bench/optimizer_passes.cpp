@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What each SPIRV-Tools pass does on a pack's modules: for the core legalization recipe (on the front end's
 // modules) and for the optimizer recipes (on the legalized ones), runs the recipe one pass at a time and
 // records, per pass, how many modules it changed and how long it took; then times each recipe whole, in

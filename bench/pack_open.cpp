@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What a game pays for a pack, through the C API only (kiln/kiln_reader.h), so that the same source times any
 // build of the reader: open and close, select by keyword ids, and the first use of each variant's fragment SPIR-V.
 //

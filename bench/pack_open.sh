@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Opening a pack, selecting and first use, as a game does (bench/pack_open.cpp through the C API), on the default
 # pack (variants/lit.pack.json) and on a 10x synthetic one (bench/synthetic_pack.cpp), with the RSS of each step.
 # With OLD_SOURCE (a checkout of an older kiln) and OLD_PACK (the default pack as that kiln built it), the same

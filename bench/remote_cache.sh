@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The remote cache on loopback (bench/REPORT.md, "The remote cache on loopback"): cold build; a second client warm
 # from the remote (per stage source, from a checkout whose pack definition differs by one byte; and the pack-level entry); the hit rate
 # after an include edit; the cost of a remote that is down (connection refused) on a build that is warm locally.

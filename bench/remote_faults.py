@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """What each remote cache fault costs a build, from its onset (issue 39 item 2: "each fault ends within 5 s").
 
 Every fault of docs/remote-cache.md's failure table, on loopback: Debian's nginx for the answers it can be configured

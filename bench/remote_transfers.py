@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """How many remote requests kiln should keep in flight, and whether libcurl's multi interface would pay (issue 24).
 
 kiln fetches from the remote cache with `--remote-transfers N` threads, each with one kept-alive libcurl handle (one

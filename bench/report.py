@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Writes bench/results/REPORT.generated.md and bench/plots/*.png from bench/results/*.json.
 
 The results come from one run of bench/run_all.sh (build speed, keyword scaling, the stress gate's report,

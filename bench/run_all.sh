@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Reruns the instruments behind bench/REPORT.md from scratch: installs the Debian packages, builds, runs the
 # instruments into bench/results/, then bench/report.py, which writes their tables to bench/results/REPORT.generated.md
 # and the plots to bench/plots/ (bench/REPORT.md's sections take their current figures from there). About 95

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """How kiln's build time grows with the number of keywords (issue 3, part 1).
 
 A synthetic shader with K fragment keywords (`#pragma multi_compile_fragment _ KW_i`, each changing the

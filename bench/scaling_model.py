@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """How kiln's cold build would scale: more cores, and more machines through the remote cache (issue 26 item 6,
 issue 24 section 4).
 

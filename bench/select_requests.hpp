@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the selection benchmarks ask for (bench/pack_open.cpp, bench/usage_recording.cpp), through the C API only so
 // that any build of the reader compiles them: the pass with the most variants, and each of its variants' own keywords
 // as ids, in a shuffled order (a fixed seed): what a renderer asks for per draw.

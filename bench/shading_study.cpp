@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Shading cost against error for every approximation shaderlib offers (issue 3, part 2).
 //
 // Error: each term is compiled by kiln's front end and SPIRV-Tools (tests/gpu/Probe.hlsl, PROBE_TERM) and run

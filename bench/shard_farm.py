@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Sharding over machines (issue 44): N shards and the merge against one machine, through nginx on loopback.
 
 Each configuration runs the pack's cold build (--no-cache) as one machine (no remote) and as N shards

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln-synthetic-pack PACK SCALE OUT_DIR: writes pack `<name>x<SCALE>` to OUT_DIR, SCALE copies of PACK's passes
 // (named `<pass>_<copy>`), each with its own binaries and blobs (every blob's bytes with the copy's number
 // appended, so that none is deduplicated away), through kiln's own writer: a pack SCALE times larger in variants,

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Default, scene-stripped and usage-stripped packs of the bundled library for one recorded run (issue 42 item 6,
 # bench/REPORT.md "Usage recording"): the adversarial scene (variants/scenes/render/audit.json) is rendered on lavapipe
 # over the default pack and records its usage log as a game would (kiln test --usage-log); then the default pack, the

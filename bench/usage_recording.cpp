@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What usage recording (docs/usage.md) costs a selection: kiln_select by keyword ids through the C API and
 // PackReader::select by names, each with recording off and on, over every variant of the pack's largest pass in a
 // shuffled order. Run interleaved: kiln-usage-recording PACK --benchmark_enable_random_interleaving=true

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """The author's loop with `kiln watch` (issue 61 item 5, bench/REPORT.md "The development loop"): seconds from an
 edit to the in-use pack and to the full pack, for a comment-only edit, an edit in the fog code and an edit of D_GGX,
 on the default pack with one scene's usage, interleaved over rounds, medians.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # kiln_add_shader_pack(<target> PACK <pack.json> [NAME <pack name>] [SCENES <scene.json>...]
 #                      [TARGETS spirv glsl gles msl] [OUTPUT_DIR <dir>] [CACHE_DIR <dir>]
 #                      [DEFINES NAME[=VALUE]...] [OPTIONS <kiln build argument>...] [DEPENDS <file or target>...] [EXCLUDE_FROM_ALL]

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # What the build needs from kiln's output targets, read from their table, compiler/include/kiln/targets.def (one row
 # per target; the C++ code is generated from the same rows by the preprocessor). Sets:
 #   KILN_TARGET_IDS               every target's id, in row order ("spirv glsl gles msl")

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Writes a header defining KILN_SPIRV_CROSS_LIBRARIES_SHA256: the SHA-256 over the SHA-256 of each library
 # file given (LIBRARIES, separated by '|'). Run at build time by compiler/CMakeLists.txt whenever one of the
 # libraries changes, so an upgraded SPIRV-Cross changes kiln's cache keys on any distribution.

@@ -145,3 +145,4 @@ real Fd_RenormalizedBurley(real NoV, real NoL, real LoH, real perceptualRoughnes
 }
 
 #endif // KILN_BRDF_INCLUDED
+// SPDX-License-Identifier: Apache-2.0

@@ -99,3 +99,4 @@ real3 ComputeDiffuseColor(real3 baseColor, real metallic)
 }
 
 #endif // KILN_COMMON_INCLUDED
+// SPDX-License-Identifier: Apache-2.0

@@ -46,3 +46,4 @@ float3 MixFog(float3 color, float3 fogColor, float fogFactor)
 }
 
 #endif // KILN_FOG_INCLUDED
+// SPDX-License-Identifier: Apache-2.0

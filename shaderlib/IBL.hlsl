@@ -106,3 +106,4 @@ float3 BoxProjectedDirection(float3 R, float3 positionWS, float3 probePositionWS
 }
 
 #endif // KILN_IBL_INCLUDED
+// SPDX-License-Identifier: Apache-2.0

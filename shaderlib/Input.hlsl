@@ -77,3 +77,4 @@ struct AdditionalLight
 };
 
 #endif // KILN_INPUT_INCLUDED
+// SPDX-License-Identifier: Apache-2.0

@@ -166,3 +166,4 @@ float3 VertexLighting(float3 positionWS, float3 normalWS)
 }
 
 #endif // KILN_LIGHTING_INCLUDED
+// SPDX-License-Identifier: Apache-2.0

@@ -75,3 +75,4 @@ float3 ColorTemperatureToLinearRGB(float temperature)
 }
 
 #endif // KILN_LIGHTS_INCLUDED
+// SPDX-License-Identifier: Apache-2.0

@@ -176,3 +176,4 @@ real3 IndirectLighting(ShadingData s, float3 irradianceOverPi, float3 prefiltere
 }
 
 #endif // KILN_SHADING_INCLUDED
+// SPDX-License-Identifier: Apache-2.0

@@ -73,3 +73,4 @@ float3 ApplyShadowBias(float3 positionWS, float3 normalWS, float3 lightDirection
 }
 
 #endif // KILN_SHADOWS_INCLUDED
+// SPDX-License-Identifier: Apache-2.0

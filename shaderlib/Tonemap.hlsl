@@ -29,3 +29,4 @@ float3 ACESFitted(float3 color)
 }
 
 #endif // KILN_TONEMAP_INCLUDED
+// SPDX-License-Identifier: Apache-2.0

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln build: a variant pack from a pack definition (the pipeline, compiler/src/driver/pipeline.cpp), its summary and
 // --summary-json (kiln/build_summary.hpp), --trace (driver/build_trace.hpp), the remote cache's options and --shard.
 #include <cstdlib>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln's command line: one file per verb (build_verb.cpp, list_verb.cpp, ...), each registering its options with
 // CLI11 and running over the library; main.cpp only assembles them. What several verbs share is here.
 #pragma once

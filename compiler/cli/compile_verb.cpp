@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln compile: one HLSL file for one stage, as a shader author first writes it with glslc or DXC
 // (`glslc -fshader-stage=frag -fentry-point=main x.hlsl -o x.spv`, `dxc -T ps_6_0 -E main x.hlsl -Fo x.spv`).
 // It is a one-pass build (the same front end, binding model, checks and diagnostics as `kiln build`) into a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln inspect: a built pack's passes, layouts and variants; --extract writes its blobs as files.
 #include <iostream>
 

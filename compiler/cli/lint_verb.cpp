@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln lint: a pack definition (every rule, over a scratch build) or HLSL files (the source rules), reported as
 // text, JSON or SARIF (kiln/lint.hpp).
 #include <stdlib.h>

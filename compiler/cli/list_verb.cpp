@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln list: every variant a pack would contain, with the keywords each stage sees, and each pass's settings.
 #include <iostream>
 

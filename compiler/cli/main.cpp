@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln: the command line. Each verb is a file of its own (cli.hpp); this file assembles them, parses, and runs
 // the one chosen inside the one guarded entry point: an exception that escapes a verb is an internal error
 // (exit 2, "this is a bug in kiln"), never an abort or an exit code that reads as the input's fault.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln check-scene and kiln diff-packs: questions about built packs (kiln/pack_tools.hpp).
 #include <iostream>
 

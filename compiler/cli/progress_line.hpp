@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The live progress line of `kiln build` on a terminal: one line, redrawn in place, erased before anything
 // else is printed to the terminal and when the build ends. Off a terminal (CI logs) there is none: the
 // summary printed after the build says it all once.

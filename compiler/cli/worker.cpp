@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln-worker: a compiler worker process, started and fed by kiln's WorkerPool over stdin/stdout.
 #include <iostream>
 #include <string_view>

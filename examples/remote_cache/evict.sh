@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # Keeps a kiln remote cache directory (the root an nginx or Apache WebDAV server serves) under a size: deletes the
 # files read least recently first, until the rest fits. Run it on the server from cron or a systemd timer:
 #

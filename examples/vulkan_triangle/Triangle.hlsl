@@ -15,3 +15,4 @@ float4 Frag() : SV_Target {
   return Color;
 #endif
 }
+// SPDX-License-Identifier: Apache-2.0

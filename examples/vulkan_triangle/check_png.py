@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """The check on vulkan_triangle's image: the triangle's pixels have the expected colour, where the triangle is.
 
 usage: check_png.py IMAGE.png R G B

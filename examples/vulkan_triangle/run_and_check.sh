@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # examples.vulkan_triangle.*: draws with the example, then checks the image (check_png.py).
 # usage: run_and_check.sh PROGRAM PACK_DIR IMAGE "R G B" [KEYWORD]...
 set -e

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Draws one frame with a variant from a kiln pack, headless, and writes it as a PNG. Uses the reader's C API
  * (kiln/kiln_reader.h), Vulkan and libpng only. The pipeline comes from the pack: the variant is selected by
  * keywords, its SPIR-V and entry points are the pack's, and the descriptor set layout and vertex input are made from

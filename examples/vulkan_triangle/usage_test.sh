@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # examples.vulkan_triangle.usage: the example records what it selects (KILN_USAGE_LOG), a pack is built from that log
 # (kiln build --usage), check-usage finds nothing missing, the narrow pack draws the recorded run's image, and a run
 # that asks for something else is refused by the narrow pack (docs/usage.md).

@@ -52,3 +52,4 @@ GBufferOutput GBufferFragment(Varyings input, bool frontFace : SV_IsFrontFace)
     output.material1 = float4(_PerceptualRoughness, _Reflectance, _Anisotropy, 0.0);
     return output;
 }
+// SPDX-License-Identifier: Apache-2.0

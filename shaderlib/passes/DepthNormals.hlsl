@@ -28,3 +28,4 @@ float4 DepthNormalsFragment(Varyings input) : SV_Target
     float3 normalWS = SafeNormalize(input.normalWS, float3(0.0, 1.0, 0.0));
     return float4(normalWS * 0.5 + 0.5, 1.0);
 }
+// SPDX-License-Identifier: Apache-2.0

@@ -23,3 +23,4 @@ float4 DepthOnlyFragment(Varyings input) : SV_Target
 {
     return float4(input.positionCS.z, 0.0, 0.0, 1.0);
 }
+// SPDX-License-Identifier: Apache-2.0

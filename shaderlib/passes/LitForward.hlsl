@@ -159,3 +159,4 @@ float4 LitFragment(Varyings input, bool frontFace : SV_IsFrontFace) : SV_Target
     return float4(ACESFitted(radiance), 1.0);
 #endif
 }
+// SPDX-License-Identifier: Apache-2.0

@@ -37,3 +37,4 @@ float4 ShadowPassFragment(Varyings input) : SV_Target
 {
     return 0.0;
 }
+// SPDX-License-Identifier: Apache-2.0

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* unit.capi.FromC11EveryErrorSelectionCodeAndReflection: kiln_reader.h from C11 (-Wall -Wextra -pedantic
  * -Werror), on the pack tests/capi/tiny.pack.json builds (unit.capi.setup). usage: capi_test <pack dir> <scratch dir>
  * Passes: Main (groups [_ FOG], [QUALITY_LOW QUALITY_HIGH], fragment [_ TINT]; TINT excludes FOG) and Depth

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* The checks of the reader's C test programs (the .c files here; checks.hpp is the C++ programs'): a failed CHECK is
  * printed with its file and line and counted in `failures`, which main returns. One definition per program: include
  * it from the program's one source file. */

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The checks of the reader's C++ test programs (tests/capi/*.cpp): plain programs, no GoogleTest, so that one can be
 // built with -fno-exceptions -fno-rtti. A failed CHECK is printed with its line and counted; main returns 1 if any.
 #pragma once

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* kiln_reader_dev.h from C11 (unit.capi.FromC11DevelopmentModeIsOptInAndLoopbackOnly): the header is C, development
  * mode opens only when asked (the variable unset: nothing), and only for a loopback endpoint. No server runs here:
  * opening connects to nothing (diag.DevelopmentEndpoint.* serves real requests). */

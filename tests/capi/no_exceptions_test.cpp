@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // unit.capi.FromCxxWithoutExceptionsSelectionByIdsAllocatesNothing: kiln_reader.h from C++ built with
 // -fno-exceptions -fno-rtti, as games often are. It compiles, links and selects; a failing call returns its code instead of aborting; and a successful selection by
 // ids allocates nothing (this executable counts every operator new, the reader's included, since the reader is

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // unit.capi.TheCxxReaderWithoutExceptionsReportsEveryError: kiln/pack_reader.hpp from C++ built with -fno-exceptions
 // -fno-rtti, through PackReader's try_ calls. Each error a game can meet comes back as a code and a message instead of
 // aborting the program: a missing pack, a manifest changed after the build, one cut short, a blob damaged after the

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # cmake.pkg_config.CProgramBuildsAgainstTheInstalledReader: the installed reader, used without CMake.
 #   `cmake --install` installs kiln-reader.pc and kiln_reader.h; no installed header includes nlohmann-json (the
 #   compiler's include trace, -H, is searched, so an indirect include counts); kiln_reader.h is C99; a C program

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* unit.capi.FromC11APollSwitchesToARebuiltPackAndRefusesADamagedOne: live updates through the C API (kiln_reader.h,
  * docs/reader.md "Live updates"), in C11. A copy of the tiny pack is opened; the pack rebuilt after two edits
  * (tiny-edited.pack.json: the Depth pass's fragment shader changed, the constraint that stripped FOG with TINT

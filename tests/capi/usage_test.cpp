@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // unit.capi.UsageRecordingCountsEverySelectionFromEveryThread: the readers' usage log (docs/usage.md). Four threads
 // select through the C++ reader and the C API at once; the log holds exactly the counts asked for, the keyword set
 // the pack lacks with its nearest variant, the tags, and the pack's name; a reader that goes writes its log; more

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # A cross build as far as CMake can tell: another system name makes CMAKE_CROSSCOMPILING true, and packages are
 # looked up in a fake sysroot (the test's copy of an installed kiln, whose kiln cannot run on the build machine)
 # before the host root (for nlohmann_json and the other dependencies of kilnConfig.cmake).

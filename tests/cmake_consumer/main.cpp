@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Loads the pack built at build time and selects variants the way a renderer would.
 #include <kiln/pack_reader.hpp>
 

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # kiln_add_shader_pack's options and checks, and a cross build, on an installed kiln:
 #   the schemas are installed; OPTIONS, DEPENDS, EXCLUDE_FROM_ALL and generator expressions in paths work;
 #   mistakes are configure errors with a clear message (a path known only at build time: a build error);

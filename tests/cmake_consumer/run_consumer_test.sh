@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Builds and runs the consumer project, then checks incremental behaviour:
 #   touching an included HLSL file rebuilds the pack; touching an unrelated file does not; a new header that
 #   shadows an include (found earlier in the search order) rebuilds the pack; changing the scene list changes it.

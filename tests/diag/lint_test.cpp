@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln lint: every rule has a test that triggers it and one that does not.
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // HLSL that glslang 12's front end does not take (HLSL 2021, Shader Model 6.4+ intrinsics, ray tracing, mesh
 // shaders, C++ spellings): the error names the construct, points at it, and says what to write instead, where
 // glslang alone says "'declaration' : Expected" or "no matching overloaded function found".

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A usage log of pack "p", pass "P", in which the game selected the keyword sets given (one keyword each, "" for
 // none): shared by the watch and development-endpoint tests.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln watch (docs/development-loop.md), run as a user runs it: in the background, edited under it, its status lines
 // read from a pipe. Every wait is on an event (a status line, an inotify event in the output directory), never on
 // time; the packs are tiny (three variants of one pass) so that each round costs little.

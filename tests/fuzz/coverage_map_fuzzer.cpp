@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer harness: kiln::read_coverage_map (kiln/coverage_map.hpp) over fuzzed module bytes, as a game's renderer
 // or kiln test's reads a pack's SPIR-V. The reader ships in the library games link and returns errors, never throws.
 // Findings: a crash, an escaped exception, ASan/UBSan (a read past the module), and a map larger than its module:

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer harness: the declaration scanner (stage 1) and the includer's confinement over fuzzed HLSL.
 //
 // Input: an entry file and one include file, split at the first "\n//--include--\n" (no split: no include

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer harness: every other decoder of bytes from outside, one target per first byte of the input.
 //   0: a compile record (the cache's and the remote's payloads, a worker's answer): decode_output, and the bounded
 //      CBOR decoder under it; then the same bytes as a shard's bundle from the remote (decode_shard_bundle);

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer harness: kiln::PackReader over a fuzzed manifest and archive. Every outcome but a PackError is a
 // finding: another exception escapes and aborts, and ASan/UBSan report memory errors and undefined behaviour.
 //

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # ctest's fuzz.<target>: one libFuzzer harness over its committed seed corpus, bounded by time and by runs.
 # libFuzzer exits 0 when a bound ends the run, so the test fails only on a finding (a crash, an escaped
 # exception, an ASan/UBSan/LeakSanitizer report, one input over 60 s or 2 GiB); the input is then kept as

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Every variant's GLSL 450 and GLSL ES 3.10 output, compiled and linked by a real OpenGL driver (Mesa llvmpipe,
 // OpenGL 4.5 core and OpenGL ES 3.2 through EGL's surfaceless platform): the GL targets are accepted by a
 // driver, not only produced. The Forward pass is left to the golden tests (`ctest -L golden`, golden.gl.* and

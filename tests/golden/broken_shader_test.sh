@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # golden.broken_shader_fails: proves the golden suite catches a wrong shader. A copy of the shader library
 # gets a sign error in F_Schlick (the real3 version DirectBRDF calls); the pack built from it must fail
 # kiln test against the CPU reference images golden.setup made for the default pack (these variants are a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln test's image comparison and the scene features the adversarial scene needs, on synthetic images and
 // matrices (no renderer): fractions are of the shaded pixels, the worst pixel is bounded, shadow-test ties are
 // capped, object transforms rotate and scale, a scene can name the variants it judges.

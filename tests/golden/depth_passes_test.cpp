@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The default pack's DepthOnly and DepthNormals variants, rendered on each API (their SPIR-V on lavapipe, their
 // GLSL 450 and GLSL ES on llvmpipe) in the golden scene, against what they must write for the geometry the
 // debug pack's G-buffer records: DepthNormals the encoded, normalized world normal; DepthOnly the window depth

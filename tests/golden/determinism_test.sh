@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # golden.determinism and golden.cross_variant: the same variant renders bit-identical images twice (on each
 # API), and variants that must look the same do (Forward+ vs the plain light loop, fog with zero density vs no
 # fog, main-light shadows with nothing to occlude vs no shadows). Also: GALLIVM_PERF=nopt, which the golden

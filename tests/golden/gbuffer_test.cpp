@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The CPU reference rasterizes the scenes itself (verify/reference/rasterize.cpp) instead of reading the G-buffer
 // and the shadow maps lavapipe draws: they must agree wherever the reference does not mark a coverage tie, which
 // checks both the reference's rasterizer and the debug pack's GBuffer pass and the ShadowCaster pass. A wrong object

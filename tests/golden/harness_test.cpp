@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln test's harness on the default pack golden.setup builds: the shards of one N split the Forward variants
 // into whole pipelines (every variant in exactly one shard, the variants of one pipeline together), and a
 // variant rendered again reuses its pipeline or program and gives the same bits.

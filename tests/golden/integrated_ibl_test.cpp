@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A reference that shares nothing it judges (issue 23 item 3): for a set of variants, the CPU reference integrates
 // the image-based lighting from the analytic sky itself (GGX importance sampling for the specular lobe, cosine
 // sampling for the diffuse part; specular albedo and energy compensation from the same samples), instead of

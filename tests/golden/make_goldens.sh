@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # golden.setup and golden.setup.<scene>, in two steps so that ctest can run the reference shading of the two
 # scenes beside each other and beside the tests that need only the packs:
 #   make_goldens.sh KILN KILN_REFERENCE SOURCE_DIR WORK_DIR packs

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # golden.render_watch_redraws_each_edit (issue 61 item 4, docs/development-loop.md): `kiln watch` serves a two-variant
 # pack built from a copy of the shader library, and `kiln render --watch` draws the spheres scene from its output. An
 # edit of the Forward pass's fragment code (the output halved) is redrawn: the image changes; reverting the edit is

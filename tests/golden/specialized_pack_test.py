@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """golden.specialized.variants: the specialized pack (variants/lit_specialized.pack.json) holds exactly the default
 pack's variants, pass by pass, with fewer modules; every folded keyword the manifest records is one of the pack's
 keyword_kinds, at the place kiln/folded_keywords.hpp derives. Its images are golden.{api}.spheres.specialized's."""

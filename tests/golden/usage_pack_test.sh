@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # golden.usage_pack_serves_the_recorded_run (issue 42 item 5, docs/usage.md): a run of the adversarial scene over the
 # default pack records its usage log as a game would (kiln test --usage-log: the 14 variants the scene judges,
 # selected by their keywords, and the shadow casters), a pack is built from that log alone, check-usage finds every

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Compute passes for real: kiln builds a compute shader with keywords into a pack; every variant is selected
 // through the C++ reader, dispatched on Mesa lavapipe with the pipeline layout its reflection gives, and its output
 // buffer is checked against the same function computed on the CPU. Also: the thread-group size is reflected, a

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """The mutation gate (issue 23 item 6): every plausible physics or shader-logic bug in mutations.json must fail
 the golden comparison.
 

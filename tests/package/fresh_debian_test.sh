@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # package.fresh_debian: the Debian packages installed with apt into a fresh, minimal Debian 12 (a debootstrap chroot,
 # made as ../shared/tools/fresh-debian.sh makes it), where only their Depends bring kiln's libraries: first kiln and
 # the reader alone (nothing of Vulkan, EGL or X11 comes with them; a C program links with gcc alone), then

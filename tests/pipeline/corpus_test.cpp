@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The compatibility corpus (tests/corpus/*.hlsl): small shaders written in the styles real projects use.
 // Each file states in its header comment what kiln does with it (slang-style test modes):
 //   // default: ok | K1406          the result with default options

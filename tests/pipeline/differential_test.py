@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """pipeline.corpus.KilnBuildsWhatGlslangAndGlslcBuild: a differential test of kiln against glslangValidator and glslc
 on the compatibility corpus (tests/corpus/*.hlsl; the header format is corpus_test.cpp's).
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Folded keywords (kiln/folded_keywords.hpp, docs/keywords.md) through whole builds: a dynamic_branch or
 // specialization_constant group builds one module for all its values, every variant is still in the pack, and
 // both reader APIs give each variant the values to set, where the compiled code declares them.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The HLSL compatibility rewrites (frontend/hlsl_compat.hpp), through whole builds: each keeps DXC's meaning, and
 // gives the SPIR-V of the spelling glslang already reads as DXC does.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Kiln's optimizer recipe (optimize/spirv_tools.cpp: -O without the passes whose work kiln's legalization has
 // already done) against SPIRV-Tools' -O, on every distinct module of the bundled library's default pack and of
 // the real-world-HLSL corpus (tests/corpus, with the option each header documents). The modules are planned,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Whole builds through the library: determinism, incremental rebuilds, the bundled library.
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Differential test: every shader of tests/pipeline/roundtrip/ is compiled twice, directly by glslang
 // (its own preprocessor on the original text, no kiln preprocessing) and by a kiln build, and the
 // optimized SPIR-V must be the same bytes. kiln compiles the text glslang's preprocessor printed, and

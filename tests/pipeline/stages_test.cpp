@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One source file per stage (a .vert.hlsl and a .frag.hlsl, as glslc and DXC projects lay them out): each stage
 // compiles its own file with its own entry point (both may be `main`), a keyword reaches the stages whose files
 // declare it, and the interface between the two files is still checked.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `kiln build --trace FILE`: the file read back as the Trace Event Format specifies it (complete events with numeric
 // ts and dur, metadata naming every track, slices on a track nested or disjoint), and holding what it promises (every
 // stage source's preprocess and front end, every back end's steps, the driver's stages). No assertion on a time

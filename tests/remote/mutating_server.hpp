@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The remote-response fuzzer's server: a loopback HTTP server that answers each GET with the bytes a real nginx
 // stored for that path, mutated by a seeded generator: as an attacker on an `http://` path would. Records (under
 // /ac/) are mostly resealed after their payload is changed (size and SHA-256 made right, so that the damage

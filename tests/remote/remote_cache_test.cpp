@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The remote cache tier against a real nginx (WebDAV PUT) on loopback: two clients sharing one server, and each
 // fault a build must survive with the same pack and one warning (an error with --remote-required).
 // No test depends on timing: a timeout is a server that never answers, and the outcome is asserted, not the time.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Servers for the remote cache tests, on 127.0.0.1, each stopped by its own PID or thread:
 //  - Nginx: Debian's nginx (WebDAV PUT), started from a configuration written into a temporary directory,
 //    in the foreground and in one process (`daemon off; master_process off;`), so it runs as the current user

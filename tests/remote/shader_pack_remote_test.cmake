@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # kiln_add_shader_pack(... REMOTE <url> REMOTE_UPLOAD) puts --remote <url> --remote-upload on kiln's command line,
 # and without them neither appears. Configures two tiny projects with Ninja and reads the commands they generate.
 # Run: cmake -DKILN_SOURCE_DIR=<kiln> -DWORK=<scratch dir> -P shader_pack_remote_test.cmake

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Runs the sharding examples of docs/remote-cache.md (GitHub Actions matrix, GitLab `parallel:`, Kubernetes Indexed
 Job) the way each scheduler would, against a real nginx on 127.0.0.1: every shard job's kiln command with the
 variables that scheduler sets, then the merge job's command. Each example must compile every module exactly once

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Validates SARIF files against the official SARIF 2.1.0 JSON schema (sarif-schema-2.1.0.json beside this
 script, see NOTICE.md) with python3-jsonschema, and checks what the schema cannot: every artifact URI is a
 valid URI reference (percent-encoded), every result has a region, and a relative URI names its uriBaseId.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The accuracy gate (ctest label `stress`, next to the NaN/Inf gate): shaderlib's BRDF terms, light functions,
 // IBL helpers and the direct lighting of a light, compiled by kiln's front end and run on lavapipe over dense
 // grids of their valid domain, each compared with the double-precision CPU reference (verify/reference) under a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A test suite whose probes run on Mesa lavapipe: the device is opened once per suite (a failure to open it fails
 // every test, never skips one), and the suite's JSON report (bench/REPORT.md reads it) is written when it ends,
 // to $<Suite::kReportEnvironment> or to Suite::kReportPath. CRTP: each suite has its own device and report.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The numerical stress gate (ctest label `stress`): shaderlib's public functions and the full lit shading,
 // compiled by kiln's front end and run on lavapipe over a grid of at least 5,000 points plus the special
 // cases (roughness 0 and tiny; NoV, NoL 0 and 1e-8; NoH 1 and 1 - 1 ulp; light distance 0; zero-length

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fault injection for the test builds of kiln's executables (kiln-fault-cli, kiln-verify-fault; never the shipped
 // ones, which do not include this file): KILN_INJECT_FAULT=VERB:KIND makes verb VERB throw, once its arguments are
 // parsed, an exception of KIND: runtime_error, filesystem_error, bad_alloc or unknown (not an std::exception). The

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln-fault-worker: the compiler worker with fault injection, for the test suite only (the shipped kiln-worker has
 // none). Tests that need a worker to hang, run out of memory, crash or throw point BuildOptions::worker_executable
 // (or a WorkerPool) at it (KILN_FAULT_WORKER_PATH):

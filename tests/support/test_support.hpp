@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Test helpers: temporary directories with files, and running the kiln CLI with captured output.
 #pragma once
 

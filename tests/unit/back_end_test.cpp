@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The back-end stages on their own, in process, on modules glslang makes from small HLSL: optimize
 // (legalize, validate, optimize), reflect (and the pass layout merge), and the 16-bit widening for GL.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The one decoder of JSON and CBOR from outside (kiln/bounded_json.hpp), and the compile record decoder on it: a
 // forged remote record of 200,000 nested CBOR arrays crashed `kiln build` on a transfer thread.
 #include <gtest/gtest.h>

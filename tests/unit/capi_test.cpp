@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The C API (kiln_reader.h) against the C++ reader it wraps, on hand-made packs with the awkward cases: a group
 // without an off value, a one-keyword group, a keyword in two groups, stripped combinations, a compressed blob.
 // tests/capi/ has the tests in C and in C++ without exceptions.

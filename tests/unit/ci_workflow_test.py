@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Checks docs/ci/kiln-lint.yml, the GitHub Actions example of docs/lint.md: it parses as YAML (python3-yaml),
 has the shape of a workflow, uploads the SARIF file its lint step writes, every repository path it names exists,
 the build directory it runs kiln from is the one the `ci` preset configures, and every option it gives kiln is

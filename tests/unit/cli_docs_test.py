@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """The man page (docs/man/kiln.1) and the bash completion (compiler/cli/completion/kiln.bash.in, configured into the
 build tree) against the CLI: every option each verb's --help lists is described in the man page and completed for
 that verb, every verb is completed, the completion function answers as bash calls it, and its lists of targets and

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """unit.ci.InstallDepsCoverEveryProgram: every program the build and the suite run comes from a package that
 .ci/install-deps installs, so a fresh Debian 12 has it (cpack's DEB generator needed `file`, which only the
 development machines happened to have).

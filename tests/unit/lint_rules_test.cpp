@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Each lint rule on its own, through the registry, on inputs made here (no build): every rule has a case that
 // triggers it and one that does not.
 #include <gtest/gtest.h>

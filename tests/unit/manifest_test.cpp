@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The typed manifest (kiln/manifest.hpp): what to_json writes, that from_json reads it back whole, and that
 // from_json refuses what kiln does not write with the place of the mistake.
 #include <gtest/gtest.h>

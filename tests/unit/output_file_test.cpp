@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln::write_output_file (kiln/output_file.hpp), the one way kiln writes what it was told to write: a regular file
 // is replaced atomically, a device or a FIFO is written in place and stays what it was, a link is never written
 // through or replaced unless it leads to a device, a FIFO or a redirected descriptor.

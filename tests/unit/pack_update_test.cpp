@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Live pack updates (docs/reader.md, "Live updates"): PackReader::poll_update() and kiln_pack_poll_update() switch to
 // a pack that a build wrote over the one they opened, say exactly which variants changed, refuse a damaged new pack
 // and keep serving the old one, keep counting usage across the switch, and let select() run on other threads while

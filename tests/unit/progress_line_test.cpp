@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The progress line of `kiln build` on a terminal: what it says, how often it is redrawn, and that it
 // is erased before anything else is printed (the terminal itself is exercised in diag.Cli tests).
 #include <gtest/gtest.h>

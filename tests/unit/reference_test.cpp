@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The CPU reference is the oracle for golden images and error studies, so it is checked against
 // closed forms and brute-force quadrature here (ARCHITECTURE.md, "Accuracy facts").
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln::Result, the library's one result type (kiln/result.hpp), and what returns it: the value or the error,
 // never both; PackResult is one with the reader's error.
 #include <gtest/gtest.h>

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """SARIF help links that open: every rule's helpUri names a file that exists and a section it has, for the kiln
 of the build tree (the source tree's docs/lint.md) and for an installed kiln (the lint.md installed beside it,
 <prefix>/share/doc/kiln, found from the executable: the install is moved after `cmake --install` to show that a

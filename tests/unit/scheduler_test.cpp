@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The build's compile scheduler (driver/compile) run against an in-process JobRunner: no worker processes, and
 // the test decides in which order jobs finish.
 #include <gtest/gtest.h>

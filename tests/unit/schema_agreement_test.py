@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """unit.schema: the JSON schemas in variants/schema/ and kiln agree.
 
 Every bundled pack definition and scene profile validates against its schema, and on a set of small cases

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A shard's bundle (driver/shard_bundle.hpp) comes from a server other machines write: it decodes to what was
 // encoded, and anything else (cut short anywhere, a byte changed anywhere, a blob that does not unpack to its hash)
 // is an error, never a crash or a bundle that names what it does not hold.

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """unit.schema.UsageLogsTheReadersWriteValidate: the logs unit.capi.UsageRecording* wrote (through the C++ reader and
 the C API), and the log `kiln merge-usage` makes of them, validate against variants/schema/usage.schema.json, and
 the schema refuses a log with a mistake in it. The merged log holds every selection of the logs it merged.

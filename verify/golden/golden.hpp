@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `kiln test`: renders every Forward variant of a pack and compares each image with the reference image
 // the CPU reference computed for it (a golden directory written by `kiln-reference goldens`), under the
 // limits of a tolerance file. Prints one line per variant (metric, measured value, limit); on a failure

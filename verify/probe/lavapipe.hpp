@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Runs shaderlib code on Mesa lavapipe (CPU Vulkan): the GPU side of the stress gate and of the
 // cost-versus-error study. A probe is a full-screen triangle whose fragment shader reads one input record
 // per pixel from a storage buffer and writes one float4 per pixel to an RGBA32F image, which is read back.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The reference's own geometry: the scene's meshes transformed and rasterized on the CPU in double precision, so
 // that the reference's G-buffer and shadow maps are not the renderer's (docs/golden.md, "A reference that shares nothing it judges").
 // The rules are Vulkan's for the renderer's pipelines: pixel centres at half-integers, no culling, depth test LESS,

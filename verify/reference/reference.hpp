@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln's CPU reference: the shader library's physics in double precision, under the same names as the
 // HLSL (shaderlib/), plus a Monte-Carlo integrator that produces ground truth (the DFG table the shaders
 // sample, directional albedo, white-furnace energy).

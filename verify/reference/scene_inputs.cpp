@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "reference/scene_inputs.hpp"
 #include "scene/verify_error.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The CPU reference's inputs for one scene, all made from the scene itself: the G-buffer and the shadow atlases
 // the reference rasterizes (reference/rasterize.hpp), the frames (camera, shadow views, tile lists) the scene
 // defines, and the environment and DFG table it names. No renderer is involved: what lavapipe draws is compared with

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The CPU reference for whole images: shades the pixels of a G-buffer (geometry as the renderer rasterized
 // it) in double precision with the shader library's physics re-implemented from reference.hpp, for the
 // shading model a variant's keywords select. It shares no shading code with shaderlib/: only input data

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The graphics APIs kiln renders a pack's outputs with, behind one interface: Vulkan (the SPIR-V, on Mesa
 // lavapipe), OpenGL 4.5 core (the GLSL 450 output) and OpenGL ES 3.2 (the GLSL ES output), both on Mesa
 // llvmpipe. `kiln render` and `kiln test` take --api.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A real OpenGL driver with no display: Mesa llvmpipe through EGL's surfaceless platform
 // (EGL_PLATFORM_SURFACELESS_MESA), as an OpenGL 4.5 core or an OpenGL ES 3.2 context, current on the calling
 // thread. The entry points have the same signatures in desktop GL and GLES; they are fetched with

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Renders a scene with a pack's GLSL 450 or GLSL ES outputs on a real OpenGL driver (Mesa llvmpipe through
 // EGL surfaceless, see gl_context.hpp): the same scene, the same bytes (scene_data.hpp) and the same draws as
 // the Vulkan renderer, shadow maps drawn by the ShadowCaster pass's GL output. Every buffer, texture and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "render/renderer.hpp"
 
 #include "render/scene_data.hpp"

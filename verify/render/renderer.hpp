@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Renders a scene with a pack's Forward pass on lavapipe: shadow maps by the pack's ShadowCaster pass (a
 // directional map or a 2x2 cascade atlas, and an atlas for shadowed point/spot lights), the Forward pass per
 // object, readback of the float image the fragment shader wrote. Resources are bound by the names and

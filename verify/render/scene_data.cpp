@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "render/scene_data.hpp"
 
 #include "kiln/coverage_map.hpp"

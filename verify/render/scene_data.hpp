@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What a scene puts into a pack's resources, independent of the graphics API: constant buffers filled at the
 // member offsets the pack's reflection records, the light records and Forward+ tile lists, the shadow
 // caster's per-view constants, the environment cube and the DFG table. The Vulkan renderer (lavapipe) and the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The Vulkan device kiln runs shaders on: Mesa lavapipe (CPU Vulkan), chosen by driver ID so that a real
 // GPU is never picked by accident, plus the small helpers every renderer here needs (host-visible buffers,
 // images, one-shot submissions). Shared by `kiln render`, `kiln test` and the probe harness of the tests.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The environment a scene is lit by: a prefiltered radiance cubemap (mip m holds the GGX-prefiltered
 // radiance for perceptual roughness m / (mips - 1)) and L2 spherical-harmonics irradiance, both produced
 // by the CPU reference (`kiln-reference environment`). KENV file: "KENV", u32 version 1, u32 base size,

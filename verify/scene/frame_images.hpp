@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The images a scene's inputs come as: the G-buffer the debug pack's GBuffer pass draws, and the shadow-map depth
 // atlases. Plain data, shared by the renderer that makes them and the CPU reference that reads them.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Float RGBA images and their files: PNG (8-bit sRGB, libpng), OpenEXR (32-bit float), and KIMG (kiln's raw
 // float image: "KIMG", u32 version 1, u32 width, u32 height, float32 RGBA rows, top row first). Every
 // writer goes through a temporary file and a rename.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A test scene for `kiln render` / `kiln test` (JSON, variants/scenes/render/*.json) and what the renderer
 // derives from it: camera and shadow matrices, light records, the Forward+ tile lists, meshes. The CPU
 // reference reads the same Scene (it is input data, like the geometry); it never reads the renderer's

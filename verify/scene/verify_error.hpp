@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // verify/'s errors: each carries a diagnostic of kiln's one table (the K20xx rows of diagnostics.def, and K1601 for
 // an output that cannot be written), so kiln-verify prints them through kiln's formatter and exits with their class:
 // 1 the input's fault (a scene, tolerance or golden file, a pack the renderer cannot use), 3 the machine's (no

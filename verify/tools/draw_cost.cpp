@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln-verify draw-cost (run by `kiln fold-cost --render-scene`, docs/keywords.md): the same variants drawn on
 // lavapipe from packs that build some keywords as variants (a module each), dynamic branches (a uniform bool) or
 // specialization constants (set when the pipeline is made), rounds interleaved, medians. Also the largest

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln-verify draw-cost: what drawing the same variants from differently folded packs costs (draw_cost.cpp).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln-verify: renders packs and compares them with the CPU reference's goldens (`kiln render`, `kiln test`;
 // kiln hands these verbs to this executable). Everything here links Vulkan, EGL, PNG and OpenEXR; the compiler
 // does not.

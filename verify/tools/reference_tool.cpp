@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln-reference: generates the data the shader library samples, and the golden images, from the CPU reference.
 //   kiln-reference dfg [--size N] [--samples S] -o FILE            the DFG table (KDFG binary, see reference.hpp)
 //   kiln-reference environment [--size N] [--mips M] -o FILE       prefiltered sky cube + SH9 (KENV, scene/environment.hpp)

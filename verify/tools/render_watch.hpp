@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln render --watch: the image drawn again each time the pack it reads is replaced (kiln watch, kiln build), until
 // SIGINT or SIGTERM. Event-driven and bounded (STYLE.md rule 19): it waits in one poll() on the reader's update
 // descriptor and a signalfd; nothing sleeps, and each redraw makes the renderer anew on the one device it keeps.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The one decoder of JSON and CBOR bytes from outside (pack definitions, scene profiles, manifests, cache and
 // remote records, worker pipes): sizes and nesting depth are checked before nlohmann recurses or allocates, a
 // number outside the double range or a repeated object key is an error, and every failure is one exception type

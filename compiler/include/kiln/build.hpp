@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln's library entry points: plan (stages 1-3), build (stages 1-8) and the build report.
 #pragma once
 

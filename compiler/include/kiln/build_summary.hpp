@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What `kiln build` says after a build: the summary for people (the funnel, what was compiled and found cached, the
 // remote cache's counts, the strip report, the stage times) and the same as JSON for CI dashboards
 // (`--summary-json`; README.md lists its fields, which are only ever added). Part of the compiler's public API.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What kiln's command line means, for tools that offer the same options (an editor, a build system's own front
 // end): -D, the binding shifts, and --shard with the schedulers it reads. Part of the compiler's public API.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Shader code coverage (docs/coverage.md). `kiln build -g --coverage` instruments every SPIR-V module: each basic
 // block that carries source lines stores a nonzero word into a storage buffer when it runs. A renderer binds that
 // buffer, draws, reads it back, and asks the module's coverage map which HLSL lines ran. kiln test does; a game's

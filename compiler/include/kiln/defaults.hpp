@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Every default kiln states, in one place: the library's option structs, the CLI's --help and the docs take
 // them from here (unit.docs.DocsStateTheCodesDefaults checks the docs and --help against `kiln --help`).
 #pragma once

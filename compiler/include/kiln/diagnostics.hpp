@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Diagnostics: one table of stable IDs (diagnostics.def), a sink that collects every
 // message of a run, and the clang-like printer `path:line:col: error[K1234]: message`.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Writing outputs as kiln does (kiln/output_file.hpp), and the scratch directories and display paths its tools
 // use. Part of the compiler's public API (kiln::compiler).
 #pragma once

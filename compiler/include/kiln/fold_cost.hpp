@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What folding a keyword group would save (`kiln fold-cost`, docs/keywords.md "Choosing a kind"): for each group,
 // the stage sources the pack would have with that group folded into one module, from the plan alone (nothing is
 // preprocessed or compiled); and cold builds of the pack as it is and folded, timed side by side. The run-time half

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The one guarded entry point of kiln's executables (kiln, kiln-verify): an exception that escapes `run` is an
 // internal error, exit 2, with the "this is a bug in kiln" wording; never an abort, nor an exit code that reads
 // as the input's fault.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* kiln's runtime pack reader as a C API: for C, and for C++ built with -fno-exceptions or without RTTI. It wraps
  * kiln::PackReader (pack_reader.hpp), checks packs the same way, selects by the same rule and reports the same
  * errors, as codes with messages; no C++ exception ever leaves it. C99; link with the kiln_reader library

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln lint as a library (the compiler's public API, kiln::compiler): rules over a pack's sources, its variant plan
 // and its compiled outputs, for CI and editors. Findings print as `path:line:col: warning[rule-id]: message`, or as
 // JSON, or as SARIF 2.1.0 for code-scanning viewers. What `kiln lint` does is these calls (compiler/cli/lint_verb.cpp).

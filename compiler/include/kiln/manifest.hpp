@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The variant pack's manifest (`<name>.manifest.json`, format kPackFormatVersion) and the reflection it
 // records, as types. The compiler's reflection stage returns `Reflection`, the pack writer writes a
 // `Manifest`, and the reader, `kiln inspect`, check-scene, diff-packs, lint and the verify renderer read one:

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The manifest's JSON conversions: nlohmann-json's customisation points for the types of manifest.hpp. For the
 // compiler, its tools and tests; not installed, so that a game including the reader's headers (manifest.hpp,
 // pack_reader.hpp, kiln_reader.h) does not need nlohmann-json. Implemented in src/reader/manifest.cpp.

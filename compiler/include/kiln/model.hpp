@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The nouns of kiln's pipeline: pack definitions, keyword groups, variants, stages and targets.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The one way kiln writes a file it was told to write (a -o path, a depfile, a summary, a pack, a cache entry, a
 // usage log, an image): what is at the path decides how, so that nothing kiln did not make is ever replaced.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The files of a variant pack, shared by the writer and the reader: `<name>.manifest.json` and the binary
 // archive it names, `<name>.<XXH3-64 of the archive, 16 lower-case hex digits>.kpack`.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Runtime reader for kiln variant packs: loads `<name>.manifest.json` and the archive it names
 // (`<name>.<XXH3-64>.kpack`), checks the format version and every checksum, and selects the variant for a
 // keyword set.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tools over built packs and the usage logs games record (docs/usage.md): check a scene against a pack (every variant
 // the scene can request must be there), compare two packs (for review in CI), check and merge usage logs. Part of the
 // compiler's public API (kiln::compiler): what kiln check-scene, diff-packs, check-usage and merge-usage do.

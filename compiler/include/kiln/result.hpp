@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln's one result type: a value, or the error that says why there is none. Every library function that can fail
 // for a reason its caller reports returns one (instead of a bool with a std::string& out-parameter, or a struct of
 // its own with `ok` and `error`); the reader's noexcept calls return its PackResult, a Result whose error is a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The runtime index: the part of a pack's manifest that a game needs (passes, keyword groups, variants, binaries,
 // reflections), as binary records inside the archive (kiln/pack_format.hpp), so that opening a pack parses no text.
 // The writer encodes it from the same typed `Manifest` it writes the JSON from; `kiln inspect --verify`

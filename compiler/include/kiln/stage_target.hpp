@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Shader stages and output targets: the enumerations the compiler, the pack manifest and the runtime reader
 // share, with the names and file extensions they go by. Header-only, so that the runtime reader links none
 // of the compiler. What each target's back end does is in compiler/src/cross/targets.hpp.

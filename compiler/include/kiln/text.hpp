@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Small spellings shared by messages: counts with their noun, keyword sets.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The usage log's text (docs/usage.md, variants/schema/usage.schema.json), one writer for the readers' recording
 // (PackReader::flush_usage) and for `kiln merge-usage`, so that both write the same bytes for the same counts.
 #pragma once

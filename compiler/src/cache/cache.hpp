@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Content-addressed cache of compile results. The key covers kiln's version, the exact tool versions,
 // every option, the stage, the entry point and the preprocessed text, so an include edit misses
 // exactly the variants that read it. Two kinds of entry: a back end's result, keyed by the front end's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One output file (a SPIR-V module, a GLSL or MSL source) in the form the pack stores it: a zstd frame when
 // that is smaller than the bytes, else the bytes themselves, with the sizes and hashes the pack's index and
 // its dedupe need. Workers make them, the cache keeps them and the pack writer copies them: each output is

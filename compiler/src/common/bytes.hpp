@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Little-endian fixed-width fields of kiln's binary records (cache segments, remote cache records).
 #pragma once
 

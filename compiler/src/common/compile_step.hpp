@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The steps of a compile, as a failure names them. The worker protocol carries the name; the build maps each
 // step to one diagnostic (driver/compile.cpp), so a new step that is not mapped is a compile error (-Wswitch).
 #pragma once

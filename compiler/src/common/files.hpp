@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Reading user files with kiln's safety rules; writing outputs atomically is kiln/files.hpp (public).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Content hashing (xxHash XXH3): 128-bit keys for caches and dedupe, 64-bit checksums for files.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Include resolution confined to declared roots: no escape through "..", absolute paths or symlinks.
 // Shared by the declaration scanner (stage 1) and the glslang includer (stage 4).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // parallel_for over [0, count): each index runs exactly once; results go to per-index slots, so
 // output order never depends on scheduling (kiln's outputs must be identical with -j1 and -jN).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What every kiln output targets, stated once: the front end's SPIR-V target, the validator's and optimizer's
 // environment, the cross-compilers' language versions, and what the manifest records of them.
 #pragma once

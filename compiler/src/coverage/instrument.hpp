@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stage 5b, with --coverage (docs/coverage.md): after validation and optimization, each basic block of a module
 // that carries source lines (a -g build) stores 1 into its own word of the coverage buffer (kiln/coverage_map.hpp)
 // when it runs. Nothing else changes: the instrumented module computes what the plain one does. The reader's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "cross/gl_translate.hpp"
 
 #include <spirv_cross/spirv_glsl.hpp>

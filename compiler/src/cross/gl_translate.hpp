@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The GL back ends' shared translation (glsl_target.cpp, gles_target.cpp): SPIRV-Cross's GLSL compiler with
 // HLSL's separate textures and samplers combined for GL, and the binding records a GL renderer binds by.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // GLSL 450: the GL translation (gl_translate.hpp) of the module with its 16-bit floats widened.
 #include "common/target_environment.hpp"
 #include "cross/gl_translate.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // MSL 2.1 for macOS, with the [[buffer]], [[texture]] and [[sampler]] index of each resource recorded.
 #include "common/target_environment.hpp"
 #include "cross/targets.hpp"

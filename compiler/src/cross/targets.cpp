@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "cross/targets.hpp"
 
 #include <spirv_cross/spirv_cross_c.h>

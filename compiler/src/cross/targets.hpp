@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stage 6: SPIR-V to the source targets (GLSL 450, GLSL ES 3.10, MSL 2.1) with SPIRV-Cross, each back end behind
 // one registry entry. Only ever called on modules that passed spirv-val (SPIRV-Cross crashes on some invalid ones).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "cross/widen_float16.hpp"
 #include "optimize/spirv_tools.hpp"
 

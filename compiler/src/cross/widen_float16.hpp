@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Part of stage 6: explicit 16-bit floats for the GL targets.
 //
 // SPIRV-Cross maps SPIR-V's 16-bit floats to GL_AMD_gpu_shader_half_float or GL_NV_gpu_shader5; a GL driver

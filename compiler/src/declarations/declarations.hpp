@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stage 1: read a pass's entry file and every file it includes (whatever the #if around the
 // #include), and collect the keyword declarations (#pragma multi_compile / shader_feature ...).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the stages of one build share, and all they share: where diagnostics go, where a compiler worker's death
 // leaves its reproducer, the progress callback, and the build's clock (each stage's time, for the summary). A stage
 // takes the context and the inputs it reads, never the whole BuildOptions; what it makes, its counts included, it

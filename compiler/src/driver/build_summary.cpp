@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The build summary (kiln/build_summary.hpp): what `kiln build` prints after a build, for people and as JSON.
 #include "kiln/build_summary.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The build's trace (driver/build_trace.hpp), in the Trace Event Format.
 #include "driver/build_trace.hpp"
 

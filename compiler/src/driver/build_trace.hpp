@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `kiln build --trace FILE`: the build as Chrome Trace Event Format JSON (what Perfetto, chrome://tracing and clang's
 // -ftime-trace read). Complete events ("ph": "X", ts and dur in microseconds since the build started), in two
 // processes:

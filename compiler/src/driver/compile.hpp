@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stages 5-7 (first half): compile the binaries the cache does not have, in two halves. Each stage source's
 // front end (glslang) runs once; its module is hashed, and the back end (legalize, validate, optimize, validate,
 // reflect, cross-compile) runs once per distinct module, so stage sources that differ only in code their entry

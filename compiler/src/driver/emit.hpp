@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Dumps for debugging (--emit), named <pass>/<stage>/<keywords>.<ext> under <output>/emit. Written for failed
 // builds too, which is when they are wanted: whatever each stage source got to (its preprocessed text, and its
 // outputs when it compiled).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln fold-cost's library half (kiln/fold_cost.hpp): the plan with each group folded, and timed cold builds.
 #include "kiln/fold_cost.hpp"
 

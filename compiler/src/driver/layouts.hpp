@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stage 7 (second half): every variant and stage of a pass must agree on its resource layout, and each fragment
 // stage must read what the stage before it writes.
 #pragma once

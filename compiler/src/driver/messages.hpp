@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Where the build's compile messages point, and how they are reported: each distinct message once, naming the
 // first variant it came from and how many more, in compile order (never in the order workers finished).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The build's files besides the pack: the output directory, the stamp that makes a no-change build a no-op,
 // and the depfile a build tool reads.
 #pragma once

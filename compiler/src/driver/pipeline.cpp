@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The kiln pipeline, top to bottom: build_pack calls one function per stage, in order. Each lives in driver/
 // (the orchestration) over its stage's folder (the work):
 //   0-3 plan               driver/plan          definition/ declarations/ permutations/

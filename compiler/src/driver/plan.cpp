@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stages 0-3: definitions, declarations, expansion, stripping.
 #include "driver/plan.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stages 0-3, shared by `kiln build`, `kiln list` and `kiln lint`: load the pack definition and scene profiles,
 // scan each pass's declarations, expand the permutations and strip them.
 #pragma once

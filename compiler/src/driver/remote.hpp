@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The shared remote cache in a build (remote/; docs/remote-cache.md): its pack-level entry before any work, and the
 // keys of its stage-source and module entries (the result store's remote tier, driver/result_store).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Where the compile scheduler (driver/compile) finds finished results and keeps this build's: one interface over
 // the tiers. The scheduler asks by key and is answered at once (the local cache) or later, while its workers run
 // (the shared remote cache under it, docs/remote-cache.md); it never learns which tier answered. A slower tier's

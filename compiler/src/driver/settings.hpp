@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What every output of a build depends on besides its sources: the tools (front end, SPIRV-Tools, SPIRV-Cross,
 // kiln's compile job revision), the options and the targets. Every cache key starts with it, and so does the
 // inputs hash that makes a no-change build a no-op.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "driver/shard_bundle.hpp"
 
 #include <atomic>

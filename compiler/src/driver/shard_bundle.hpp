@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A shard's results as one object (--shard I/N; docs/remote-cache.md, "Sharding a build over machines"): every stage
 // source of its share with its source key, its module's key and output (the blobs inside), and its front end's
 // messages. The merge fetches one bundle per shard instead of one entry per stage source, and uses each as a

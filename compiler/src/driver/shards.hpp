@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A build split over machines through the remote cache (--shard I/N; docs/remote-cache.md, "Sharding a build over
 // machines"). Each shard preprocesses and compiles only its share of the stage sources (source_shares), uploads the
 // per-source entries as any uploading build does, and then its whole share as one bundle (driver/shard_bundle)

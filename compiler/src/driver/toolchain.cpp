@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln::toolchain_description (kiln/build.hpp): the tools every output depends on, as --version states them.
 #include "cross/targets.hpp"
 #include "frontend/frontend.hpp"

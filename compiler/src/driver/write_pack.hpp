@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stage 8: the pack. The archive (named by its content), the manifest (whose rename switches packs), then the
 // stamp that lets the next build with the same inputs skip everything.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The binding model of docs/bindings.md, the part every front end shares: finding the resources whose
 // binding the source states with [[vk::binding(b, s)]], which no shift may move.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Interfaces glslang 12 builds differently from DXC without a word, put back to DXC's on glslang's SPIR-V
 // (docs/bindings.md, "HLSL that glslang 12 reads differently"):
 //  - an unbounded resource array (`Texture2D textures[] : register(t0, space1)`) is a runtime descriptor array in

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // glslang's side of the binding model (docs/bindings.md): a resolver for TProgram::mapIO.
 #pragma once
 

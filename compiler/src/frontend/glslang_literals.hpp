@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Making glslang's preprocessed text a faithful token stream.
 //
 // kiln preprocesses each stage source once, keys the cache and the deduplication on the preprocessed

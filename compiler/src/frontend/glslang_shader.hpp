@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A glslang shader that can ask for hlsl_functionality1's semantic decorations. Debian's headers declare
 // TShader::setEnvTargetHlslFunctionality1 only where ENABLE_HLSL is defined, which would have to hold for every file
 // of a unity build; and a class derived from TShader must be compiled without RTTI, as Debian's glslang is

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Rewrites of the preprocessed HLSL that glslang 12 compiles with another meaning than DXC's, applied before its
 // parse. Each keeps the line structure (diagnostics keep their lines) and is tested to give the SPIR-V of the
 // spelling glslang reads as DXC does (docs/bindings.md lists them).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The HLSL semantics of a stage's inputs and outputs (POSITION, TEXCOORD0, SV_Target...), for the reflection a game
 // binds vertex buffers by. glslang 12 knows them (each interface variable's qualifier) but writes them into the SPIR-V
 // only with hlsl_functionality1, which would add an extension and decorations to every module. So the front end

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Limits of a front end's module that glslang does not check, checked where kiln can still name the source.
 // A compute shader's thread group: numthreads of
 // 0 (which glslang accepts and SPIR-V cannot express) or beyond what D3D guarantees and DXC enforces (x and y at

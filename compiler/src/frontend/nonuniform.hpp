@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // NonUniformResourceIndex, which glslang 12's HLSL does not have (DXC: the index and the resource access it selects
 // are decorated NonUniform, and the module declares the capabilities). kiln's front end keeps DXC's meaning in two
 // steps (docs/bindings.md):

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // glslang's copy of the SPIR-V header, with its opcode table (HasResultAndType). This file is kept out of unity
 // builds (compiler/CMakeLists.txt): another file of the stage may include the header without the table first.
 #define SPV_ENABLE_UTILITY_CODE

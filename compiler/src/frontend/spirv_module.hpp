@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A SPIR-V module as a list of instructions, for the front end's small edits of glslang's output that keep DXC's
 // meaning (nonuniform.cpp, dxc_semantics.cpp): parse, look up definitions and names, add capabilities,
 // extensions, decorations and types where the module layout wants them, write back. Not a general IR: the edits

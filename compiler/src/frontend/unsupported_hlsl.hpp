@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // HLSL that glslang 12's front end does not take, recognised in its first error so that the diagnostic names
 // the construct and what to write instead. glslang says "'select' : no matching overloaded function found" or
 // "'declaration' : Expected"; a user who wrote DXC's HLSL 2021 needs "HLSL 2021 select() is not supported".

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stage 7, last: the fragment stage of every variant reads only what the stage before it writes (K1410). One
 // implementation for `kiln build` (an error: Vulkan's rule for the interface between stages) and `kiln lint`
 // (its interface-mismatch rule reports the build's K1410).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stage 7, second half: every variant and stage of a pass must agree on its resource layout (K1406).
 // A clash is reported once per root cause, at the HLSL declarations involved, saying whether the stages
 // of one variant or different variants disagree, how many variants it affects, and what fixes it.

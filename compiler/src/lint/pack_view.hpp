@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What lint reads of a built pack: the variants of each pass with the binary each stage uses, indexed the way
 // the rules look them up. Made from the typed manifest
 // (kiln/manifest.hpp) in one place, pack_view.cpp.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // SARIF 2.1.0 output, for GitHub code scanning and other SARIF viewers: the rule table with descriptions and
 // help into docs/lint.md, one result per finding with a region, artifact URIs relative to a root
 // (`originalUriBaseIds`), percent-encoded.

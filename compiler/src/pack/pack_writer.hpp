@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stage 8: the binary archive (deduplicated blobs, checksummed) and its JSON manifest.
 // The archive first, under a name of its own, then the manifest, each through temp + rename: the manifest's
 // rename is the commit point (kiln/pack_format.hpp), so a failed or killed build leaves the previous pack intact.

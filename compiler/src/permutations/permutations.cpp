@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "permutations/permutations.hpp"
 
 #include "common/keyword_pragmas.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stages 2 and 3: expand each pass's keyword groups into variants, and strip them by constraints,
 // scene profiles and the variant budget. Counting comes first and never materializes more than the
 // budget, so 2^40 declared variants are refused in microseconds.

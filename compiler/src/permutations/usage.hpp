@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Usage logs (docs/usage.md) for `kiln build --usage`: reading one with the build's limits, and stripping to the
 // keyword sets the runs asked for. The logs' types and the tools over them are public: kiln/pack_tools.hpp.
 #pragma once

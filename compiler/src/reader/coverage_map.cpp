@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The reading half of shader code coverage: which words of the coverage buffer a module sets, and the source lines
 // of each. The writing half is the build's (compiler/src/coverage/instrument.cpp). The module may be hostile: every
 // count and operand is checked before it is read.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "reflect/reflect.hpp"
 
 #include <spirv_cross/spirv_cross.hpp>

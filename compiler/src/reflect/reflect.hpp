@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stage 7: reflect descriptor sets, bindings, push constants, vertex inputs and block member offsets,
 // and check that every variant and stage of a pass agrees on them.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One kept-alive HTTP(S) connection through libcurl, for the remote cache tier: GET with a size bound, HEAD,
 // and PUT with a Content-Length (never chunked: bazel-remote refuses chunked uploads). Not thread-safe: one
 // client per thread. TLS is always verified (system CAs or a given CA file), redirects are not followed, and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The remote cache tier, under the local cache: the Bazel HTTP cache protocol (GET/PUT/HEAD on
 // {base}[/instance]/ac/<sha256> and {base}[/instance]/cas/<sha256>), as bazel-remote and any WebDAV server
 // (nginx `dav_methods PUT`) speak it. See docs/remote-cache.md.

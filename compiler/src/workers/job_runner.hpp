@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the build's scheduler needs of the compiler workers: run jobs, report each outcome. The worker pool
 // implements it with processes; tests implement it in-process.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Long-lived compiler worker processes. glslang 12 segfaults on some inputs and has unbounded
 // recursion; a worker that crashes, hangs past the timeout or runs out of memory costs one job,
 // never the build. Each worker compiles many jobs (start-up costs 30-50 ms).

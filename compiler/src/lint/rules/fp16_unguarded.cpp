@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // fp16-unguarded: division, pow, sqrt, rsqrt or normalize in 16-bit code with no visible guard.
 #include <algorithm>
 #include <regex>

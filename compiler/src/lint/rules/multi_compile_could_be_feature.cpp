@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // multi-compile-could-be-feature: a multi_compile group no scene profile varies.
 #include <set>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // undeclared-keyword: a keyword-shaped name tested by #if/#ifdef that nothing declares or defines (a typo?).
 #include <regex>
 #include <set>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // unused-keyword: a declared keyword whose variants are identical to the ones without it.
 #include <algorithm>
 #include <iterator>
