@@ -83,19 +83,23 @@ class WatchVerb final : public Verb {
     sigemptyset(&signals);
     sigaddset(&signals, SIGINT);
     sigaddset(&signals, SIGTERM);
-    if (::pthread_sigmask(SIG_BLOCK, &signals, nullptr) != 0) return exit_status(ExitClass::Environment);
+    auto cannot_watch = [](const std::string& message) {
+      Diagnostic diagnostic;
+      diagnostic.id = DiagId::WatchUnavailable;
+      diagnostic.message = message;
+      std::cerr << format_diagnostic(diagnostic, colour());
+      return exit_status(diagnostic_info(DiagId::WatchUnavailable).exit_class);
+    };
+    if (::pthread_sigmask(SIG_BLOCK, &signals, nullptr) != 0)
+      return cannot_watch(std::string("cannot wait for signals: pthread_sigmask: ") + std::strerror(errno));
     Descriptor signal_fd(::signalfd(-1, &signals, SFD_NONBLOCK | SFD_CLOEXEC));
-    if (signal_fd.get() < 0) {
-      std::cerr << "kiln: error: cannot wait for signals: signalfd: " << std::strerror(errno) << "\n";
-      return exit_status(ExitClass::Environment);
-    }
+    if (signal_fd.get() < 0) return cannot_watch(std::string("cannot wait for signals: signalfd: ") + std::strerror(errno));
     watch_options.build = options_;
     watch_options.usage_logs.assign(usage_logs_.begin(), usage_logs_.end());
     watch_options.in_use_only = in_use_only_;
     WatchListener listener;
     listener.diagnostic = [](const Diagnostic& d) { std::cerr << format_diagnostic(d, colour()) << std::flush; };
     listener.status = [](const std::string& line) { std::cout << line << std::endl; };
-    listener.error = [](const std::string& message) { std::cerr << "kiln: error: " << message << "\n"; };
     return watch(watch_options, signal_fd.get(), listener);
   }
 

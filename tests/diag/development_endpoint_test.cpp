@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <set>
 
 #include <nlohmann/json.hpp>
 
@@ -87,8 +88,12 @@ struct DevelopmentEndpoint : ::testing::Test {
   }
   // kiln watch serving the in-use pack (variant [A] only): returns once round 1 is published.
   void start(std::vector<std::string> extra = {"--in-use-only"}) {
+    start_with("usage/run.json", extra, "round 1: start; in use: 1 variant");
+  }
+  // kiln watch with `usage` as its log and `extra` options: returns once round 1, whose line has `round`, is published.
+  void start_with(const std::string& usage, std::vector<std::string> extra, const std::string& round) {
     std::vector<std::string> args{KILN_CLI_PATH, "watch", "p.pack.json", "-o", "out", "--cache", "cache", "-j", "1",
-                                  "--usage", "usage/run.json", "--serve", "127.0.0.1:0"};
+                                  "--usage", usage, "--serve", "127.0.0.1:0"};
     args.insert(args.end(), extra.begin(), extra.end());
     kiln = std::make_unique<testing::BackgroundProcess>(args, dir.path());
     const std::string serving = status();
@@ -96,8 +101,8 @@ struct DevelopmentEndpoint : ::testing::Test {
     const std::string endpoint = testing::read_file(dir / "out/p.endpoint");
     ASSERT_TRUE(contains(serving, endpoint.substr(0, endpoint.size() - 1))) << serving << " / " << endpoint;
     port = static_cast<uint16_t>(std::stoul(endpoint.substr(endpoint.rfind(':') + 1)));
-    const std::string round = status();
-    ASSERT_TRUE(contains(round, "round 1: start; in use: 1 variant")) << round;
+    const std::string first = status();
+    ASSERT_TRUE(contains(first, round)) << first << "\n" << kiln->err();
   }
   std::string status() {
     std::optional<std::string> line = kiln->next_line();
@@ -323,6 +328,184 @@ TEST_F(DevelopmentEndpoint, DescriptorsStayFlatOverAHundredRequests) {
   }
   EXPECT_LE(kiln->open_descriptors(), after_first + 2) << "the last connections may still be closing";
   EXPECT_EQ(kiln->end(SIGTERM), 0);
+}
+
+// The same for reports (POST /v1/selected): good ones, from a hundred readers (more than watch keeps), and refused ones.
+TEST_F(DevelopmentEndpoint, DescriptorsStayFlatOverAHundredReports) {
+  start();
+  EXPECT_EQ(status_of(request(post(R"({"client": "first", "selected": [{"pass": "P", "keywords": ["B"]}]})", "/v1/selected"))),
+            "HTTP/1.1 200 OK");
+  EXPECT_TRUE(contains(status(), "reader first: 1 variant selected, 1 new"));
+  const size_t after_first = kiln->open_descriptors();
+  for (int i = 0; i < 50; ++i) {
+    const std::string report = R"({"client": "r)" + std::to_string(i) + R"(", "selected": [{"pass": "P", "keywords": []}]})";
+    EXPECT_EQ(status_of(request(post(report, "/v1/selected"))), "HTTP/1.1 200 OK");
+    EXPECT_TRUE(contains(status(), "reader r" + std::to_string(i) + ": 1 variant selected, 1 new"));
+    EXPECT_EQ(status_of(request(post(R"({"client": "x", "selected": [[[[]]]]})", "/v1/selected"))).substr(0, 12), "HTTP/1.1 400");
+  }
+  EXPECT_LE(kiln->open_descriptors(), after_first + 2) << "the last connections may still be closing";
+  EXPECT_EQ(kiln->end(SIGTERM), 0);
+}
+
+// Issue 61 item 1: what a connected reader selected is what the next round builds first. The log given to --usage
+// does not exist (the game has not written one), so round 1 builds the full pack (there is no in-use set yet); the
+// reader selects two of its three variants and reports them from its poll; after an edit, the round's pack (with
+// --in-use-only, the only pack it builds) has exactly those two.
+TEST_F(DevelopmentEndpoint, TheVariantsAReaderSelectedAreWhatTheNextRoundBuildsFirst) {
+  start_with("usage/none.json", {"--in-use-only"}, "round 1: start; in use: no usage log yet; full: 3 variants");
+  PackReader reader = PackReader::open(manifest());
+  DevelopmentReader::Options options;
+  options.report_interval = std::chrono::milliseconds(0);  // every poll looks at the log
+  PackResult<DevelopmentReader> development = DevelopmentReader::open(reader, manifest(), options);
+  ASSERT_TRUE(development) << development.message();
+  ASSERT_TRUE(reader.try_select("P", {}));
+  ASSERT_TRUE(reader.try_select("P", {"B", "NOT_DECLARED"}));  // a keyword the pass ignores: reported as [B]
+  ASSERT_TRUE(development->poll_update());
+  const std::string reported = status();
+  EXPECT_TRUE(contains(reported, ": 2 variants selected, 2 new in the in-use set (2 selected)")) << reported << kiln->err();
+  const std::string client = reported.substr(reported.find("reader ") + 7, reported.find(": 2 variants") - reported.find("reader ") - 7);
+  // Selected again, and polled: nothing new, nothing sent (the next line is the round's, not a report's).
+  ASSERT_TRUE(reader.try_select("P", {"B"}));
+  ASSERT_TRUE(development->poll_update());
+  ASSERT_TRUE(development->poll_update());
+  dir.write("lib/Colour.hlsl", "float4 colour() { return 0.5; }\n");
+  const std::string round = status();
+  EXPECT_TRUE(contains(round, "round 2: ")) << round;
+  EXPECT_TRUE(contains(round, "in use: 2 variants")) << round << kiln->err();
+  EXPECT_FALSE(contains(round, "full:")) << round;
+  PackReader built = PackReader::open(manifest());
+  ASSERT_EQ(built.variant_count("P"), 2u);
+  std::set<std::vector<std::string>> sets;
+  for (size_t i = 0; i < 2; ++i) sets.insert(built.variant("P", i).keywords);
+  EXPECT_EQ(sets, (std::set<std::vector<std::string>>{{}, {"B"}}));
+  EXPECT_EQ(development->reported(), 2u);
+  // The log the reports were read from is the development reader's own, and goes with it.
+  const char* runtime = std::getenv("XDG_RUNTIME_DIR");
+  const std::filesystem::path log = std::filesystem::path(runtime && *runtime ? runtime : std::filesystem::temp_directory_path().c_str()) /
+                                    ("kiln-selected-" + client + ".usage.json");
+  EXPECT_TRUE(std::filesystem::exists(log)) << log;
+  { DevelopmentReader gone = std::move(*development); }
+  EXPECT_FALSE(std::filesystem::exists(log)) << log;
+  EXPECT_EQ(kiln->end(SIGTERM), 0);
+}
+
+// From C: kiln_development_poll_update reports what kiln_select_by_names served.
+TEST_F(DevelopmentEndpoint, FromCThePollReportsTheSelectedVariants) {
+  start_with("usage/none.json", {"--in-use-only"}, "round 1: start; in use: no usage log yet; full: 3 variants");
+  kiln_pack* pack = nullptr;
+  kiln_error error{};
+  ASSERT_EQ(kiln_pack_open(manifest().c_str(), &pack, &error), KILN_OK) << error.message;
+  kiln_development* development = nullptr;
+  ASSERT_EQ(kiln_development_open(pack, manifest().c_str(), nullptr, &development, &error), KILN_OK) << error.message;
+  const char* a[] = {"A"};
+  uint32_t variant = 0;
+  ASSERT_EQ(kiln_select_by_names(pack, "P", a, 1, 0, &variant, &error), KILN_OK) << error.message;
+  kiln_pack_update update;
+  ASSERT_EQ(kiln_development_poll_update(development, &update, &error), KILN_OK) << error.message;
+  EXPECT_EQ(update.switched, 0);
+  const std::string reported = status();
+  EXPECT_TRUE(contains(reported, ": 1 variant selected, 1 new in the in-use set (1 selected)")) << reported;
+  dir.write("lib/Colour.hlsl", "float4 colour() { return 0.5; }\n");
+  EXPECT_TRUE(contains(status(), "in use: 1 variant")) << kiln->err();
+  kiln_development_close(development);
+  kiln_pack_close(pack);
+  EXPECT_EQ(kiln->end(SIGTERM), 0);
+}
+
+// Reports are untrusted as requests are: the same checks on each variant, and bounds of their own. Each hostile one
+// is refused; a report of what the pack cannot have is taken without adding anything; so the next round has no
+// in-use set at all.
+TEST_F(DevelopmentEndpoint, HostileReportsAreRefusedAndAddNothingToTheInUseSet) {
+  start_with("usage/none.json", {"--in-use-only"}, "round 1: start; in use: no usage log yet; full: 3 variants");
+  auto report = [&](const std::string& body) { return status_of(request(post(body, "/v1/selected"))).substr(0, 12); };
+  EXPECT_EQ(report("not json"), "HTTP/1.1 400");
+  EXPECT_EQ(report(std::string(10000, '[') + std::string(10000, ']')), "HTTP/1.1 400") << "deep";
+  EXPECT_EQ(report(R"({"client": "c", "selected": [{"pass": "P", "keywords": [["A"]]}]})"), "HTTP/1.1 400") << "5 deep";
+  EXPECT_EQ(report(R"({"selected": []})"), "HTTP/1.1 400") << "no client";
+  EXPECT_EQ(report(R"({"client": "c d", "selected": []})"), "HTTP/1.1 400") << "a space in the id";
+  EXPECT_EQ(report(R"({"client": ")" + std::string(65, 'c') + R"(", "selected": []})"), "HTTP/1.1 400") << "a long id";
+  EXPECT_EQ(report(R"({"client": "c", "selected": [], "then": 1})"), "HTTP/1.1 400") << "unknown field";
+  EXPECT_EQ(report(R"({"client": "c", "selected": {"pass": "P"}})"), "HTTP/1.1 400");
+  EXPECT_EQ(report(R"({"client": "c", "selected": [{"pass": "P", "keywords": ["A"], "x": 1}]})"), "HTTP/1.1 400");
+  EXPECT_EQ(report(R"({"client": "c", "selected": [{"pass": "P P", "keywords": []}]})"), "HTTP/1.1 400");
+  EXPECT_EQ(report("{\"client\": \"c\", \"selected\": [{\"pass\": \"P\xff\", \"keywords\": []}]}"), "HTTP/1.1 400") << "UTF-8";
+  nlohmann::json many = nlohmann::json::array();
+  for (int i = 0; i < 65; ++i) many.push_back("K" + std::to_string(i));
+  EXPECT_EQ(report(nlohmann::json{{"client", "c"}, {"selected", {{{"pass", "P"}, {"keywords", many}}}}}.dump()), "HTTP/1.1 400");
+  nlohmann::json long_report = nlohmann::json::array();
+  for (int i = 0; i < 257; ++i) long_report.push_back({{"pass", "P"}, {"keywords", nlohmann::json::array()}});
+  EXPECT_EQ(report(nlohmann::json{{"client", "c"}, {"selected", long_report}}.dump()), "HTTP/1.1 400") << "257 variants";
+  EXPECT_EQ(status_of(request("POST /v1/selected HTTP/1.1\r\nHost: x\r\nConnection: close\r\nContent-Length: 10485760\r\n\r\n"))
+                .substr(0, 12), "HTTP/1.1 413");
+  EXPECT_EQ(status_of(request("GET /v1/selected HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")).substr(0, 12), "HTTP/1.1 405");
+  // Well-formed, but nothing of this pack: an unknown pass, an undeclared keyword, two keywords of one group.
+  const std::string answer = request(post(R"({"client": "c", "selected": [{"pass": "Q", "keywords": []},
+      {"pass": "P", "keywords": ["C"]}, {"pass": "P", "keywords": ["A", "B"]}]})", "/v1/selected"));
+  EXPECT_EQ(status_of(answer), "HTTP/1.1 200 OK") << answer;
+  EXPECT_TRUE(contains(answer, R"("added":0)")) << answer;
+  EXPECT_TRUE(contains(status(), "reader c: 3 variants selected, 0 new in the in-use set (0 selected; 3 not of this pack)"));
+  dir.write("lib/Colour.hlsl", "float4 colour() { return 0.5; }\n");
+  const std::string round = status();
+  EXPECT_TRUE(contains(round, "round 2: ")) << round;
+  EXPECT_TRUE(contains(round, "in use: no usage log yet")) << round;
+  EXPECT_EQ(kiln->end(SIGTERM), 0);
+}
+
+// The in-use set is bounded: a reader's share, all readers' together, and the number of readers (a new one makes
+// watch forget the one that reported least recently). A pass of 12 keyword groups declares 4,096 keyword sets, which
+// the pack (narrowed to one by its usage log) lacks but could build, so watch takes each. K1803 says it once.
+TEST_F(DevelopmentEndpoint, TheInUseSetIsBoundedPerReaderInAllAndInReaders) {
+  std::string pragmas, body;
+  for (int k = 0; k < 12; ++k) pragmas += "#pragma multi_compile _ K" + std::to_string(k) + "\n";
+  dir.write("S.hlsl", pragmas + "float4 V(float4 p : POSITION) : SV_Position { return p; }\nfloat4 F() : SV_Target { return 1.0; }\n");
+  dir.write("p.pack.json", R"({"name": "p", "budget": 8192,
+    "passes": [{"name": "P", "source": "S.hlsl", "stages": {"vertex": "V", "fragment": "F"}}]})");
+  dir.write("usage/run.json", usage_log({""}));
+  start_with("usage/run.json", {"--in-use-only"}, "round 1: start; in use: 1 variant");
+  auto keywords_of = [](int set) {
+    nlohmann::json keywords = nlohmann::json::array();
+    for (int k = 0; k < 12; ++k)
+      if (set & (1 << k)) keywords.push_back("K" + std::to_string(k));
+    return keywords;
+  };
+  auto report = [&](const std::string& client, int first) {  // 256 keyword sets from `first`
+    nlohmann::json selected = nlohmann::json::array();
+    for (int set = first; set < first + 256; ++set) selected.push_back({{"pass", "P"}, {"keywords", keywords_of(set)}});
+    EXPECT_EQ(status_of(request(post(nlohmann::json{{"client", client}, {"selected", selected}}.dump(), "/v1/selected"))),
+              "HTTP/1.1 200 OK");
+    return status();
+  };
+  for (int part = 0; part < 4; ++part) EXPECT_TRUE(contains(report("r0", part * 256), "256 new")) << part;
+  std::string line = report("r0", 1024);  // over one reader's 1,024
+  EXPECT_TRUE(contains(line, "0 new in the in-use set (1024 selected; 256 over the bound)")) << line;
+  for (int reader = 1; reader < 4; ++reader)
+    for (int part = 0; part < 4; ++part) EXPECT_TRUE(contains(report("r" + std::to_string(reader), reader * 1024 + part * 256), "256 new"));
+  line = report("r4", 0);  // over the 4,096 of all readers
+  EXPECT_TRUE(contains(line, "0 new in the in-use set (4096 selected; 256 over the bound)")) << line;
+  for (int reader = 5; reader < 16; ++reader) EXPECT_TRUE(contains(report("r" + std::to_string(reader), 0), "0 new"));
+  line = report("r16", 0);  // a 17th reader: r0, which reported least recently, is forgotten
+  EXPECT_TRUE(contains(line, "256 new in the in-use set (3328 selected)")) << line;
+  EXPECT_EQ(kiln->end(SIGTERM), 0);
+  const std::string err = kiln->err();
+  EXPECT_TRUE(contains(err, "kiln: warning[K1803]: reader r0 selected more variants than the in-use set holds")) << err;
+  EXPECT_EQ(err.find("K1803"), err.rfind("K1803")) << "once: " << err;
+}
+
+// watch's own errors are diagnostics of kiln's table: a port it cannot listen on is K1802, exit 3 (the machine's).
+TEST_F(DevelopmentEndpoint, AnEndpointThatCannotListenIsK1802) {
+  const int taken = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::bind(taken, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+  ASSERT_EQ(::listen(taken, 1), 0);
+  socklen_t size = sizeof address;
+  ::getsockname(taken, reinterpret_cast<sockaddr*>(&address), &size);
+  const std::string endpoint = "127.0.0.1:" + std::to_string(ntohs(address.sin_port));
+  testing::RunResult result = testing::run_kiln({"watch", "p.pack.json", "-o", "out", "--serve", endpoint}, dir.path());
+  ::close(taken);
+  EXPECT_EQ(result.exit_code, 3) << result.err;
+  EXPECT_TRUE(contains(result.err, "kiln: error[K1802]: cannot listen on " + endpoint + ": ")) << result.err;
 }
 
 TEST_F(DevelopmentEndpoint, ServeRefusesAnAddressThatIsNotLoopback) {

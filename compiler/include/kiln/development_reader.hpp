@@ -5,6 +5,9 @@
 // Opt-in only, twice over: the game links kiln::reader_dev and makes a DevelopmentReader, explicitly (open) or when
 // the development-only variable KILN_DEVELOPMENT_ENDPOINT is set (from_environment). The endpoint is 127.0.0.1 only.
 // Every answer is untrusted: its size, its JSON (depth, fields, names) and the archive it names are checked.
+//
+// It also tells watch what the game selects (poll_update(): the variants the reader served since it was opened, as
+// the reader's usage recording counts them), so that each round of kiln watch builds those first.
 #pragma once
 
 #include <chrono>
@@ -26,6 +29,12 @@ class DevelopmentReader {
     // writes beside the manifest (<pack>.endpoint), read when a request is made.
     std::string endpoint;
     std::chrono::milliseconds answer_timeout{60000};  // the longest a background request waits for watch's answer
+    // The usage log (docs/usage.md) that poll_update() reads back to report what the game selected. Empty: open()
+    // starts the reader's usage recording (PackReader::record_usage) into a file of its own, in $XDG_RUNTIME_DIR
+    // (else the temporary directory), removed when this goes. A game that records usage itself gives its log here,
+    // having called record_usage first: open() then leaves recording as it is.
+    std::filesystem::path selected_log;
+    std::chrono::milliseconds report_interval{500};  // poll_update() reads the log and reports at most this often
   };
 
   // `reader` (opened from `manifest`) stays the caller's and must outlive this. Connects to nothing yet.
@@ -57,6 +66,16 @@ class DevelopmentReader {
   // One request, waited for up to `timeout`: the archive ("<pack>.<xxh3>.kpack") watch published with the variant.
   PackResult<std::string> request(std::string_view pass, const std::vector<std::string>& keywords,
                                   std::chrono::milliseconds timeout);
+  // The reader's poll_update(), then report_selected(): the call a game makes once a frame in any case.
+  PackResult<PackUpdate> poll_update() noexcept;
+  // What the game selected since the last report, sent to watch (POST /v1/selected) in the background: at most once
+  // per Options::report_interval, and only when the reader's log holds keyword sets not reported yet (a flush of the
+  // usage log and a read of it; nothing on the network otherwise). Never blocks on watch; select() pays nothing
+  // more than usage recording's one relaxed atomic increment. A failed report is sent again later.
+  void report_selected() noexcept;
+  // Variants watch has taken from this reader's reports.
+  size_t reported() const;
+
   // Background requests sent and not yet answered (or failed).
   size_t pending() const;
   // The last background request's error, if it failed ("" if none).

@@ -31,6 +31,13 @@ kiln_result kiln_development_from_environment(kiln_pack* pack, const char* manif
                                               kiln_error* error);
 void kiln_development_close(kiln_development* development); /* NULL is allowed; waits for a request under way */
 
+/* kiln_pack_poll_update, then what the game selected since the last report sent to kiln watch in the background
+ * (at most every 500 ms, and only keyword sets not reported yet), so that watch builds those first in its next
+ * round. Call it where the game would call kiln_pack_poll_update. It starts usage recording into a file of its own
+ * at kiln_development_open (removed at kiln_development_close): a game that records usage itself, with
+ * kiln_pack_record_usage, has its selections reported from the C++ API (DevelopmentReader::Options::selected_log). */
+kiln_result kiln_development_poll_update(kiln_development* development, kiln_pack_update* update, kiln_error* error);
+
 /* kiln_select_by_names; when the pack lacks the variant (STRIPPED), asks kiln watch for it, waits up to
  * `timeout_ms`, switches the pack with kiln_pack_poll_update (its changes are not handed back: select again what
  * you cache) and selects again. */

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "kiln/build.hpp"
+#include "kiln/development_endpoint.hpp"
 #include "kiln/diagnostics.hpp"
 #include "kiln/result.hpp"
 
@@ -36,22 +37,19 @@ struct WatchOptions {
 
 // What watch tells its caller; every member may be empty.
 struct WatchListener {
-  std::function<void(const Diagnostic&)> diagnostic;  // a build's diagnostics, each once per round
-  std::function<void(const std::string&)> status;     // one line per round, per request served, and the endpoint
-  std::function<void(const std::string&)> error;      // an environment error that ends watch (inotify, listening)
+  // A build's diagnostics, each once per round; and watch's own: K1801 (it cannot watch) and K1802 (it cannot
+  // listen), errors that end it, and K1803 (the in-use set is full), a warning once per watch.
+  std::function<void(const Diagnostic&)> diagnostic;
+  std::function<void(const std::string&)> status;  // one line per round, per request and report served, and the endpoint
 };
 
 // Runs until `signal_fd` (a signalfd for SIGINT and SIGTERM, which the caller has blocked) is readable. Returns the
-// exit status: 0 when a signal ended it, 3 (environment) when it could not watch or listen.
+// exit status: 0 when a signal ended it, 3 (environment) when it could not watch or listen (K1801, K1802).
 int watch(const WatchOptions& options, int signal_fd, const WatchListener& listener);
 
-// The development endpoint's protocol (docs/development-loop.md, "On-demand variants"), version 1.
+// The development endpoint (docs/development-loop.md, "On-demand variants"); its protocol's paths and bounds are
+// kiln/development_endpoint.hpp's.
 namespace development {
-inline constexpr const char* kVariantPath = "/v1/variant";
-inline constexpr size_t kMaxRequestBytes = 64 * 1024;  // a request's body
-inline constexpr size_t kMaxKeywords = 64;             // keywords in one request
-inline constexpr size_t kMaxNameBytes = 256;           // a pass or keyword name
-inline constexpr size_t kMaxAnswerBytes = 64 * 1024;   // an answer's body (diagnostics are cut to fit)
 // The file beside the manifest that names the endpoint: "<pack>.endpoint", one line "127.0.0.1:PORT".
 std::filesystem::path endpoint_file(const std::filesystem::path& output_dir, const std::string& pack_name);
 }  // namespace development

@@ -78,6 +78,16 @@ kiln_result kiln_development_from_environment(kiln_pack* pack, const char* manif
 
 void kiln_development_close(kiln_development* development) { delete development; }
 
+kiln_result kiln_development_poll_update(kiln_development* development, kiln_pack_update* update, kiln_error* error) {
+  if (!development || !update) {
+    fill(error, KILN_ERROR_INVALID_ARGUMENT, "kiln_development_poll_update: a NULL development reader or update");
+    return KILN_ERROR_INVALID_ARGUMENT;
+  }
+  const kiln_result polled = kiln_pack_poll_update(development->pack, update, error);
+  development->reader.report_selected();  // noexcept; a failed report is retried and said by last_error()
+  return polled;
+}
+
 kiln_result kiln_development_select_or_wait(kiln_development* development, const char* pass, const char* const* keywords,
                                             size_t count, uint32_t timeout_ms, uint32_t* variant, kiln_error* error) {
   if (!development || !pass || (count && !keywords) || !variant) {

@@ -2,29 +2,38 @@
 
 #include <arpa/inet.h>
 #include <curl/curl.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <condition_variable>
+#include <cstdio>
 #include <cstdlib>
 #include <deque>
 #include <fstream>
 #include <iterator>
 #include <mutex>
+#include <random>
 #include <set>
 #include <thread>
 
 #include <nlohmann/json.hpp>
 
 #include "kiln/bounded_json.hpp"
+#include "kiln/development_endpoint.hpp"
 
 namespace kiln {
 namespace {
 
 namespace fs = std::filesystem;
 using Keywords = std::vector<std::string>;
+using Key = std::pair<std::string, Keywords>;  // pass, keywords
 
-// The protocol's bounds (kiln/watch.hpp, development::; the compiler's header, not the reader's, so repeated here).
-constexpr size_t kMaxAnswerBytes = 64 * 1024;
+using development::kMaxAnswerBytes;
+using development::kMaxKeywords;
+using development::kMaxNameBytes;
+using development::kMaxReportedVariants;
+using development::kMaxSelectedPerReader;  // what watch keeps of one reader: no more is sent
+constexpr size_t kMaxSelectedLogBytes = 16 << 20;  // the usage log read back (the reader's own, bounded by its pack)
 constexpr size_t kMaxPending = 64;     // background requests queued: more are dropped (asked again on a later miss)
 constexpr size_t kMaxAsked = 4096;     // keyword sets remembered as asked for
 constexpr size_t kMaxEndpointFile = 256;
@@ -53,6 +62,31 @@ std::optional<std::string> loopback_endpoint(std::string text) {
       std::stoul(port) > 65535)
     return std::nullopt;
   return text;
+}
+
+// A name watch takes (development::is_protocol_name): a keyword set with another is not reported, rather than have
+// watch refuse the whole report.
+bool is_protocol_name(const std::string& text) {
+  if (text.empty() || text.size() > kMaxNameBytes) return false;
+  return std::all_of(text.begin(), text.end(), [](char c) { return c > ' ' && c < 0x7f && c != '"' && c != '\\'; });
+}
+
+// This reader's id in its reports: its process and a random number, so that a restarted game is a new reader.
+std::string make_client_id() {
+  std::random_device random;
+  const uint64_t number = (uint64_t(random()) << 32) ^ random();
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(number));
+  return std::to_string(::getpid()) + "-" + hex;
+}
+
+// Where the usage log of a reader that records for its reports only goes: the user's runtime directory (a tmpfs
+// of the user's own), else the temporary directory.
+fs::path own_selected_log(const std::string& client) {
+  std::error_code ec;
+  const char* runtime = std::getenv("XDG_RUNTIME_DIR");
+  fs::path directory = runtime && *runtime && fs::is_directory(runtime, ec) ? fs::path(runtime) : fs::temp_directory_path(ec);
+  return directory / ("kiln-selected-" + client + ".usage.json");
 }
 
 size_t keep_bounded(char* data, size_t size, size_t count, void* user) {
@@ -86,6 +120,18 @@ struct DevelopmentReader::Impl {
   bool stopping = false;
   std::thread thread;
 
+  // Reports (report_selected): the game's thread reads the log, the background thread sends what is new.
+  std::string client;
+  fs::path selected_log;
+  bool own_log = false;             // recording was started by open() for the reports alone
+  std::mutex report_mutex;          // one report_selected() at a time; it skips when another runs
+  std::chrono::steady_clock::time_point last_read{};  // under report_mutex
+  std::set<Key> reported;           // taken by watch (under `mutex`)
+  std::vector<Key> report;          // to send (under `mutex`)
+  bool reporting = false;           // a report queued or under way (under `mutex`)
+  size_t logged_sets = SIZE_MAX;    // the log's keyword sets when all of them had been reported (under `mutex`)
+  size_t sending_sets = SIZE_MAX;   // the same for the report under way, if it takes the rest (under `mutex`)
+
   ~Impl() {
     {
       std::lock_guard lock(mutex);
@@ -93,6 +139,14 @@ struct DevelopmentReader::Impl {
     }
     wake.notify_all();
     if (thread.joinable()) thread.join();
+    if (own_log) {  // no log is left behind: the reader's last flush (when it goes) has no file to write
+      try {
+        reader->record_usage({});
+      } catch (const std::bad_alloc&) {
+      }
+      std::error_code ec;
+      fs::remove(selected_log, ec);
+    }
   }
 
   PackResult<std::string> endpoint() const {
@@ -126,16 +180,16 @@ struct DevelopmentReader::Impl {
     return kept;
   }
 
-  // One POST /v1/variant; the answer checked before anything in it is used.
-  PackResult<std::string> post(std::string_view pass, const Keywords& keywords, std::chrono::milliseconds timeout) const {
+  // One POST to watch; the answer checked before anything in it is used: a JSON object with status 200, else watch's
+  // refusal (Stripped, in watch's words) or the transfer's error (Io).
+  PackResult<nlohmann::json> exchange(const char* path, const std::string& body, std::chrono::milliseconds timeout) const {
     PackResult<std::string> where = endpoint();
-    if (!where) return where;
+    if (!where) return failed(where.error());
     static std::once_flag initialized;
     std::call_once(initialized, [] { curl_global_init(CURL_GLOBAL_DEFAULT); });
     std::unique_ptr<CURL, void (*)(CURL*)> curl(curl_easy_init(), curl_easy_cleanup);
     if (!curl) return failed(io_error("curl_easy_init failed"));
-    const std::string url = "http://" + *where + "/v1/variant";
-    const std::string body = nlohmann::json{{"pass", pass}, {"keywords", keywords}}.dump();
+    const std::string url = "http://" + *where + path;
     std::string answer;
     std::unique_ptr<curl_slist, void (*)(curl_slist*)> headers(curl_slist_append(nullptr, "Content-Type: application/json"),
                                                              curl_slist_free_all);
@@ -167,17 +221,121 @@ struct DevelopmentReader::Impl {
       return failed(PackError(PackError::Code::Stripped, "kiln watch (HTTP " + std::to_string(status) + "): " +
                                                               message.substr(0, kMaxAnswerBytes)));
     }
-    if (!json.contains("archive") || !json["archive"].is_string() || !is_archive_name(json["archive"].get<std::string>()))
+    return json;
+  }
+
+  // One POST /v1/variant: the archive watch published with the variant.
+  PackResult<std::string> post(std::string_view pass, const Keywords& keywords, std::chrono::milliseconds timeout) const {
+    PackResult<nlohmann::json> json = exchange(development::kVariantPath, nlohmann::json{{"pass", pass}, {"keywords", keywords}}.dump(), timeout);
+    if (!json) return failed(json.error());
+    if (!json->contains("archive") || !(*json)["archive"].is_string() || !is_archive_name((*json)["archive"].get<std::string>()))
       return failed(io_error("the answer names no archive"));
-    return json["archive"].get<std::string>();
+    return (*json)["archive"].get<std::string>();
+  }
+
+  // One POST /v1/selected with `variants`.
+  PackResult<nlohmann::json> post_report(const std::vector<Key>& variants) const {
+    nlohmann::json selected = nlohmann::json::array();
+    for (const auto& [pass, keywords] : variants) selected.push_back(nlohmann::json{{"pass", pass}, {"keywords", keywords}});
+    return exchange(development::kSelectedPath, nlohmann::json{{"client", client}, {"selected", std::move(selected)}}.dump(),
+                    options.answer_timeout);
+  }
+
+  // The keyword sets the usage log holds (served and missing), as watch takes them. Throws JsonDecodeError.
+  std::vector<Key> read_selected_log() const {
+    std::error_code ec;
+    const uintmax_t size = fs::file_size(selected_log, ec);
+    if (ec) throw JsonDecodeError("cannot read " + selected_log.string() + ": " + ec.message(), 0);
+    if (size > kMaxSelectedLogBytes) throw JsonDecodeError(selected_log.string() + " is over 16 MiB", 0);
+    std::ifstream in(selected_log, std::ios::binary);
+    std::string text(static_cast<size_t>(size), '\0');
+    in.read(text.data(), static_cast<std::streamsize>(text.size()));
+    text.resize(static_cast<size_t>(in.gcount()));
+    const nlohmann::json log = parse_json_bounded(text, {kMaxSelectedLogBytes, 6});
+    std::vector<Key> keys;
+    if (!log.is_object() || !log.contains("passes") || !log["passes"].is_array()) return keys;
+    for (const nlohmann::json& pass : log["passes"]) {
+      if (!pass.is_object() || !pass.contains("name") || !pass["name"].is_string()) continue;
+      const std::string name = pass["name"].get<std::string>();
+      if (!is_protocol_name(name)) continue;
+      for (const char* list : {"served", "missing"}) {
+        if (!pass.contains(list) || !pass[list].is_array()) continue;
+        for (const nlohmann::json& request : pass[list]) {
+          if (!request.is_object() || !request.contains("keywords") || !request["keywords"].is_array() ||
+              request["keywords"].size() > kMaxKeywords)
+            continue;
+          Keywords keywords;
+          for (const nlohmann::json& keyword : request["keywords"])
+            if (keyword.is_string() && is_protocol_name(keyword.get<std::string>())) keywords.push_back(keyword.get<std::string>());
+          if (keywords.size() != request["keywords"].size()) continue;
+          std::sort(keywords.begin(), keywords.end());
+          keywords.erase(std::unique(keywords.begin(), keywords.end()), keywords.end());
+          keys.emplace_back(name, std::move(keywords));
+        }
+      }
+    }
+    return keys;
+  }
+
+  void report_selected() {
+    std::unique_lock guard(report_mutex, std::try_to_lock);
+    if (!guard.owns_lock()) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (last_read != std::chrono::steady_clock::time_point{} && now - last_read < options.report_interval) return;
+    {
+      std::lock_guard lock(mutex);
+      if (reporting) return;
+    }
+    last_read = now;
+    PackResult<size_t> sets = reader->flush_usage();
+    if (!sets) {
+      std::lock_guard lock(mutex);
+      last_error = sets.message();
+      return;
+    }
+    {
+      std::lock_guard lock(mutex);
+      if (*sets == logged_sets) return;  // no keyword set the game selected is new since everything was reported
+    }
+    std::vector<Key> logged = read_selected_log();
+    std::lock_guard lock(mutex);
+    std::vector<Key> unsent;
+    for (Key& key : logged)
+      if (!reported.count(key)) unsent.push_back(std::move(key));
+    const size_t room = kMaxSelectedPerReader - std::min(kMaxSelectedPerReader, reported.size());
+    if (unsent.empty() || room == 0) {
+      logged_sets = *sets;
+      return;
+    }
+    const size_t taken = std::min({unsent.size(), room, kMaxReportedVariants});
+    sending_sets = taken == unsent.size() ? *sets : SIZE_MAX;  // the rest goes in the next report
+    unsent.resize(taken);
+    report = std::move(unsent);
+    reporting = true;
+    wake.notify_one();
   }
 
   void start_thread() {
     thread = std::thread([this] {
       std::unique_lock lock(mutex);
       for (;;) {
-        wake.wait(lock, [&] { return stopping || !queue.empty(); });
+        wake.wait(lock, [&] { return stopping || !queue.empty() || !report.empty(); });
         if (stopping) return;
+        if (!report.empty()) {
+          std::vector<Key> sending = std::move(report);
+          report.clear();
+          lock.unlock();
+          PackResult<nlohmann::json> answer = post_report(sending);
+          lock.lock();
+          reporting = false;
+          if (answer) {
+            reported.insert(sending.begin(), sending.end());
+            logged_sets = sending_sets;
+          } else {
+            last_error = answer.message();  // sent again after the next report interval
+          }
+          continue;
+        }
         auto [pass, keywords] = std::move(queue.front());
         queue.pop_front();
         lock.unlock();
@@ -205,6 +363,15 @@ PackResult<DevelopmentReader> DevelopmentReader::open(PackReader& reader, const 
   impl->options = std::move(options);
   if (!impl->options.endpoint.empty() && !loopback_endpoint(impl->options.endpoint))
     return failed(io_error("'" + impl->options.endpoint + "' is not 127.0.0.1:PORT (development mode is loopback only)"));
+  impl->client = make_client_id();
+  impl->selected_log = impl->options.selected_log;
+  if (impl->selected_log.empty()) {  // the game does not record usage: recording for the reports alone
+    impl->selected_log = own_selected_log(impl->client);
+    impl->own_log = true;
+    PackReader::UsageOptions usage;
+    usage.file = impl->selected_log;
+    reader.record_usage(std::move(usage));
+  }
   impl->start_thread();
   return DevelopmentReader(std::move(impl));
 }
@@ -266,6 +433,30 @@ PackResult<DevelopmentReader::Selection> DevelopmentReader::select_or_nearest(st
   PackResult<SelectedVariant> nearest = impl_->reader->try_variant(pass, best);
   if (!nearest) return failed(nearest.error());
   return Selection{std::move(*nearest), true};
+}
+
+PackResult<PackUpdate> DevelopmentReader::poll_update() noexcept {
+  PackResult<PackUpdate> update = impl_->reader->poll_update();
+  report_selected();
+  return update;
+}
+
+void DevelopmentReader::report_selected() noexcept {
+  try {
+    impl_->report_selected();
+  } catch (const std::exception& error) {  // a log that cannot be read back: said by last_error(), tried again later
+    try {
+      std::lock_guard lock(impl_->mutex);
+      impl_->last_error = std::string("development endpoint: cannot report the selected variants: ") + error.what();
+    } catch (...) {
+    }
+  } catch (...) {
+  }
+}
+
+size_t DevelopmentReader::reported() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->reported.size();
 }
 
 size_t DevelopmentReader::pending() const {

@@ -6,19 +6,9 @@
 
 #include <algorithm>
 #include <cstring>
-#include <set>
-
-#include <nlohmann/json.hpp>
-
-#include "kiln/bounded_json.hpp"
 
 namespace kiln::development {
 namespace {
-
-
-
-
-
 
 // A slow or stalled client (one byte a minute) is dropped after this long without progress; the loop never waits on it.
 constexpr unsigned kConnectionTimeoutSeconds = 10;
@@ -27,14 +17,10 @@ constexpr size_t kConnectionMemory = 64 * 1024;  // each connection's headers an
 
 struct Connection {
   std::string body;
+  bool report = false;  // POST kSelectedPath, else kVariantPath
   bool too_large = false;
   bool answered = false;
 };
-
-bool is_name(const std::string& text) {
-  if (text.empty() || text.size() > kMaxNameBytes) return false;
-  return std::all_of(text.begin(), text.end(), [](char c) { return c > ' ' && c < 0x7f && c != '"' && c != '\\'; });
-}
 
 MHD_Result send(MHD_Connection* connection, const Answer& answer) {
   MHD_Response* response =
@@ -54,9 +40,11 @@ MHD_Result on_request(void* self, MHD_Connection* connection, const char* url, c
     request = new Connection;
     *state = request;
     server.opened();
-    if (std::strcmp(url, development::kVariantPath) != 0) {
+    request->report = std::strcmp(url, kSelectedPath) == 0;
+    if (!request->report && std::strcmp(url, kVariantPath) != 0) {
       request->answered = true;
-      return send(connection, error_answer(404, std::string("no such path: the endpoint serves POST ") + development::kVariantPath));
+      return send(connection, error_answer(404, std::string("no such path: the endpoint serves POST ") + kVariantPath +
+                                                    " and POST " + kSelectedPath));
     }
     if (std::strcmp(method, MHD_HTTP_METHOD_POST) != 0) {
       request->answered = true;
@@ -82,11 +70,15 @@ MHD_Result on_request(void* self, MHD_Connection* connection, const char* url, c
   request->answered = true;
   if (request->too_large)
     return send(connection, error_answer(413, "a request is at most " + std::to_string(kMaxRequestBytes) + " bytes"));
-  Result<VariantRequest, Answer> parsed = parse_variant_request(request->body);
-  if (!parsed) return send(connection, parsed.error());
   Answer answer;
   try {
-    answer = server.handle(*parsed);
+    if (request->report) {
+      Result<SelectedReport, Answer> parsed = parse_selected_report(request->body);
+      answer = parsed ? server.handle(*parsed) : parsed.error();
+    } else {
+      Result<VariantRequest, Answer> parsed = parse_variant_request(request->body);
+      answer = parsed ? server.handle(*parsed) : parsed.error();
+    }
   } catch (const std::exception& error) {  // a bug in kiln, said to the client rather than ending watch
     answer = error_answer(500, std::string("kiln watch failed to serve the request: ") + error.what());
   }
@@ -108,42 +100,9 @@ MHD_Result on_accept(void*, const sockaddr* address, socklen_t) {
 
 }  // namespace
 
-Answer error_answer(unsigned status, const std::string& message, const std::string& diagnostics) {
-  nlohmann::json body{{"version", 1}, {"error", message.substr(0, kMaxAnswerBytes / 4)}};
-  if (!diagnostics.empty()) body["diagnostics"] = diagnostics.substr(0, kMaxAnswerBytes / 2);
-  return {status, body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)};
-}
-
-Result<VariantRequest, Answer> parse_variant_request(std::string_view body) {
-  nlohmann::json json;
-  try {
-    json = parse_json_bounded(body, {kMaxRequestBytes, 3});
-  } catch (const JsonDecodeError& error) {
-    return failure(error_answer(400, std::string("the request is not JSON: ") + error.what()));
-  }
-  if (!json.is_object()) return failure(error_answer(400, "the request must be a JSON object"));
-  for (const auto& [key, value] : json.items())
-    if (key != "pass" && key != "keywords") return failure(error_answer(400, "unknown field in the request (fields: pass, keywords)"));
-  if (!json.contains("pass") || !json["pass"].is_string() || !is_name(json["pass"].get<std::string>()))
-    return failure(error_answer(400, "\"pass\" must be a pass name (1 to " + std::to_string(kMaxNameBytes) +
-                                         " printable ASCII characters)"));
-  const nlohmann::json keywords = json.value("keywords", nlohmann::json::array());
-  if (!keywords.is_array()) return failure(error_answer(400, "\"keywords\" must be an array of keyword names"));
-  if (keywords.size() > kMaxKeywords)
-    return failure(error_answer(400, "at most " + std::to_string(kMaxKeywords) + " keywords in a request"));
-  std::set<std::string> names;
-  for (const nlohmann::json& keyword : keywords) {
-    if (!keyword.is_string() || !is_name(keyword.get<std::string>()))
-      return failure(error_answer(400, "\"keywords\" must be an array of keyword names (1 to " +
-                                           std::to_string(kMaxNameBytes) + " printable ASCII characters each)"));
-    names.insert(keyword.get<std::string>());
-  }
-  return VariantRequest{json["pass"].get<std::string>(), {names.begin(), names.end()}};
-}
-
-Result<std::unique_ptr<DevelopmentServer>> DevelopmentServer::start(const LoopbackEndpoint& endpoint, Handler handler) {
+Result<std::unique_ptr<DevelopmentServer>> DevelopmentServer::start(const LoopbackEndpoint& endpoint, Handlers handlers) {
   std::unique_ptr<DevelopmentServer> server(new DevelopmentServer);
-  server->handler_ = std::move(handler);
+  server->handlers_ = std::move(handlers);
   sockaddr_in address{};
   address.sin_family = AF_INET;
   address.sin_port = htons(endpoint.port);

@@ -14,32 +14,19 @@
 
 #include "kiln/result.hpp"
 #include "kiln/watch.hpp"
+#include "watch/development_protocol.hpp"
 
 namespace kiln::development {
 
-struct VariantRequest {
-  std::string pass;
-  std::vector<std::string> keywords;  // sorted, without repeats
-};
-
-// An HTTP answer: its status and its JSON body.
-struct Answer {
-  unsigned status = 200;
-  std::string body;
-};
-
-// {"error": message} with `status`, and `diagnostics` (cut to fit kMaxAnswerBytes) when there are any.
-Answer error_answer(unsigned status, const std::string& message, const std::string& diagnostics = {});
-
-// A request body, validated: a JSON object with exactly "pass" (a name) and "keywords" (an array of names), within
-// the protocol's bounds; a name is 1 to kMaxNameBytes printable ASCII characters without spaces or quotes.
-Result<VariantRequest, Answer> parse_variant_request(std::string_view body);
-
 class DevelopmentServer {
  public:
-  using Handler = std::function<Answer(const VariantRequest&)>;
+  // What watch does with each valid body: a variant asked for (kVariantPath), a reader's report (kSelectedPath).
+  struct Handlers {
+    std::function<Answer(const VariantRequest&)> variant;
+    std::function<Answer(const SelectedReport&)> selected;
+  };
   // Listens on `endpoint` (port 0: any). The error says why it cannot.
-  static Result<std::unique_ptr<DevelopmentServer>> start(const LoopbackEndpoint& endpoint, Handler handler);
+  static Result<std::unique_ptr<DevelopmentServer>> start(const LoopbackEndpoint& endpoint, Handlers handlers);
   ~DevelopmentServer();
   DevelopmentServer(const DevelopmentServer&) = delete;
   DevelopmentServer& operator=(const DevelopmentServer&) = delete;
@@ -51,7 +38,8 @@ class DevelopmentServer {
   size_t in_flight() const { return in_flight_; }  // connections with a request not yet answered and sent
 
   // For libmicrohttpd's callbacks.
-  Answer handle(const VariantRequest& request) { return handler_(request); }
+  Answer handle(const VariantRequest& request) { return handlers_.variant(request); }
+  Answer handle(const SelectedReport& report) { return handlers_.selected(report); }
   void opened() { ++in_flight_; }
   void closed() { --in_flight_; }
 
@@ -59,7 +47,7 @@ class DevelopmentServer {
   DevelopmentServer() = default;
 
   void* daemon_ = nullptr;  // MHD_Daemon
-  Handler handler_;
+  Handlers handlers_;
   LoopbackEndpoint endpoint_;
   size_t in_flight_ = 0;
 };

@@ -278,7 +278,8 @@ class Watcher {
   }
 
   int run() {
-    if (!inputs_.open()) return fail(std::string("cannot watch the inputs: inotify_init1: ") + std::strerror(errno));
+    if (!inputs_.open())
+      return fail(DiagId::WatchUnavailable, std::string("cannot watch the inputs: inotify_init1: ") + std::strerror(errno));
     if (serve_ && !start_serving()) return exit_status(ExitClass::Environment);
     // Until the first build says what it read, any change beside the pack definition starts the next round.
     inputs_.watch({options_.pack_file}, true);
@@ -311,18 +312,26 @@ class Watcher {
  private:
   enum class Wake { Changes, Stop, FullPackOwed, Error };
 
-  int fail(const std::string& message) {
-    if (listener_.error) listener_.error(message);
-    return exit_status(ExitClass::Environment);
+  // An error of watch's own (K1801, K1802, K1601) that ends it, or a warning (K1803).
+  int fail(DiagId id, const std::string& message) {
+    Diagnostic diagnostic;  // no location: watch's own (member by member: GCC's -O3 sees the aggregate's string as unset)
+    diagnostic.id = id;
+    diagnostic.severity = diagnostic_info(id).severity;
+    diagnostic.message = message;
+    if (listener_.diagnostic) listener_.diagnostic(diagnostic);
+    return exit_status(diagnostic_info(id).exit_class);
   }
   void say(const std::string& line) {
     if (listener_.status) listener_.status(line);
   }
 
   bool start_serving() {
-    auto server = development::DevelopmentServer::start(*serve_, [this](const development::VariantRequest& request) { return serve(request); });
+    development::DevelopmentServer::Handlers handlers{
+        [this](const development::VariantRequest& request) { return serve(request); },
+        [this](const development::SelectedReport& report) { return take_report(report); }};
+    auto server = development::DevelopmentServer::start(*serve_, std::move(handlers));
     if (!server) {
-      fail(server.error().message);
+      fail(DiagId::EndpointUnavailable, server.error().message);
       return false;
     }
     server_ = std::move(*server);
@@ -330,7 +339,7 @@ class Watcher {
     std::error_code ec;
     fs::create_directories(options_.output_dir, ec);
     if (Result<void> written = write_output_file(file, server_->endpoint().text() + "\n"); !written) {
-      fail(written.error().message);
+      fail(DiagId::OutputUnwritable, written.error().message);
       return false;
     }
     say("kiln watch: serving variants on http://" + server_->endpoint().text() + development::kVariantPath + " (" +
@@ -340,23 +349,25 @@ class Watcher {
 
   fs::path manifest_file() const { return options_.output_dir / (pack_name_ + ".manifest.json"); }
 
-  // The in-use pack's options: the usage logs there are and the variants readers asked for.
+  // The in-use pack's options: the usage logs there are, and the variants readers asked for and selected.
   std::optional<BuildOptions> in_use_options() {
     BuildOptions narrowed = options_;
     for (const fs::path& log : usage_logs_) {
       std::error_code ec;
       if (fs::exists(log, ec)) narrowed.usage_logs.push_back(log);  // a game that has not run yet has written none
     }
-    if (!requested_.empty()) narrowed.usage_logs.push_back(requests_log());
+    if (!requested_.empty() || selected_count_ > 0) narrowed.usage_logs.push_back(requests_log());
     if (narrowed.usage_logs.empty()) return std::nullopt;
     return narrowed;
   }
 
-  // The variants readers asked for, as a usage log beside the pack (what the in-use build reads).
+  // The variants readers asked for and selected, as a usage log beside the pack (what the in-use build reads).
   fs::path requests_log() const { return options_.output_dir / (pack_name_ + ".requested.usage.json"); }
   bool write_requests_log() {
+    std::set<Key> in_use = requested_;
+    for (const auto& [client, reader] : selected_) in_use.insert(reader.variants.begin(), reader.variants.end());
     std::map<std::string, usage_log::Pass> passes;
-    for (const auto& [pass, keywords] : requested_) {
+    for (const auto& [pass, keywords] : in_use) {
       passes[pass].name = pass;
       passes[pass].served.push_back({keywords, 1, {}});
     }
@@ -400,11 +411,12 @@ class Watcher {
       say(what + "refused: " + found.error().what());
       return development::error_answer(404, found.error().what());
     }
-    constexpr size_t kMaxRequested = 4096;  // what any number of clients can add to the in-use set
     const bool added = requested_.insert(key).second;
-    if (requested_.size() > kMaxRequested) {
+    if (requested_.size() > development::kMaxRequestedVariants) {
       requested_.erase(key);
-      return development::error_answer(503, "kiln watch holds " + std::to_string(kMaxRequested) + " requested variants already");
+      const std::string message = "kiln watch holds " + std::to_string(development::kMaxRequestedVariants) + " requested variants already";
+      warn_in_use_set_full(message);
+      return development::error_answer(503, message);
     }
     if (added && !write_requests_log()) {
       requested_.erase(key);
@@ -424,9 +436,63 @@ class Watcher {
     if (found) return served(*found, true);
     requested_.erase(key);  // no variant of the pack: kept out of later rounds
     write_requests_log();
-    if (refused_.size() < kMaxRequested) refused_.insert(key);
+    if (refused_.size() < development::kMaxRequestedVariants) refused_.insert(key);
     say(what + "refused: " + found.error().what());
     return development::error_answer(404, found.error().what());
+  }
+
+  // What a reader in development mode selected since its last report (DevelopmentReader::poll_update): the
+  // variants the pack it reads has, or lacks but could build (Stripped), join the in-use set of the next round. No
+  // build now: the reader has what it selected. Bounded per reader and over all (a reader over its share, or a new
+  // reader when the others hold everything, is told how many were dropped; K1803 once), and only names the pack's
+  // index declares are kept, so a hostile report adds nothing the pack cannot have.
+  development::Answer take_report(const development::SelectedReport& report) {
+    PackResult<PackReader> reader = PackReader::try_open(manifest_file());
+    if (!reader) return development::error_answer(503, "no pack to check the report against yet: " + reader.message());
+    if (!selected_.count(report.client) && selected_.size() == development::kMaxSelectedReaders) {
+      auto oldest = std::min_element(selected_.begin(), selected_.end(),
+                                     [](const auto& a, const auto& b) { return a.second.last_report < b.second.last_report; });
+      selected_count_ -= oldest->second.variants.size();
+      selected_.erase(oldest);
+    }
+    SelectedByReader& mine = selected_[report.client];
+    mine.last_report = ++reports_;
+    size_t added = 0, unknown = 0, dropped = 0;
+    for (const development::VariantRequest& variant : report.selected) {
+      Key key{variant.pass, variant.keywords};
+      if (mine.variants.count(key)) continue;
+      PackResult<SelectedVariant> selected = reader->try_select(variant.pass, variant.keywords, true);
+      if (!selected && selected.code() != PackError::Code::Stripped) {
+        ++unknown;
+        continue;
+      }
+      if (mine.variants.size() >= development::kMaxSelectedPerReader || selected_count_ >= development::kMaxSelectedVariants) {
+        ++dropped;
+        continue;
+      }
+      mine.variants.insert(std::move(key));
+      ++selected_count_;
+      ++added;
+    }
+    if (added && !write_requests_log()) return development::error_answer(500, "cannot write " + display_path(requests_log()));
+    std::string line = "kiln watch: reader " + report.client + ": " + counted(report.selected.size(), "variant", "variants") +
+                       " selected, " + std::to_string(added) + " new in the in-use set (" + std::to_string(selected_count_) + " selected";
+    if (unknown) line += "; " + std::to_string(unknown) + " not of this pack";
+    if (dropped) line += "; " + std::to_string(dropped) + " over the bound";
+    say(line + ")");
+    if (dropped)
+      warn_in_use_set_full("reader " + report.client + " selected more variants than the in-use set holds (" +
+                           std::to_string(development::kMaxSelectedPerReader) + " a reader, " +
+                           std::to_string(development::kMaxSelectedVariants) + " in all): " + std::to_string(dropped) +
+                           " are built with the full pack only");
+    return development::Answer{200, nlohmann::json{{"version", 1}, {"added", added}, {"unknown", unknown}, {"dropped", dropped},
+                                                   {"selected", selected_count_}}.dump()};
+  }
+
+  void warn_in_use_set_full(const std::string& message) {
+    if (warned_full_) return;
+    warned_full_ = true;
+    fail(DiagId::InUseSetFull, message);
   }
 
   // A round: the in-use pack (with --usage or requests), then the full one. `changes` starts the round and holds,
@@ -529,7 +595,7 @@ class Watcher {
       const int ready = ::poll(entries, server_ ? 3 : 2, timeout);
       if (ready < 0) {
         if (errno == EINTR) continue;
-        fail(std::string("watching the inputs: poll: ") + std::strerror(errno));
+        fail(DiagId::WatchUnavailable, std::string("watching the inputs: poll: ") + std::strerror(errno));
         return Wake::Error;
       }
       if (entries[1].revents) return Wake::Stop;
@@ -557,8 +623,17 @@ class Watcher {
   InputWatch inputs_;
   std::vector<fs::path> last_good_inputs_;
   std::unique_ptr<development::DevelopmentServer> server_;
-  std::set<std::pair<std::string, std::vector<std::string>>> requested_;  // by readers, kept for later rounds
-  std::set<std::pair<std::string, std::vector<std::string>>> refused_;    // built for and not there, this round
+  using Key = std::pair<std::string, std::vector<std::string>>;  // pass, keywords
+  struct SelectedByReader {
+    std::set<Key> variants;
+    uint64_t last_report = 0;  // reports_ when it last reported
+  };
+  std::set<Key> requested_;                            // by readers, kept for later rounds
+  std::set<Key> refused_;                              // built for and not there, this round
+  std::map<std::string, SelectedByReader> selected_;   // by reader id, kept for later rounds
+  size_t selected_count_ = 0;                          // over all readers
+  uint64_t reports_ = 0;
+  bool warned_full_ = false;                           // K1803 said
   bool full_pack_owed_ = false;
 };
 
