@@ -3,7 +3,9 @@
 #   pack_reader:  real packs kiln builds from a tiny shader (all targets; SPIR-V only), in the harness's input
 #                 format (flags byte 0, manifest length, manifest, archive);
 #   declarations: shader library passes, each with one library file as its include file;
-#   coverage_map: the SPIR-V modules of a -g --coverage build of the same shader (the stages of each variant).
+#   coverage_map: the SPIR-V modules of a -g --coverage build of the same shader (the stages of each variant);
+#   endpoint:     request bodies of kiln watch --serve, as the development reader sends them (a variant asked for,
+#                 a report of what it selected) and at the edges of the protocol's bounds.
 # The rest of each corpus (files named by their SHA-1) is what fuzzing kept, reduced to one input per
 # coverage edge: <fuzzer> -merge=1 -use_counters=0 <empty dir> <corpus> <fuzzer's output dirs>. After a pack
 # format change, delete the pack_reader ones (they would stop at the version check), run this script, fuzz,
@@ -102,4 +104,19 @@ def module(lines, stores, tail):
     return struct.pack("<%dI" % len(m), *m)
 open(os.path.join(sys.argv[1], "block-of-50-lines-and-50-stores"), "wb").write(module(50, 50, []))
 open(os.path.join(sys.argv[1], "opstring-of-one-word"), "wb").write(module(2, 1, [op(7, 1)]))
+PY
+
+# The development endpoint's bodies (docs/development-loop.md, "Protocol, version 1").
+mkdir -p "$corpus/endpoint"
+python3 - "$corpus/endpoint" <<'PY'
+import json, os, sys
+def seed(name, body):
+    open(os.path.join(sys.argv[1], name), "w").write(body if isinstance(body, str) else json.dumps(body))
+seed("variant", {"pass": "Forward", "keywords": ["_FOG", "_SHADOWS_SOFT"]})
+seed("variant-without-keywords", {"pass": "ShadowCaster"})
+seed("variant-64-keywords-unsorted", {"pass": "P", "keywords": ["K%d" % (63 - i) for i in range(64)] + ["K0"]})
+seed("report", {"client": "4242-0123456789abcdef", "selected": [{"pass": "Forward", "keywords": ["_FOG"]},
+                                                              {"pass": "DepthOnly", "keywords": []}]})
+seed("report-256-variants", {"client": "c", "selected": [{"pass": "P", "keywords": ["K%d" % i]} for i in range(256)]})
+seed("report-deep", '{"client": "c", "selected": [{"pass": "P", "keywords": [["A"]]}]}')
 PY
