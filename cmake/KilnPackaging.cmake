@@ -4,7 +4,9 @@
 #                       and zstd at run time)
 #   libkiln-reader-dev  the reader's headers, libkiln_reader.so and .a, kiln-reader.pc and find_package(kiln)'s
 #                       reader part: what a game builds with (`cc game.c $(pkg-config --cflags --libs kiln-reader)`
-#                       links with the C compiler alone)
+#                       links with the C compiler alone); and the development reader for a game's development
+#                       builds (libkiln_reader_dev.a, kiln-reader-dev.pc, COMPONENTS reader_dev), whose libcurl is
+#                       suggested, not depended on: libkiln-reader0 and a release build never need it
 #   kiln                kiln and kiln-worker, find_package(kiln)'s compiler part (kiln_add_shader_pack), the
 #                       schemas, man page, completion, docs and examples: what a build machine or a lint job needs,
 #                       with no Vulkan, EGL or X11 (it recommends libkiln-reader-dev, whose config file loads it)
@@ -59,10 +61,14 @@ set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
 # A static link of libkiln_reader.a (pkg-config --static) needs xxHash's and zstd's development files and the C++
 # runtime's (libstdc++.a: a C program has no g++ to bring it); kiln-reader.pc needs pkg-config itself.
 set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS "libxxhash-dev, libzstd-dev, libstdc++-12-dev | libstdc++-dev, pkgconf | pkg-config")
+# kiln::reader_dev (development builds only) links libcurl: find_package(kiln COMPONENTS reader_dev) names the package.
+set(CPACK_DEBIAN_DEV_PACKAGE_SUGGESTS "libcurl4-openssl-dev | libcurl-dev")
 set(CPACK_DEBIAN_DEV_DESCRIPTION "runtime reader for kiln shader variant packs (development files)
 ${kiln_about}
 This package holds what a game builds with: the reader's C and C++
-headers, the shared and static libraries, and kiln-reader.pc for pkg-config.")
+headers, the shared and static libraries, and kiln-reader.pc for pkg-config;
+and the development reader (kiln-reader-dev.pc), which asks kiln watch for
+the variants a development build lacks.")
 
 set(CPACK_DEBIAN_CLI_PACKAGE_NAME kiln)
 set(CPACK_DEBIAN_CLI_PACKAGE_SECTION devel)

@@ -34,7 +34,9 @@ expect_depends() {  # package, then +name (must be there) or -name (must not)
   done
 }
 expect_depends libkiln-reader0 +libc6 +libstdc++6 +libzstd1 +libxxhash0 -libvulkan1 -libcurl4
-expect_depends libkiln-reader-dev +libkiln-reader0 +libxxhash-dev +libzstd-dev
+expect_depends libkiln-reader-dev +libkiln-reader0 +libxxhash-dev +libzstd-dev -libcurl4-openssl-dev -libcurl4
+grep -q "libcurl4-openssl-dev" <<< "$(dpkg-deb -f "$(deb libkiln-reader-dev)" Suggests)" ||
+  fail "libkiln-reader-dev does not suggest libcurl's development files (kiln::reader_dev links libcurl)"
 expect_depends kiln +libc6 +libstdc++6 +libcurl4 +libssl3 +libzstd1 +libmimalloc2.0 \
   -libvulkan1 -libegl1 -libpng16-16 -libgl1 -libx11-6 -libkiln-reader-dev -libxxhash-dev
 expect_depends kiln-verify +kiln +libvulkan1 +libegl1 +libpng16-16
@@ -55,8 +57,10 @@ expect_files() {  # package, files
 expect_files libkiln-reader0 ./usr/lib/libkiln_reader.so.0 ./usr/lib/libkiln_reader.so.0.1.0
 expect_files libkiln-reader-dev ./usr/lib/libkiln_reader.so ./usr/lib/libkiln_reader.a ./usr/lib/pkgconfig/kiln-reader.pc \
   ./usr/include/kiln/pack_reader.hpp ./usr/include/kiln/manifest.hpp ./usr/include/kiln/kiln_reader.h \
-  ./usr/include/kiln/folded_keywords.hpp ./usr/include/kiln/coverage_map.hpp \
-  ./usr/lib/cmake/kiln/kilnConfig.cmake ./usr/lib/cmake/kiln/kilnConfigVersion.cmake ./usr/lib/cmake/kiln/kilnReaderTargets.cmake
+  ./usr/include/kiln/folded_keywords.hpp ./usr/include/kiln/keyword_kinds.def ./usr/include/kiln/coverage_map.hpp \
+  ./usr/lib/cmake/kiln/kilnConfig.cmake ./usr/lib/cmake/kiln/kilnConfigVersion.cmake ./usr/lib/cmake/kiln/kilnReaderTargets.cmake \
+  ./usr/lib/libkiln_reader_dev.a ./usr/lib/pkgconfig/kiln-reader-dev.pc ./usr/lib/cmake/kiln/kilnReaderDevTargets.cmake \
+  ./usr/include/kiln/development_reader.hpp ./usr/include/kiln/kiln_reader_dev.h ./usr/include/kiln/development_endpoint.hpp
 expect_files kiln ./usr/bin/kiln ./usr/bin/kiln-worker \
   ./usr/lib/cmake/kiln/kilnCompilerTargets.cmake ./usr/lib/cmake/kiln/KilnShaderPack.cmake \
   ./usr/share/kiln/schema/pack.schema.json ./usr/share/kiln/schema/scene.schema.json \
@@ -88,6 +92,7 @@ others=$(nm -D --defined-only "$work/root/usr/lib/libkiln_reader.so.0" | awk '{p
          grep -v '^kiln_\|4kiln\|^KILN_READER_0$' || true)
 [ -z "$others" ] || fail "libkiln_reader.so.0 exports more than kiln's API: $(head -5 <<< "$others")"
 objdump -p "$work/root/usr/lib/libkiln_reader.so.0" | grep "SONAME *libkiln_reader.so.0$" > /dev/null || fail "no SONAME libkiln_reader.so.0"
+! objdump -p "$work/root/usr/lib/libkiln_reader.so.0" | grep "NEEDED.*libcurl" > /dev/null || fail "the release reader needs libcurl"
 
 echo "== the reader's developer package alone: gcc links a C program, a LANGUAGES C CMake project links kiln::reader"
 dpkg-deb -x "$(deb libkiln-reader-dev)" "$work/root"
