@@ -183,6 +183,91 @@ TEST_F(Bindings, CombinedModeMakesOneCombinedImageSamplerInEveryTarget) {
   EXPECT_TRUE(separate.contains(DiagId::LayoutMismatch)) << errors_of(separate);
 }
 
+// A texture array and one sampler at one register (t0, s0), as samples whose C++ binds a combined-image-sampler array
+// write them: one array of combined image samplers, of the array's size, in the reflection and every target; Sample,
+// Load and GetDimensions of an element all read it (kiln's own pass, optimize/combine_texture_arrays.cpp: SPIRV-Tools'
+// convert-to-sampled-image refuses arrays).
+TEST_F(Bindings, CombinedModeMakesATextureArrayAndItsSamplerOneCombinedImageSamplerArray) {
+  dir.write("S.hlsl",
+            "Texture2D textures[4] : register(t0);\nSamplerState textureSampler : register(s0);\n"
+            "cbuffer Material : register(b1) { uint index; };\n"
+            "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+            "float4 F(float4 p : SV_Position) : SV_Target {\n"
+            "  uint width, height;\n  textures[2].GetDimensions(width, height);\n"
+            "  return textures[index].Sample(textureSampler, p.xy / width) + textures[3].Load(int3(p.xy, 0)) * height;\n}\n");
+  write_pack("", R"("bindings": {"combined_image_samplers": true})");
+  DiagnosticSink sink;
+  ASSERT_TRUE(build(sink)) << errors_of(sink);  // validated after the combining, and cross-compiled to every target
+  EXPECT_EQ(layout(), "textures combined_image_sampler 0.0, Material uniform_buffer 0.1");
+  const json resources = json::parse(testing::read_file(dir / "out/p.manifest.json"))["passes"][0]["layout"]["resources"];
+  EXPECT_EQ(resources[0]["count"], 4) << resources.dump();
+  PackReader pack = PackReader::open(dir / "out", PackReader::Check::Full);
+  const StageView* fragment = pack.select("P", {}).stage("fragment");
+  ASSERT_NE(fragment, nullptr);
+  ASSERT_NE(fragment->reflection, nullptr);
+  size_t combined = 0;
+  for (const Resource& resource : fragment->reflection->resources) {
+    EXPECT_NE(resource.kind, ResourceKind::Sampler) << resource.name;
+    EXPECT_NE(resource.kind, ResourceKind::Texture) << resource.name;
+    if (resource.kind != ResourceKind::CombinedImageSampler) continue;
+    ++combined;
+    EXPECT_EQ(resource.name, "textures");
+    EXPECT_EQ(resource.count, 4u);
+    EXPECT_EQ(resource.binding, 0u);
+  }
+  EXPECT_EQ(combined, 1u);
+  const std::string glsl(fragment->glsl), gles(fragment->gles), msl(fragment->msl);
+  EXPECT_NE(glsl.find("layout(binding = 0) uniform sampler2D textures[4];"), std::string::npos) << glsl;
+  EXPECT_NE(glsl.find("texture(textures["), std::string::npos) << glsl;
+  EXPECT_NE(glsl.find("texelFetch(textures[3]"), std::string::npos) << glsl;
+  EXPECT_NE(glsl.find("textureSize(textures[2]"), std::string::npos) << glsl;
+  EXPECT_EQ(glsl.find("textureSampler"), std::string::npos) << glsl;
+  EXPECT_NE(gles.find("uniform highp sampler2D textures[4];"), std::string::npos) << gles;
+  EXPECT_NE(msl.find("array<texture2d<float>, 4> textures [[texture(0)]]"), std::string::npos) << msl;
+  EXPECT_NE(msl.find("array<sampler, 4> texturesSmplr [[sampler(0)]]"), std::string::npos) << msl;
+}
+
+// What cannot become one combined-image-sampler array is an error at the declaration that stops it, saying why:
+// the sampler also samples another texture, the array is sampled with another sampler as well, the sampler is an
+// array.
+TEST_F(Bindings, ATextureArrayThatCannotBeCombinedIsALocatedErrorThatSaysWhy) {
+  struct Case {
+    std::string declarations, sample;
+    int line, column;
+    std::string because;
+  };
+  const std::vector<Case> cases = {
+      {"Texture2D textures[4] : register(t0);\nTexture2D other : register(t1);\nSamplerState s : register(s0);\n",
+       "textures[1].Sample(s, p.xy) + other.Sample(s, p.xy)", 3, 14,
+       "'s' : with combined image samplers, the texture array 'textures' and the sampler 's' at set 0 binding 0 become one "
+       "array of combined image samplers, but 's' also samples 'other': sample 'other' with another sampler, or give 's' "
+       "its own binding (an s shift)"},
+      {"Texture2D textures[4] : register(t0);\nSamplerState s : register(s0);\nSamplerState pointSampler : register(s1);\n",
+       "textures[1].Sample(s, p.xy) + textures[2].Sample(pointSampler, p.xy)", 1, 11,
+       "'textures' : with combined image samplers, the texture array 'textures' and the sampler 's' at set 0 binding 0 "
+       "become one array of combined image samplers, but 'textures' is also sampled with 'pointSampler': sample it with 's' "
+       "only, or give 's' its own binding (an s shift)"},
+      {"Texture2D textures[4] : register(t0);\nSamplerState s[4] : register(s0);\n", "textures[1].Sample(s[1], p.xy)", 2, 14,
+       "'s' : with combined image samplers, a texture (or a texture array) and one sampler at a binding become one "
+       "combined image sampler, but 's' at set 0 binding 0 is an array of samplers, beside the texture array "
+       "'textures': declare one sampler at that register, or give the samplers their own binding (an s shift)"},
+  };
+  for (const Case& c : cases) {
+    dir.write("S.hlsl", c.declarations + "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                                         "float4 F(float4 p : SV_Position) : SV_Target { return " + c.sample + "; }\n");
+    write_pack("", R"("bindings": {"combined_image_samplers": true})");
+    DiagnosticSink sink;
+    EXPECT_FALSE(build(sink));
+    const std::vector<Diagnostic> diagnostics = sink.diagnostics();
+    ASSERT_FALSE(diagnostics.empty()) << c.sample;
+    const Diagnostic& error = diagnostics.front();
+    EXPECT_EQ(error.id, DiagId::OptimizerFailed) << format_diagnostic(error);
+    EXPECT_EQ(error.message, "combine-image-samplers: " + c.because) << format_diagnostic(error);
+    EXPECT_EQ(error.location.line, c.line) << format_diagnostic(error);
+    EXPECT_EQ(error.location.column, c.column) << format_diagnostic(error);
+  }
+}
+
 TEST_F(Bindings, ThePassBindingsAndDefinesAreInTheManifest) {
   dir.write("S.hlsl", kD3DRegisters);
   write_pack(R"("bindings": {"shifts": [{"register": "t", "shift": 16}]}, "defines": {"QUALITY": 2})",

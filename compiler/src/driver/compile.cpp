@@ -421,6 +421,10 @@ class Scheduler {
                               [](const FrontendMessage& m) { return m.severity == Severity::Error; });
     if (first != outcome.output.messages.end() && id == DiagId::BlockTooLarge) {
       messages_.collect(id, locator_.declaration(s.pass, quoted_name(first->text), entry_name), first->text, variant, order);
+    } else if (first != outcome.output.messages.end() && outcome.output.failed_step == CompileStep::CombineImageSamplers) {
+      // kiln's texture-array combining names the resource it cannot combine ('s' : ...): at its declaration.
+      messages_.collect(id, locator_.declaration(s.pass, quoted_name(first->text), entry_name), step + ": " + first->text,
+                        variant, order);
     } else if (first != outcome.output.messages.end()) {
       if (id == DiagId::HlslError && constant_id_collision(*first, s, variant, order)) return;
       SourceLocation at = locator_.located(*first, entry_name);

@@ -1,5 +1,6 @@
 #include "common/target_environment.hpp"
 #include "optimize/spirv_tools.hpp"
+#include "optimize/combine_texture_arrays.hpp"
 
 #include <spirv-tools/libspirv.hpp>
 #include <spirv-tools/optimizer.hpp>
@@ -361,25 +362,37 @@ std::set<std::pair<uint32_t, uint32_t>> shared_texture_sampler_slots(const std::
 
 }  // namespace
 
-static Step combine_step(const std::vector<uint32_t>& spirv) {
-  const auto slots = shared_texture_sampler_slots(spirv);
-  if (slots.empty()) {
-    Step unchanged;
-    unchanged.ok = true;
-    unchanged.step = CompileStep::CombineImageSamplers;
-    unchanged.spirv = spirv;
-    return unchanged;
-  }
-  std::string flag = "--convert-to-sampled-image=";
-  for (const auto& [set, binding] : slots) flag += std::to_string(set) + ":" + std::to_string(binding) + " ";
-  flag.pop_back();
+static Step combine_step(const std::vector<uint32_t>& input) {
   Step result;
   result.step = CompileStep::CombineImageSamplers;
+  // A texture array and its sampler first, by kiln's own pass (combine_texture_arrays.hpp): SPIRV-Tools' pass
+  // takes single textures only.
+  Result<CombinedTextureArrays> arrays = combine_texture_arrays(input);
+  if (!arrays) {
+    result.messages.push_back(arrays.error().message);
+    return result;
+  }
+  const std::vector<uint32_t>& spirv = arrays->spirv;
+  const auto slots = shared_texture_sampler_slots(spirv);
+  if (slots.empty() && arrays->slots.empty()) {
+    result.ok = true;
+    result.spirv = spirv;
+    return result;
+  }
+  std::vector<std::string> passes;
+  if (!slots.empty()) {
+    std::string flag = "--convert-to-sampled-image=";
+    for (const auto& [set, binding] : slots) flag += std::to_string(set) + ":" + std::to_string(binding) + " ";
+    flag.pop_back();
+    passes.push_back(flag);
+  }
+  // Both leave the sampler variable behind, loaded but no longer used: removed, so that the reflection and the GL
+  // and MSL outputs show one combined binding.
+  passes.push_back("--eliminate-dead-code-aggressive");
+  passes.push_back("--eliminate-dead-variables");
   spvtools::Optimizer optimizer(kTargetEnv);
   optimizer.SetMessageConsumer(collect_into(result.messages));
-  // The pass leaves the sampler variable behind, loaded but no longer used: removed, so that the reflection
-  // and the GL and MSL outputs show one combined binding.
-  for (const std::string& pass : {flag, std::string("--eliminate-dead-code-aggressive"), std::string("--eliminate-dead-variables")})
+  for (const std::string& pass : passes)
     if (!optimizer.RegisterPassFromFlag(pass)) {
       result.messages.push_back("SPIRV-Tools does not know " + pass);
       return result;

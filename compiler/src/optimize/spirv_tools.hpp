@@ -64,7 +64,8 @@ std::vector<uint32_t> compact_ids(const std::vector<uint32_t>& spirv);
 // spirv-val alone (used by lint and tests).
 Result<void, SpirvFailure> validate_spirv(const std::vector<uint32_t>& spirv);
 // Every texture and sampler variable that share one (set, binding) become one combined image sampler
-// (SPIRV-Tools' convert-to-sampled-image pass), then validated. Step "combine-image-samplers".
+// (SPIRV-Tools' convert-to-sampled-image pass; a texture array and its sampler one array of them, by kiln's
+// combine_texture_arrays), then validated. Step "combine-image-samplers".
 SpirvResult combine_image_samplers(const std::vector<uint32_t>& spirv);
 std::string disassemble_spirv(const std::vector<uint32_t>& spirv);
 std::string spirv_tools_version();
