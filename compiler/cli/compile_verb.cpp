@@ -71,6 +71,7 @@ enum class Takes {
   Nothing,  // -spirv
   Joined,   // its value after '=': -fentry-point=main
   Next,     // its value in the next argument: -T ps_6_0 (DXC's also joined: -Tps_6_0)
+  JoinedOrNext,  // either: glslc's --target-env=vulkan1.1, glslangValidator's --target-env vulkan1.1
 };
 enum class Reading {
   Rename,             // the spelling becomes kiln's, its value (if any) following
@@ -78,6 +79,8 @@ enum class Reading {
   HlslOnly,           // glslc's -x: the source language, which must be HLSL
   DepfileBesideOutput,  // glslc's -MD: the depfile is -MF's, else the output's name with .d
   OptimizeUnlessValued,  // glslc's -O: kiln's -O when no level follows (kiln's own -O s, -O 0 stay)
+  TargetEnvironment,     // --target-env, -fspv-target-env: an environment that loads kiln's modules, else refused
+  HlslVersion,           // DXC's -HV: a language version glslang's HLSL reads, else refused
 };
 struct Habit {
   std::string_view spelling;  // as the other tool spells it
@@ -113,7 +116,35 @@ constexpr Habit kHabits[] = {
     {"-O3", "DXC", Takes::Nothing, Reading::Rename, "-O s", ""},
     {"-Od", "DXC", Takes::Nothing, Reading::Rename, "-O 0", ""},
     {"-Zi", "DXC", Takes::Nothing, Reading::Rename, "-g", "kiln's -g also turns the optimizer off, as -Zi -Od does"},
+    {"--target-env", "glslc", Takes::JoinedOrNext, Reading::TargetEnvironment, "", ""},
+    {"-fspv-target-env", "DXC", Takes::Joined, Reading::TargetEnvironment, "", ""},
+    {"-HV", "DXC", Takes::Next, Reading::HlslVersion, "", ""},
+    // kiln always compiles with 16-bit types on (half and min16float are 16-bit floats), as DXC does with it.
+    {"-enable-16bit-types", "DXC", Takes::Nothing, Reading::Rename, "", ""},
+    {"-fvk-use-dx-layout", "DXC", Takes::Nothing, Reading::Rename, "",
+     "kiln lays out constant buffers by glslang's Vulkan rules (an array's elements, and the member after an array, "
+     "start on 16 bytes), not by DirectX's packing: state the offsets that must match D3D's with packoffset or "
+     "[[vk::offset(N)]] (docs/bindings.md)"},
 };
+
+// The environments that load kiln's modules (SPIR-V 1.3 for Vulkan 1.1: the manifest's spirv_env); glslc and DXC
+// write newer SPIR-V for the later ones, which kiln's module needs no feature of.
+constexpr std::string_view kLoadingEnvironments[] = {"vulkan1.1", "vulkan1.2", "vulkan1.3"};
+
+// glslc's, glslangValidator's or DXC's target environment, or why kiln cannot honour it.
+Result<void> check_target_environment(std::string_view spelling, const std::string& environment) {
+  if (std::find(std::begin(kLoadingEnvironments), std::end(kLoadingEnvironments), environment) != std::end(kLoadingEnvironments))
+    return {};
+  const std::string what = std::string(spelling) + " '" + environment + "'";
+  if (environment.starts_with("opengl"))
+    return failure(what + ": kiln's modules are for Vulkan 1.1; for OpenGL, use '--target glsl' (GLSL 4.50 made from the same module)");
+  return failure(what + ": kiln's modules are SPIR-V 1.3 for Vulkan 1.1 (the manifest's spirv_env, vulkan1.1), which only "
+                 "vulkan1.1, vulkan1.2 and vulkan1.3 load, and kiln builds for no other environment: use one of those, or nothing");
+}
+
+// DXC's HLSL language versions that glslang's HLSL, with kiln's rewrites, reads as DXC does: 2018, and of 2021
+// select, and, or (templates, operator overloading and bit fields are errors that name the construct either way).
+constexpr std::string_view kHlslVersions[] = {"2016", "2017", "2018", "2021"};
 
 // DXC's profile (ps_6_0) as kiln's stage, or why it is none.
 Result<std::string> stage_of_profile(const std::string& profile) {
@@ -264,7 +295,7 @@ class CompileVerb final : public Verb {
       const Habit* habit = nullptr;
       std::optional<std::string> value;
       for (const Habit& h : kHabits) {
-        if (h.takes == Takes::Joined && argument.starts_with(std::string(h.spelling) + "=")) {
+        if ((h.takes == Takes::Joined || h.takes == Takes::JoinedOrNext) && argument.starts_with(std::string(h.spelling) + "=")) {
           value = argument.substr(h.spelling.size() + 1);
         } else if (h.takes == Takes::Next && h.tool == "DXC" && argument.size() > h.spelling.size() &&
                    argument.starts_with(h.spelling)) {
@@ -280,13 +311,14 @@ class CompileVerb final : public Verb {
         continue;
       }
       const std::string spelled = value ? argument : std::string(habit->spelling);
-      if (habit->takes == Takes::Next && !value) {
+      if ((habit->takes == Takes::Next || habit->takes == Takes::JoinedOrNext) && !value) {
         if (i + 1 == arguments.size()) return command_line_error(spelled + " needs a value");
         value = arguments[++i];
       }
+      if (habit->takes == Takes::Joined && !value) return command_line_error(spelled + " needs '=VALUE'");
       if (!habit->refused.empty())
         return command_line_error(std::string(habit->tool) + "'s '" + spelled + "' is not kiln's: " + std::string(habit->refused) +
-                                  ": use '" + std::string(habit->kiln) + "'");
+                                  (habit->kiln.empty() ? std::string() : ": use '" + std::string(habit->kiln) + "'"));
       std::vector<std::string> kiln = words_of(habit->kiln);
       switch (habit->reading) {
         case Reading::Rename:
@@ -306,6 +338,18 @@ class CompileVerb final : public Verb {
           break;
         case Reading::OptimizeUnlessValued:
           if (i + 1 < arguments.size() && (arguments[i + 1] == "s" || arguments[i + 1] == "0")) kiln = {"-O"};  // kiln's -O s
+          break;
+        case Reading::TargetEnvironment:
+          if (Result<void> honoured = check_target_environment(habit->spelling, *value); !honoured)
+            return command_line_error(honoured.error().message);
+          value.reset();  // what kiln builds anyway
+          break;
+        case Reading::HlslVersion:
+          if (std::find(std::begin(kHlslVersions), std::end(kHlslVersions), *value) == std::end(kHlslVersions))
+            return command_line_error("-HV '" + *value + "': kiln's HLSL front end, glslang 12, reads HLSL 2018 and, of HLSL 2021, "
+                                      "select, and and or (not templates, operator overloading or bit fields): use '-HV 2021', "
+                                      "'-HV 2018' or nothing");
+          value.reset();
           break;
       }
       out.insert(out.end(), kiln.begin(), kiln.end());

@@ -2,7 +2,9 @@
 /* unit.capi.FromC11EveryErrorSelectionCodeAndReflection: kiln_reader.h from C11 (-Wall -Wextra -pedantic
  * -Werror), on the pack tests/capi/tiny.pack.json builds (unit.capi.setup). usage: capi_test <pack dir> <scratch dir>
  * Passes: Main (groups [_ FOG], [QUALITY_LOW QUALITY_HIGH], fragment [_ TINT]; TINT excludes FOG) and Depth
- * ([_ ALPHA_CLIP]). Every check prints what it compared on failure; the exit code is the number of failures. */
+ * ([_ ALPHA_CLIP]). With a third argument, the pack tests/capi/texels.pack.json builds (unit.capi.setup_texels): its
+ * texel buffers and input attachment, by their kinds. Every check prints what it compared on failure; the exit code
+ * is the number of failures. */
 #define _POSIX_C_SOURCE 200809L
 #include <stdint.h>
 #include <stdio.h>
@@ -281,11 +283,52 @@ static void test_variant_contents(const kiln_pack* pack) {
   CHECK(kiln_reflection_resource_count(NULL) == 0 && !kiln_reflection_resource(NULL, 0, &resource));
 }
 
+/* Buffer<T>, RWBuffer<T> and SubpassInput each have a kind of their own (not a texture, a storage image, nothing),
+ * and the input attachment its index: what a loader builds its descriptor set layout and subpass from. */
+static void test_texel_buffers_and_input_attachments(const char* pack_dir) {
+  kiln_pack* pack = NULL;
+  kiln_error error;
+  kiln_pass pass = 99;
+  uint32_t variant = 99;
+  const kiln_reflection* fragment;
+  kiln_resource resource;
+  uint32_t i;
+  int uniform_texel = 0, storage_texel = 0, attachment = 0;
+  if (kiln_pack_open(pack_dir, &pack, &error) != KILN_OK) {
+    fprintf(stderr, "%s: %s: %s\n", error.file, kiln_result_name(error.code), error.message);
+    ++failures;
+    return;
+  }
+  CHECK(kiln_pass_find(pack, "Texels", &pass, &error) == KILN_OK);
+  CHECK(kiln_select_by_names(pack, "Texels", NULL, 0, 0, &variant, &error) == KILN_OK);
+  fragment = kiln_variant_reflection(pack, pass, variant, KILN_STAGE_FRAGMENT);
+  CHECK(fragment != NULL);
+  CHECK(kiln_reflection_resource_count(fragment) == 3);
+  for (i = 0; kiln_reflection_resource(fragment, i, &resource); ++i) {
+    CHECK(resource.stage_flags == KILN_STAGE_FLAG_FRAGMENT && resource.set == 0 && resource.count == 1);
+    if (strcmp(resource.name, "LightColors") == 0) {
+      uniform_texel = 1;
+      CHECK(resource.kind == KILN_RESOURCE_UNIFORM_TEXEL_BUFFER && resource.binding == 0 && resource.input_attachment_index == 0);
+    } else if (strcmp(resource.name, "Counters") == 0) {
+      storage_texel = 1;
+      CHECK(resource.kind == KILN_RESOURCE_STORAGE_TEXEL_BUFFER && resource.binding == 1 && resource.input_attachment_index == 0);
+    } else if (strcmp(resource.name, "GBufferAlbedo") == 0) {
+      attachment = 1;
+      CHECK(resource.kind == KILN_RESOURCE_INPUT_ATTACHMENT && resource.binding == 3 && resource.input_attachment_index == 2);
+    } else {
+      fprintf(stderr, "%s:%d: unexpected resource %s\n", __FILE__, __LINE__, resource.name);
+      ++failures;
+    }
+  }
+  CHECK(uniform_texel && storage_texel && attachment);
+  kiln_pack_close(pack);
+}
+
 int main(int argc, char** argv) {
   kiln_pack* pack = NULL;
   kiln_error error;
-  if (argc != 3) {
-    fprintf(stderr, "usage: %s <pack dir> <scratch dir>\n", argv[0]);
+  if (argc != 3 && argc != 4) {
+    fprintf(stderr, "usage: %s <pack dir> <scratch dir> [<texels pack dir>]\n", argv[0]);
     return 2;
   }
   test_open_failures(argv[1], argv[2]);
@@ -303,6 +346,7 @@ int main(int argc, char** argv) {
   test_selection_by_ids_equals_by_names(pack);
   test_variant_contents(pack);
   kiln_pack_close(pack);
+  if (argc == 4) test_texel_buffers_and_input_attachments(argv[3]);
   kiln_pack_close(NULL);
   if (failures) fprintf(stderr, "%d checks failed\n", failures);
   else printf("all checks passed\n");

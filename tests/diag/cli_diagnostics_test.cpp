@@ -1365,6 +1365,30 @@ TEST_F(Cli, VkAttributesGlslangWouldDropAreErrors) {
 }
 
 
+// [[vk::combinedImageSampler]]'s error never suggests the setting already in force: with combined image samplers off
+// it names the setting; with them on, it says what pairs a texture and a sampler then (one binding).
+TEST_F(Cli, TheCombinedImageSamplerAttributesAdviceIsNeverTheSettingAlreadyOn) {
+  dir.write("S.hlsl", std::string("[[vk::combinedImageSampler]] Texture2D tex;\n") + kEntries);
+  const std::string error = "S.hlsl:1:7: error[K1401]: 'combinedImageSampler' : [[vk::combinedImageSampler]] changes the "
+                            "interface in DXC (it pairs a texture and a sampler into one combined image sampler); glslang 12 "
+                            "ignores it, so the shader would be built with another interface: ";
+  auto off = build();
+  EXPECT_EQ(off.exit_code, 1) << off.err;
+  EXPECT_EQ(off.err.substr(0, off.err.find('\n') + 1),
+            error + "set \"bindings\": {\"combined_image_samplers\": true} (or --combined-image-samplers), which pairs a "
+                    "texture and a sampler that share a register number\n")
+      << off.err;
+  auto on = build({"--combined-image-samplers"});
+  EXPECT_EQ(on.exit_code, 1) << on.err;
+  EXPECT_EQ(on.err.substr(0, on.err.find('\n') + 1),
+            error + "combined image samplers are on, and they pair a texture and a sampler that share a binding: drop the "
+                    "attribute and give the texture and its sampler one register number (tN and sN) or the same "
+                    "[[vk::binding(N)]]\n")
+      << on.err;
+  EXPECT_EQ(on.err.find("combined_image_samplers\": true"), std::string::npos) << on.err;
+}
+
+
 // A define glslang's preamble cannot take was located in a file named "-1" (glslang's name for its preamble).
 TEST_F(Cli, AnErrorInADefinesValueIsLocatedOnTheCommandLine) {
   dir.write("S.hlsl", "float4 V(float4 p : POSITION) : SV_Position { return p; }\nfloat4 F() : SV_Target { return X; }\n");
@@ -1936,6 +1960,7 @@ TEST_F(Cli, CompileReadsGlslcAndDxcSpellingsAsKilnsOrRefusesThemWithKilnsSpellin
                       "float4 F(float2 uv : TEXCOORD0) : SV_Target { return tex.Sample(smp, uv) * tint; }\n"
                       "float4 main(float4 p : POSITION) : SV_Position { return p * tint; }\n");
   dir.write("warn.hlsl", "[[vk::unknown_attribute]] float4 main() : SV_Target { return 1.0; }\n");
+  dir.write("define.hlsl", "float4 main() : SV_Target { return VALUE; }\n");  // no build without a VALUE
   struct Same {
     std::vector<std::string> habit, kiln;  // after "compile"; each writes o.spv (and o.d where a depfile is asked for)
   };
@@ -1964,6 +1989,16 @@ TEST_F(Cli, CompileReadsGlslcAndDxcSpellingsAsKilnsOrRefusesThemWithKilnsSpellin
       {{"x.hlsl", "-S", "ps", "-E", "F", "-o", "o.spv"}, {"x.hlsl", "-S", "fragment", "-E", "F", "-o", "o.spv"}},
       {{"x.hlsl", "-S", "vs", "-o", "o.spv"}, {"x.hlsl", "-S", "vertex", "-o", "o.spv"}},
       {{"x.hlsl", "-S", "vert", "-o", "o.spv"}, {"x.hlsl", "-S", "vertex", "-o", "o.spv"}},
+      // Environments that load kiln's SPIR-V 1.3 for Vulkan 1.1, and HLSL versions glslang's HLSL reads: what kiln builds.
+      {{"x.hlsl", "-S", "frag", "-E", "F", "--target-env=vulkan1.1", "-o", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "frag", "-E", "F", "--target-env", "vulkan1.2", "-o", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "frag", "-E", "F", "-fspv-target-env=vulkan1.3", "-o", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "frag", "-E", "F", "-HV", "2021", "-o", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "frag", "-E", "F", "-HV2018", "-o", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "-o", "o.spv"}},
+      {{"x.hlsl", "-S", "frag", "-E", "F", "-enable-16bit-types", "-o", "o.spv"}, {"x.hlsl", "-S", "frag", "-E", "F", "-o", "o.spv"}},
+      // glslc's -DNAME and -DNAME=VALUE, without a space.
+      {{"define.hlsl", "-S", "frag", "-DVALUE", "-o", "o.spv"}, {"define.hlsl", "-S", "frag", "-D", "VALUE", "-o", "o.spv"}},
+      {{"define.hlsl", "-S", "frag", "-DVALUE=0.5", "-o", "o.spv"}, {"define.hlsl", "-S", "frag", "-D", "VALUE=0.5", "-o", "o.spv"}},
   };
   auto run = [&](std::vector<std::string> args) {
     std::filesystem::remove(dir / "o.spv");
@@ -1981,7 +2016,7 @@ TEST_F(Cli, CompileReadsGlslcAndDxcSpellingsAsKilnsOrRefusesThemWithKilnsSpellin
     const auto habit = run(same.habit);
     const std::string what = same.habit[1] + " " + same.habit[2] + " " + same.habit[3];
     EXPECT_EQ(habit, kiln) << what;
-    if (same.habit[0] == "x.hlsl") EXPECT_EQ(std::get<0>(kiln), 0) << what << ": " << std::get<1>(kiln);
+    if (same.habit[0] != "warn.hlsl") EXPECT_EQ(std::get<0>(kiln), 0) << what << ": " << std::get<1>(kiln);
     else EXPECT_EQ(std::get<0>(kiln), 1) << what;  // a warning with -Werror is an error
   }
 
@@ -2000,6 +2035,20 @@ TEST_F(Cli, CompileReadsGlslcAndDxcSpellingsAsKilnsOrRefusesThemWithKilnsSpellin
       {{"-M"}, "glslc's '-M' is not kiln's: it writes the dependencies instead of compiling; kiln compile writes them beside the "
                "output: use '--depfile FILE'"},
       {{"-MD", "-o", "-"}, "-MD with -o -: no output file to name the depfile after: use '--depfile FILE'"},
+      {{"--target-env=vulkan1.0"}, "--target-env 'vulkan1.0': kiln's modules are SPIR-V 1.3 for Vulkan 1.1 (the manifest's "
+                                   "spirv_env, vulkan1.1), which only vulkan1.1, vulkan1.2 and vulkan1.3 load, and kiln builds "
+                                   "for no other environment: use one of those, or nothing"},
+      {{"-fspv-target-env=universal1.5"}, "-fspv-target-env 'universal1.5': kiln's modules are SPIR-V 1.3 for Vulkan 1.1 (the "
+                                          "manifest's spirv_env, vulkan1.1), which only vulkan1.1, vulkan1.2 and vulkan1.3 load, "
+                                          "and kiln builds for no other environment: use one of those, or nothing"},
+      {{"--target-env", "opengl4.5"}, "--target-env 'opengl4.5': kiln's modules are for Vulkan 1.1; for OpenGL, use '--target glsl' "
+                                      "(GLSL 4.50 made from the same module)"},
+      {{"-HV", "202x"}, "-HV '202x': kiln's HLSL front end, glslang 12, reads HLSL 2018 and, of HLSL 2021, select, and and or "
+                        "(not templates, operator overloading or bit fields): use '-HV 2021', '-HV 2018' or nothing"},
+      {{"-fvk-use-dx-layout"}, "DXC's '-fvk-use-dx-layout' is not kiln's: kiln lays out constant buffers by glslang's Vulkan rules "
+                               "(an array's elements, and the member after an array, start on 16 bytes), not by DirectX's "
+                               "packing: state the offsets that must match D3D's with packoffset or [[vk::offset(N)]] "
+                               "(docs/bindings.md)"},
   };
   for (const Refused& r : refused) {
     std::vector<std::string> args{"compile", "x.hlsl", "-E", "F"};

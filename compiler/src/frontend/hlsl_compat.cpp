@@ -685,7 +685,7 @@ std::vector<std::smatch> file_scope_matches(const std::string& text, const std::
   return out;
 }
 
-std::optional<std::string> interface_attribute_error(std::string_view warning) {
+std::optional<std::string> interface_attribute_error(std::string_view warning, bool combined_image_samplers) {
   struct Row {
     std::string_view attribute, dxc, instead;
   };
@@ -707,12 +707,18 @@ std::optional<std::string> interface_attribute_error(std::string_view warning) {
   constexpr std::string_view kSuffix = "' : unrecognized attribute";
   if (!warning.starts_with('\'') || !warning.ends_with(kSuffix)) return std::nullopt;
   const std::string_view name = warning.substr(1, warning.size() - 1 - kSuffix.size());
-  for (const Row& row : kRows)
-    if (name == row.attribute)
+  // With combined image samplers already on, what pairs them is a shared binding, not the setting.
+  constexpr std::string_view kPairedByBinding =
+      "combined image samplers are on, and they pair a texture and a sampler that share a binding: drop the attribute "
+      "and give the texture and its sampler one register number (tN and sN) or the same [[vk::binding(N)]]";
+  for (Row row : kRows)
+    if (name == row.attribute) {
+      if (name == "combinedImageSampler" && combined_image_samplers) row.instead = kPairedByBinding;
       // Quoting the word first, as glslang does, lets the driver find its column.
       return "'" + std::string(name) + "' : [[vk::" + std::string(name) + "]] changes the interface in DXC (it " +
              std::string(row.dxc) + "); glslang 12 ignores it, so the shader would be built with another interface: " +
              std::string(row.instead);
+    }
   return std::nullopt;
 }
 

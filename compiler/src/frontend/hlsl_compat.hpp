@@ -83,9 +83,10 @@ std::optional<std::string> rewrite_compare_store(std::string_view text);
 
 // `[[vk::...]]` attributes that change a shader's interface in DXC and that glslang 12 ignores with only a warning
 // ("'offset' : unrecognized attribute"): the interface kiln would build is not the one the author wrote, so each
-// is an error, saying what DXC does with it and what to write instead. `warning` is the front end's message text;
-// nothing when it is no such attribute.
-std::optional<std::string> interface_attribute_error(std::string_view warning);
+// is an error, saying what DXC does with it and what to write instead, never advice already in force (turning on
+// combined image samplers when `combined_image_samplers` says they are on). `warning` is the front end's message
+// text; nothing when it is no such attribute.
+std::optional<std::string> interface_attribute_error(std::string_view warning, bool combined_image_samplers);
 
 // The matches of `declaration` in `text` that start at file scope (brace depth 0), in order. The depth is counted
 // once over the text, whatever the number of matches (a file of 100,000 declarations stays linear); `declaration`

@@ -67,7 +67,8 @@ JobOutput compile_front_end(Frontend& frontend, const CompileJob& job) {
   // another interface (frontend/hlsl_compat.hpp).
   bool dropped_attribute = false;
   for (FrontendMessage& message : out.messages)
-    if (auto error = message.severity == Severity::Warning ? interface_attribute_error(message.text) : std::nullopt) {
+    if (auto error = message.severity == Severity::Warning ? interface_attribute_error(message.text, job.bindings.combines())
+                                                           : std::nullopt) {
       message.severity = Severity::Error;
       message.text = std::move(*error);
       dropped_attribute = true;
