@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Each bad input gets an exact diagnostic (checked to the byte), a non-zero exit code, and leaves no
 // pack and no cache entry behind.
 #include <gtest/gtest.h>
@@ -175,13 +176,25 @@ TEST_F(Cli, AMissingTokenGetsNoColumnRatherThanAWrongOne) {
 }
 
 // Locations recovered where glslang gives them another way: the HLSL grammar's own "error at column N, HLSL
-// parsing failed" (was "S.hlsl: frontend failed", with no line; its column counts in the preprocessed text, so
-// only the line is kept), and a directive's error, which glslang reports on the line after the directive.
+// parsing failed" (was "S.hlsl: frontend failed", with no line; its column counts in the preprocessed text, whose
+// spacing, comments and macros are not the file's, so the caret goes on the same token of the file's line), and a
+// directive's error, which glslang reports on the line after the directive.
 TEST_F(Cli, ParseFailuresAndDirectiveErrorsAreReportedAtTheirOwnLine) {
   dir.write("S.hlsl", "float4 V(float4 p : POSITION) : SV_Position { return p; }\n"
                       "float4 F() : SV_Target { return 1; } }\n");
-  expect_build_error("S.hlsl:2: error[K1401]: HLSL parsing failed\n"
+  expect_build_error("S.hlsl:2:38: error[K1401]: HLSL parsing failed\n"
                      "    float4 F() : SV_Target { return 1; } }\n"
+                     "                                         ^\n"
+                     "  note: in pass 'P' vertex stage, keywords [<none>]\n"
+                     "  note: and in 1 more variant(s)\n"
+                     "kiln: 1 error(s)\n");
+  // glslang parsed `float4 F(): SV_Target { return 1; } }` and points at the stray brace; the file's line has a
+  // comment with a brace in it, wider spaces and a macro before it.
+  dir.write("S.hlsl", "#define ONE 1\nfloat4 V(float4 p : POSITION) : SV_Position { return p; }\n"
+                      "    float4 F() : SV_Target { return /* } */ ONE;   } }\n");
+  expect_build_error("S.hlsl:3:54: error[K1401]: HLSL parsing failed\n"
+                     "        float4 F() : SV_Target { return /* } */ ONE;   } }\n"
+                     "                                                         ^\n"
                      "  note: in pass 'P' vertex stage, keywords [<none>]\n"
                      "  note: and in 1 more variant(s)\n"
                      "kiln: 1 error(s)\n");
@@ -2176,6 +2189,40 @@ TEST_F(Cli, CompileWithGKeepsTheHlslSourceAndLinesForEveryVariant) {
   EXPECT_TRUE(none.err.starts_with("<command line>: error[K1014]: -D: the keywords select no variant: pass 'main' needs one of: "
                                    "Q0 Q1 Q2 Q3"))
       << none.err;
+}
+
+// DXC and glslangValidator keep the files as written in a -g module's OpSource: comments, spacing and all, each
+// include its own OpSource. kiln preprocesses first, so two files that differ in a comment preprocess alike: with
+// -g they are two cache entries, or the second build would carry the first one's comment.
+TEST_F(Cli, CompileWithGKeepsTheFilesAsWrittenAndACommentEditIsANewModule) {
+  const std::string header = "// Fog.hlsli: the author's note on fog\nfloat4  Fogged( float4 c )  { return c * 0.5; }\n";
+  auto entry = [](const std::string& comment) {
+    return "#include \"Fog.hlsli\"\n/* " + comment + " */\nfloat4 main(float2 uv : TEXCOORD0) : SV_Target\n{\n"
+           "    return   Fogged(float4(uv, 0, 1));   // spaced as the author likes\n}\n";
+  };
+  dir.write("inc/Fog.hlsli", header);
+  for (const std::string comment : {"the first comment", "the second comment"}) {
+    dir.write("x.hlsl", entry(comment));
+    auto r = testing::run_kiln({"compile", "x.hlsl", "-S", "frag", "-I", "inc", "-g", "-o", "g.spv"}, dir.path());
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const std::string spirv = testing::read_file(dir / "g.spv");
+    EXPECT_NE(spirv.find(entry(comment)), std::string::npos) << "the entry file as written, with '" << comment << "'";
+    EXPECT_NE(spirv.find(header), std::string::npos) << "the include as written";
+    EXPECT_TRUE(has_op_line(spirv));
+  }
+  // kiln build -g with its cache: the comment edit compiles anew (the preprocessed text is the same), so the pack
+  // holds the new comment; the edit back is the first build's entry again.
+  dir.write("lib/Fog.hlsli", header);
+  for (const std::string comment : {"one", "two", "one"}) {
+    dir.write("S.hlsl", std::regex_replace(entry(comment), std::regex("float4 main"),
+                                           "struct VO { float4 p : SV_Position; float2 uv : TEXCOORD0; };\n"
+                                           "VO V(float4 p : POSITION) { VO o; o.p = p; o.uv = p.xy; return o; }\nfloat4 F"));
+    auto r = build({"-g"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const StageView* fragment = PackReader::open(dir / "out").select("P", {}).stage("fragment");
+    ASSERT_TRUE(fragment);
+    EXPECT_NE(fragment->spirv.find("/* " + comment + " */"), std::string::npos) << "the comment of this build, '" << comment << "'";
+  }
 }
 
 }  // namespace

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """golden.coverage: which lines of shaderlib/ the golden scenes execute (issue 40; docs/coverage.md).
 
 Builds the golden packs again with `kiln build --coverage` (the default pack, and the night_city and audit scene
@@ -38,16 +39,23 @@ def library_name(path):
     return path[at + len("shaderlib/"):] if at >= 0 else None
 
 
-def read_lcov(path):
-    """{file: {line: hits}} of one tracefile."""
-    lines, current = {}, None
+def read_lcov(path, functions=None):
+    """{file: {line: hits}} of one tracefile; its function records added to `functions`, {file: {name: [line, hits]}}."""
+    lines, current, named = {}, None, None
     for row in open(path, encoding="utf-8"):
         row = row.strip()
         if row.startswith("SF:"):
             current = lines.setdefault(row[3:], {})
+            named = None if functions is None else functions.setdefault(library_name(row[3:]), {})
         elif row.startswith("DA:") and current is not None:
             number, hits = row[3:].split(",")[:2]
             current[int(number)] = current.get(int(number), 0) + int(hits)
+        elif row.startswith("FN:") and named is not None:
+            number, name = row[3:].split(",", 1)
+            named.setdefault(name, [int(number), 0])
+        elif row.startswith("FNDA:") and named is not None:
+            hits, name = row[5:].split(",", 1)
+            named.setdefault(name, [0, 0])[1] += int(hits)
     return lines
 
 
@@ -99,7 +107,7 @@ def main():
         print(f"identical: a variant on 3 APIs, --coverage against -g")
     checked = time.monotonic()
 
-    merged, per_scene = {}, {}
+    merged, per_scene, functions = {}, {}, {}  # functions: {file: {name: [line, hits]}}, from kiln test's FN records
     for scene, pack in packs.items():
         tracefile = os.path.join(args.out, scene + ".info")
         command = [args.kiln, "test", pack, "--scene", os.path.join(args.source, "variants/scenes/render", scene + ".json"),
@@ -116,7 +124,7 @@ def main():
                             f"render within the golden limits\n{test.stdout[-3000:]}{test.stderr}")
             continue
         lines = {}
-        for path, hits in read_lcov(tracefile).items():
+        for path, hits in read_lcov(tracefile, functions).items():
             name = library_name(path)
             if name is None:
                 failures.append(f"{scene}: a line of '{path}', which is not in shaderlib/")
@@ -132,7 +140,7 @@ def main():
             subprocess.run([args.kiln, "render", packs["audit"], "--pass", depth_pass, "-o", tracefile[:-5] + ".png",
                             "--scene", os.path.join(args.source, "variants/scenes/render/audit.json"), "--coverage", tracefile],
                            check=True, capture_output=True)
-            for path, hits in read_lcov(tracefile).items():
+            for path, hits in read_lcov(tracefile, functions).items():
                 for number, count in hits.items():
                     for lines in (per_scene.setdefault("audit", {}), merged):
                         lines.setdefault(library_name(path), {})[number] = lines.get(library_name(path), {}).get(number, 0) + count
@@ -168,6 +176,13 @@ def main():
         out.write("TN:golden\n")
         for name in sorted(merged):
             out.write(f"SF:{os.path.join(args.source, 'shaderlib', name)}\n")
+            named = functions.get(name, {})
+            for function, (number, _) in sorted(named.items(), key=lambda f: (f[1][0], f[0])):
+                out.write(f"FN:{number},{function}\n")
+            for function, (_, hits) in sorted(named.items(), key=lambda f: (f[1][0], f[0])):
+                out.write(f"FNDA:{hits},{function}\n")
+            if named:
+                out.write(f"FNF:{len(named)}\nFNH:{sum(1 for _, h in named.values() if h)}\n")
             for number in sorted(merged[name]):
                 out.write(f"DA:{number},{merged[name][number]}\n")
             hit = sum(1 for h in merged[name].values() if h)
@@ -188,6 +203,18 @@ def main():
     m = re.search(r"lines\.+: [\d.]+% \((\d+) of (\d+) lines\)", summary.stdout + summary.stderr)
     if not m or (int(m.group(1)), int(m.group(2))) != (hit, total):
         failures.append(f"lcov --summary does not read {hit} of {total} lines:\n{summary.stdout}{summary.stderr}")
+    # Function records (verify/coverage/hlsl_functions.hpp): every file with lines has them, lcov reads the
+    # totals the records give, and the BRDF's D_GGX is entered.
+    function_count = sum(len(named) for named in functions.values())
+    entered = sum(1 for named in functions.values() for _, h in named.values() if h)
+    m = re.search(r"functions\.+: [\d.]+% \((\d+) of (\d+) functions\)", summary.stdout + summary.stderr)
+    if not m or (int(m.group(1)), int(m.group(2))) != (entered, function_count):
+        failures.append(f"lcov --summary does not read {entered} of {function_count} functions:\n{summary.stdout}{summary.stderr}")
+    if sorted(f for f in functions if f) != sorted(merged):
+        failures.append(f"files without function records: {sorted(set(merged) - set(functions))}")
+    if functions.get("BRDF.hlsl", {}).get("D_GGX", [0, 0])[1] == 0:
+        failures.append("BRDF.hlsl's D_GGX, which every lit draw runs, has no function record with hits")
+    print(f"functions: {entered} of {function_count} entered")
     html = subprocess.run(["genhtml", "--quiet", "-o", os.path.join(args.out, "html"), merged_path],
                           capture_output=True, text=True)
     if html.returncode != 0 or not os.path.isfile(os.path.join(args.out, "html", "index.html")):

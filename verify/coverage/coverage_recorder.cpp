@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "coverage/coverage_recorder.hpp"
 
 #include <cctype>
@@ -5,10 +6,12 @@
 #include <fstream>
 #include <sstream>
 #include <functional>
+#include <optional>
 #include <set>
 
 #include <nlohmann/json.hpp>
 
+#include "coverage/hlsl_functions.hpp"
 #include "scene/image.hpp"
 #include "scene/verify_error.hpp"
 
@@ -16,6 +19,21 @@ namespace kiln::render {
 namespace {
 
 std::pair<size_t, size_t> module_key(std::string_view spirv) { return {spirv.size(), std::hash<std::string_view>{}(spirv)}; }
+
+// The pack names its sources (a damaged or hostile one may name anything): only a regular file, and only so much
+// of it, is read; a shader library file is under a megabyte.
+constexpr std::streamsize kMaxSourceBytes = std::streamsize{16} << 20;
+
+std::optional<std::string> read_source(const std::string& name) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(name, ec)) return std::nullopt;
+  std::ifstream in(name, std::ios::binary);
+  std::string text(static_cast<size_t>(kMaxSourceBytes) + 1, '\0');
+  in.read(text.data(), kMaxSourceBytes + 1);
+  if (in.bad() || in.gcount() > kMaxSourceBytes) return std::nullopt;
+  text.resize(static_cast<size_t>(in.gcount()));
+  return text;
+}
 
 }  // namespace
 
@@ -38,6 +56,30 @@ CoverageRecorder::CoverageRecorder(const PackReader& pack, const std::filesystem
   }
   if (modules_.empty())
     fail(DiagId::PackUnusable, pack_dir, "no module of the pack records coverage: build it with kiln build --coverage");
+  find_functions();
+}
+
+// Each instrumented line is credited to the function whose lines hold it; a function none of whose lines has a
+// probe (stripped by every variant, or never called) is not listed, as such lines are not.
+void CoverageRecorder::find_functions() {
+  for (auto& [file, lines] : files_) {
+    const std::optional<std::string> text = read_source(file);
+    if (!text) continue;
+    const std::vector<HlslFunction> defined = hlsl_functions(*text);
+    std::map<std::string, int> uses;
+    for (const HlslFunction& f : defined) ++uses[f.name];
+    std::vector<Function>& functions = functions_[file];
+    functions.reserve(defined.size());  // the lines point into it
+    for (const HlslFunction& f : defined) {
+      auto line = lines.lower_bound(f.first_line);
+      if (line == lines.end() || line->first > f.last_line) continue;
+      Function& function = functions.emplace_back();
+      function.name = uses[f.name] > 1 ? f.name + " (line " + std::to_string(f.first_line) + ")" : f.name;
+      function.first_line = f.first_line;
+      for (; line != lines.end() && line->first <= f.last_line; ++line) line->second.function = &function;
+    }
+    if (functions.empty()) functions_.erase(file);
+  }
 }
 
 const CoverageRecorder::Module* CoverageRecorder::module_for(std::string_view spirv) {
@@ -58,9 +100,12 @@ void CoverageRecorder::credit(const std::vector<std::string_view>& modules, uint
       lit.insert(module->lines[p].begin(), module->lines[p].end());
     }
   }
+  std::set<Function*> entered;
   for (Line* line : lit) {
     if (line->hits++ == 0) line->first = role.empty() ? witness_ : witness_ + " " + std::string(role);
+    if (line->function) entered.insert(line->function);
   }
+  for (Function* function : entered) ++function->hits;
 }
 
 CoverageRecorder::Totals CoverageRecorder::totals() const {
@@ -94,6 +139,15 @@ void CoverageRecorder::write_lcov(const std::filesystem::path& path, const std::
     const std::filesystem::path source(file);
     const bool here = source.is_relative() && std::filesystem::is_regular_file(source, ec);
     out << "SF:" << (here ? std::filesystem::absolute(source, ec).lexically_normal().string() : file) << "\n";
+    if (auto functions = functions_.find(file); functions != functions_.end()) {
+      size_t entered = 0;
+      for (const Function& f : functions->second) out << "FN:" << f.first_line << "," << f.name << "\n";
+      for (const Function& f : functions->second) {
+        out << "FNDA:" << f.hits << "," << f.name << "\n";
+        if (f.hits) ++entered;
+      }
+      out << "FNF:" << functions->second.size() << "\nFNH:" << entered << "\n";
+    }
     size_t hit = 0;
     for (const auto& [number, line] : lines) {
       out << "DA:" << number << "," << line.hits << "\n";

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "common/compile_result.hpp"
 
 #include <stdexcept>
@@ -18,9 +19,12 @@ std::vector<uint32_t> binary_to_words(const std::vector<uint8_t>& bytes) {
 std::vector<uint8_t> encode_output(const JobOutput& output, bool with_steps) {
   json j{{"ok", output.ok}, {"failed_step", std::string(step_name(output.failed_step))}};
   json messages = json::array();
-  for (const FrontendMessage& m : output.messages)
-    messages.push_back({{"severity", static_cast<int>(m.severity)}, {"path", m.path}, {"line", m.line}, {"text", m.text},
-                        {"column", m.column}});
+  for (const FrontendMessage& m : output.messages) {
+    json message{{"severity", static_cast<int>(m.severity)}, {"path", m.path}, {"line", m.line}, {"text", m.text},
+                 {"column", m.column}};
+    if (!m.token.empty()) message["token"] = {m.token, m.occurrence};
+    messages.push_back(std::move(message));
+  }
   j["messages"] = messages;
   j["spirv"] = json::binary(spirv_to_bytes(output.spirv));
   json blobs = json::object();
@@ -55,9 +59,14 @@ JobOutput decode_output(std::string_view bytes) {
   const auto step = parse_step(j.at("failed_step").get<std::string>());
   if (!step) throw std::runtime_error("unknown compile step in a worker's output");
   out.failed_step = *step;
-  for (const json& m : j.at("messages"))
+  for (const json& m : j.at("messages")) {
     out.messages.push_back({static_cast<Severity>(m.at("severity").get<int>()), m.at("path").get<std::string>(),
                             m.at("line").get<int>(), m.at("text").get<std::string>(), m.at("column").get<int>()});
+    if (m.contains("token")) {
+      out.messages.back().token = m.at("token").at(0).get<std::string>();
+      out.messages.back().occurrence = m.at("token").at(1).get<int>();
+    }
+  }
   out.spirv = binary_to_words(j.at("spirv").get_binary());
   for (auto& [name, fields] : j.at("blobs").items()) {
     auto target = parse_target(name);

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What a compile job gives back, and its one encoding: the worker pipe carries it, and the cache stores it (so a
 // worker's output and a cached result are the same record).
 #pragma once
@@ -25,6 +26,10 @@ struct FrontendMessage {
   int line = 0;
   std::string text;
   int column = 0;  // when the front end says (glslang's HLSL parser does for "HLSL parsing failed")
+  // A column glslang counted in the preprocessed text (not the file's spacing) names its token instead, and which
+  // of the line's tokens of that text it is (1-based): the driver finds the same one in the file's line.
+  std::string token;
+  int occurrence = 0;
 };
 
 // How long one step of a job took in the worker, counted from the job's arrival there (`kiln build --trace`). Only

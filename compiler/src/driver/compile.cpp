@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "common/target_environment.hpp"
 #include "driver/compile.hpp"
 
@@ -166,6 +167,7 @@ class Scheduler {
     job.targets = settings_.targets_for(plan_.pack.passes[s.pass]);
     job.optimize = settings_.optimize;
     job.debug_info = settings_.debug_info;
+    if (job.debug_info) job.files = s.debug_files;  // the original files, for OpSource
     job.coverage = settings_.coverage;
     job.optimizer_recipe = settings_.optimizer_recipe;
     job.bindings = plan_.pack.passes[s.pass].bindings_for(s.stage);

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "driver/messages.hpp"
 
 #include <algorithm>
@@ -6,6 +7,7 @@
 #include <string_view>
 
 #include "common/files.hpp"
+#include "common/line_tokens.hpp"
 
 namespace kiln {
 namespace {
@@ -47,6 +49,19 @@ int guess_column(const std::string& line_text, const std::string& message) {
   return at == std::string::npos ? 0 : static_cast<int>(at) + 1;
 }
 
+namespace {
+
+// The column of the `occurrence`-th token `token` of the file's line (FrontendMessage::token); 0 when the line has
+// fewer (a macro on the line made them): no caret rather than a wrong one.
+int token_column(const std::string& line_text, const std::string& token, int occurrence) {
+  int seen = 0;
+  for (const auto& [begin, end] : line_tokens(line_text))
+    if (std::string_view(line_text).substr(begin, end - begin) == token && ++seen == occurrence) return static_cast<int>(begin) + 1;
+  return 0;
+}
+
+}  // namespace
+
 std::string quoted_name(const std::string& message) {
   const size_t open = message.find('\'');
   const size_t close = open == std::string::npos ? open : message.find('\'', open + 1);
@@ -78,6 +93,7 @@ SourceLocation SourceLocator::located(const FrontendMessage& m, const std::strin
   const bool about_directive = m.text.starts_with("'#") || m.text.starts_with("'preprocessor evaluation'");
   if (about_directive && at.line > 1 && !is_directive(line(at.path, at.line)) && is_directive(line(at.path, at.line - 1)))
     --at.line;
+  if (at.column == 0 && !m.token.empty()) at.column = token_column(line(at.path, at.line), m.token, m.occurrence);
   if (at.column == 0) at.column = guess_column(line(at.path, at.line), m.text);
   return at;
 }

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "driver/stage_sources.hpp"
 
 #include <algorithm>
@@ -10,9 +11,15 @@
 namespace kiln {
 namespace {
 
+// With -g, the files as written too: the module's OpSource holds them, so two sources that preprocess to the same
+// text (they differ in a comment) are two results. A memo's key was made by this function when its files were
+// what they are now, so it holds.
 Hash128 source_key(const Plan& plan, const BuildSettings& settings, const StageSource& s) {
   Hasher key;
-  return settings.add_compile_options(key, plan.pack.passes[s.pass], s.stage).add(s.text).finish();
+  settings.add_compile_options(key, plan.pack.passes[s.pass], s.stage).add(s.text);
+  if (s.debug_files)
+    for (const IncludableFile& file : *s.debug_files) key.add(file.name).add(file.text);
+  return key.finish();
 }
 
 // "NAME=VALUE" per define of a pass, in order: Preprocess jobs carry them before the keywords.
@@ -180,6 +187,16 @@ std::shared_ptr<const std::vector<IncludableFile>> Preprocessor::files_of(uint32
   return cached;
 }
 
+std::shared_ptr<const std::vector<IncludableFile>> Preprocessor::files_read(const StageSource& s) const {
+  auto out = std::make_shared<std::vector<IncludableFile>>();
+  const auto& files = pass_files_[s.pass][static_cast<size_t>(s.stage)];
+  if (!files) return out;
+  const std::set<std::string> read(s.files_read.begin(), s.files_read.end());
+  for (const IncludableFile& file : *files)
+    if (read.count(file.name)) out->push_back({file.name, file.text, file.once, {}});
+  return out;
+}
+
 CompileJob Preprocessor::job(const StageSources& sources, size_t index) {
   const StageSource& s = sources.list[index];
   CompileJob job;
@@ -205,6 +222,7 @@ void Preprocessor::finished(StageSource& s, WorkerOutcome outcome) const {
     s.text = s.folded ? *s.folded + outcome.output.preprocessed : std::move(outcome.output.preprocessed);
     s.messages = std::move(outcome.output.messages);
     s.files_read = std::move(outcome.output.files_read);
+    if (s.ok && settings_.debug_info) s.debug_files = files_read(s);
     if (s.ok) s.key = source_key(plan_, settings_, s);
   } else if (outcome.kind == WorkerOutcome::Kind::OutOfMemory) {
     s.messages = {{Severity::Error, entry_name, 0,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stage 4: the stage sources of a build. One per (pass, stage, keywords the stage sees), preprocessed once
 // however many variants share it (in the compiler workers, under their limits), or not at all when a
 // preprocessing memo in the cache says what it would give; then deduplicated by content into binaries, the
@@ -40,6 +41,8 @@ struct StageSource {
   std::optional<Hash128> key;           // the source's cache key: from the text, or from a memo
   Hash128 memo;                         // where its preprocessing memo is cached
   std::vector<std::string> files_read;  // display names, when preprocessed in this build
+  // -g: the files it read, its entry first, as the build read them: the module's OpSource holds them, and its key.
+  std::shared_ptr<const std::vector<IncludableFile>> debug_files;
   std::string internal_error;           // the worker preprocessing it crashed: how
   std::vector<std::string> internal_notes;  // then: where its reproducer is (or why it could not be written)
 };
@@ -85,6 +88,8 @@ class Preprocessor {
  private:
   // The files a stage's preprocessing may read, its own entry file first.
   std::shared_ptr<const std::vector<IncludableFile>> files_of(uint32_t pass, Stage stage);
+  // Of those, the ones `source` read (its Preprocess job was made, so they are known), without their includes.
+  std::shared_ptr<const std::vector<IncludableFile>> files_read(const StageSource& source) const;
   // A worker died or threw while preprocessing `source`: its entry file with the job's defines written before it,
   // in <output>/kiln-ice/, as compile.cpp writes one for a death in a compile.
   void write_reproducer(StageSource& source) const;

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The HLSL front end, behind an interface: glslang today (its HLSL path was deprecated upstream in
 // 2026); DXC or Slang can be added as another implementation without touching the other stages.
 #pragma once
@@ -43,6 +44,13 @@ struct PreprocessResult {
   std::vector<FrontendMessage> messages;
 };
 
+// A file as written: -g modules carry it in OpSource (what DXC and glslangValidator -g keep), not the text kiln
+// preprocessed.
+struct SourceText {
+  std::string_view name;  // as the preprocessed text's #line directives name it
+  std::string_view text;
+};
+
 struct CompileRequest {
   Stage stage = Stage::Fragment;
   std::string entry_point;
@@ -50,6 +58,7 @@ struct CompileRequest {
   std::string_view source;  // preprocessed
   BindingOptions bindings;  // how registers become bindings (docs/bindings.md)
   bool debug_info = false;  // OpSource with the text, OpLine and names (BuildOptions::debug_info)
+  std::vector<SourceText> debug_sources;  // debug_info: the files the source came from, its entry first; none: its text
 };
 
 struct CompileResult {
@@ -75,7 +84,10 @@ std::unique_ptr<Frontend> make_frontend(std::string_view name);  // nullptr: no 
 
 std::unique_ptr<Frontend> make_glslang_frontend();
 
-// Parses glslang-style info logs ("ERROR: path:line: message") into messages.
-std::vector<FrontendMessage> parse_frontend_log(std::string_view log, std::string_view fallback_path);
+// Parses glslang-style info logs ("ERROR: path:line: message") into messages. `parsed`: the text glslang parsed
+// (its #line directives name the files' lines); a column glslang gives in it becomes the token there
+// (FrontendMessage::token), since the file's own spacing is not the parsed text's.
+std::vector<FrontendMessage> parse_frontend_log(std::string_view log, std::string_view fallback_path,
+                                                std::string_view parsed = {});
 
 }  // namespace kiln

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <glslang/Public/ResourceLimits.h>
 #include <glslang/Public/ShaderLang.h>
 #include <glslang/SPIRV/GlslangToSpv.h>
@@ -14,10 +15,12 @@
 
 #include "common/target_environment.hpp"
 #include "frontend/hlsl_compat.hpp"
+#include "frontend/debug_source.hpp"
 #include "frontend/dxc_semantics.hpp"
 #include "frontend/nonuniform.hpp"
 #include "frontend/frontend.hpp"
 #include "common/hash.hpp"
+#include "common/line_tokens.hpp"
 #include "frontend/glslang_bindings.hpp"
 #include "frontend/glslang_literals.hpp"
 #include "frontend/glslang_shader.hpp"
@@ -268,7 +271,7 @@ class GlslangFrontend final : public Frontend {
     if (request.debug_info) shader.setDebugInfo(true);
     const auto rules = request.debug_info ? static_cast<EShMessages>(kMessages | EShMsgDebugInfo) : kMessages;
     bool parsed = shader.parse(GetDefaultResources(), 100, false, rules);
-    result.messages = parse_frontend_log(shader.getInfoLog(), request.source_name);
+    result.messages = parse_frontend_log(shader.getInfoLog(), request.source_name, source);
     if (!parsed) return result;
     // glslang only warns about a missing entry point; kiln makes it an error.
     if (shader.getIntermediate()->getNumEntryPoints() == 0) {
@@ -301,6 +304,7 @@ class GlslangFrontend final : public Frontend {
     }
     spv::SpvBuildLogger logger;
     glslang::GlslangToSpv(*program.getIntermediate(to_glslang(request.stage)), result.spirv, &logger, &options);
+    if (request.debug_info) keep_original_sources(result.spirv, request.debug_sources);
     // DXC's meanings that glslang 12 would change without a word (frontend/dxc_semantics.hpp, nonuniform.hpp).
     Result<void> edited = make_arrays_unbounded(result.spirv, unbounded_resource_arrays(source));
     if (member_offsets) {
@@ -347,7 +351,61 @@ class GlslangFrontend final : public Frontend {
 
 std::unique_ptr<Frontend> make_glslang_frontend() { return std::make_unique<GlslangFrontend>(); }
 
-std::vector<FrontendMessage> parse_frontend_log(std::string_view log, std::string_view fallback_path) {
+namespace {
+
+// The line of `text` that its #line directives number `line` of `path` (the first such), or nothing.
+std::optional<std::string_view> line_numbered(std::string_view text, const std::string& path, int line) {
+  std::string file;  // the entry's name until a #line names another: glslang's, the caller's path
+  bool named = false;
+  int number = 1;
+  for (size_t at = 0; at < text.size();) {
+    const size_t end = std::min(text.find('\n', at), text.size());
+    std::string_view row = text.substr(at, end - at);
+    at = end + 1;
+    std::string_view rest = row.substr(std::min(row.find_first_not_of(" \t"), row.size()));
+    if (rest.starts_with("#line")) {
+      rest.remove_prefix(5);
+      rest.remove_prefix(std::min(rest.find_first_not_of(" \t"), rest.size()));
+      size_t digits = 0;
+      while (digits < rest.size() && digits < 9 && std::isdigit(static_cast<unsigned char>(rest[digits]))) ++digits;
+      if (digits > 0) {
+        number = std::stoi(std::string(rest.substr(0, digits)));
+        const size_t open = rest.find('"', digits);
+        const size_t close = open == std::string_view::npos ? open : rest.find('"', open + 1);
+        if (close != std::string_view::npos) {
+          file = std::string(rest.substr(open + 1, close - open - 1));
+          named = true;
+        }
+        continue;
+      }
+    }
+    if (number == line && (named ? file == path : true)) return row;
+    ++number;
+  }
+  return std::nullopt;
+}
+
+// glslang's column (1-based) in the parsed line as its token and which of the line's tokens of that text it is.
+void name_token(FrontendMessage& message, std::string_view parsed, int column) {
+  const std::optional<std::string_view> row = line_numbered(parsed, message.path, message.line);
+  if (!row || column < 1) return;
+  const size_t at = static_cast<size_t>(column - 1);
+  const std::vector<std::pair<size_t, size_t>> tokens = line_tokens(*row);
+  auto text = [&](size_t t) { return row->substr(tokens[t].first, tokens[t].second - tokens[t].first); };
+  for (size_t t = 0; t < tokens.size(); ++t) {
+    if (at < tokens[t].first) return;  // in the spaces before a token
+    if (at >= tokens[t].second) continue;
+    message.token = std::string(text(t));
+    message.occurrence = 0;
+    for (size_t before = 0; before <= t; ++before)
+      if (text(before) == message.token) ++message.occurrence;
+    return;
+  }
+}
+
+}  // namespace
+
+std::vector<FrontendMessage> parse_frontend_log(std::string_view log, std::string_view fallback_path, std::string_view parsed) {
   static const std::regex located(R"(^(ERROR|WARNING|INTERNAL ERROR|UNIMPLEMENTED): (.*?):(\d+): (.*)$)");
   static const std::regex plain(R"(^(ERROR|WARNING|INTERNAL ERROR|UNIMPLEMENTED): (.*)$)");
   static const std::regex summary(R"(^\d+ compilation errors\.|^Linking .*stage:$|^$)");
@@ -371,8 +429,9 @@ std::vector<FrontendMessage> parse_frontend_log(std::string_view log, std::strin
       }
       messages.push_back({severity, m[2], std::stoi(m[3]), std::move(text)});
     } else if (std::regex_match(line, m, grammar)) {
-      // Its column counts in the preprocessed text, whose spacing is not the file's: the line only.
+      // Its column counts in the preprocessed text, whose spacing is not the file's: the token there.
       messages.push_back({Severity::Error, m[1], std::stoi(m[2]), m[4]});
+      if (!parsed.empty()) name_token(messages.back(), parsed, std::stoi(m[3]));
     } else if (std::regex_match(line, m, plain)) {
       std::string text = m[2];
       if (std::regex_search(text, summary)) continue;

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "workers/compile_job.hpp"
 
 #include "coverage/instrument.hpp"
@@ -60,8 +61,11 @@ JobOutput compile_front_end(Frontend& frontend, const CompileJob& job) {
       return out;
     }
   }
-  CompileResult compiled =
-      frontend.compile({job.stage, job.entry_point, job.source_name, job.source, job.bindings, job.debug_info});
+  std::vector<SourceText> debug_sources;
+  if (job.debug_info && job.files)
+    for (const IncludableFile& file : *job.files) debug_sources.push_back({file.name, file.text});
+  CompileResult compiled = frontend.compile(
+      {job.stage, job.entry_point, job.source_name, job.source, job.bindings, job.debug_info, std::move(debug_sources)});
   out.messages = std::move(compiled.messages);
   // A [[vk::...]] attribute glslang ignores where DXC changes the interface: the author's error, never a build with
   // another interface (frontend/hlsl_compat.hpp).
@@ -287,8 +291,8 @@ std::vector<uint8_t> encode_job(const CompileJob& job) {
   if (!job.spirv.empty()) j["spirv"] = json::binary(spirv_to_bytes(job.spirv));
   if (job.debug_info) j["debug_info"] = true;
   if (job.coverage) j["coverage"] = true;
-  if (job.kind == JobKind::Preprocess) {
-    j["defines"] = job.defines;
+  if (job.kind == JobKind::Preprocess) j["defines"] = job.defines;
+  if (job.kind == JobKind::Preprocess || (job.debug_info && job.files)) {
     json files = json::array();
     if (job.files)
       for (const IncludableFile& f : *job.files) files.push_back({f.name, f.text, f.once, f.includes});
@@ -318,8 +322,8 @@ CompileJob decode_job(const std::vector<uint8_t>& bytes) {
   job.bindings = bindings_from_json(j.at("bindings"));
   for (const json& t : j.at("targets"))
     if (auto target = parse_target(t.get<std::string>())) job.targets.push_back(*target);
-  if (job.kind == JobKind::Preprocess) {
-    job.defines = j.at("defines").get<std::vector<std::string>>();
+  if (job.kind == JobKind::Preprocess) job.defines = j.at("defines").get<std::vector<std::string>>();
+  if (job.kind == JobKind::Preprocess || j.contains("files")) {
     auto files = std::make_shared<std::vector<IncludableFile>>();
     for (const json& f : j.at("files"))
       files->push_back({f.at(0).get<std::string>(), f.at(1).get<std::string>(), f.at(2).get<bool>(),

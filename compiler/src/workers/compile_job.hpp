@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One unit of work for a compiler worker: a preprocessed stage source in, every target out.
 // Runs inside a worker process, because glslang can crash on some inputs.
 #pragma once
@@ -58,6 +59,7 @@ struct CompileJob {
   OptimizerRecipe optimizer_recipe = OptimizerRecipe::Kiln;
   BindingOptions bindings;  // FrontEnd, Full: registers -> bindings; BackEnd, Full: combined image samplers
   // Preprocess: the pass's files, the entry first (shared by every job of the pass), and the keywords.
+  // FrontEnd and Full with debug_info: the files the source was preprocessed from, the entry first (OpSource).
   std::shared_ptr<const std::vector<IncludableFile>> files;
   std::vector<std::string> defines;  // the pack's "NAME=VALUE" defines, then the stage's keywords
 };
