@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What several verbs share: colour, diagnostics, the plan arguments, kiln-verify's verbs, the version text.
 #include <unistd.h>
 
@@ -47,8 +48,8 @@ void PlanArguments::add_to(CLI::App* verb, bool scenes) {
     verb->add_option("--scene", scenes_, "Scene profile (JSON); keep only variants some scene can request")->check(CLI::ExistingFile);
   verb->add_option("-D,--define", define_texts_, "Preprocessor define NAME or NAME=VALUE (repeatable; wins over the pack's)");
   verb->add_option("--keyword-kind", kind_texts_,
-                   "KEYWORD[,KEYWORD...]=KIND: build the group of these keywords as KIND (variant, dynamic_branch, "
-                   "specialization_constant, specialization_constant_int), over the pack's keyword_kinds (repeatable)");
+                   "KEYWORD[,KEYWORD...]=KIND: build the group of these keywords as KIND (" + keyword_kind_list() +
+                       "), over the pack's keyword_kinds (repeatable)");
   for (char c : std::string("btsu"))
     verb->add_option(std::string("--fvk-") + c + "-shift", shift_texts_[c],
                      std::string("N SPACE: shift the bindings of ") + c + " registers in SPACE (a number or 'all') by N (repeatable)");

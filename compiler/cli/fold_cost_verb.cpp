@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln fold-cost: what folding each keyword group would save and cost (docs/keywords.md "Choosing a kind"). The
 // plan with each group folded (kiln/fold_cost.hpp), cold builds timed side by side (--reps), and the same variants
 // drawn on lavapipe from the pack built as variants, dynamic branches and specialization constants
@@ -72,7 +73,7 @@ class FoldCostVerb final : public Verb {
  public:
   CLI::App* add_to(CLI::App& app) override {
     CLI::App* verb = app.add_subcommand(
-        "fold-cost", "What folding each keyword group (dynamic_branch, specialization_constant) would save and cost");
+        "fold-cost", "What folding each keyword group (" + keyword_kind_list({}, true) + ") would save and cost");
     verb->add_option("pack", pack_file_, "Pack definition")->required();
     plan_.add_to(verb);
     verb->add_option("--fold", fold_texts_,

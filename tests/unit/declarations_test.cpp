@@ -1,5 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <gtest/gtest.h>
 
+#include "common/keyword_pragmas.hpp"
 #include "declarations/declarations.hpp"
 #include "test_support.hpp"
 
@@ -13,6 +15,41 @@ std::optional<KeywordGroup> parse(const std::string& body, DiagnosticSink& sink,
   malformed = true;
   sink.report(parsed.error());
   return std::nullopt;
+}
+
+// kiln/keyword_kinds.def is the one list of kinds: every folded kind is a pragma with Unity's suffixes, the
+// compiler's classifier and the reader's agree on every spelling, names round-trip, and messages list them all.
+TEST(Declarations, EveryKeywordKindOfTheTableIsAPragmaTheReaderClassifiesAlike) {
+  size_t folded = 0;
+  for (const KeywordKindRow& row : kKeywordKinds) {
+    SCOPED_TRACE(std::string(row.name));
+    EXPECT_EQ(parse_keyword_kind(row.name), row.kind);
+    EXPECT_EQ(keyword_kind_name(row.kind), row.name);
+    if (!row.folded) {
+      EXPECT_FALSE(classify_keyword_pragma(row.name)) << "variant is no pragma of its own";
+      continue;
+    }
+    ++folded;
+    for (const char* local : {"", "_local"})
+      for (const char* stage : {"", "_vertex", "_fragment", "_geometry", "_hull", "_domain"}) {
+        const std::string pragma = std::string(row.name) + local + stage;
+        const std::optional<KeywordPragma> kind = classify_keyword_pragma(pragma);
+        ASSERT_TRUE(kind) << pragma;
+        EXPECT_TRUE(kind->known_suffix) << pragma;
+        EXPECT_EQ(kind->kind->keyword_kind, row.kind) << pragma;
+        EXPECT_EQ(keyword_kind(pragma), row.kind) << pragma;
+        EXPECT_EQ(kind->local, std::string(local) == "_local") << pragma;
+      }
+  }
+  EXPECT_EQ(folded, 3u);
+  EXPECT_EQ(keyword_kind_list(), "variant, dynamic_branch, specialization_constant or specialization_constant_int");
+  EXPECT_EQ(keyword_kind_list("'", true), "'dynamic_branch', 'specialization_constant' or 'specialization_constant_int'");
+  for (const char* variant : {"multi_compile", "shader_feature_local", "multi_compile_fog", "multi_compile_instancing"}) {
+    ASSERT_TRUE(classify_keyword_pragma(variant)) << variant;
+    EXPECT_EQ(classify_keyword_pragma(variant)->kind->keyword_kind, KeywordKind::Variant) << variant;
+    EXPECT_EQ(keyword_kind(variant), KeywordKind::Variant) << variant;
+  }
+  EXPECT_FALSE(classify_keyword_pragma("specialization_constant_int_local_pixel")->known_suffix);
 }
 
 TEST(Declarations, MultiCompileUnderscoreMeansNone) {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Pack definitions and scene profiles: the fields kiln accepts are the fields the JSON schemas in
 // variants/schema/ describe, so that an editor validating with the schema and kiln agree.
 #include <gtest/gtest.h>
@@ -57,6 +58,7 @@ TEST(Definition, SchemasListExactlyTheFieldsKilnAccepts) {
   EXPECT_EQ(listed(pack.at("$defs").at("bindings")), sorted(kiln.bindings));
   EXPECT_EQ(listed(pack.at("$defs").at("bindings").at("properties").at("shifts").at("items")), sorted(kiln.shift));
   EXPECT_EQ(listed(pack.at("properties").at("lint")), sorted(kiln.lint));
+  EXPECT_EQ(listed(pack.at("$defs").at("stage").at("oneOf").at(1)), sorted(kiln.stage));
 }
 
 // The schema's lint rules are kiln/lint_rules.def's, in its order: an editor completes and checks "disable".

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Docs that cannot drift (issue: one row per named thing, docs that cannot drift).
 
   defaults  every default the README, docs/*.md and the man page state for a `kiln build` option equals the one
@@ -114,7 +115,7 @@ def check_one_row_per_thing(root):
         if path != table and target_list.search(line):
             fail(f"{path} lists the targets ({line.strip()[:80]}): generate it from {table}")
     rules = (root / "compiler/include/kiln/lint_rules.def").read_text(encoding="utf-8")
-    ids = re.findall(r'^KILN_LINT_RULE\(\w+, "([a-z0-9-]+)", \w+\)$', rules, re.M)
+    ids = re.findall(r'^KILN_LINT_RULE\(\w+, "([a-z0-9-]+)", \w+, \w+\)$', rules, re.M)
     if len(ids) < 10:
         fail(f"compiler/include/kiln/lint_rules.def: found only {len(ids)} rules")
     for path, line in code_lines(root, ["compiler", "verify"], suffixes):

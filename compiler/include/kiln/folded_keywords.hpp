@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Folded keywords (docs/keywords.md): keyword groups that do not multiply modules. A `multi_compile` or
 // `shader_feature` group builds one module per value; a `dynamic_branch`, `specialization_constant` or
 // `specialization_constant_int` group builds one module for all its values, in which each keyword is a bool the
@@ -32,29 +33,75 @@
 
 namespace kiln {
 
-enum class KeywordKind : uint8_t { Variant, DynamicBranch, SpecializationConstant, SpecializationInteger };
+// The rows of kiln/keyword_kinds.def.
+enum class KeywordKind : uint8_t {
+#define KILN_KEYWORD_KIND(kind, name, folded, constant, c_constant, what) kind,
+#include "kiln/keyword_kinds.def"
+#undef KILN_KEYWORD_KIND
+};
 
-inline constexpr std::string_view kDynamicBranchPragma = "dynamic_branch";
-inline constexpr std::string_view kSpecializationConstantPragma = "specialization_constant";
-inline constexpr std::string_view kSpecializationIntegerPragma = "specialization_constant_int";
+struct KeywordKindRow {
+  KeywordKind kind;
+  std::string_view name;  // also its pragma, for a folded kind
+  bool folded;
+  bool constant;
+  std::string_view what;
+};
+
+inline constexpr KeywordKindRow kKeywordKinds[] = {
+#define KILN_KEYWORD_KIND(kind, name, folded, constant, c_constant, what) {KeywordKind::kind, name, folded, constant, what},
+#include "kiln/keyword_kinds.def"
+#undef KILN_KEYWORD_KIND
+};
+
+constexpr const KeywordKindRow& keyword_kind_row(KeywordKind kind) { return kKeywordKinds[static_cast<size_t>(kind)]; }
+constexpr std::string_view keyword_kind_name(KeywordKind kind) { return keyword_kind_row(kind).name; }
+constexpr bool is_folded(KeywordKind kind) { return keyword_kind_row(kind).folded; }
+constexpr bool is_constant(KeywordKind kind) { return keyword_kind_row(kind).constant; }
+// The names keyword_kind_name gives.
+constexpr std::optional<KeywordKind> parse_keyword_kind(std::string_view name) {
+  for (const KeywordKindRow& row : kKeywordKinds)
+    if (row.name == name) return row.kind;
+  return std::nullopt;
+}
+
+inline constexpr std::string_view kDynamicBranchPragma = keyword_kind_name(KeywordKind::DynamicBranch);
+inline constexpr std::string_view kSpecializationConstantPragma = keyword_kind_name(KeywordKind::SpecializationConstant);
+inline constexpr std::string_view kSpecializationIntegerPragma = keyword_kind_name(KeywordKind::SpecializationInteger);
 inline constexpr uint32_t kKeywordConstantIdBase = 1000;
 inline constexpr std::string_view kKeywordBlockName = "_KilnKeywords";
 inline constexpr uint32_t kKeywordBlockSet = 0;
 inline constexpr uint32_t kKeywordBlockBinding = 62;
 
-// The kind a group's pragma (as the manifest records it) declares.
+// The kind a group's pragma (as the manifest records it, `specialization_constant_int_local_fragment`) declares:
+// the folded kind whose name is the longest that starts the pragma, so that no row's order matters
+// (specialization_constant is a prefix of specialization_constant_int); any other pragma declares variants.
 constexpr KeywordKind keyword_kind(std::string_view pragma) {
-  if (pragma.starts_with(kDynamicBranchPragma)) return KeywordKind::DynamicBranch;
-  if (pragma.starts_with(kSpecializationIntegerPragma)) return KeywordKind::SpecializationInteger;
-  if (pragma.starts_with(kSpecializationConstantPragma)) return KeywordKind::SpecializationConstant;
-  return KeywordKind::Variant;
+  KeywordKind found = KeywordKind::Variant;
+  size_t longest = 0;
+  for (const KeywordKindRow& row : kKeywordKinds)
+    if (row.folded && row.name.size() > longest && pragma.starts_with(row.name)) {
+      found = row.kind;
+      longest = row.name.size();
+    }
+  return found;
 }
-constexpr bool is_folded(KeywordKind kind) { return kind != KeywordKind::Variant; }
-constexpr bool is_constant(KeywordKind kind) {
-  return kind == KeywordKind::SpecializationConstant || kind == KeywordKind::SpecializationInteger;
+static_assert(keyword_kind("specialization_constant_int_local") == KeywordKind::SpecializationInteger);
+static_assert(keyword_kind("specialization_constant_fragment") == KeywordKind::SpecializationConstant);
+static_assert(keyword_kind("multi_compile_local") == KeywordKind::Variant);
+
+// The kinds' names for a message, quoted with `quote`: "variant, dynamic_branch, specialization_constant or
+// specialization_constant_int"; `folded_only`: without variant.
+inline std::string keyword_kind_list(std::string_view quote = {}, bool folded_only = false) {
+  std::vector<std::string_view> names;
+  for (const KeywordKindRow& row : kKeywordKinds)
+    if (row.folded || !folded_only) names.push_back(row.name);
+  std::string out;
+  for (size_t i = 0; i < names.size(); ++i)
+    out += std::string(i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + std::string(quote) + std::string(names[i]) +
+           std::string(quote);
+  return out;
 }
-std::string_view keyword_kind_name(KeywordKind kind);  // "variant", or the pragma above
-std::optional<KeywordKind> parse_keyword_kind(std::string_view name);  // the names keyword_kind_name gives
 
 // One keyword of a folded group, where it lives in the modules of its pass. A specialization_constant_int group
 // lists every value, the off value too (keyword ""), each with the same slot and its own `value`.

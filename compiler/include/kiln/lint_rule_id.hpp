@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The stable ids of kiln lint's rules, generated from kiln/lint_rules.def (one row per rule). Code names a rule by RuleId, so
 // a misspelt rule is a compile error; the id text (`unused-keyword`) is what users see, in text, JSON and SARIF, and
 // the anchor of its section in docs/lint.md. Never rename an id: CI configurations and SARIF baselines refer to it.
@@ -11,13 +12,13 @@
 namespace kiln {
 
 enum class RuleId : unsigned char {
-#define KILN_LINT_RULE(Enumerator, id, variable) Enumerator,
+#define KILN_LINT_RULE(Enumerator, id, variable, file) Enumerator,
 #include "kiln/lint_rules.def"
 };
 
 // Indexed by RuleId; the order is the rule table's (and SARIF's tool.driver.rules).
 inline constexpr auto kRuleIdTexts = std::to_array<std::string_view>({
-#define KILN_LINT_RULE(Enumerator, id, variable) id,
+#define KILN_LINT_RULE(Enumerator, id, variable, file) id,
 #include "kiln/lint_rules.def"
 });
 inline constexpr size_t kRuleCount = kRuleIdTexts.size();

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Keyword pragmas: what each spelling means, stated once. Read by the declaration scanner (stage 1), by the
 // tools that rebuild keyword groups from a manifest (which records each group's pragma as written), and by lint.
 //   #pragma multi_compile[_local][_vertex|_fragment] A B   every value is built
@@ -20,24 +21,26 @@ namespace kiln {
 
 struct KeywordPragmaKind {
   std::string_view name;
-  bool material_feature;  // shader_feature: stripped unless a material uses it (a lone keyword may be off)
-  bool takes_suffixes;    // _local, then _vertex or _fragment
+  KeywordKind keyword_kind;  // what the group's keywords become (kiln/keyword_kinds.def)
+  bool material_feature;     // shader_feature: stripped unless a material uses it (a lone keyword may be off)
+  bool takes_suffixes;       // _local, then _vertex or _fragment
   std::span<const std::string_view> implied_values;  // non-empty: the pragma declares these and takes no keywords
 };
 
 inline constexpr std::string_view kFogValues[] = {"", "FOG_LINEAR", "FOG_EXP", "FOG_EXP2"};
 // Unity's GPU instancing keyword: `#pragma multi_compile_instancing` is `multi_compile _ INSTANCING_ON`.
 inline constexpr std::string_view kInstancingValues[] = {"", "INSTANCING_ON"};
-// Exact names (implied values) first: multi_compile_fog is not multi_compile with a suffix; nor is
-// specialization_constant_int specialization_constant with one.
+// Unity's pragmas, then one per folded keyword kind, named as the kind. The classifier below does not depend on
+// the order: an exact name wins, then the longest name that starts the pragma.
 inline constexpr KeywordPragmaKind kKeywordPragmaKinds[] = {
-    {"multi_compile_fog", false, false, kFogValues},
-    {"multi_compile_instancing", false, false, kInstancingValues},
-    {"multi_compile", false, true, {}},
-    {"shader_feature", true, true, {}},
-    {kDynamicBranchPragma, false, true, {}},
-    {kSpecializationIntegerPragma, false, true, {}},
-    {kSpecializationConstantPragma, false, true, {}},
+    {"multi_compile_fog", KeywordKind::Variant, false, false, kFogValues},
+    {"multi_compile_instancing", KeywordKind::Variant, false, false, kInstancingValues},
+    {"multi_compile", KeywordKind::Variant, false, true, {}},
+    {"shader_feature", KeywordKind::Variant, true, true, {}},
+#define KILN_KEYWORD_KIND(kind, name, folded, constant, c_constant, what) \
+  {(folded) ? std::string_view(name) : std::string_view(), KeywordKind::kind, false, true, {}},
+#include "kiln/keyword_kinds.def"
+#undef KILN_KEYWORD_KIND
 };
 inline constexpr std::string_view kLocalSuffix = "_local";
 struct StageSuffix {
@@ -59,28 +62,28 @@ struct KeywordPragma {
 
 // Nothing when `pragma` is not a keyword pragma at all (`#pragma once`, `#pragma vertex`...).
 constexpr std::optional<KeywordPragma> classify_keyword_pragma(std::string_view pragma) {
+  const KeywordPragmaKind* found = nullptr;
   for (const KeywordPragmaKind& kind : kKeywordPragmaKinds) {
-    if (!kind.takes_suffixes) {
-      if (pragma == kind.name) return KeywordPragma{&kind};
-      continue;
-    }
-    if (!pragma.starts_with(kind.name)) continue;
-    KeywordPragma result{&kind};
-    std::string_view rest = pragma.substr(kind.name.size());
-    if (rest.starts_with(kLocalSuffix)) {
-      result.local = true;
-      rest.remove_prefix(kLocalSuffix.size());
-    }
-    if (rest.empty()) return result;
-    for (const StageSuffix& s : kStageSuffixes)
-      if (rest == s.suffix) {
-        result.stages = stage_bit(s.stage);
-        return result;
-      }
-    result.known_suffix = false;
-    return result;
+    if (kind.name.empty()) continue;
+    if (!kind.takes_suffixes && pragma == kind.name) return KeywordPragma{&kind};
+    if (kind.takes_suffixes && pragma.starts_with(kind.name) && (!found || kind.name.size() > found->name.size()))
+      found = &kind;
   }
-  return std::nullopt;
+  if (!found) return std::nullopt;
+  KeywordPragma result{found};
+  std::string_view rest = pragma.substr(found->name.size());
+  if (rest.starts_with(kLocalSuffix)) {
+    result.local = true;
+    rest.remove_prefix(kLocalSuffix.size());
+  }
+  if (rest.empty()) return result;
+  for (const StageSuffix& s : kStageSuffixes)
+    if (rest == s.suffix) {
+      result.stages = stage_bit(s.stage);
+      return result;
+    }
+  result.known_suffix = false;
+  return result;
 }
 
 constexpr bool is_material_feature_pragma(std::string_view pragma) {
@@ -96,6 +99,11 @@ static_assert(classify_keyword_pragma("specialization_constant_local_fragment")-
 static_assert(classify_keyword_pragma("dynamic_branch_vertex")->stages == stage_bit(Stage::Vertex));
 static_assert(classify_keyword_pragma("specialization_constant_int_local")->kind->name == kSpecializationIntegerPragma);
 static_assert(classify_keyword_pragma("specialization_constant_fragment")->kind->name == kSpecializationConstantPragma);
+static_assert(classify_keyword_pragma("multi_compile_fog")->kind->implied_values.size() == 4);
+// The compiler's classifier and the reader's (kiln/folded_keywords.hpp keyword_kind, for a manifest's pragma) agree.
+static_assert(classify_keyword_pragma("specialization_constant_int_local")->kind->keyword_kind ==
+              keyword_kind("specialization_constant_int_local"));
+static_assert(classify_keyword_pragma("dynamic_branch_fragment")->kind->keyword_kind == keyword_kind("dynamic_branch_fragment"));
 
 // The pragma that declares `group`'s values and suffixes as `kind` (a pack's "keyword_kinds"): multi_compile_fog
 // becomes a folded kind's pragma with its stages kept by the group's mask.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "declarations/declarations.hpp"
 
 #include "common/keyword_pragmas.hpp"
@@ -320,8 +321,8 @@ Result<std::optional<KeywordGroup>, Diagnostic> parse_keyword_pragma(std::string
   if (!kind->known_suffix) {
     return fail(DiagId::PragmaSyntax, words[0].column,
                 "unsupported keyword pragma '" + std::string(pragma) +
-                    "' (expected multi_compile, shader_feature, dynamic_branch or specialization_constant, optionally _local "
-                    "and _vertex/_fragment)");
+                    "' (expected multi_compile, shader_feature, " + keyword_kind_list({}, true) +
+                    ", optionally _local and _vertex/_fragment)");
   }
   if (words.size() == 1) return fail(DiagId::PragmaSyntax, words[0].column, "'" + group.pragma + "' declares no keywords");
   for (size_t i = 1; i < words.size(); ++i) {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "definition/definition.hpp"
 
 #include "kiln/bounded_json.hpp"
@@ -44,18 +45,6 @@ struct FieldReader {
     ok = false;
     sink.report(id, at(key), message);
   }
-  std::optional<std::string> string(const json& object, const char* key, bool required) {
-    auto it = object.find(key);
-    if (it == object.end()) {
-      if (required) fail(key, std::string("missing required field \"") + key + "\"");
-      return std::nullopt;
-    }
-    if (!it->is_string()) {
-      fail(key, std::string("field \"") + key + "\" must be a string");
-      return std::nullopt;
-    }
-    return it->get<std::string>();
-  }
   // Every field of `object` that is not in `known` is an error, with the closest known one suggested.
   void only(const json& object, const std::vector<std::string_view>& known, const std::string& what) {
     std::vector<std::string> names(known.begin(), known.end());
@@ -73,130 +62,512 @@ struct FieldReader {
     for (const std::string& name : names) out += (out.empty() ? "" : ", ") + name;
     return out;
   }
-  std::vector<std::string> strings(const json& object, const char* key) {
-    std::vector<std::string> out;
-    auto it = object.find(key);
-    if (it == object.end()) return out;
-    if (!it->is_array()) {
-      fail(key, std::string("field \"") + key + "\" must be an array of strings");
-      return out;
-    }
-    for (const json& item : *it) {
-      if (!item.is_string()) {
-        fail(key, std::string("field \"") + key + "\" must be an array of strings");
-        return {};
-      }
-      out.push_back(item.get<std::string>());
-    }
-    return out;
-  }
 };
 
-// "bindings": {"shifts": [{"register": "t", "shift": 16, "space": 0}], "auto_bind": true,
-//              "combined_image_samplers": false, "global_uniform": {"binding": 0, "set": 0}}
-BindingOptions read_bindings(FieldReader& fields, const json& object, const std::string& what);
+// How a pack definition and a scene profile are read: for each kind of object, one row per field, in reading
+// order (a row may use what the rows before it read: a pass's "stages" its "source"). The unknown-field check,
+// definition_fields() and so the schema test come from the rows. A field whose row has no reader is allowed and
+// not read ("$schema", "description"); checks across fields run after the rows ("finish").
+struct Reading {
+  FieldReader& fields;
+  std::filesystem::path base;  // the definition's directory: relative paths are from it
+};
 
-// "defines": {"NAME": "value" | integer | true | false}
-std::vector<Define> read_defines(FieldReader& fields, const json& object, const std::string& what);
+template <typename T>
+struct Field {
+  std::string_view name;
+  void (*read)(Reading&, const json& value, T& out) = nullptr;
+  bool required = false;
+  std::string_view missing = {};  // a required field's error when it is absent; default "missing required field"
+};
 
-}  // namespace
-
-const DefinitionFields& definition_fields() {
-  static const DefinitionFields fields{
-      {"$schema", "name", "description", "shader", "include_dirs", "targets", "budget", "passes", "constraints",
-       "materials", "scene_features", "bindings", "defines", "keyword_kinds", "lint"},
-      {"name", "description", "source", "stages", "targets", "bindings", "defines"},
-      {"keyword", "requires", "requires_any", "excludes", "reason"},
-      {"name", "description", "keywords"},
-      {"$schema", "name", "description", "uses", "materials", "keywords"},
-      {"shifts", "auto_bind", "combined_image_samplers", "global_uniform"},
-      {"register", "shift", "space"},
-      {"disable"},
-  };
-  return fields;
+template <typename T>
+std::vector<std::string_view> names_of(const std::vector<Field<T>>& rows) {
+  std::vector<std::string_view> names;
+  for (const Field<T>& row : rows) names.push_back(row.name);
+  return names;
 }
 
-namespace {
+// `object`'s fields by `rows`: unknown ones are errors (with the closest known name), known ones read in row order.
+template <typename T>
+void read_fields(Reading& r, const json& object, const std::vector<Field<T>>& rows, const std::string& what, T& out) {
+  r.fields.only(object, names_of(rows), what);
+  for (const Field<T>& row : rows) {
+    auto it = object.find(row.name);
+    if (it == object.end()) {
+      if (row.required)
+        r.fields.fail(row.name, row.missing.empty() ? "missing required field \"" + std::string(row.name) + "\""
+                                                    : std::string(row.missing));
+      continue;
+    }
+    if (row.read) row.read(r, *it, out);
+  }
+}
 
-BindingOptions read_bindings(FieldReader& fields, const json& object, const std::string& what) {
-  BindingOptions out;
-  auto it = object.find("bindings");
-  if (it == object.end()) return out;
-  if (!it->is_object()) {
-    fields.fail("bindings", "\"bindings\" of " + what + " must be an object");
+std::optional<std::string> string_field(Reading& r, std::string_view key, const json& value) {
+  if (value.is_string()) return value.get<std::string>();
+  r.fields.fail(key, "field \"" + std::string(key) + "\" must be a string");
+  return std::nullopt;
+}
+
+std::vector<std::string> strings_field(Reading& r, std::string_view key, const json& value) {
+  std::vector<std::string> out;
+  const bool strings = value.is_array() && std::all_of(value.begin(), value.end(), [](const json& v) { return v.is_string(); });
+  if (!strings) {
+    r.fields.fail(key, "field \"" + std::string(key) + "\" must be an array of strings");
     return out;
   }
-  fields.only(*it, definition_fields().bindings, "\"bindings\"");
-  auto non_negative = [](const json& value) {
-    return value.is_number_unsigned() && value.get<uint64_t>() <= kMaxBindingNumber;
-  };
-  const std::string up_to = " up to " + std::to_string(kMaxBindingNumber);
-  if (auto shifts = it->find("shifts"); shifts != it->end()) {
-    if (!shifts->is_array()) fields.fail("shifts", "\"shifts\" must be an array of {\"register\", \"shift\", \"space\"}");
-    else
-      for (const json& item : *shifts) {
-        if (!item.is_object()) {
-          fields.fail("shifts", "each shift must be an object {\"register\": \"t\", \"shift\": 16, \"space\": 0}");
-          continue;
-        }
-        fields.only(item, definition_fields().shift, "a shift");
-        auto letter = fields.string(item, "register", true);
-        auto register_class = letter ? parse_register_class(*letter) : std::nullopt;
-        if (letter && !register_class)
-          fields.fail(*letter, "unknown register class '" + *letter + "' (expected b, t, s or u)");
-        auto shift = item.find("shift");
-        if (shift == item.end() || !non_negative(*shift)) {
-          fields.fail("shift", "a shift needs \"shift\": a non-negative integer" + up_to);
-          continue;
-        }
-        int64_t space = kAllSpaces;
-        if (auto s = item.find("space"); s != item.end()) {
-          if (non_negative(*s)) space = s->get<int64_t>();
-          else if (!(s->is_string() && s->get<std::string>() == "all"))
-            fields.fail("space", "\"space\" must be a non-negative integer" + up_to + " or \"all\"");
-        }
-        if (register_class) out.shifts[{*register_class, space}] = shift->get<uint32_t>();
-      }
-  }
-  for (const char* flag : {"auto_bind", "combined_image_samplers"}) {
-    auto value = it->find(flag);
-    if (value == it->end()) continue;
-    if (!value->is_boolean()) fields.fail(flag, std::string("\"") + flag + "\" must be true or false");
-    else (std::string(flag) == "auto_bind" ? out.auto_bind : out.combined_image_samplers) = value->get<bool>();
-  }
-  if (auto global = it->find("global_uniform"); global != it->end()) {
-    auto binding = global->is_object() ? global->find("binding") : global->end();
-    if (!global->is_object() || binding == global->end() || !non_negative(*binding) ||
-        (global->contains("set") && !non_negative(global->at("set"))) || global->size() > (global->contains("set") ? 2u : 1u))
-      fields.fail("global_uniform", "\"global_uniform\" must be {\"binding\": N, \"set\": M} (\"set\" defaults to 0; each a "
-                                    "non-negative integer" + up_to + ")");
-    else
-      out.global_uniform = std::make_pair(binding->get<uint32_t>(), global->value("set", uint32_t{0}));
-  }
+  for (const json& item : value) out.push_back(item.get<std::string>());
   return out;
 }
 
-std::vector<Define> read_defines(FieldReader& fields, const json& object, const std::string& what) {
+// An array of objects, each read by `read`.
+template <typename Each>
+void for_each_object(Reading& r, std::string_view key, const json& value, const char* each, Each&& read) {
+  if (!value.is_array()) {
+    r.fields.fail(key, "\"" + std::string(key) + "\" must be an array");
+    return;
+  }
+  for (const json& item : value) {
+    if (item.is_object()) read(item);
+    else r.fields.fail(key, std::string("each ") + each + " must be an object");
+  }
+}
+
+bool binding_number(const json& value) { return value.is_number_unsigned() && value.get<uint64_t>() <= kMaxBindingNumber; }
+const std::string kUpTo = " up to " + std::to_string(kMaxBindingNumber);
+
+// {"register": "t", "shift": 16, "space": 0}
+struct ShiftReading {
+  std::optional<RegisterClass> register_class;
+  std::optional<uint32_t> shift;
+  int64_t space = kAllSpaces;
+  bool ok = true;
+};
+
+const std::vector<Field<ShiftReading>>& shift_fields() {
+  static const std::vector<Field<ShiftReading>> rows{
+      {"register",
+       [](Reading& r, const json& value, ShiftReading& out) {
+         if (auto letter = string_field(r, "register", value)) {
+           out.register_class = parse_register_class(*letter);
+           if (!out.register_class) r.fields.fail(*letter, "unknown register class '" + *letter + "' (expected b, t, s or u)");
+         }
+       },
+       true},
+      {"shift",
+       [](Reading&, const json& value, ShiftReading& out) {
+         if (binding_number(value)) out.shift = value.get<uint32_t>();
+       }},
+      {"space",
+       [](Reading& r, const json& value, ShiftReading& out) {
+         if (binding_number(value)) out.space = value.get<int64_t>();
+         else if (!(value.is_string() && value.get<std::string>() == "all"))
+           r.fields.fail("space", "\"space\" must be a non-negative integer" + kUpTo + " or \"all\"");
+       }},
+  };
+  return rows;
+}
+
+void read_bool(Reading& r, std::string_view key, const json& value, std::optional<bool>& out) {
+  if (value.is_boolean()) out = value.get<bool>();
+  else r.fields.fail(key, "\"" + std::string(key) + "\" must be true or false");
+}
+
+// "bindings": {"shifts": [{"register": "t", "shift": 16, "space": 0}], "auto_bind": true,
+//              "combined_image_samplers": false, "global_uniform": {"binding": 0, "set": 0}}
+const std::vector<Field<BindingOptions>>& binding_fields() {
+  static const std::vector<Field<BindingOptions>> rows{
+      {"shifts",
+       [](Reading& r, const json& value, BindingOptions& out) {
+         if (!value.is_array()) {
+           r.fields.fail("shifts", "\"shifts\" must be an array of {\"register\", \"shift\", \"space\"}");
+           return;
+         }
+         for (const json& item : value) {
+           if (!item.is_object()) {
+             r.fields.fail("shifts", "each shift must be an object {\"register\": \"t\", \"shift\": 16, \"space\": 0}");
+             continue;
+           }
+           ShiftReading shift;
+           read_fields(r, item, shift_fields(), "a shift", shift);
+           if (!shift.shift) r.fields.fail("shift", "a shift needs \"shift\": a non-negative integer" + kUpTo);
+           else if (shift.register_class) out.shifts[{*shift.register_class, shift.space}] = *shift.shift;
+         }
+       }},
+      {"auto_bind", [](Reading& r, const json& value, BindingOptions& out) { read_bool(r, "auto_bind", value, out.auto_bind); }},
+      {"combined_image_samplers",
+       [](Reading& r, const json& value, BindingOptions& out) {
+         read_bool(r, "combined_image_samplers", value, out.combined_image_samplers);
+       }},
+      {"global_uniform",
+       [](Reading& r, const json& global, BindingOptions& out) {
+         auto binding = global.is_object() ? global.find("binding") : global.end();
+         if (!global.is_object() || binding == global.end() || !binding_number(*binding) ||
+             (global.contains("set") && !binding_number(global.at("set"))) || global.size() > (global.contains("set") ? 2u : 1u))
+           r.fields.fail("global_uniform", "\"global_uniform\" must be {\"binding\": N, \"set\": M} (\"set\" defaults to 0; each "
+                                           "a non-negative integer" + kUpTo + ")");
+         else
+           out.global_uniform = std::make_pair(binding->get<uint32_t>(), global.value("set", uint32_t{0}));
+       }},
+  };
+  return rows;
+}
+
+BindingOptions read_bindings(Reading& r, const json& value, const std::string& what) {
+  BindingOptions out;
+  if (!value.is_object()) r.fields.fail("bindings", "\"bindings\" of " + what + " must be an object");
+  else read_fields(r, value, binding_fields(), "\"bindings\"", out);
+  return out;
+}
+
+// "defines": {"NAME": "value" | integer | true | false}
+std::vector<Define> read_defines(Reading& r, const json& value, const std::string& what) {
   std::vector<Define> out;
-  auto it = object.find("defines");
-  if (it == object.end()) return out;
-  if (!it->is_object()) {
-    fields.fail("defines", "\"defines\" of " + what + " must be an object: name -> value");
+  if (!value.is_object()) {
+    r.fields.fail("defines", "\"defines\" of " + what + " must be an object: name -> value");
     return out;
   }
-  for (auto& [name, value] : it->items()) {
+  for (auto& [name, item] : value.items()) {
     Define define{name, "1"};
-    if (value.is_string()) define.value = value.get<std::string>();
-    else if (value.is_number_integer()) define.value = value.dump();
-    else if (value.is_boolean()) define.value = value.get<bool>() ? "1" : "0";
-    else fields.fail(name, "define '" + name + "' must have a string, integer or boolean value");
-    if (std::string problem = define_problem(define); !problem.empty()) fields.fail(name, "define: " + problem);
+    if (item.is_string()) define.value = item.get<std::string>();
+    else if (item.is_number_integer()) define.value = item.dump();
+    else if (item.is_boolean()) define.value = item.get<bool>() ? "1" : "0";
+    else r.fields.fail(name, "define '" + name + "' must have a string, integer or boolean value");
+    if (std::string problem = define_problem(define); !problem.empty()) r.fields.fail(name, "define: " + problem);
     out.push_back(std::move(define));
   }
   return out;
 }
 
+// A "targets" list (the pack's, or a pass's own): known names, SPIR-V always in (every other target is made from
+// it), sorted.
+std::vector<Target> read_targets(Reading& r, const json& value) {
+  std::vector<Target> targets;
+  for (const std::string& name : strings_field(r, "targets", value)) {
+    if (auto target = parse_target(name)) {
+      if (std::find(targets.begin(), targets.end(), *target) == targets.end()) targets.push_back(*target);
+    } else {
+      r.fields.fail(name, "unknown target '" + name + "' (expected " + target_name_list() + ")");
+    }
+  }
+  if (std::find(targets.begin(), targets.end(), Target::Spirv) == targets.end()) targets.insert(targets.begin(), Target::Spirv);
+  std::sort(targets.begin(), targets.end());
+  return targets;
+}
+
+// A stage names its entry point in the pass's source ("vertex": "VSMain"), or a file of its own with its entry point
+// ("vertex": {"source": "Sky.vert.hlsl", "entry": "main"}), as stage-per-file projects write them, with "bindings"
+// of its own over the pass's.
+struct StageReading {
+  std::optional<std::string> source, entry;
+  std::optional<BindingOptions> bindings;
+  std::string what;  // "stage 'vertex' of pass 'Forward'"
+};
+
+const std::vector<Field<StageReading>>& stage_fields() {
+  static const std::vector<Field<StageReading>> rows{
+      {"source", [](Reading& r, const json& value, StageReading& out) { out.source = string_field(r, "source", value); }, true},
+      {"entry", [](Reading& r, const json& value, StageReading& out) { out.entry = string_field(r, "entry", value); }},
+      {"bindings", [](Reading& r, const json& value, StageReading& out) { out.bindings = read_bindings(r, value, out.what); }},
+  };
+  return rows;
+}
+
+struct PackReading {
+  PackDefinition pack;
+  std::optional<std::string> shader;  // the passes' default "source"
+};
+
+struct PassReading {
+  const PackReading& pack;
+  PassDefinition pass;
+  std::array<std::optional<BindingOptions>, kStageCount> own_bindings;
+  bool has_stages = false;
+  bool usable = true;  // false: its "stages" could not be read; it is not added (the load fails anyway)
+};
+
+void read_stages(Reading& r, const json& stages, PassReading& p) {
+  PassDefinition& pass = p.pass;
+  p.has_stages = true;
+  if (!stages.is_object() || stages.empty()) {
+    p.usable = false;
+    return;  // the pass's finish says what "stages" must be
+  }
+  for (auto& [stage_text, value] : stages.items()) {
+    const std::optional<Stage> stage = parse_stage(stage_text);
+    std::string entry;
+    std::optional<std::string> own_source;
+    if (value.is_object()) {
+      StageReading own;
+      own.what = "stage '" + stage_text + "' of pass '" + pass.name + "'";
+      read_fields(r, value, stage_fields(), "a stage", own);
+      own_source = own.source;
+      entry = own.entry.value_or("main");
+      if (!own.entry && stage) pass.default_entries |= stage_bit(*stage);
+      if (stage && own.bindings) p.own_bindings[static_cast<size_t>(*stage)] = own.bindings;
+    } else if (value.is_string()) {
+      entry = value.get<std::string>();
+    }
+    if (!stage) {
+      std::string names;
+      for (const StageName& known : kStageNames) names += (names.empty() ? "" : ", ") + std::string(known.name);
+      r.fields.fail(stage_text, "unknown stage '" + stage_text + "' (expected one of " + names + ")");
+    } else if (entry.empty()) {
+      r.fields.fail(stage_text, "stage '" + stage_text + "' must name an entry point, or {\"source\": FILE, \"entry\": NAME}");
+    } else if (!own_source && pass.source.empty()) {
+      r.fields.fail(pass.name, "pass '" + pass.name + "' has no \"source\" (and the pack no \"shader\") for its " + stage_text +
+                                   " stage: give the pass one, or the stage {\"source\": FILE, \"entry\": NAME}");
+    } else {
+      pass.entry_points[static_cast<size_t>(*stage)] = entry;
+      pass.stage_sources[static_cast<size_t>(*stage)] = own_source ? r.base / *own_source : pass.source;
+    }
+  }
+}
+
+const std::vector<Field<PassReading>>& pass_fields() {
+  static const std::vector<Field<PassReading>> rows{
+      {"name",
+       [](Reading& r, const json& value, PassReading& p) {
+         p.pass.name = string_field(r, "name", value).value_or("");
+         if (value.is_string())
+           if (std::string problem = name_problem(p.pass.name); !problem.empty())
+             r.fields.fail(p.pass.name,
+                           "pass name '" + echoed(p.pass.name) + "' " + problem + " (it names the pass's --emit directory)");
+       },
+       true},
+      {"description"},
+      {"source",
+       [](Reading& r, const json& value, PassReading& p) {
+         if (auto source = string_field(r, "source", value)) p.pass.source = r.base / *source;
+       }},
+      // No "stages": the entry points come from the source's Unity pragmas (`#pragma vertex vert`), which the
+      // declaration scan reads (apply_stage_pragmas); a pass with neither is an error (its finish).
+      {"stages", read_stages},
+      {"targets", [](Reading& r, const json& value, PassReading& p) { p.pass.targets = read_targets(r, value); }},  // instead of the pack's
+      {"bindings",
+       [](Reading& r, const json& value, PassReading& p) {
+         p.pass.bindings.override_with(read_bindings(r, value, "pass '" + p.pass.name + "'"));
+       }},
+      {"defines",
+       [](Reading& r, const json& value, PassReading& p) {
+         for (Define& define : read_defines(r, value, "pass '" + p.pass.name + "'")) {
+           std::erase_if(p.pass.defines, [&](const Define& d) { return d.name == define.name; });  // the pass's value wins
+           p.pass.defines.push_back(std::move(define));
+         }
+       }},
+  };
+  return rows;
+}
+
+void read_pass(Reading& r, const json& item, PackReading& p) {
+  PassReading reading{p, {}, {}};
+  PassDefinition& pass = reading.pass;
+  if (p.shader) pass.source = r.base / *p.shader;
+  pass.bindings = p.pack.bindings;
+  pass.defines = p.pack.defines;
+  pass.name = item.contains("name") && item["name"].is_string() ? item["name"].get<std::string>() : "";
+  read_fields(r, item, pass_fields(), "a pass", reading);
+  pass.defined_at = r.fields.at(pass.name);
+  if (!reading.usable || (!reading.has_stages && pass.source.empty())) {
+    r.fields.fail(pass.name, "pass '" + pass.name + "' needs \"stages\": {\"vertex\": \"Entry\", \"fragment\": \"Entry\"}" +
+                                 (pass.source.empty() ? std::string() : ", or no \"stages\" to take them from '#pragma vertex NAME' and '#pragma fragment NAME' in its source"));
+    return;
+  }
+  for (size_t s = 0; s < kStageCount; ++s)
+    if (reading.own_bindings[s]) {
+      pass.stage_bindings[s] = pass.bindings;
+      pass.stage_bindings[s]->override_with(*reading.own_bindings[s]);
+    }
+  for (const PassDefinition& other : p.pack.passes)
+    if (other.name == pass.name) r.fields.fail(pass.name, "pass '" + pass.name + "' is defined twice");
+  p.pack.passes.push_back(std::move(pass));
+}
+
+const std::vector<Field<Constraint>>& constraint_fields() {
+  static const std::vector<Field<Constraint>> rows{
+      {"keyword",
+       [](Reading& r, const json& value, Constraint& c) {
+         c.keyword = string_field(r, "keyword", value).value_or("");
+       },
+       true},
+      {"requires", [](Reading& r, const json& value, Constraint& c) { c.requires_all = strings_field(r, "requires", value); }},
+      {"requires_any", [](Reading& r, const json& value, Constraint& c) { c.requires_any = strings_field(r, "requires_any", value); }},
+      {"excludes", [](Reading& r, const json& value, Constraint& c) { c.excludes = strings_field(r, "excludes", value); }},
+      {"reason", [](Reading& r, const json& value, Constraint& c) { c.reason = string_field(r, "reason", value).value_or(""); }},
+  };
+  return rows;
+}
+
+const std::vector<Field<MaterialPreset>>& material_fields() {
+  static const std::vector<Field<MaterialPreset>> rows{
+      {"name",
+       [](Reading& r, const json& value, MaterialPreset& m) {
+         m.name = string_field(r, "name", value).value_or("");
+       },
+       true},
+      {"description"},
+      {"keywords",
+       [](Reading& r, const json& value, MaterialPreset& m) {
+         for (const std::string& k : strings_field(r, "keywords", value)) m.keywords.insert(k);
+       }},
+  };
+  return rows;
+}
+
+const std::vector<Field<PackDefinition>>& lint_fields() {
+  static const std::vector<Field<PackDefinition>> rows{
+      {"disable",
+       [](Reading& r, const json& value, PackDefinition& pack) {
+         const std::vector<std::string> rule_ids(kRuleIdTexts.begin(), kRuleIdTexts.end());
+         for (const std::string& rule : strings_field(r, "disable", value)) {
+           if (parse_rule_id(rule)) {
+             pack.lint_disable.push_back(rule);
+             continue;
+           }
+           // A misspelt rule would silently disable nothing.
+           const std::optional<std::string> suggestion = closest_match(rule, rule_ids);
+           const bool printable = rule.size() <= 64 && std::all_of(rule.begin(), rule.end(), [](char c) {
+             return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' || c == '_';
+           });  // a name from the file is quoted only when it cannot carry a control sequence
+           r.fields.fail(rule, "unknown lint rule" + (printable ? " '" + rule + "'" : std::string()) + " in \"lint\": \"disable\"" +
+                                   (suggestion ? " (did you mean '" + *suggestion + "'?)" : " (the rules are in docs/lint.md)"));
+         }
+       }},
+  };
+  return rows;
+}
+
+void read_keyword_kinds(Reading& r, const json& kinds, PackReading& p) {
+  if (!kinds.is_object()) {
+    r.fields.fail("keyword_kinds", "\"keyword_kinds\" must be an object: keyword -> " + keyword_kind_list("\""));
+    return;
+  }
+  for (auto& [keyword, value] : kinds.items()) {
+    const std::optional<KeywordKind> kind = parse_keyword_kind(value.is_string() ? value.get<std::string>() : "");
+    if (!kind) r.fields.fail(keyword, "the kind of keyword '" + keyword + "' must be " + keyword_kind_list("\""));
+    if (!is_identifier(keyword)) r.fields.fail(keyword, "'" + keyword + "' is not a valid keyword name");
+    p.pack.keyword_kinds[keyword] = PackDefinition::KindOverride{kind.value_or(KeywordKind::Variant), r.fields.at(keyword)};
+  }
+}
+
+const std::vector<Field<PackReading>>& pack_fields() {
+  static const std::vector<Field<PackReading>> rows{
+      {"$schema"},
+      {"name",
+       [](Reading& r, const json& value, PackReading& p) {
+         if (auto name = string_field(r, "name", value)) {
+           p.pack.name = *name;
+           if (std::string problem = name_problem(p.pack.name); !problem.empty())
+             r.fields.fail("name", "pack name '" + echoed(p.pack.name) + "' " + problem);
+         }
+       },
+       true},
+      {"description"},
+      {"shader", [](Reading& r, const json& value, PackReading& p) { p.shader = string_field(r, "shader", value); }},
+      {"include_dirs",
+       [](Reading& r, const json& value, PackReading& p) {
+         for (const std::string& dir : strings_field(r, "include_dirs", value)) p.pack.include_dirs.push_back(r.base / dir);
+       }},
+      {"targets", [](Reading& r, const json& value, PackReading& p) { p.pack.targets = read_targets(r, value); }},
+      {"budget",
+       [](Reading& r, const json& value, PackReading& p) {
+         if (!value.is_number_unsigned() || value.get<uint64_t>() == 0) r.fields.fail("budget", "\"budget\" must be a positive integer");
+         else p.pack.budget = value.get<uint64_t>();
+       }},
+      {"bindings", [](Reading& r, const json& value, PackReading& p) { p.pack.bindings = read_bindings(r, value, "the pack"); }},
+      {"defines", [](Reading& r, const json& value, PackReading& p) { p.pack.defines = read_defines(r, value, "the pack"); }},
+      // After "shader", "bindings" and "defines": each pass starts from them.
+      {"passes",
+       [](Reading& r, const json& value, PackReading& p) {
+         if (!value.is_array() || value.empty()) r.fields.fail("passes", "\"passes\" must be a non-empty array");
+         else for_each_object(r, "passes", value, "pass", [&](const json& item) { read_pass(r, item, p); });
+       },
+       true, "\"passes\" must be a non-empty array"},
+      {"constraints",
+       [](Reading& r, const json& value, PackReading& p) {
+         for_each_object(r, "constraints", value, "constraint", [&](const json& item) {
+           Constraint constraint;
+           read_fields(r, item, constraint_fields(), "a constraint", constraint);
+           constraint.defined_at = r.fields.at(constraint.keyword);
+           if (constraint.requires_all.empty() && constraint.requires_any.empty() && constraint.excludes.empty())
+             r.fields.fail(constraint.keyword,
+                           "constraint on '" + constraint.keyword + "' needs \"requires\", \"requires_any\" or \"excludes\"");
+           p.pack.constraints.push_back(std::move(constraint));
+         });
+       }},
+      {"materials",
+       [](Reading& r, const json& value, PackReading& p) {
+         for_each_object(r, "materials", value, "material", [&](const json& item) {
+           MaterialPreset material;
+           read_fields(r, item, material_fields(), "a material preset", material);
+           material.defined_at = r.fields.at(material.name);
+           p.pack.materials.push_back(std::move(material));
+         });
+       }},
+      {"scene_features",
+       [](Reading& r, const json& value, PackReading& p) {
+         if (!value.is_object()) r.fields.fail("scene_features", "\"scene_features\" must be an object: feature -> value -> keywords");
+         else p.pack.scene_features_json = value.dump();
+       }},
+      {"keyword_kinds", read_keyword_kinds},
+      {"lint",
+       [](Reading& r, const json& value, PackReading& p) {
+         if (!value.is_object()) r.fields.fail("lint", "\"lint\" must be an object: {\"disable\": [\"rule-id\", ...]}");
+         else read_fields(r, value, lint_fields(), "\"lint\"", p.pack);
+       }},
+  };
+  return rows;
+}
+
+struct SceneReading {
+  SceneProfile scene;
+  bool selects = false;  // it has "uses", "materials" or "keywords"
+};
+
+const std::vector<Field<SceneReading>>& scene_fields() {
+  static const std::vector<Field<SceneReading>> rows{
+      {"$schema"},
+      {"name",
+       [](Reading& r, const json& value, SceneReading& s) {
+         if (auto name = string_field(r, "name", value)) {
+           s.scene.name = *name;
+           if (std::string problem = name_problem(s.scene.name); !problem.empty())
+             r.fields.fail("name", "scene name '" + echoed(s.scene.name) + "' " + problem);
+         }
+       },
+       true},
+      {"description"},
+      {"uses",
+       [](Reading& r, const json& value, SceneReading& s) {
+         s.selects = true;
+         if (!value.is_object()) r.fields.fail("uses", "\"uses\" must be an object: feature -> value");
+         else s.scene.uses_json = value.dump();
+       }},
+      {"materials",
+       [](Reading& r, const json& value, SceneReading& s) {
+         s.selects = true;
+         s.scene.material_names = strings_field(r, "materials", value);
+       }},
+      {"keywords",
+       [](Reading& r, const json& value, SceneReading& s) {
+         s.selects = true;
+         for (const std::string& keyword : strings_field(r, "keywords", value)) s.scene.keywords.insert(keyword);
+       }},
+  };
+  return rows;
+}
+
 }  // namespace
+
+const DefinitionFields& definition_fields() {
+  static const DefinitionFields fields{
+      names_of(pack_fields()),     names_of(pass_fields()),  names_of(constraint_fields()), names_of(material_fields()),
+      names_of(scene_fields()),    names_of(binding_fields()), names_of(shift_fields()),    names_of(lint_fields()),
+      names_of(stage_fields()),
+  };
+  return fields;
+}
 
 std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& file, const ReadLimits& limits,
                                                    DiagnosticSink& sink) {
@@ -209,215 +580,35 @@ std::optional<PackDefinition> load_pack_definition(const std::filesystem::path& 
     fields.fail("", "a pack definition must be a JSON object");
     return std::nullopt;
   }
-  fields.only(*root, definition_fields().pack, "the pack definition");
-  PackDefinition pack;
-  pack.file = file;
-  pack.text = *text;
-  const std::filesystem::path base = file.parent_path().empty() ? "." : file.parent_path();
-  if (auto name = fields.string(*root, "name", true)) {
-    pack.name = *name;
-    if (std::string problem = name_problem(pack.name); !problem.empty())
-      fields.fail("name", "pack name '" + echoed(pack.name) + "' " + problem);
-  }
-  auto default_source = fields.string(*root, "shader", false);
-  for (const std::string& dir : fields.strings(*root, "include_dirs")) pack.include_dirs.push_back(base / dir);
-
-  // A "targets" list (the pack's, or a pass's own): known names, SPIR-V always in (every other target is made from
-  // it), sorted.
-  auto read_targets = [&](const json& object) {
-    std::vector<Target> targets;
-    for (const std::string& name : fields.strings(object, "targets")) {
-      if (auto target = parse_target(name)) {
-        if (std::find(targets.begin(), targets.end(), *target) == targets.end()) targets.push_back(*target);
-      } else {
-        fields.fail(name, "unknown target '" + name + "' (expected " + target_name_list() + ")");
-      }
-    }
-    if (std::find(targets.begin(), targets.end(), Target::Spirv) == targets.end()) targets.insert(targets.begin(), Target::Spirv);
-    std::sort(targets.begin(), targets.end());
-    return targets;
-  };
-  if (root->contains("targets")) {
-    pack.targets = read_targets(*root);
-  } else {
-    for (const TargetName& target : kTargetNames) pack.targets.push_back(target.target);
-  }
-
-  if (auto it = root->find("budget"); it != root->end()) {
-    if (!it->is_number_unsigned() || it->get<uint64_t>() == 0)
-      fields.fail("budget", "\"budget\" must be a positive integer");
-    else
-      pack.budget = it->get<uint64_t>();
-  }
-
-  pack.bindings = read_bindings(fields, *root, "the pack");
-  pack.defines = read_defines(fields, *root, "the pack");
-
-  auto passes = root->find("passes");
-  if (passes == root->end() || !passes->is_array() || passes->empty()) {
-    fields.fail("passes", "\"passes\" must be a non-empty array");
-  } else {
-    for (const json& item : *passes) {
-      if (!item.is_object()) {
-        fields.fail("passes", "each pass must be an object");
-        continue;
-      }
-      fields.only(item, definition_fields().pass, "a pass");
-      PassDefinition pass;
-      pass.name = fields.string(item, "name", true).value_or("");
-      pass.defined_at = fields.at(pass.name);
-      if (item.contains("name") && item["name"].is_string())
-        if (std::string problem = name_problem(pass.name); !problem.empty())
-          fields.fail(pass.name, "pass name '" + echoed(pass.name) + "' " + problem + " (it names the pass's --emit directory)");
-      auto source = fields.string(item, "source", false);
-      if (source || default_source) pass.source = base / source.value_or(default_source.value_or(""));
-      auto stages = item.find("stages");
-      // No "stages": the entry points come from the source's Unity pragmas (`#pragma vertex vert`), which the
-      // declaration scan reads (apply_stage_pragmas); a pass with neither is an error there.
-      if ((stages == item.end() && pass.source.empty()) || (stages != item.end() && (!stages->is_object() || stages->empty()))) {
-        fields.fail(pass.name, "pass '" + pass.name + "' needs \"stages\": {\"vertex\": \"Entry\", \"fragment\": \"Entry\"}" +
-                                   (pass.source.empty() ? std::string() : ", or no \"stages\" to take them from '#pragma vertex NAME' and '#pragma fragment NAME' in its source"));
-        continue;
-      }
-      // A stage names its entry point in the pass's source ("vertex": "VSMain"), or a file of its own with its entry
-      // point ("vertex": {"source": "Sky.vert.hlsl", "entry": "main"}), as stage-per-file projects write them.
-      // A stage of its own file may have "bindings" of its own, over the pass's.
-      std::array<std::optional<BindingOptions>, kStageCount> own_bindings;
-      const json no_stages = json::object();
-      for (auto& [stage_text, value] : (stages == item.end() ? no_stages : *stages).items()) {
-        auto stage = parse_stage(stage_text);
-        std::string entry;
-        std::optional<std::string> own_source;
-        if (value.is_object()) {
-          fields.only(value, {"source", "entry", "bindings"}, "a stage");
-          own_source = fields.string(value, "source", true);
-          const std::optional<std::string> named = fields.string(value, "entry", false);
-          entry = named.value_or("main");
-          if (!named && stage) pass.default_entries |= stage_bit(*stage);
-          if (stage && value.contains("bindings"))
-            own_bindings[static_cast<size_t>(*stage)] = read_bindings(fields, value, "stage '" + stage_text + "' of pass '" + pass.name + "'");
-        } else if (value.is_string()) {
-          entry = value.get<std::string>();
-        }
-        if (!stage) {
-          std::string names;
-          for (const StageName& known : kStageNames) names += (names.empty() ? "" : ", ") + std::string(known.name);
-          fields.fail(stage_text, "unknown stage '" + stage_text + "' (expected one of " + names + ")");
-        } else if (entry.empty()) {
-          fields.fail(stage_text, "stage '" + stage_text + "' must name an entry point, or {\"source\": FILE, \"entry\": NAME}");
-        } else if (!own_source && pass.source.empty()) {
-          fields.fail(pass.name, "pass '" + pass.name + "' has no \"source\" (and the pack no \"shader\") for its " + stage_text +
-                                     " stage: give the pass one, or the stage {\"source\": FILE, \"entry\": NAME}");
-        } else {
-          pass.entry_points[static_cast<size_t>(*stage)] = entry;
-          pass.stage_sources[static_cast<size_t>(*stage)] = own_source ? base / *own_source : pass.source;
-        }
-      }
-      if (item.contains("targets")) pass.targets = read_targets(item);  // the pass's own, instead of the pack's
-      pass.bindings = pack.bindings;
-      pass.bindings.override_with(read_bindings(fields, item, "pass '" + pass.name + "'"));
-      for (size_t s = 0; s < kStageCount; ++s)
-        if (own_bindings[s]) {
-          pass.stage_bindings[s] = pass.bindings;
-          pass.stage_bindings[s]->override_with(*own_bindings[s]);
-        }
-      pass.defines = pack.defines;
-      for (Define& define : read_defines(fields, item, "pass '" + pass.name + "'")) {
-        std::erase_if(pass.defines, [&](const Define& d) { return d.name == define.name; });  // the pass's value wins
-        pass.defines.push_back(std::move(define));
-      }
-      for (const PassDefinition& other : pack.passes)
-        if (other.name == pass.name) fields.fail(pass.name, "pass '" + pass.name + "' is defined twice");
-      pack.passes.push_back(std::move(pass));
-    }
-  }
-
-  if (auto constraints = root->find("constraints"); constraints != root->end()) {
-    if (!constraints->is_array()) {
-      fields.fail("constraints", "\"constraints\" must be an array");
-    } else {
-      for (const json& item : *constraints) {
-        if (!item.is_object()) {
-          fields.fail("constraints", "each constraint must be an object");
-          continue;
-        }
-        fields.only(item, definition_fields().constraint, "a constraint");
-        Constraint constraint;
-        constraint.keyword = fields.string(item, "keyword", true).value_or("");
-        constraint.defined_at = fields.at(constraint.keyword);
-        constraint.requires_all = fields.strings(item, "requires");
-        constraint.requires_any = fields.strings(item, "requires_any");
-        constraint.excludes = fields.strings(item, "excludes");
-        constraint.reason = fields.string(item, "reason", false).value_or("");
-        if (constraint.requires_all.empty() && constraint.requires_any.empty() && constraint.excludes.empty())
-          fields.fail(constraint.keyword, "constraint on '" + constraint.keyword +
-                                              "' needs \"requires\", \"requires_any\" or \"excludes\"");
-        pack.constraints.push_back(std::move(constraint));
-      }
-    }
-  }
-  if (auto materials = root->find("materials"); materials != root->end()) {
-    if (!materials->is_array()) {
-      fields.fail("materials", "\"materials\" must be an array");
-    } else {
-      for (const json& item : *materials) {
-        if (!item.is_object()) {
-          fields.fail("materials", "each material must be an object");
-          continue;
-        }
-        fields.only(item, definition_fields().material, "a material preset");
-        MaterialPreset material;
-        material.name = fields.string(item, "name", true).value_or("");
-        material.defined_at = fields.at(material.name);
-        for (const std::string& k : fields.strings(item, "keywords")) material.keywords.insert(k);
-        pack.materials.push_back(std::move(material));
-      }
-    }
-  }
-  if (auto kinds = root->find("keyword_kinds"); kinds != root->end()) {
-    if (!kinds->is_object()) {
-      fields.fail("keyword_kinds", "\"keyword_kinds\" must be an object: keyword -> \"variant\", \"dynamic_branch\", "
-                                   "\"specialization_constant\" or \"specialization_constant_int\"");
-    } else {
-      for (auto& [keyword, value] : kinds->items()) {
-        const std::optional<KeywordKind> kind = parse_keyword_kind(value.is_string() ? value.get<std::string>() : "");
-        PackDefinition::KindOverride entry{kind.value_or(KeywordKind::Variant), fields.at(keyword)};
-        if (!kind)
-          fields.fail(keyword, "the kind of keyword '" + keyword +
-                                   "' must be \"variant\", \"dynamic_branch\", \"specialization_constant\" or "
-                                   "\"specialization_constant_int\"");
-        if (!is_identifier(keyword)) fields.fail(keyword, "'" + keyword + "' is not a valid keyword name");
-        pack.keyword_kinds[keyword] = entry;
-      }
-    }
-  }
-  if (auto lint = root->find("lint"); lint != root->end()) {
-    if (!lint->is_object()) {
-      fields.fail("lint", "\"lint\" must be an object: {\"disable\": [\"rule-id\", ...]}");
-    } else {
-      fields.only(*lint, definition_fields().lint, "\"lint\"");
-      std::vector<std::string> rule_ids(kRuleIdTexts.begin(), kRuleIdTexts.end());
-      for (const std::string& rule : fields.strings(*lint, "disable")) {
-        if (parse_rule_id(rule)) {
-          pack.lint_disable.push_back(rule);
-          continue;
-        }
-        // A misspelt rule would silently disable nothing.
-        const std::optional<std::string> suggestion = closest_match(rule, rule_ids);
-        const bool printable = rule.size() <= 64 && std::all_of(rule.begin(), rule.end(), [](char c) {
-          return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' || c == '_';
-        });  // a name from the file is quoted only when it cannot carry a control sequence
-        fields.fail(rule, "unknown lint rule" + (printable ? " '" + rule + "'" : std::string()) + " in \"lint\": \"disable\"" +
-                              (suggestion ? " (did you mean '" + *suggestion + "'?)" : " (the rules are in docs/lint.md)"));
-      }
-    }
-  }
-  if (auto features = root->find("scene_features"); features != root->end()) {
-    if (!features->is_object()) fields.fail("scene_features", "\"scene_features\" must be an object: feature -> value -> keywords");
-    else pack.scene_features_json = features->dump();
-  }
+  Reading reading{fields, file.parent_path().empty() ? "." : file.parent_path()};
+  PackReading p;
+  p.pack.file = file;
+  p.pack.text = *text;
+  for (const TargetName& target : kTargetNames) p.pack.targets.push_back(target.target);  // without "targets": all
+  read_fields(reading, *root, pack_fields(), "the pack definition", p);
   if (!fields.ok) return std::nullopt;
-  return pack;
+  return std::move(p.pack);
+}
+
+std::optional<SceneProfile> load_scene_profile(const std::filesystem::path& file, const ReadLimits& limits,
+                                               DiagnosticSink& sink) {
+  auto text = read_text_file(file, limits, sink, SourceLocation{file.string(), 0, 0});
+  if (!text) return std::nullopt;
+  auto root = parse_json(file, *text, sink);
+  if (!root) return std::nullopt;
+  FieldReader fields{file, *text, sink, DiagId::SceneProfile};
+  if (!root->is_object()) {
+    fields.fail("", "a scene profile must be a JSON object");
+    return std::nullopt;
+  }
+  Reading reading{fields, file.parent_path()};
+  SceneReading s;
+  s.scene.file = file;
+  s.scene.text = *text;
+  read_fields(reading, *root, scene_fields(), "the scene profile", s);
+  if (!s.selects) fields.fail("name", "a scene profile needs \"uses\", \"materials\" or \"keywords\"");
+  if (!fields.ok) return std::nullopt;
+  return std::move(s.scene);
 }
 
 namespace {
@@ -451,8 +642,7 @@ std::optional<std::map<std::string, KeywordKind>> parse_command_line_keyword_kin
     if (!kind || !named) {
       ok = false;
       sink.report(DiagId::InvalidCommandLineOption, kCommandLine,
-                  "--keyword-kind '" + text + "': expected KEYWORD[,KEYWORD...]=KIND, the kind variant, dynamic_branch, "
-                  "specialization_constant or specialization_constant_int");
+                  "--keyword-kind '" + text + "': expected KEYWORD[,KEYWORD...]=KIND, the kind " + keyword_kind_list());
       continue;
     }
     for (const std::string& keyword : keywords) kinds[keyword] = *kind;  // the last one given wins
@@ -519,37 +709,6 @@ void apply_command_line(PackDefinition& pack, const BindingOptions& bindings, co
   }
 }
 
-std::optional<SceneProfile> load_scene_profile(const std::filesystem::path& file, const ReadLimits& limits,
-                                               DiagnosticSink& sink) {
-  auto text = read_text_file(file, limits, sink, SourceLocation{file.string(), 0, 0});
-  if (!text) return std::nullopt;
-  auto root = parse_json(file, *text, sink);
-  if (!root) return std::nullopt;
-  FieldReader fields{file, *text, sink, DiagId::SceneProfile};
-  if (!root->is_object()) {
-    fields.fail("", "a scene profile must be a JSON object");
-    return std::nullopt;
-  }
-  fields.only(*root, definition_fields().scene, "the scene profile");
-  SceneProfile scene;
-  scene.file = file;
-  scene.text = *text;
-  if (auto name = fields.string(*root, "name", true)) {
-    scene.name = *name;
-    if (std::string problem = name_problem(scene.name); !problem.empty())
-      fields.fail("name", "scene name '" + echoed(scene.name) + "' " + problem);
-  }
-  if (!root->contains("keywords") && !root->contains("uses") && !root->contains("materials"))
-    fields.fail("name", "a scene profile needs \"uses\", \"materials\" or \"keywords\"");
-  for (const std::string& keyword : fields.strings(*root, "keywords")) scene.keywords.insert(keyword);
-  scene.material_names = fields.strings(*root, "materials");
-  if (auto uses = root->find("uses"); uses != root->end()) {
-    if (!uses->is_object()) fields.fail("uses", "\"uses\" must be an object: feature -> value");
-    else scene.uses_json = uses->dump();
-  }
-  if (!fields.ok) return std::nullopt;
-  return scene;
-}
 
 namespace {
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Loading pack definitions (variants/*.pack.json) and scene profiles (variants/scenes/*.json).
 #pragma once
 
@@ -13,10 +14,10 @@
 namespace kiln {
 
 // The fields each object of a pack definition and of a scene profile may have; any other is an error (a
-// misspelled "budjet" must not silently mean the default budget). variants/schema/ lists the same fields
-// (checked by unit.Definition tests).
+// misspelled "budjet" must not silently mean the default budget). They are the rows of definition.cpp's field
+// tables, which read them; variants/schema/ lists the same fields (checked by unit.Definition tests).
 struct DefinitionFields {
-  std::vector<std::string_view> pack, pass, constraint, material, scene, bindings, shift, lint;
+  std::vector<std::string_view> pack, pass, constraint, material, scene, bindings, shift, lint, stage;
 };
 const DefinitionFields& definition_fields();
 

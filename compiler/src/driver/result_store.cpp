@@ -4,7 +4,7 @@
 #include <map>
 
 #include "common/parallel.hpp"
-#include "driver/compile.hpp"
+#include "driver/compile_results.hpp"
 #include "driver/remote.hpp"
 #include "driver/build_context.hpp"
 

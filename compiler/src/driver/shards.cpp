@@ -5,7 +5,7 @@
 #include <new>
 
 #include "common/files.hpp"
-#include "driver/compile.hpp"
+#include "driver/compile_results.hpp"
 #include "driver/shard_bundle.hpp"
 
 namespace kiln {

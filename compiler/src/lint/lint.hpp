@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln lint's machinery behind kiln/lint.hpp (the public API): running the rules, and the rule each build
 // diagnostic is reported under. Each rule has a stable id (kiln/lint_rule_id.hpp) and lives in rules/<variable>.cpp
-// behind the registry (rule.hpp).
+// (the build's findings in rules/build_findings.cpp) behind the registry (rule.hpp).
 #pragma once
 
 #include <filesystem>

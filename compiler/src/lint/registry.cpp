@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The rule table: every rule kiln lint has, in RuleId order, from kiln/lint_rules.def. A new rule is a file in rules/
 // and a row there.
 #include <array>
@@ -12,7 +13,7 @@ namespace {
 using namespace rules;
 
 const std::array<const LintRule*, kRuleCount> kRules{
-#define KILN_LINT_RULE(Enumerator, id, variable) &variable,
+#define KILN_LINT_RULE(Enumerator, id, variable, file) &variable,
 #include "kiln/lint_rules.def"
 };
 

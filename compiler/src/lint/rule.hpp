@@ -1,6 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // One lint rule: its id, what it finds, where its documentation is, its default severity and how it checks.
-// Each rule lives in rules/<variable>.cpp and has one row in kiln/lint_rules.def. Adding a rule: its row there, the
-// rule's file, its section in docs/lint.md, and its unit test.
+// Each rule lives in rules/<variable>.cpp (one that reports a build diagnostic, in rules/build_findings.cpp) and has
+// one row in kiln/lint_rules.def. Adding a rule: its row there, its definition, its section in docs/lint.md, and its
+// unit test.
 #pragma once
 
 #include <optional>

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // Usage logs (docs/usage.md) for `kiln build --usage`: reading one with the build's limits, and stripping to the
-// keyword sets the runs asked for. The logs' types and the tools over them are public: kiln/pack_tools.hpp.
+// keyword sets the runs asked for. The logs' types and the tools over them are public: kiln/recorded_usage.hpp.
 #pragma once
 
 #include <filesystem>
@@ -14,7 +14,7 @@
 #include "common/files.hpp"
 #include "kiln/build.hpp"
 #include "kiln/diagnostics.hpp"
-#include "kiln/pack_tools.hpp"
+#include "kiln/recorded_usage.hpp"
 #include "permutations/permutations.hpp"
 
 namespace kiln {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln_reader.h: the C API over kiln::PackReader. Every entry point that can fail runs its body inside guarded(),
 // which turns any exception into a code (std::bad_alloc into KILN_ERROR_OUT_OF_MEMORY), so none crosses into C.
 //
@@ -755,7 +756,9 @@ static_assert(KILN_RESOURCE_UNIFORM_BUFFER == static_cast<int>(kiln::ResourceKin
 static_assert(KILN_MSL_BUFFER == static_cast<int>(kiln::MslResourceKind::Buffer) &&
               KILN_MSL_TEXTURE == static_cast<int>(kiln::MslResourceKind::Texture) &&
               KILN_MSL_SAMPLER == static_cast<int>(kiln::MslResourceKind::Sampler));
-static_assert(KILN_KEYWORD_DYNAMIC_BRANCH == static_cast<int>(kiln::KeywordKind::DynamicBranch) &&
-              KILN_KEYWORD_SPECIALIZATION_CONSTANT == static_cast<int>(kiln::KeywordKind::SpecializationConstant) &&
-              KILN_KEYWORD_SPECIALIZATION_INTEGER == static_cast<int>(kiln::KeywordKind::SpecializationInteger));
+// Each folded kind's kiln_keyword_kind is its KeywordKind (kiln/keyword_kinds.def).
+#define KILN_KEYWORD_KIND(kind, name, folded, constant, c_constant, what) \
+  static_assert(!(folded) || static_cast<int>(c_constant) == static_cast<int>(kiln::KeywordKind::kind), name);
+#include "kiln/keyword_kinds.def"
+#undef KILN_KEYWORD_KIND
 static_assert(KILN_KEYWORD_BLOCK_SET == kiln::kKeywordBlockSet && KILN_KEYWORD_BLOCK_BINDING == kiln::kKeywordBlockBinding);

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Where each folded keyword of a pass lives (kiln/folded_keywords.hpp): derived from the pass's groups alone, so that
 // the compiler that declares the constants and the readers that set them agree by construction.
 #include "kiln/folded_keywords.hpp"
@@ -5,23 +6,6 @@
 #include <algorithm>
 
 namespace kiln {
-
-std::string_view keyword_kind_name(KeywordKind kind) {
-  switch (kind) {
-    case KeywordKind::Variant: return "variant";
-    case KeywordKind::DynamicBranch: return kDynamicBranchPragma;
-    case KeywordKind::SpecializationConstant: return kSpecializationConstantPragma;
-    case KeywordKind::SpecializationInteger: return kSpecializationIntegerPragma;
-  }
-  return "variant";
-}
-
-std::optional<KeywordKind> parse_keyword_kind(std::string_view name) {
-  for (KeywordKind kind : {KeywordKind::Variant, KeywordKind::DynamicBranch, KeywordKind::SpecializationConstant,
-                           KeywordKind::SpecializationInteger})
-    if (name == keyword_kind_name(kind)) return kind;
-  return std::nullopt;
-}
 
 std::vector<FoldedKeyword> folded_keywords(const std::vector<ManifestKeywordGroup>& groups) {
   std::vector<FoldedKeyword> out;
