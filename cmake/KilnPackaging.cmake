@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # `cpack -G DEB` (from the build directory): four Debian packages, split as Debian splits a library and its tools, so
 # that each user installs only what they need:
 #   libkiln-reader0     libkiln_reader.so.0, what a game ships (the reader's C and C++ API; libc, libstdc++, xxHash

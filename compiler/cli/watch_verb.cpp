@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln watch: parses the arguments, blocks SIGINT and SIGTERM into a signalfd and prints what the loop
 // (kiln/watch.hpp, compiler/src/watch/) reports (docs/development-loop.md).
 #include <signal.h>

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # find_package(kiln) with one of the two Debian packages' parts installed (cmake --install --component, as the
 # packages split it: cli is the kiln package, reader and dev the reader's):
 #   the compiler's part alone gives kiln::kiln and kiln_add_shader_pack, and a project that needs the reader is told

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // On-demand variants (docs/development-loop.md, "On-demand variants"; issue 61 item 3): kiln watch --serve and a
 // reader in development mode (kiln/development_reader.hpp). The endpoint is untrusted input: hostile requests are sent
 // as raw bytes on 127.0.0.1 and watch must answer each with a 4xx (or drop it) and keep serving. Every wait is on an

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer harness: the development endpoint's request bodies (kiln watch --serve; compiler/src/watch/
 // development_protocol.cpp), as any local process may send them: each input is given to both parsers, as the body
 // of POST /v1/variant and of POST /v1/selected. Findings: a crash, an escaped exception (the parsers return a 400,

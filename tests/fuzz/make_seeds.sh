@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Writes the fuzzers' seed corpora (tests/fuzz/corpus/<target>/) from kiln's own outputs and files:
 #   pack_reader:  real packs kiln builds from a tiny shader (all targets; SPIR-V only), in the harness's input
 #                 format (flags byte 0, manifest length, manifest, archive);

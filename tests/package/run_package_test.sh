@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # package.deb: `cpack -G DEB` makes the four packages of cmake/KilnPackaging.cmake, each with the right Depends and
 # contents and no lintian error; then, against those packages alone, unpacked with dpkg-deb -x (no root, nothing
 # installed on the machine): a C program built with the C compiler and pkg-config, a CMake project with LANGUAGES C,

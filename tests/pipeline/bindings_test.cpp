@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The binding model of docs/bindings.md and preprocessor defines, through whole builds: which set and
 // binding each resource gets, that the options reach every target and the reflection, and that they are
 // part of the no-change check.

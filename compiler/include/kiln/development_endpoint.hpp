@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The development endpoint's protocol, version 1 (docs/development-loop.md, "Protocol, version 1"): its paths and
 // bounds, stated once for both ends, kiln watch --serve (kiln/watch.hpp) and the development reader
 // (kiln/development_reader.hpp, kiln::reader_dev). Header-only and without dependencies: installed with the

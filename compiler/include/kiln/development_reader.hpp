@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Development mode for a PackReader (docs/reader.md, "On-demand variants"): a variant the pack lacks is asked of
 // `kiln watch --serve` (docs/development-loop.md), which builds it into the pack it publishes. A library of its own,
 // kiln::reader_dev (libcurl): a release build does not link it, so a release reader never opens a connection.

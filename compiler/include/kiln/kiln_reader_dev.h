@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Development mode for the C reader (docs/reader.md, "On-demand variants"): kiln/development_reader.hpp from C.
  * Linked from kiln::reader_dev (libcurl); a release build does not link it, so a release reader never connects.
  *

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln watch as a library (docs/development-loop.md): builds a pack, then builds it again whenever an input it read
 // changes, the variants in use first; with a development endpoint (serve), readers in development mode ask it for
 // the variants the pack lacks. The CLI (cli/watch_verb.cpp) parses the arguments and prints what this reports.

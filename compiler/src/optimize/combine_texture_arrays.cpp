@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "optimize/combine_texture_arrays.hpp"
 
 #include "optimize/spirv_tools.hpp"  // spirv_tools_environment

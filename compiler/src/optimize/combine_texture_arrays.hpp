@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A pass of kiln's own in the combine-image-samplers step (spirv_tools.hpp): a texture array and one sampler that
 // share a (set, binding) become one array of combined image samplers, which SPIRV-Tools' convert-to-sampled-image
 // pass refuses (it takes single textures only).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "common/target_environment.hpp"
 #include "optimize/spirv_tools.hpp"
 #include "optimize/combine_texture_arrays.hpp"

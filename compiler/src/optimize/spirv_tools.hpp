@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stage 5 (after the front end): legalize HLSL-derived SPIR-V, validate, optimize, validate again.
 #pragma once
 

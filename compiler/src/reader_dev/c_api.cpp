@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln/kiln_reader_dev.h over DevelopmentReader. The pack's PackReader comes from the reader's C API
 // (kiln::pack_reader_of in src/reader/c_api.cpp); switches go through kiln_pack_poll_update so that the C pack's
 // id tables follow the new pack.

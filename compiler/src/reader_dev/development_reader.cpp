@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "kiln/development_reader.hpp"
 
 #include <arpa/inet.h>

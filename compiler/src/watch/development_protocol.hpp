@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The development endpoint's request bodies (docs/development-loop.md, "Protocol, version 1"), parsed apart from the
 // HTTP server so that the fuzzer (tests/fuzz/endpoint_fuzzer.cpp) runs exactly what watch runs on a body. Every
 // body is untrusted: its size, its JSON nesting, its fields and every name in it are checked before it is kept.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The development endpoint of kiln watch (docs/development-loop.md, "On-demand variants"): libmicrohttpd on a
 // loopback address, run from watch's own poll() loop (its epoll descriptor and timeout join watch's), so that one
 // thread serves requests, inotify and signals without a polling sleep. Everything a client sends is untrusted

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // kiln watch (kiln/watch.hpp, docs/development-loop.md): builds a pack, then watches every input the build read and
 // builds again on each change, the variants in use first (--usage and the variants readers asked for: published as
 // soon as they are done), then the full pack. Event-driven and bounded (STYLE.md rule 19): one inotify descriptor on
