@@ -55,7 +55,7 @@ expect_files() {  # package, files
   done
   ! grep -q "^\./usr/local\|^\./tmp\|^\./work" <<< "$contents" || fail "$package: files outside /usr"
 }
-expect_files libkiln-reader0 ./usr/lib/libkiln_reader.so.0 ./usr/lib/libkiln_reader.so.0.1.0
+expect_files libkiln-reader0 ./usr/lib/libkiln_reader.so.0 ./usr/lib/libkiln_reader.so.0.2.0
 expect_files libkiln-reader-dev ./usr/lib/libkiln_reader.so ./usr/lib/libkiln_reader.a ./usr/lib/pkgconfig/kiln-reader.pc \
   ./usr/include/kiln/pack_reader.hpp ./usr/include/kiln/manifest.hpp ./usr/include/kiln/kiln_reader.h \
   ./usr/include/kiln/folded_keywords.hpp ./usr/include/kiln/keyword_kinds.def ./usr/include/kiln/coverage_map.hpp \
