@@ -8,6 +8,7 @@
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -233,6 +234,51 @@ TEST_F(DevelopmentEndpoint, AfterARequestTheFullPackFollows) {
   EXPECT_TRUE(contains(status(), "request P []: built into p.")) << kiln->err();
   const std::string after = status();
   EXPECT_TRUE(contains(after, "kiln watch: after requests; full: failed (1 error; the in-use pack stays)")) << after;
+  PackReader reader = PackReader::open(manifest());
+  EXPECT_TRUE(reader.try_select("P", {}));
+  EXPECT_TRUE(reader.try_select("P", {"A"}));
+  EXPECT_EQ(kiln->end(SIGTERM), 0);
+}
+
+// A request that needs a build, arriving while the full pack is being built, stops that build, is served, and the
+// full pack follows. The full build's compiler worker (KILN_WORKER: a script that runs the real one) waits at a
+// gate: the script lets the first worker through (the round's in-use build), and the next one says so through one
+// FIFO and waits for the test to open a second one.
+TEST_F(DevelopmentEndpoint, ARequestDuringTheFullBuildStopsItIsServedAndTheFullPackFollows) {
+  std::string broken = kShader;
+  broken.replace(broken.find("return colour() * 3.0;"), 22, "return undefinedB;");
+  dir.write("S.hlsl", broken);
+  const std::filesystem::path worker = dir / "gate/worker";
+  const std::string real = (std::filesystem::path(KILN_CLI_PATH).parent_path() / "kiln-worker").string();
+  dir.write("gate/worker", "#!/bin/sh\nif [ -e \"$0.hold\" ]; then\n  if [ -s \"$0.hold\" ]; then : > \"$0.hold\"; "
+                            "else echo started > \"$0.started\"; read line < \"$0.gate\"; fi\nfi\n"
+                            "exec '" + real + "' \"$@\"\n");
+  std::filesystem::permissions(worker, std::filesystem::perms::owner_all);
+  ASSERT_EQ(::mkfifo((worker.string() + ".started").c_str(), 0600), 0);
+  ASSERT_EQ(::mkfifo((worker.string() + ".gate").c_str(), 0600), 0);
+  ::setenv("KILN_WORKER", worker.c_str(), 1);
+  start_with("usage/run.json", {}, "; full: failed (1 error; the in-use pack stays)");
+  ::unsetenv("KILN_WORKER");
+
+  dir.write("gate/worker.hold", "let the in-use build's worker through");
+  dir.write("lib/Colour.hlsl", "float4 colour() { return 0.5; }\n");
+  EXPECT_EQ(testing::read_file(worker.string() + ".started"), "started\n");  // the full build waits for its worker
+  std::filesystem::remove(dir / "gate/worker.hold");
+  Socket socket(port);
+  ASSERT_TRUE(socket.send(post(R"({"pass": "P", "keywords": []})")));  // not in the in-use pack: needs a build
+  std::string line = status();
+  EXPECT_TRUE(contains(line, "request P []: held: the full build stops for it")) << line;
+  std::ofstream(worker.string() + ".gate") << "go\n";
+  line = status();
+  EXPECT_TRUE(contains(line, "round 2: lib/Colour.hlsl changed; in use: 1 variant (")) << line;
+  EXPECT_TRUE(contains(line, "; full: interrupted by a variant request (built again after it)")) << line;
+  line = status();
+  EXPECT_TRUE(contains(line, "request P []: built into p.")) << line;
+  const std::string answer = socket.answer();
+  EXPECT_EQ(status_of(answer), "HTTP/1.1 200 OK") << answer;
+  EXPECT_TRUE(contains(answer, R"("compiled":true)")) << answer;
+  line = status();
+  EXPECT_TRUE(contains(line, "kiln watch: after requests; full: failed (1 error; the in-use pack stays)")) << line;
   PackReader reader = PackReader::open(manifest());
   EXPECT_TRUE(reader.try_select("P", {}));
   EXPECT_TRUE(reader.try_select("P", {"A"}));

@@ -224,6 +224,39 @@ TEST_F(Watch, AnEditDuringTheInUseBuildRestartsTheRound) {
   EXPECT_EQ(kiln->end(SIGTERM), 0);
 }
 
+// An edit while the full pack is being built stops that build (the jobs not handed out are not run, nothing is
+// written) and the next round builds the new inputs. The full build's worker waits at the gate, as above.
+TEST_F(Watch, AnEditDuringTheFullBuildStopsItAndTheNextRoundBuildsTheNewInputs) {
+  const std::filesystem::path worker = dir / "gate/worker";
+  const std::string real = (std::filesystem::path(KILN_CLI_PATH).parent_path() / "kiln-worker").string();
+  dir.write("gate/worker", "#!/bin/sh\nif [ -e \"$0.hold\" ]; then echo started > \"$0.started\"; read line < \"$0.gate\"; fi\n"
+                            "exec '" + real + "' \"$@\"\n");
+  std::filesystem::permissions(worker, std::filesystem::perms::owner_all);
+  ASSERT_EQ(::mkfifo((worker.string() + ".started").c_str(), 0600), 0);
+  ASSERT_EQ(::mkfifo((worker.string() + ".gate").c_str(), 0600), 0);
+  ::setenv("KILN_WORKER", worker.c_str(), 1);
+  start();
+  ::unsetenv("KILN_WORKER");
+  std::string line = status();
+  EXPECT_TRUE(contains(line, "round 1: start; full: 3 variants (")) << line;
+  const std::map<std::string, std::string> round_1 = output_files();
+
+  dir.write("gate/worker.hold", "");
+  save_by_rename("S.hlsl", shader("6.0"));
+  EXPECT_EQ(testing::read_file(worker.string() + ".started"), "started\n");  // the full build waits for its worker
+  std::filesystem::remove(dir / "gate/worker.hold");
+  save_by_rename("lib/Colour.hlsl", colour("0.5"));
+  std::ofstream(worker.string() + ".gate") << "go\n";
+  line = status();
+  EXPECT_TRUE(contains(line, "round 2: S.hlsl changed; full: restarted (inputs changed during the round)")) << line;
+  EXPECT_EQ(output_files(), round_1);  // the stopped build wrote nothing
+  line = status();
+  EXPECT_TRUE(contains(line, "round 3: lib/Colour.hlsl changed; full: 3 variants (")) << line;
+  EXPECT_NE(output_files(), round_1);
+  EXPECT_EQ(manifest()["passes"][0]["variants"].size(), 3u);
+  EXPECT_EQ(kiln->end(SIGTERM), 0);
+}
+
 // Ctrl-C and a service manager's stop end watch with 0 and leave the pack whole: no temporary file, no orphan.
 TEST_F(Watch, SigintAndSigtermEndItWithZeroAndNoTemporaryFiles) {
   for (int signal : {SIGTERM, SIGINT}) {

@@ -97,6 +97,15 @@ struct BuildOptions {
   unsigned shard_count = 1;
   std::function<void(size_t done, size_t total, size_t cache_hits)> progress;
   bool keep_plan = false;                           // fill BuildReport::plan (lint observes the build's plan)
+  // Something outside the build that may end it early (kiln watch: an edit, a variant request, a signal). The
+  // workers' scheduler also waits on `fds` and calls `check()` on the build's thread when one of them is readable
+  // (it must read what made it so) and before it hands out a job; once `check()` says true (and it must keep
+  // saying so), no job is handed out any more: those in flight finish and their results go into the cache, the
+  // others are not run, and the build ends with BuildReport::cancelled, writing no pack.
+  struct Interruption {
+    std::vector<int> fds;
+    std::function<bool()> check;
+  } interruption;
 };
 
 // declared -> valid -> after scene stripping -> unique per stage -> compiles -> modules -> unique binaries
@@ -186,6 +195,7 @@ struct BuildReport {
   bool ok = false;
   bool up_to_date = false;          // nothing changed: no work done
   bool internal_errors = false;     // a worker crashed/hung/ran out of memory
+  bool cancelled = false;           // BuildOptions::interruption ended it: no pack written (`ok` is false)
   Funnel funnel;
   std::vector<StageTiming> timings;
   std::vector<WorkerTimeline> worker_timeline;  // one per worker slot, when workers ran

@@ -70,7 +70,7 @@ class Scheduler {
     // Every question to the store answered (its problems said before any compile message), and the answers it held
     // until now taken.
     answered(services_.store.finish(sink_));
-    stream();
+    if (!results_.cancelled) stream();
     settle_binaries();
     counts_.compiled = front_ends_;
     build_.record_stage("compile", first_front_end_.value_or(compile_from), StageClock::now());
@@ -218,8 +218,20 @@ class Scheduler {
     running_subjects_ = nullptr;
   }
 
+  // A job the runner did not run: the build was interrupted.
+  bool cancelled(const WorkerOutcome& outcome) {
+    if (outcome.kind != WorkerOutcome::Kind::Cancelled) return false;
+    results_.cancelled = true;
+    return true;
+  }
+
   void preprocess_done(size_t j, WorkerOutcome outcome) {
     const size_t i = (*running_subjects_)[j];
+    if (cancelled(outcome)) {  // not preprocessed: no binary, no message (as another shard's source)
+      sources_.list[i].elsewhere = true;
+      --unpreprocessed_;
+      return;
+    }
     services_.preprocessor.finished(sources_.list[i], std::move(outcome));
     std::vector<std::string>().swap((*running_)[j].defines);
     --unpreprocessed_;
@@ -236,6 +248,7 @@ class Scheduler {
 
   void back_end_done(size_t j, WorkerOutcome outcome) {
     CompiledModule& module = results_.modules[(*running_subjects_)[j]];
+    if (cancelled(outcome)) return;  // unsettled: its binaries get no output and no message
     module.settled = true;
     module.fresh = outcome.kind == WorkerOutcome::Kind::Done && outcome.output.ok;
     if (module.fresh) {
@@ -255,6 +268,7 @@ class Scheduler {
     std::string().swap(job.source);
     const size_t index = (*running_subjects_)[j];
     KeyResult& result = results_by_key_[index];
+    if (cancelled(outcome)) return;  // its binaries get no output and no message
     result.front_end_ran = true;
     if (outcome.kind != WorkerOutcome::Kind::Done || !outcome.output.ok) {
       result.front_end_failure = std::move(outcome);
@@ -385,7 +399,7 @@ class Scheduler {
     results_.front_messages[b] = result.front_messages;
     const CompiledModule& module = results_.modules[module_by_key_.at(*result.module)];
     if (module.output) binaries_[b].output = module.output;
-    else fail(b, module.failure, &module.failed_input);
+    else if (module.settled) fail(b, module.failure, &module.failed_input);  // unsettled: its back end was cancelled
   }
 
   // `module`: the front end's SPIR-V, when the worker died in the back end.

@@ -47,6 +47,9 @@ struct CompileResults {
   std::vector<bool> front_end_ran;                            // per binary
   size_t unique_modules = 0;  // distinct front-end modules among the built binaries (the funnel's)
   CompileCounts counts;
+  // The build was interrupted (BuildOptions::interruption): the jobs not run left their sources, keys or modules
+  // without a result and without a message. What finished is kept (the cache); no pack can be written.
+  bool cancelled = false;
 };
 
 }  // namespace kiln

@@ -297,7 +297,8 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   std::optional<Cache> cache;
   if (options.cache_dir) cache.emplace(*options.cache_dir, options.cache_max_mb << 20);
   Cache* memo_cache = cache && !options.emit.count("preprocessed") ? &*cache : nullptr;  // --emit wants the text
-  const WorkerLimits limits{options.worker_timeout, options.worker_memory_limit_mb, options.frontend};
+  const WorkerLimits limits{options.worker_timeout, options.worker_memory_limit_mb, options.frontend,
+                            options.interruption.fds, options.interruption.check};
   OnDemandWorkers workers(options.worker_executable, parallelism(options.jobs), limits);
   Preprocessor preprocessor(*plan, *settings, workers, build, limits);
   std::map<Hash128, ShardResult> shard_results;  // a merge's: what the shards' bundles hold
@@ -320,6 +321,10 @@ BuildReport build_pack(const BuildOptions& options, DiagnosticSink& sink) {
   report.funnel = funnel_of(*plan, sources, compiled);
   const bool user_errors = messages.has_errors();
   report.cache_rejected = store->keep(build, compiled, sources, user_errors);
+  if (compiled.cancelled) {  // what finished is in the cache; its messages come again with the build that follows
+    report.cancelled = true;
+    return finished(build, report);
+  }
   if (options.shard_count > 1) {
     messages.report(sink);
     finish_shard(options, build, *plan, sources, compiled, remote.get(), pack_key, *store, user_errors, report);

@@ -78,7 +78,14 @@ MHD_Result on_request(void* self, MHD_Connection* connection, const char* url, c
       answer = parsed ? server.handle(*parsed) : parsed.error();
     } else {
       Result<VariantRequest, Answer> parsed = parse_variant_request(request->body);
-      answer = parsed ? server.handle(*parsed) : parsed.error();
+      std::optional<Answer> handled = parsed ? server.handle(*parsed) : std::optional<Answer>(parsed.error());
+      if (!handled) {  // held: libmicrohttpd calls on_request again, with the same state, once it is resumed
+        request->answered = false;
+        MHD_suspend_connection(connection);
+        server.held(connection);
+        return MHD_YES;
+      }
+      answer = std::move(*handled);
     }
   } catch (const std::exception& error) {  // a bug in kiln, said to the client rather than ending watch
     answer = error_answer(500, std::string("kiln watch failed to serve the request: ") + error.what());
@@ -110,7 +117,7 @@ Result<std::unique_ptr<DevelopmentServer>> DevelopmentServer::start(const Loopba
   if (::inet_pton(AF_INET, endpoint.host.c_str(), &address.sin_addr) != 1)
     return failure("cannot listen on " + endpoint.text() + ": not an IPv4 address");
   MHD_Daemon* daemon = MHD_start_daemon(
-      MHD_USE_EPOLL | MHD_USE_TURBO, endpoint.port, &on_accept, nullptr, &on_request, server.get(),
+      MHD_USE_EPOLL | MHD_USE_TURBO | MHD_ALLOW_SUSPEND_RESUME, endpoint.port, &on_accept, nullptr, &on_request, server.get(),
       MHD_OPTION_SOCK_ADDR, reinterpret_cast<sockaddr*>(&address),
       MHD_OPTION_CONNECTION_TIMEOUT, kConnectionTimeoutSeconds,
       MHD_OPTION_CONNECTION_LIMIT, kMaxConnections,
@@ -127,6 +134,7 @@ Result<std::unique_ptr<DevelopmentServer>> DevelopmentServer::start(const Loopba
 }
 
 DevelopmentServer::~DevelopmentServer() {
+  release_held();  // a suspended connection must not outlive its daemon
   if (daemon_) MHD_stop_daemon(static_cast<MHD_Daemon*>(daemon_));
 }
 
@@ -142,5 +150,10 @@ int DevelopmentServer::timeout_ms() const {
 }
 
 void DevelopmentServer::run() { MHD_run(static_cast<MHD_Daemon*>(daemon_)); }
+
+void DevelopmentServer::release_held() {
+  for (void* connection : held_) MHD_resume_connection(static_cast<MHD_Connection*>(connection));
+  held_.clear();
+}
 
 }  // namespace kiln::development

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -22,8 +23,10 @@ namespace kiln::development {
 class DevelopmentServer {
  public:
   // What watch does with each valid body: a variant asked for (kVariantPath), a reader's report (kSelectedPath).
+  // A variant handler with no answer yet (kiln watch during its full-pack build) holds the request: its connection
+  // is suspended, counted in held(), until release_held(); the run() after that asks the handler again.
   struct Handlers {
-    std::function<Answer(const VariantRequest&)> variant;
+    std::function<std::optional<Answer>(const VariantRequest&)> variant;
     std::function<Answer(const SelectedReport&)> selected;
   };
   // Listens on `endpoint` (port 0: any). The error says why it cannot.
@@ -37,12 +40,15 @@ class DevelopmentServer {
   int timeout_ms() const;       // when run() must be called even if fd() stays quiet (a connection's timeout); -1: never
   void run();                   // serves what is ready; never blocks but in the handler
   size_t in_flight() const { return in_flight_; }  // connections with a request not yet answered and sent
+  size_t held() const { return held_.size(); }
+  void release_held();
 
   // For libmicrohttpd's callbacks.
-  Answer handle(const VariantRequest& request) { return handlers_.variant(request); }
+  std::optional<Answer> handle(const VariantRequest& request) { return handlers_.variant(request); }
   Answer handle(const SelectedReport& report) { return handlers_.selected(report); }
   void opened() { ++in_flight_; }
   void closed() { --in_flight_; }
+  void held(void* connection) { held_.push_back(connection); }  // an MHD_Connection, suspended
 
  private:
   DevelopmentServer() = default;
@@ -51,6 +57,7 @@ class DevelopmentServer {
   Handlers handlers_;
   LoopbackEndpoint endpoint_;
   size_t in_flight_ = 0;
+  std::vector<void*> held_;
 };
 
 }  // namespace kiln::development

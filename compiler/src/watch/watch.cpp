@@ -215,7 +215,9 @@ class InputWatch {
 
 // One build of a round: the in-use pack or the full one.
 struct Phase {
-  enum class Outcome { NotRun, Built, UpToDate, Failed, Restarted, Stopped, NoUsageLog } outcome = Outcome::NotRun;
+  // Cancelled: interrupted, before Watcher::build_full says by what (Restarted, Interrupted or Stopped).
+  enum class Outcome { NotRun, Built, UpToDate, Failed, Restarted, Interrupted, Stopped, NoUsageLog, Cancelled } outcome =
+      Outcome::NotRun;
   uint64_t variants = 0;
   size_t compiled = 0, cache_hits = 0;
   int errors = 0;
@@ -229,6 +231,8 @@ struct Phase {
       case Outcome::NotRun: out << "not built"; break;
       case Outcome::NoUsageLog: out << "no usage log yet"; break;
       case Outcome::Restarted: out << "restarted (inputs changed during the round)"; break;
+      case Outcome::Interrupted: out << "interrupted by a variant request (built again after it)"; break;
+      case Outcome::Cancelled:
       case Outcome::Stopped: out << "not built (stopping)"; break;
       case Outcome::Failed:
         out << "failed (" << counted(static_cast<size_t>(errors), "error", "errors") << "; "
@@ -291,13 +295,12 @@ class Watcher {
       if (build_round(round, changes)) break;
       Wake wake = wait_for_changes(changes);
       while (wake == Wake::FullPackOwed) {  // requests published in-use packs: the full pack follows
-        full_pack_owed_ = false;
         Phase full;
         full.in_use_published = true;  // the requests' in-use pack
         std::set<std::string> said;
-        build(options_, Clock::now(), said, full);
+        build_full(Clock::now(), said, full, changes);
         say("kiln watch: after requests; " + full.text("full"));
-        wake = wait_for_changes(changes);
+        wake = full.outcome == Phase::Outcome::Stopped ? Wake::Stop : wait_for_changes(changes);
       }
       if (wake == Wake::Stop) break;
       if (wake == Wake::Error) {
@@ -377,8 +380,10 @@ class Watcher {
     return bool(write_output_file(requests_log(), usage_log::text(pack_name_, {}, std::move(list), 0)));
   }
 
-  // A variant a reader asked for: from the pack there is when it has it, else from an in-use build with it.
-  development::Answer serve(const development::VariantRequest& request) {
+  // A variant a reader asked for: from the pack there is when it has it, else from an in-use build with it. During
+  // the full-pack build, a request that needs a build is held (no answer): the full build stops, the request is
+  // served, and the full build runs again.
+  std::optional<development::Answer> serve(const development::VariantRequest& request) {
     const Clock::time_point since = Clock::now();
     const std::string what = "kiln watch: request " + request.pass + " " + keyword_text(request.keywords) + ": ";
     auto in_pack = [&]() -> Result<std::string, PackError> {  // the archive that serves it
@@ -411,6 +416,11 @@ class Watcher {
     if (code == PackError::Code::UnknownKeyword || refused_.count(key)) {
       say(what + "refused: " + found.error().what());
       return development::error_answer(404, found.error().what());
+    }
+    if (building_full_) {
+      say(what + "held: the full build stops for it");
+      holding_request_ = true;
+      return std::nullopt;
     }
     const bool added = requested_.insert(key).second;
     if (requested_.size() > development::kMaxRequestedVariants) {
@@ -528,9 +538,8 @@ class Watcher {
       full.outcome = Phase::Outcome::NotRun;
     } else {
       full.in_use_published = in_use.outcome == Phase::Outcome::Built || in_use.outcome == Phase::Outcome::UpToDate;
-      read = build(options_, since, said, full);
+      read = build_full(since, said, full, during);
       last = &full;
-      full_pack_owed_ = false;
     }
     // A failed build may have stopped before reading everything (a missing include ends the plan), and a restarted
     // round built nothing: what the last good build read stays watched, and any change there starts the next round.
@@ -569,8 +578,46 @@ class Watcher {
     phase.compiled = report.compiled;
     phase.cache_hits = report.cache_hits;
     phase.errors = sink.error_count();
-    phase.outcome = !report.ok ? Phase::Outcome::Failed : report.up_to_date ? Phase::Outcome::UpToDate : Phase::Outcome::Built;
+    phase.outcome = report.cancelled ? Phase::Outcome::Cancelled
+                    : !report.ok     ? Phase::Outcome::Failed
+                    : report.up_to_date ? Phase::Outcome::UpToDate
+                                        : Phase::Outcome::Built;
     return std::move(report.dependencies);
+  }
+
+  // The full pack's build, interrupted by what makes it stale or keeps someone waiting: a change to an input (into
+  // `during`: Restarted, the next round builds it), a variant request that needs a build (held and served once the
+  // build stopped: Interrupted, and the full pack is built again after the requests), SIGINT or SIGTERM (Stopped).
+  // The workers' scheduler asks after each job and whenever one of these descriptors is readable; the jobs in flight
+  // finish (their results go into the cache), so the build that follows starts where this one stopped.
+  std::vector<fs::path> build_full(Clock::time_point since, std::set<std::string>& said, Phase& phase, Changes& during) {
+    enum class Why { None, Changes, Request, Signal } why = Why::None;
+    BuildOptions options = options_;
+    options.interruption.fds = {inputs_.fd(), signals_};
+    if (server_) options.interruption.fds.push_back(server_->fd());
+    options.interruption.check = [&] {
+      if (why != Why::None) return true;
+      if (signalled()) why = Why::Signal;  // not read: run() and build_round see it after the build
+      if (why == Why::None) inputs_.read(during);
+      if (why == Why::None && !during.empty()) why = Why::Changes;
+      if (why == Why::None && server_) {
+        server_->run();  // reports are answered; a variant request that needs a build is held
+        if (holding_request_) why = Why::Request;
+      }
+      return why != Why::None;
+    };
+    building_full_ = true;
+    std::vector<fs::path> read = build(options, since, said, phase);
+    building_full_ = false;
+    holding_request_ = false;
+    full_pack_owed_ = false;
+    if (server_) server_->release_held();  // served by the next run(), from wait_for_changes
+    if (phase.outcome == Phase::Outcome::Cancelled) {
+      phase.outcome = why == Why::Signal ? Phase::Outcome::Stopped : why == Why::Request ? Phase::Outcome::Interrupted
+                                                                                         : Phase::Outcome::Restarted;
+      full_pack_owed_ = why == Why::Request && !in_use_only_;
+    }
+    return read;
   }
 
   bool signalled() {
@@ -584,6 +631,7 @@ class Watcher {
   Wake wait_for_changes(Changes& changes) {
     pollfd entries[3] = {{inputs_.fd(), POLLIN, 0}, {signals_, POLLIN, 0}, {server_ ? server_->fd() : -1, POLLIN, 0}};
     Clock::time_point quiet_from = Clock::now();
+    if (server_) server_->run();  // the requests build_full held and released (their descriptors are not polled)
     for (;;) {
       if (full_pack_owed_ && server_->in_flight() == 0 && !changes.pending()) return Wake::FullPackOwed;
       int timeout = -1;
@@ -636,6 +684,8 @@ class Watcher {
   uint64_t reports_ = 0;
   bool warned_full_ = false;                           // K1803 said
   bool full_pack_owed_ = false;
+  bool building_full_ = false;                         // build_full is running: requests that need a build wait
+  bool holding_request_ = false;                       // one is held (build_full stops for it)
 };
 
 }  // namespace

@@ -26,7 +26,8 @@ struct JobTiming {
 };
 
 struct WorkerOutcome {
-  enum class Kind { Done, Crashed, TimedOut, OutOfMemory, Failed } kind = Kind::Done;
+  // Cancelled: never handed out, the build was interrupted (WorkerLimits::interrupted).
+  enum class Kind { Done, Crashed, TimedOut, OutOfMemory, Failed, Cancelled } kind = Kind::Done;
   JobOutput output;    // when Done; its `steps` are moved to `timing`
   std::string detail;  // "killed by signal 11 (Segmentation fault)", ...
   std::optional<JobTiming> timing;  // when a worker process ran it

@@ -221,7 +221,25 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
     finish(index, std::move(outcome));
   };
 
+  // An interruption (WorkerLimits::interrupted) ends the jobs not handed out yet; those in flight finish.
+  bool interrupted = false;
+  auto cancel_ready = [&] {
+    while (!ready.empty()) {
+      const size_t next = ready.front();
+      ready.pop_front();
+      WorkerOutcome outcome;
+      outcome.kind = WorkerOutcome::Kind::Cancelled;
+      outcome.detail = "not run: the build was interrupted";
+      finish(next, std::move(outcome));  // may append follow-ups: ended the same way
+    }
+  };
+  auto ask_interrupted = [&] {
+    if (!interrupted && limits_.interrupted && limits_.interrupted()) interrupted = true;
+    if (interrupted) cancel_ready();
+  };
+
   while (finished < jobs.size() || external_pending()) {
+    if (!ready.empty()) ask_interrupted();
     while (workers_.size() < std::min<size_t>(count_, jobs.size())) workers_.push_back(new Worker);
     // Hand out work to idle workers.
     for (Worker* worker : workers_) {
@@ -255,9 +273,19 @@ void WorkerPool::run(std::vector<CompileJob>& jobs, const std::function<void(siz
     const bool waits_outside = external_pending();
     if (waits_outside) fds.push_back({external->fd, POLLIN, 0});
     if (fds.empty()) continue;
+    // What may interrupt the build, while it can (not once interrupted: nothing reads those descriptors then).
+    const size_t interrupt_at = fds.size();
+    if (!interrupted && limits_.interrupted)
+      for (int fd : limits_.interrupt_fds) fds.push_back({fd, POLLIN, 0});
     int polled_count = ::poll(fds.data(), fds.size(), static_cast<int>(wait.count()) + 1);
     if (polled_count < 0 && errno != EINTR) break;
     now = std::chrono::steady_clock::now();
+    if (fds.size() > interrupt_at) {
+      const bool readable = polled_count > 0 && std::any_of(fds.begin() + static_cast<long>(interrupt_at), fds.end(),
+                                                            [](const pollfd& entry) { return entry.revents != 0; });
+      fds.resize(interrupt_at);
+      if (readable) ask_interrupted();
+    }
     if (waits_outside) {
       const bool arrived = polled_count > 0 && (fds.back().revents & POLLIN);
       fds.pop_back();

@@ -23,6 +23,10 @@ struct WorkerLimits {
   std::chrono::milliseconds job_timeout = defaults::kWorkerTimeout;
   uint64_t memory_limit_mb = defaults::kWorkerMemoryLimitMb;  // RLIMIT_AS of each worker
   std::string frontend{kDefaultFrontend};  // the front end the workers compile with (frontend_names())
+  // BuildOptions::interruption: also waited on (`interrupt_fds`) and asked (`interrupted`) before each job is handed
+  // out; once it says true, the jobs not handed out end as Cancelled and those in flight finish.
+  std::vector<int> interrupt_fds;
+  std::function<bool()> interrupted;
 };
 
 class WorkerPool final : public JobRunner {
